@@ -1,0 +1,143 @@
+"""A circuit: elements, models, analysis settings; the user's entry point to simulation."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from circuitnsds.elements import Element
+from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
+from circuitnsds.mlcs import MLCS, MLCSBuilder
+
+
+@dataclass(frozen=True)
+class TranSpec:
+    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]`` (times in seconds)."""
+
+    step: float
+    stop: float
+    start: float = 0.0
+    max_step: float | None = None
+    uic: bool = False
+    location: SourceLocation | None = None
+
+
+@dataclass
+class Circuit:
+    """Elements and settings read from a netlist (or built in Python).
+
+    Attributes:
+        title: the netlist's first line.
+        elements: in netlist order.
+        nodes: node names in order of first appearance, ground (``0``) excluded.
+        models: model name -> :class:`~circuitnsds.elements.DiodeModel` (or the type
+            letter of a model the engine does not use).
+        tran: the ``.tran`` line, if any.
+        initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
+        file: the netlist file name.
+    """
+
+    title: str = ""
+    elements: list[Element] = field(default_factory=list)
+    nodes: list[str] = field(default_factory=list)
+    models: dict[str, object] = field(default_factory=dict)
+    model_locations: dict[str, SourceLocation] = field(default_factory=dict)
+    tran: TranSpec | None = None
+    initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
+    file: str = "<text>"
+
+    def add(self, element: Element, location: SourceLocation | None = None) -> None:
+        """Append an element; its nodes join the node list."""
+        if any(existing.name == element.name for existing in self.elements):
+            raise NetlistError(f"element {element.name} is defined twice",
+                               where=location or element.name, hint="element names must be unique")
+        self.elements.append(element)
+        for node in element.nodes:
+            if node != "0" and node not in self.nodes:
+                self.nodes.append(node)
+
+    def set_tran(self, tran: TranSpec, location: SourceLocation | None = None) -> None:
+        if self.tran is not None:
+            raise NetlistError("more than one .tran line", where=location,
+                               hint="keep one .tran TSTEP TSTOP line")
+        self.tran = tran
+
+    def element(self, name: str) -> Element:
+        """The element called ``name`` (case-insensitive)."""
+        for element in self.elements:
+            if element.name == name.lower():
+                return element
+        raise KeyError(name)
+
+    def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
+        """Stamp every element into the circuit's MLCS.
+
+        ``step`` and ``stop`` [s] fill in source defaults that ngspice ties to the
+        analysis (``PULSE`` rise time = TSTEP, ``SIN`` frequency = 1/TSTOP, ...);
+        they default to the ``.tran`` line, or 1 s.
+        """
+        from circuitnsds.topology import check_connected, check_current_cutsets, check_source_loops
+
+        if not self.elements:
+            raise CircuitError("the circuit has no elements", where=self.file)
+        check_connected(self.elements, self.nodes)
+        check_source_loops(self.elements)
+        check_current_cutsets(self.elements, self.nodes)
+        step = step or (self.tran.step if self.tran else 1.0)
+        stop = stop or (self.tran.stop if self.tran else 1.0)
+        builder = MLCSBuilder(self.nodes)
+        for element in self._resolved(step, stop):
+            element.stamp(builder)
+        return builder.build()
+
+    def _resolved(self, step: float, stop: float) -> list[Element]:
+        from dataclasses import replace
+
+        resolved = []
+        for element in self.elements:
+            function = getattr(element, "function", None)
+            if function is not None:
+                element = replace(element, function=function.resolve(step, stop))
+            resolved.append(element)
+        return resolved
+
+    def transient(
+        self,
+        step: float | None = None,
+        stop: float | None = None,
+        *,
+        start: float | None = None,
+        max_step: float | None = None,
+        theta: float = 1.0,
+        uic: bool | None = None,
+        tol: float = 1e-9,
+        progress: Callable[[float, float], None] | None = None,
+    ):
+        """Run a transient analysis with ideal devices; returns :class:`~circuitnsds.Waveforms`.
+
+        Args:
+            step: time step [s] (default: the ``.tran`` TSTEP). Every source
+                breakpoint is also a grid point.
+            stop: end time [s] (default: ``.tran`` TSTOP).
+            start: first time written to the waveforms [s] (default ``.tran`` TSTART or 0).
+            max_step: upper bound on the step [s] (default ``.tran`` TMAX).
+            theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler. The first
+                step is always implicit Euler.
+            uic: start from initial conditions instead of the operating point
+                (default: ``.tran``'s UIC flag).
+            tol: complementarity tolerance of every step (scaled residual).
+            progress: ``callback(t, stop)`` called now and then during the run.
+        """
+        from circuitnsds.transient import run_transient
+
+        return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
+                             theta=theta, uic=uic, tol=tol, progress=progress)
+
+    def operating_point(self) -> dict[str, float]:
+        """DC operating point with ideal devices: every output signal's value [V or A]."""
+        from circuitnsds.initial import operating_point
+
+        mlcs = self.mlcs()
+        state = operating_point(self, mlcs)
+        values = mlcs.outputs(state.y[None, :], state.current[None, :])[0]
+        return dict(zip(mlcs.output_names, values.tolist()))

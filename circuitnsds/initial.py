@@ -1,0 +1,142 @@
+"""The state a transient starts from: the DC operating point, or UIC initial conditions.
+
+* Operating point (SPICE default): capacitors open, inductors shorted, ideal
+  devices as complementarity pairs, sources at ``t = 0``, ``.ic`` nodes held at
+  their values. This is one MLCP (seed 000 §1.1.7, equilibrium points).
+* UIC: capacitor voltages from ``ic=`` (else the difference of the ``.ic``
+  node voltages, unset nodes at 0 V), inductor currents from ``ic=`` (else 0).
+  Algebraic unknowns are left at 0 (the first implicit-Euler step settles them).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from circuitnsds.circuit import Circuit
+from circuitnsds.elements import Capacitor, Inductor
+from circuitnsds.errors import NetlistWarning, SimulationError
+from circuitnsds.mlcs import MLCS
+from circuitnsds.solvers import LCPError, solve_mlcp
+from circuitnsds.topology import check_current_cutsets, check_source_loops
+
+
+@dataclass
+class InitialState:
+    """Starting point of the integration.
+
+    Attributes:
+        y: MNA unknowns at ``t = 0`` (volts, amperes).
+        charge: ``E @ y`` [C on node rows, Wb on inductor rows]: what the
+            time stepping carries; differs from ``E @ y`` only under UIC with
+            capacitor ``ic=`` values.
+        current: pair currents at ``t = 0`` [A].
+        active: guessed active set for the first step (``None``: no guess).
+    """
+
+    y: np.ndarray
+    charge: np.ndarray
+    current: np.ndarray
+    active: np.ndarray | None
+
+
+def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialState:
+    """Solve the DC operating point with ideal devices (see module docstring)."""
+    check_source_loops(circuit.elements, operating_point=True)
+    check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
+    _warn_unused_element_ics(circuit)
+    n = mlcs.n
+    held = [node for node in circuit.initial_voltages if node != "0"]
+    rows = [circuit.nodes.index(node) for node in held]
+    k = len(held)
+    incidence = sp.csr_matrix((np.ones(k), (rows, np.arange(k))), shape=(n, k))
+    matrix = sp.bmat([[mlcs.A, incidence], [incidence.T, None]], format="csr")
+    source = np.concatenate([mlcs.source(0.0),
+                             [-circuit.initial_voltages[node][0] for node in held]])
+    coupling = sp.vstack([mlcs.B, sp.csr_matrix((k, mlcs.m))], format="csr")
+    output = sp.hstack([mlcs.C, sp.csr_matrix((mlcs.m, k))], format="csr")
+    try:
+        result = solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
+    except LCPError as exc:
+        raise SimulationError(
+            f"the DC operating point has no solution with ideal devices ({exc})",
+            where="operating point",
+            hint="check the diode orientations and source values, or add UIC to .tran",
+        ) from None
+    y = np.asarray(result.u[:n], dtype=float)
+    if not np.all(np.isfinite(y)):
+        raise SimulationError("the DC operating point is not finite", where="operating point",
+                              hint="add UIC to .tran to start from initial conditions")
+    return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
+                        active=np.asarray(result.active, dtype=bool))
+
+
+def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
+    """Initial state from ``ic=`` and ``.ic`` values (SPICE's UIC).
+
+    Node voltages at ``t = 0`` are the ``.ic`` values, then are propagated
+    across capacitors with ``ic=`` from known nodes (ground first), so the
+    reported initial waveform shows the capacitor voltages; nodes reached by
+    neither are 0 V. What the integration carries is the charge ``E y``, which
+    is corrected for any capacitor whose ``ic=`` the node voltages cannot express.
+    """
+    y = np.zeros(mlcs.n)
+    known = {"0"}
+    for node, (value, _) in circuit.initial_voltages.items():
+        if node != "0":
+            y[circuit.nodes.index(node)] = value
+            known.add(node)
+    capacitors = [e for e in circuit.elements
+                  if isinstance(e, Capacitor) and e.initial_voltage is not None]
+    changed = True
+    while changed:
+        changed = False
+        for cap in capacitors:
+            a, b = cap.nodes
+            if b in known and a not in known:
+                y[_index(circuit, a)] = _voltage(circuit, y, b) + cap.initial_voltage
+                known.add(a)
+                changed = True
+            elif a in known and b not in known:
+                y[_index(circuit, b)] = _voltage(circuit, y, a) - cap.initial_voltage
+                known.add(b)
+                changed = True
+    charge = mlcs.E @ y
+    for cap in capacitors:
+        a, b = (_index(circuit, node) for node in cap.nodes)
+        implied = _voltage(circuit, y, cap.nodes[0]) - _voltage(circuit, y, cap.nodes[1])
+        correction = cap.capacitance * (cap.initial_voltage - implied)
+        if a >= 0:
+            charge[a] += correction
+        if b >= 0:
+            charge[b] -= correction
+    for element in circuit.elements:
+        if isinstance(element, Inductor) and element.initial_current is not None:
+            k = mlcs.unknowns.index(f"i({element.name})")
+            y[k] = element.initial_current
+            charge[k] = element.inductance * element.initial_current
+    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None)
+
+
+def _voltage(circuit: Circuit, y: np.ndarray, node: str) -> float:
+    return 0.0 if node == "0" else float(y[circuit.nodes.index(node)])
+
+
+def _index(circuit: Circuit, node: str) -> int:
+    return -1 if node == "0" else circuit.nodes.index(node)
+
+
+def _warn_unused_element_ics(circuit: Circuit) -> None:
+    for element in circuit.elements:
+        value = getattr(element, "initial_voltage", None)
+        if value is None:
+            value = getattr(element, "initial_current", None)
+        if value is not None:
+            warnings.warn(
+                f"{element.describe()}: ic={value:g} is ignored without UIC (as in SPICE); "
+                "the transient starts from the operating point",
+                NetlistWarning, stacklevel=4,
+            )

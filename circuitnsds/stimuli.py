@@ -1,0 +1,189 @@
+"""Time functions of independent sources: DC, SIN, PULSE, PWL, EXP (ngspice semantics).
+
+Each function is a small frozen dataclass with ``value(t)`` (SI units of the
+source: volts or amperes; ``t`` in seconds) and ``breakpoints(stop)`` (the
+instants where its slope jumps, which the time grid steps onto).
+
+Omitted fields take ngspice's defaults, several of which depend on the
+analysis (``TSTEP``, ``TSTOP``); the parser therefore stores ``None`` for an
+omitted field and :meth:`resolve` fills it in once the analysis is known.
+
+At a corner where the value itself jumps (``PULSE`` with a zero rise time, a
+``PWL`` with two points at one time) the function is *left*-continuous: the
+value at the corner is the value before it, so the jump happens in the step
+that *starts* at the corner.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Dc:
+    """Constant value."""
+
+    level: float
+
+    def resolve(self, tstep: float, tstop: float) -> Dc:
+        return self
+
+    def value(self, t: float) -> float:
+        return self.level
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return []
+
+
+@dataclass(frozen=True)
+class Sin:
+    """``SIN(VO VA FREQ TD THETA PHASE)``: VO + VA·exp(-(t-TD)·THETA)·sin(2π·FREQ·(t-TD) + PHASE).
+
+    Before ``TD`` the value is ``VO + VA·sin(PHASE)``. ``PHASE`` is in degrees,
+    ``THETA`` in 1/s. Default ``FREQ`` is ``1/TSTOP``.
+    """
+
+    offset: float
+    amplitude: float
+    frequency: float | None = None
+    delay: float = 0.0
+    damping: float = 0.0
+    phase_deg: float = 0.0
+
+    def resolve(self, tstep: float, tstop: float) -> Sin:
+        return replace(self, frequency=1.0 / tstop) if self.frequency is None else self
+
+    def value(self, t: float) -> float:
+        phase = math.radians(self.phase_deg)
+        if t <= self.delay:
+            return self.offset + self.amplitude * math.sin(phase)
+        tau = t - self.delay
+        return self.offset + self.amplitude * math.exp(-tau * self.damping) * math.sin(
+            2 * math.pi * self.frequency * tau + phase
+        )
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return [self.delay] if 0 < self.delay < stop else []
+
+
+@dataclass(frozen=True)
+class Pulse:
+    """``PULSE(V1 V2 TD TR TF PW PER)``.
+
+    Defaults: ``TD = 0``, ``TR = TF = TSTEP``, ``PW = PER = TSTOP``. A rise or
+    fall time given as 0 is kept as an instantaneous jump (the ideal engine
+    handles it exactly).
+    """
+
+    initial: float
+    pulsed: float
+    delay: float = 0.0
+    rise: float | None = None
+    fall: float | None = None
+    width: float | None = None
+    period: float | None = None
+
+    def resolve(self, tstep: float, tstop: float) -> Pulse:
+        return replace(
+            self,
+            rise=tstep if self.rise is None else self.rise,
+            fall=tstep if self.fall is None else self.fall,
+            width=tstop if self.width is None else self.width,
+            period=tstop if self.period is None else self.period,
+        )
+
+    def value(self, t: float) -> float:
+        if t <= self.delay:
+            return self.initial
+        local = t - self.delay
+        if self.period > 0:
+            local = math.fmod(local, self.period)
+            if local == 0.0:
+                # exactly on a period boundary: the end of the previous period
+                local = self.period
+        span = self.pulsed - self.initial
+        if local <= self.rise:
+            return self.initial + span * (local / self.rise if self.rise > 0 else 1.0)
+        if local <= self.rise + self.width:
+            return self.pulsed
+        if local <= self.rise + self.width + self.fall:
+            return self.pulsed - span * ((local - self.rise - self.width) / self.fall)
+        return self.initial
+
+    def breakpoints(self, stop: float) -> list[float]:
+        corners = np.array([0.0, self.rise, self.rise + self.width,
+                            self.rise + self.width + self.fall])
+        if self.period <= 0:
+            starts = np.array([self.delay])
+        else:
+            starts = self.delay + self.period * np.arange(
+                max(1, math.ceil((stop - self.delay) / self.period) + 1))
+        times = (starts[:, None] + corners[None, :]).ravel()
+        return sorted(float(t) for t in times if 0 < t < stop)
+
+
+@dataclass(frozen=True)
+class Pwl:
+    """``PWL(T1 V1 T2 V2 ...)``: linear between points, constant before the first and after the last."""
+
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def resolve(self, tstep: float, tstop: float) -> Pwl:
+        return self
+
+    def value(self, t: float) -> float:
+        times = self.times
+        if t <= times[0]:
+            return self.values[0]
+        if t >= times[-1]:
+            return self.values[-1]
+        # left-continuous at a vertical segment: take the last index with times[i] < t
+        index = int(np.searchsorted(times, t, side="left")) - 1
+        t0, t1 = times[index], times[index + 1]
+        v0, v1 = self.values[index], self.values[index + 1]
+        return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return sorted({t for t in self.times if 0 < t < stop})
+
+
+@dataclass(frozen=True)
+class Exp:
+    """``EXP(V1 V2 TD1 TAU1 TD2 TAU2)``: rise towards V2 from TD1, fall back towards V1 from TD2.
+
+    Defaults: ``TD1 = 0``, ``TAU1 = TSTEP``, ``TD2 = TD1 + TSTEP``, ``TAU2 = TSTEP``.
+    """
+
+    initial: float
+    pulsed: float
+    rise_delay: float = 0.0
+    rise_tau: float | None = None
+    fall_delay: float | None = None
+    fall_tau: float | None = None
+
+    def resolve(self, tstep: float, tstop: float) -> Exp:
+        return replace(
+            self,
+            rise_tau=tstep if self.rise_tau is None else self.rise_tau,
+            fall_delay=self.rise_delay + tstep if self.fall_delay is None else self.fall_delay,
+            fall_tau=tstep if self.fall_tau is None else self.fall_tau,
+        )
+
+    def value(self, t: float) -> float:
+        span = self.pulsed - self.initial
+        result = self.initial
+        if t > self.rise_delay:
+            result += span * (1 - math.exp(-(t - self.rise_delay) / self.rise_tau))
+        if t > self.fall_delay:
+            result -= span * (1 - math.exp(-(t - self.fall_delay) / self.fall_tau))
+        return result
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return [t for t in (self.rise_delay, self.fall_delay) if 0 < t < stop]
+
+
+Stimulus = Dc | Sin | Pulse | Pwl | Exp

@@ -1,0 +1,36 @@
+"""The time grid of a transient: regular steps plus every source breakpoint."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+MERGE_FRACTION = 1e-9
+"""Grid points closer than this fraction of the step to a breakpoint are merged into it."""
+
+
+def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = ()) -> np.ndarray:
+    """Instants ``0 = t_0 < t_1 < ... < t_N = stop`` [s].
+
+    The regular points ``k·step`` are kept, every breakpoint in ``(0, stop)`` is
+    added, and a regular point within ``MERGE_FRACTION·step`` of a breakpoint is
+    dropped in favour of the breakpoint (so no step is absurdly short by accident).
+    """
+    if step <= 0 or stop <= 0:
+        raise ValueError("step and stop must be positive")
+    count = max(1, math.ceil(stop / step - 1e-9))
+    regular = np.arange(count + 1) * step
+    regular[-1] = stop
+    points = np.asarray(breakpoints, dtype=float)
+    points = points[(points > 0) & (points < stop)]
+    if points.size:
+        tolerance = MERGE_FRACTION * step
+        nearest = np.searchsorted(points, regular)
+        close = np.zeros(regular.size, dtype=bool)
+        for offset in (-1, 0):
+            index = np.clip(nearest + offset, 0, points.size - 1)
+            close |= np.abs(points[index] - regular) <= tolerance
+        close[[0, -1]] = False
+        regular = np.union1d(regular[~close], points)
+    return regular

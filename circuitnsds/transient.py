@@ -1,0 +1,64 @@
+"""Glue for a transient analysis: circuit -> MLCS, grid, initial state, integration, waveforms."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from circuitnsds.circuit import Circuit
+from circuitnsds.errors import CircuitError
+from circuitnsds.initial import operating_point, uic_state
+from circuitnsds.integrate import integrate
+from circuitnsds.timegrid import time_grid
+from circuitnsds.waveforms import Waveforms
+
+
+def run_transient(
+    circuit: Circuit,
+    *,
+    step: float | None,
+    stop: float | None,
+    start: float | None,
+    max_step: float | None,
+    theta: float,
+    uic: bool | None,
+    tol: float,
+    progress: Callable[[float, float], None] | None,
+) -> Waveforms:
+    """See :meth:`Circuit.transient`."""
+    tran = circuit.tran
+    if (step is None or stop is None) and tran is None:
+        raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
+                           hint="add '.tran TSTEP TSTOP' to the netlist or pass step and stop")
+    step = step if step is not None else tran.step
+    stop = stop if stop is not None else tran.stop
+    start = start if start is not None else (tran.start if tran else 0.0)
+    max_step = max_step if max_step is not None else (tran.max_step if tran else None)
+    uic = uic if uic is not None else (tran.uic if tran else False)
+    if step <= 0 or stop <= 0:
+        raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
+                           where=circuit.file)
+    if not 0.5 <= theta <= 1.0:
+        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+                           hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
+    if not 0 <= start < stop:
+        raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
+
+    mlcs = circuit.mlcs(step, stop)
+    h = min(step, max_step) if max_step else step
+    grid = time_grid(h, stop, mlcs.breakpoints(stop))
+    state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
+    trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
+                           theta=theta, tol=tol, progress=progress)
+    keep = trajectory.time >= start - 1e-12 * stop
+    values = mlcs.outputs(trajectory.y, trajectory.current)
+    signals = {name: np.ascontiguousarray(values[keep, j])
+               for j, name in enumerate(mlcs.output_names)}
+    impulses: dict[str, np.ndarray] = {}
+    for j, (pair, device) in enumerate(zip(mlcs.pairs, mlcs.pair_devices)):
+        sign = -1.0 if pair.endswith(".reverse") else 1.0
+        impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[keep, j]
+    stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
+    return Waveforms(time=trajectory.time[keep], signals=signals, impulses=impulses,
+                     residual=trajectory.residual[keep], title=circuit.title, stats=stats)

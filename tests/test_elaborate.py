@@ -1,0 +1,138 @@
+"""Meaning of netlist statements, and the errors and warnings for what is not supported."""
+
+import warnings
+
+import pytest
+
+import circuitnsds
+from circuitnsds.elements import Capacitor, Diode, Inductor, Resistor, VoltageSource
+from circuitnsds.errors import NetlistError, NetlistWarning
+from circuitnsds.stimuli import Dc, Exp, Pulse, Pwl, Sin
+
+
+def read(body: str, title: str = "test"):
+    return circuitnsds.read_netlist(f"{title}\n{body}\n.end\n")
+
+
+def test_elements_models_and_tran():
+    circuit = read("""V1 in 0 SIN(0 10 50)
+R1 in a 1k
+C1 a 0 10uF ic=2
+L1 a GND 1m ic=0.1
+D1 a b dmod 2
+DZ b 0 zen
+.model dmod D(Vfwd=0.7 Ron=10m IS=1e-14 N=1.8)
+.model zen D(bv=5.1 rrev=2)
+.tran 1u 1m 0 2u uic""")
+    assert circuit.nodes == ["in", "a", "b"]
+    v1, r1, c1, l1, d1, dz = circuit.elements
+    assert isinstance(v1, VoltageSource) and v1.function == Sin(0, 10, 50, 0.0, 0.0, 0.0)
+    assert isinstance(r1, Resistor) and r1.resistance == 1e3
+    assert isinstance(c1, Capacitor) and c1.capacitance == 10e-6 and c1.initial_voltage == 2
+    assert isinstance(l1, Inductor) and l1.nodes == ("a", "0") and l1.initial_current == 0.1
+    assert isinstance(d1, Diode) and d1.area == 2 and d1.model.kind == "piecewise-linear"
+    assert d1.model.forward_drop == 0.7 and d1.model.on_resistance == 10e-3
+    assert dz.model.kind == "zener" and dz.model.breakdown_voltage == 5.1
+    assert dz.model.breakdown_resistance == 2
+    tran = circuit.tran
+    assert (tran.step, tran.stop, tran.start, tran.max_step, tran.uic) == (1e-6, 1e-3, 0, 2e-6, True)
+
+
+def test_source_functions_and_defaults():
+    circuit = read("""V1 a 0 DC 5 AC 1
+V2 b 0 PULSE(0 5 1m)
+V3 c 0 PWL(0 0 1m 1 2m 1)
+V4 d 0 EXP(0 1 1m 2m)
+V5 e 0 pulse 0 1 0 0 0 1m 2m
+I1 0 a 2m
+R1 a b 1
+R2 b c 1
+R3 c d 1
+R4 d e 1
+R5 e 0 1""")
+    functions = [e.function for e in circuit.elements[:6]]
+    assert functions[0] == Dc(5)
+    assert isinstance(functions[1], Pulse) and functions[1].rise is None
+    assert functions[1].resolve(1e-6, 1e-2).rise == 1e-6
+    assert functions[1].resolve(1e-6, 1e-2).width == 1e-2
+    assert isinstance(functions[2], Pwl) and functions[2].times == (0, 1e-3, 2e-3)
+    assert isinstance(functions[3], Exp)
+    assert functions[4] == Pulse(0, 1, 0, 0, 0, 1e-3, 2e-3)
+    assert functions[5] == Dc(2e-3)
+
+
+def test_ideal_diode_and_shockley_only_model_is_ideal():
+    circuit = read("D1 a 0 d1n4148\nR1 a 0 1\n.model d1n4148 D(Is=2.52n N=1.752 Rs=0.568 "
+                   "Cjo=4p M=0.4 tt=20n)")
+    model = circuit.elements[0].model
+    assert model.kind == "ideal" and model.forward_drop == 0 and model.off_resistance == 1e12
+
+
+@pytest.mark.parametrize(
+    ("body", "pattern"),
+    [
+        ("Q1 c b e npn", r"<text>:2: q1: bipolar transistors"),
+        ("R1 a 0", r"<text>:2: r1: missing resistance"),
+        ("R1 a 0 -5", r"resistance must be positive"),
+        ("R1 a 0 abc", r"'abc' is not a number"),
+        ("R1 a 0 1k foo=2", r"parameter 'foo' is not supported"),
+        ("D1 a 0 nomodel\nR1 a 0 1", r"<text>:2: d1: diode model 'nomodel' is not defined"),
+        ("D1 a 0 q\nR1 a 0 1\n.model q NPN(bf=100)", r"not a diode"),
+        (".param x=1", r"\.param is not supported yet"),
+        (".subckt foo a b", r"\.subckt is not supported yet"),
+        (".bogus 1 2", r"unknown command \.bogus"),
+        ("V1 a 0 SIN(0 1", r"no closing parenthesis"),
+        ("V1 a 0 PWL(0 0 1m)", r"PWL needs time-value pairs"),
+        ("V1 a 0 PWL(1m 0 0 1)", r"PWL times must not decrease"),
+        ("V1 a 0 SFFM(0 1 1k 5 100)", r"SFFM sources are not supported"),
+        ("V1 a 0 SIN(0)", r"SIN takes 2 to 6 numbers"),
+        (".tran 1u", r"\.tran takes TSTEP TSTOP"),
+        (".tran 1u 1m 2m", r"TSTART"),
+        (".ic v(nowhere)=1\nR1 a 0 1", r"\.ic names node 'nowhere'"),
+        (".ic i(l1)=1", r"expected v\(node\)=value"),
+        (".model z D(bv=5 vrev=6)", r"BV and Vrev disagree"),
+        (".model z D(bv=-5)", r"breakdown voltage must be positive"),
+        ("R1 a 0 1\nR1 a 0 2", r"element r1 is defined twice"),
+        (".tran 1u 1m\n.tran 1u 2m", r"more than one \.tran"),
+        (".control\nrun", r"\.control block has no \.endc"),
+    ],
+)
+def test_errors_name_the_line(body, pattern):
+    with pytest.raises(NetlistError, match=pattern):
+        read(body)
+
+
+@pytest.mark.parametrize(
+    ("body", "pattern"),
+    [
+        (".options reltol=1e-4", r"\.options ignored"),
+        (".print tran v(a)", r"\.print ignored"),
+        (".model u D(Ilimit=1)", r"ilimit ignored"),
+        (".model u D(foo=1)", r"unknown diode parameter 'foo'"),
+        (".model u D(rrev=1)", r"Rrev ignored"),
+        (".control\nrun\n.endc", r"\.control \.\.\. \.endc block skipped"),
+        ("D1 a 0 m off\n.model m D", r"'off' ignored"),
+    ],
+)
+def test_warnings_are_never_silent(body, pattern):
+    with pytest.warns(NetlistWarning, match=pattern):
+        read("R1 a 0 1\n" + body)
+
+
+def test_unused_model_and_missing_end_warn():
+    with pytest.warns(NetlistWarning, match=r"\.model q \(NPN\) is not used"):
+        read("R1 a 0 1\n.model q NPN(bf=100)")
+    with pytest.warns(NetlistWarning, match="no .end"):
+        circuitnsds.read_netlist("t\nR1 a 0 1\n")
+
+
+def test_models_may_follow_their_use_and_are_case_insensitive():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        circuit = read("D1 A 0 MyDiode\nR1 a 0 1\n.MODEL mydiode d (VFWD=0.6)")
+    assert circuit.element("d1").model.forward_drop == 0.6
+
+
+def test_missing_file_is_a_clean_error(tmp_path):
+    with pytest.raises(NetlistError, match="cannot read the netlist"):
+        circuitnsds.read_netlist(tmp_path / "missing.cir")

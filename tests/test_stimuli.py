@@ -1,0 +1,62 @@
+"""Source time functions against their ngspice definitions, and their breakpoints."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from circuitnsds.stimuli import Exp, Pulse, Pwl, Sin
+from circuitnsds.timegrid import time_grid
+
+
+def test_sin_with_delay_damping_and_phase():
+    f = Sin(1.0, 2.0, 50.0, 0.01, 3.0, 30.0)
+    assert f.value(0.0) == pytest.approx(1 + 2 * math.sin(math.radians(30)))
+    t = 0.0137
+    expected = 1 + 2 * math.exp(-3 * (t - 0.01)) * math.sin(2 * math.pi * 50 * (t - 0.01)
+                                                            + math.radians(30))
+    assert f.value(t) == pytest.approx(expected)
+    assert f.breakpoints(1.0) == [0.01]
+    assert Sin(0, 1).resolve(1e-3, 0.5).frequency == 2.0
+
+
+def test_pulse_shape_period_and_left_continuity():
+    p = Pulse(0.0, 5.0, 1.0, 0.5, 0.25, 2.0, 5.0)
+    samples = {0.0: 0, 1.0: 0, 1.25: 2.5, 1.5: 5, 3.5: 5, 3.625: 2.5, 3.75: 0, 6.0: 0,
+               6.25: 2.5, 7.0: 5}
+    for t, v in samples.items():
+        assert p.value(t) == pytest.approx(v), t
+    step = Pulse(0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 10.0)
+    assert step.value(1.0) == 0.0  # value at the corner is the value before it
+    assert step.value(1.0 + 1e-12) == 1.0
+    assert step.value(2.0) == 1.0 and step.value(2.0 + 1e-12) == 0.0
+    assert p.breakpoints(7.0) == [1.0, 1.5, 3.5, 3.75, 6.0, 6.5]
+
+
+def test_pwl_and_exp():
+    f = Pwl((0.0, 1.0, 1.0, 3.0), (0.0, 2.0, 4.0, 0.0))
+    assert [f.value(t) for t in (-1, 0.5, 1.0, 2.0, 9)] == [0, 1, 2, 2, 0]
+    assert f.breakpoints(2.0) == [1.0]
+    e = Exp(0.0, 1.0, 1.0, 0.5, 3.0, 0.25)
+    assert e.value(0.5) == 0
+    assert e.value(2.0) == pytest.approx(1 - math.exp(-2))
+    expected = (1 - math.exp(-2.5 / 0.5)) - (1 - math.exp(-0.5 / 0.25))
+    assert e.value(3.5) == pytest.approx(expected)
+
+
+@given(
+    step=st.floats(1e-6, 1.0),
+    stop_steps=st.floats(1.0, 400.0),
+    points=st.lists(st.floats(0.0, 1.0), max_size=20),
+)
+def test_grid_contains_breakpoints_and_regular_steps(step, stop_steps, points):
+    stop = step * stop_steps
+    breakpoints = np.array(sorted(p * stop for p in points))
+    grid = time_grid(step, stop, breakpoints)
+    assert grid[0] == 0 and grid[-1] == stop
+    assert np.all(np.diff(grid) > 0)
+    assert np.all(np.diff(grid) <= step * (1 + 1e-9))
+    for b in breakpoints[(breakpoints > 0) & (breakpoints < stop)]:
+        assert np.min(np.abs(grid - b)) == 0.0
