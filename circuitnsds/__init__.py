@@ -18,7 +18,11 @@ from pathlib import Path
 
 from circuitnsds.circuit import Circuit, TranSpec
 from circuitnsds.errors import (
-    CircuitError, CircuitnsdsError, NetlistError, NetlistWarning, SimulationError,
+    CircuitError,
+    CircuitnsdsError,
+    NetlistError,
+    NetlistWarning,
+    SimulationError,
 )
 from circuitnsds.mlcs import MLCS
 from circuitnsds.waveforms import Waveforms

@@ -13,7 +13,14 @@ from dataclasses import replace
 
 from circuitnsds.circuit import Circuit, TranSpec
 from circuitnsds.elements import (
-    Capacitor, CurrentSource, Diode, DiodeModel, Element, Inductor, Resistor, VoltageSource,
+    Capacitor,
+    CurrentSource,
+    Diode,
+    DiodeModel,
+    Element,
+    Inductor,
+    Resistor,
+    VoltageSource,
 )
 from circuitnsds.errors import NetlistError, NetlistWarning, SourceLocation
 from circuitnsds.netlist import Netlist, Statement
@@ -62,7 +69,7 @@ SHOCKLEY_PARAMETERS = {
     "nbv", "ikf", "ik", "ikr", "isr", "nr", "jsw", "cjsw", "cjp", "php", "vjsw", "mjsw", "fcs",
     "eg", "xti", "kf", "af", "tnom", "tref", "level", "area", "pj", "trs", "trs1", "trs2", "tm1",
     "tm2", "ttt1", "ttt2", "tlev", "tlevc", "cta", "ctp", "tcv", "tpb", "tphp", "bvj", "gap1",
-    "gap2", "mfg", "type", "iave", "ipk", "vpk", "diss", "xp", "rsw", "nbvl", "ibvl", "xti",
+    "gap2", "mfg", "type", "iave", "ipk", "vpk", "diss", "xp", "rsw", "nbvl", "ibvl",
 }
 # LTspice idealised-diode parameters that the ideal engine does not model.
 UNMODELLED_PARAMETERS = {

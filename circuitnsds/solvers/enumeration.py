@@ -1,0 +1,145 @@
+"""Exhaustive enumeration of active sets — an exact oracle for small problems.
+
+For every active set ``α`` (``2**m`` of them) the linear system with ``w_α = 0``
+and ``z_ᾱ = 0`` is solved and the answer kept if its scaled residual is
+``<= tol``. Active sets whose bordered matrix is numerically singular are
+revisited at the end with a linear-programming feasibility problem
+(``scipy.optimize.linprog``/HiGHS) over the face ``{z_α >= 0, w_α = 0,
+w_ᾱ >= 0}``, so that solutions which are not isolated (singular PSD ``M``) are
+also found. The solution set of an (M)LCP is the union of these faces, so the
+search is complete up to the LP's feasibility tolerance.
+
+Sizes above :data:`MAX_ENUM` raise ``ValueError`` unless ``force=True``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linprog
+
+from ._dense import factorise
+from .residual import kappa_of, mlcp_residual
+from .result import LCPNoSolution, LCPResult
+
+__all__ = ["MAX_ENUM", "enumerate_mlcp", "enumerate_lcp"]
+
+#: Largest number of complementarity pairs enumerated without ``force=True``.
+MAX_ENUM = 12
+
+
+def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
+    """A point of the face of ``mask`` found by an LP, or ``None``."""
+    m = mask.shape[0]
+    idx = np.flatnonzero(mask)
+    inact = np.flatnonzero(~mask)
+    sel = np.concatenate([np.arange(n), n + idx])
+    nv = sel.size
+    if nv == 0:
+        return np.zeros(n + m) if np.all(c[n:] >= 0) else None
+    A_eq = K[np.ix_(sel, sel)]
+    b_eq = -c[sel]
+    A_ub = -K[np.ix_(n + inact, sel)] if inact.size else None
+    b_ub = c[n + inact] if inact.size else None
+    bounds = [(None, None)] * n + [(0.0, None)] * idx.size
+    try:
+        out = linprog(
+            np.zeros(nv),
+            A_ub=A_ub,
+            b_ub=b_ub,
+            A_eq=A_eq,
+            b_eq=b_eq,
+            bounds=bounds,
+            method="highs",
+            options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10},
+        )
+    except ValueError:
+        return None
+    if out.status != 0 or out.x is None:
+        return None
+    x = np.zeros(n + m)
+    x[sel] = out.x
+    return x
+
+
+def enumerate_mlcp(
+    K: np.ndarray,
+    n: int,
+    c: np.ndarray,
+    *,
+    tol: float = 1e-9,
+    force: bool = False,
+    use_lp: bool = True,
+) -> tuple[np.ndarray, np.ndarray, int, float] | None:
+    """Search all active sets of the MLCP ``(K, c)`` with ``n`` free unknowns.
+
+    Args:
+        K: dense ``[[A, C], [D, B]]``.
+        n: number of free unknowns.
+        c: ``[a; b]``.
+        tol: accepted scaled residual.
+        force: allow more than :data:`MAX_ENUM` pairs.
+        use_lp: revisit singular active sets with an LP.
+
+    Returns:
+        ``(x, active, tried, residual)`` for the first solution found (``x = [u; z]``),
+        or ``None`` when no active set gives a solution.
+
+    Raises:
+        ValueError: more than :data:`MAX_ENUM` pairs and ``force`` is false.
+    """
+    m = K.shape[0] - n
+    if m > MAX_ENUM and not force:
+        raise ValueError(f"enumeration of {m} pairs ({2**m} active sets) needs force=True")
+    kappa = kappa_of(K)
+    bits = np.arange(m)
+    singular: list[np.ndarray] = []
+    tried = 0
+    for code in range(2**m):
+        mask = ((code >> bits) & 1).astype(bool)
+        tried += 1
+        sel = np.concatenate([np.arange(n), n + np.flatnonzero(mask)])
+        x = np.zeros(n + m)
+        if sel.size:
+            lu = factorise(K[np.ix_(sel, sel)])
+            if not lu.ok:
+                singular.append(mask)
+                continue
+            x[sel] = lu.solve(-c[sel])
+        res, _ = mlcp_residual(K, n, c, x, kappa)
+        if res <= tol:
+            return x, mask, tried, res
+    if use_lp:
+        for mask in singular:
+            tried += 1
+            x = _face_lp(K, n, c, mask)
+            if x is None:
+                continue
+            res, _ = mlcp_residual(K, n, c, x, kappa)
+            if res <= tol:
+                return x, mask, tried, res
+    return None
+
+
+def enumerate_lcp(
+    M: np.ndarray, q: np.ndarray, *, tol: float = 1e-9, force: bool = False
+) -> LCPResult:
+    """Solve ``LCP(M, q)`` by enumeration (``n <= MAX_ENUM`` unless ``force``).
+
+    Raises:
+        LCPNoSolution: no active set gives a solution (with ``confirmed_by_enumeration=True``).
+        ValueError: too large and not forced.
+    """
+    M = np.asarray(M, dtype=float)
+    q = np.asarray(q, dtype=float).reshape(-1)
+    found = enumerate_mlcp(M, 0, q, tol=tol, force=force)
+    if found is None:
+        raise LCPNoSolution(
+            "no active set solves the LCP (exhaustive enumeration)",
+            method="enum",
+            size={"n": q.shape[0]},
+            pivots=2 ** q.shape[0],
+            residual=float("inf"),
+            confirmed_by_enumeration=True,
+        )
+    z, mask, tried, res = found
+    return LCPResult(z=z, w=M @ z + q, active=mask, method="enum", iterations=tried, residual=res)

@@ -1,0 +1,314 @@
+"""Lemke's complementary pivoting method for ``w = M z + q, 0 <= z ⊥ w >= 0``.
+
+Dense tableau, covering vector ``d > 0`` (default all ones), lexicographic
+ratio test (rows of the current basis inverse break ties, which rules out
+cycling on degenerate problems; the artificial variable ``z0`` leaves as soon
+as it is among the tied rows). Lemke finds a solution of every feasible LCP
+whose ``M`` is copositive-plus (positive semidefinite, P-matrices, ...); when
+it ends on a secondary ray and ``M`` is copositive-plus the LCP has no
+solution.
+
+Before pivoting, ``M`` is equilibrated by positive row and column factors
+(Ruiz scaling, see :mod:`circuitnsds.solvers._scaling`; the covering vector is
+scaled with the rows so that the pivot sequence is unchanged) and ``M``, ``q``
+are normalised to max-abs 1, so the pivot tolerances below are relative. The
+tableau is rebuilt from the data for the current basis every
+``_REINVERT_EVERY`` pivots and whenever a basic variable turns negative. After
+the pivoting ends the active set of the final basis is solved again with a
+fresh LU factorisation ("polish"), and the more accurate of the two candidate
+answers is returned only if its scaled residual is ``<= tol``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from ._dense import factorise
+from ._scaling import ruiz
+from .residual import kappa_of, lcp_residual
+from .result import LCPNoSolution, LCPResult, LCPSolverFailure
+
+__all__ = ["lemke", "lemke_pivot"]
+
+_TIE = 1e-10  # relative tolerance under which two ratios count as tied
+_PIV_REL = 1e-11  # a column entry must exceed this fraction of the column's max-abs ...
+_PIV_ABS = 1e-13  # ... and this absolute value (after scaling) to be a pivot candidate
+_NEG_TOL = 1e-9  # basic values below -_NEG_TOL * scale signal lost feasibility
+_REINVERT_EVERY = 50  # recompute the tableau from the data every this many pivots
+
+
+def _var_name(j: int, n: int) -> str:
+    if j < n:
+        return f"w[{j}]"
+    if j < 2 * n:
+        return f"z[{j - n}]"
+    return "z0"
+
+
+def _lex_argmin(rows: np.ndarray, div: np.ndarray, T: np.ndarray, n: int, prefer: int) -> int:
+    """Row of the lexicographic minimum of ``[rhs, B^-1]_i / div_i`` over ``rows``."""
+    rhs_col = T.shape[1] - 1
+    dv = div[rows]
+    vals = T[rows, rhs_col] / dv
+    best = vals.min()
+    keep = vals <= best + _TIE * max(1.0, abs(best))
+    rows, dv = rows[keep], dv[keep]
+    if rows.size == 1:
+        return int(rows[0])
+    if prefer >= 0 and np.any(rows == prefer):
+        return prefer
+    for j in range(n):
+        vals = T[rows, j] / dv
+        best = vals.min()
+        keep = vals <= best + _TIE * max(1.0, abs(best))
+        rows, dv = rows[keep], dv[keep]
+        if rows.size == 1:
+            break
+    return int(rows[0])
+
+
+def lemke_pivot(
+    M: np.ndarray,
+    q: np.ndarray,
+    *,
+    d: np.ndarray | None = None,
+    max_pivots: int | None = None,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Run Lemke's pivoting and return the raw tableau answer.
+
+    Args:
+        M: dense ``(n, n)`` float array.
+        q: ``(n,)`` float array.
+        d: covering vector, all entries ``> 0`` (default ones).
+        max_pivots: pivot limit (default ``50 * (n + 1)``).
+
+    Returns:
+        ``(z, active, pivots)``: ``z`` read from the final tableau (not verified),
+        ``active`` the mask of pairs whose ``z`` is basic, the number of pivots.
+
+    Raises:
+        LCPNoSolution: secondary ray (evidence: ``ray_z``, ``ray_w``, ``ray_z0``,
+            ``entering``, ``z0``).
+        LCPSolverFailure: pivot limit or numerical trouble.
+    """
+    n = q.shape[0]
+    size = {"n": n}
+    if max_pivots is None:
+        max_pivots = 50 * (n + 1)
+    if n == 0 or np.all(q >= 0.0):
+        return np.zeros(n), np.zeros(n, dtype=bool), 0
+    if d is None:
+        d = np.ones(n)
+    d = np.asarray(d, dtype=float).reshape(-1)
+    if d.shape != (n,) or not np.all(d > 0.0):
+        raise ValueError("covering vector d must have n strictly positive entries")
+
+    rs, cs = ruiz(M)
+    Ms = rs[:, None] * M * cs[None, :]
+    qs = rs * q
+    ds = rs * d
+    s_m = float(np.abs(Ms).max()) or 1.0
+    s_q = float(np.abs(qs).max())
+    s_d = float(ds.max())
+    dn = ds / s_d
+
+    ncol = 2 * n + 2
+    Z0, RHS = 2 * n, 2 * n + 1
+    T0 = np.zeros((n, ncol))
+    T0[:, :n] = np.eye(n)
+    T0[:, n : 2 * n] = -Ms / s_m
+    T0[:, Z0] = -dn
+    T0[:, RHS] = qs / s_q
+    T = T0.copy()
+    basis = np.arange(n)
+    all_rows = np.arange(n)
+
+    def unscale_z(vals: np.ndarray) -> np.ndarray:
+        return cs * vals * (s_q / s_m)
+
+    def reinvert() -> bool:
+        """Recompute the tableau from the original data for the current basis."""
+        lu = factorise(T0[:, basis])
+        if not lu.ok:
+            return False
+        T[:] = lu.solve(T0)
+        for row, var in enumerate(basis):
+            T[:, var] = 0.0
+            T[row, var] = 1.0
+        return bool(np.all(np.isfinite(T)))
+
+    # First pivot: z0 enters at the row of the (lexicographically) most negative q_i/d_i.
+    r = _lex_argmin(all_rows, dn, T, n, prefer=-1)
+    entering = Z0
+    pivots = 0
+    while True:
+        leaving = int(basis[r])
+        piv = T[r, entering]
+        T[r] /= piv
+        col = T[:, entering].copy()
+        col[r] = 0.0
+        T -= np.outer(col, T[r])
+        T[:, entering] = 0.0
+        T[r, entering] = 1.0
+        basis[r] = entering
+        pivots += 1
+
+        if pivots % _REINVERT_EVERY == 0 and not reinvert():
+            raise LCPSolverFailure(
+                "Lemke basis became singular",
+                method="lemke",
+                size=size,
+                pivots=pivots,
+                residual=float("inf"),
+                reason="singular basis",
+            )
+        rhs = T[:, RHS]
+        scale = max(1.0, float(rhs.max()))
+        lo = float(rhs.min())
+        if lo < -_NEG_TOL * scale and reinvert():
+            rhs = T[:, RHS]
+            scale = max(1.0, float(rhs.max()))
+            lo = float(rhs.min())
+        if lo < 0.0:
+            if lo < -_NEG_TOL * scale or not np.isfinite(lo):
+                raise LCPSolverFailure(
+                    "Lemke lost feasibility (numerical trouble: ill-conditioned pivots)",
+                    method="lemke",
+                    size=size,
+                    pivots=pivots,
+                    residual=float("inf"),
+                    reason="negative basic variable",
+                    min_basic=lo * s_q,
+                )
+            np.maximum(rhs, 0.0, out=rhs)
+        if not np.all(np.isfinite(T[r])):
+            raise LCPSolverFailure(
+                "Lemke tableau became non-finite",
+                method="lemke",
+                size=size,
+                pivots=pivots,
+                residual=float("inf"),
+                reason="non-finite tableau",
+            )
+        if leaving == Z0:
+            break
+        entering = leaving + n if leaving < n else leaving - n
+        if pivots >= max_pivots:
+            raise LCPSolverFailure(
+                f"Lemke reached the pivot limit ({max_pivots})",
+                method="lemke",
+                size=size,
+                pivots=pivots,
+                residual=float("inf"),
+                reason="pivot limit",
+            )
+        col = T[:, entering]
+        thresh = max(_PIV_ABS, _PIV_REL * float(np.abs(col).max()))
+        rows = np.flatnonzero(col > thresh)
+        if rows.size == 0:
+            direction = np.zeros(2 * n + 1)
+            direction[entering] = 1.0
+            direction[basis] -= col
+            z0_pos = np.flatnonzero(basis == Z0)
+            z0_val = float(T[z0_pos[0], RHS]) * s_q / s_d if z0_pos.size else 0.0
+            ray_w = direction[:n] * s_q / rs
+            ray_z = unscale_z(direction[n : 2 * n])
+            ray_z0 = direction[Z0] * s_q / s_d
+            big = max(float(np.abs(ray_w).max()), float(np.abs(ray_z).max()), abs(ray_z0)) or 1.0
+            raise LCPNoSolution(
+                "Lemke ended on a secondary ray: no solution if M is copositive-plus",
+                method="lemke",
+                size=size,
+                pivots=pivots,
+                residual=float("inf"),
+                entering=_var_name(entering, n),
+                z0=z0_val,
+                ray_z=ray_z / big,
+                ray_w=ray_w / big,
+                ray_z0=ray_z0 / big,
+                confirmed_by_enumeration=False,
+            )
+        z0_pos = np.flatnonzero(basis == Z0)
+        r = _lex_argmin(rows, col, T, n, prefer=int(z0_pos[0]) if z0_pos.size else -1)
+
+    zn = np.zeros(n)
+    isz = (basis >= n) & (basis < 2 * n)
+    zn[basis[isz] - n] = T[isz, RHS]
+    active = np.zeros(n, dtype=bool)
+    active[basis[isz] - n] = True
+    return unscale_z(zn), active, pivots
+
+
+def solve_active_set(M: np.ndarray, q: np.ndarray, active: np.ndarray) -> np.ndarray | None:
+    """``z`` with ``z_ᾱ = 0`` and ``M_αα z_α = -q_α``; ``None`` if ``M_αα`` is singular."""
+    n = q.shape[0]
+    z = np.zeros(n)
+    idx = np.flatnonzero(active)
+    if idx.size == 0:
+        return z
+    sub = M[np.ix_(idx, idx)]
+    try:
+        lu, piv = sla.lu_factor(sub, check_finite=False)
+    except (ValueError, sla.LinAlgError):
+        return None
+    if not np.all(np.isfinite(lu)) or np.min(np.abs(np.diag(lu))) == 0.0:
+        return None
+    sol = sla.lu_solve((lu, piv), -q[idx], check_finite=False)
+    if not np.all(np.isfinite(sol)):
+        return None
+    z[idx] = sol
+    return z
+
+
+def lemke(
+    M: np.ndarray,
+    q: np.ndarray,
+    *,
+    d: np.ndarray | None = None,
+    max_pivots: int | None = None,
+    tol: float = 1e-9,
+) -> LCPResult:
+    """Solve ``LCP(M, q)`` by Lemke's method and verify the answer.
+
+    Args:
+        M: dense ``(n, n)`` matrix.
+        q: ``(n,)`` vector.
+        d: covering vector (default ones).
+        max_pivots: pivot limit (default ``50 * (n + 1)``).
+        tol: largest accepted scaled residual.
+
+    Returns:
+        :class:`LCPResult` with ``method="lemke"`` and ``iterations`` = pivots.
+
+    Raises:
+        LCPNoSolution: secondary ray.
+        LCPSolverFailure: pivot limit, numerical trouble, or residual ``> tol``.
+    """
+    M = np.asarray(M, dtype=float)
+    q = np.asarray(q, dtype=float).reshape(-1)
+    n = q.shape[0]
+    z_t, active, pivots = lemke_pivot(M, q, d=d, max_pivots=max_pivots)
+    kappa = kappa_of(M)
+    res_t, w_t = lcp_residual(M, q, z_t, kappa)
+    best = (res_t, z_t, w_t)
+    if res_t > 1e-14:
+        z_p = solve_active_set(M, q, active)
+        if z_p is not None:
+            res_p, w_p = lcp_residual(M, q, z_p, kappa)
+            if res_p < res_t:
+                best = (res_p, z_p, w_p)
+    res, z, w = best
+    if not res <= tol:
+        raise LCPSolverFailure(
+            "Lemke's answer fails the residual check (numerical trouble)",
+            method="lemke",
+            size={"n": n},
+            pivots=pivots,
+            residual=float(res),
+            reason="residual above tol",
+            tol=tol,
+        )
+    return LCPResult(
+        z=z, w=w, active=active, method="lemke", iterations=pivots, residual=float(res)
+    )

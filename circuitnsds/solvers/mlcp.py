@@ -1,0 +1,722 @@
+"""Mixed LCP solver for fixed matrices and changing right-hand sides.
+
+Problem (the seed book's eq. (1.66))::
+
+    A u + C z + a = 0,      w = D u + B z + b,      0 <= z ⊥ w >= 0,   u free,
+
+``A`` ``(n, n)`` — possibly singular —, ``C`` ``(n, m)``, ``D`` ``(m, n)``,
+``B`` ``(m, m)``. Dense and scipy.sparse blocks are accepted; the pivoting and
+the factorisations work on a dense copy of ``K = [[A, C], [D, B]]`` (the sizes
+of a circuit's per-step problem), the Newton method keeps sparse input sparse.
+
+:meth:`MLCPSolver.solve` tries, in order:
+
+1. **Mode reuse** (when a guess is given): one back-substitution with the cached
+   LU factors of the bordered matrix ``K_α`` of the guessed active set,
+   accepted when the scaled residual is ``<= tol`` (which checks ``z_α >= 0``,
+   ``w_ᾱ >= 0`` and the equations). See :mod:`circuitnsds.solvers.mode`.
+2. **Lemke on a principal pivot transform.** A *start basis* ``α0`` with a
+   well-conditioned ``K_α0`` is eliminated: ``α0 = ∅`` when ``A`` is
+   well-conditioned (reciprocal condition >= ``1e-8``), which gives the Schur
+   complement LCP ``M = B - D A⁻¹ C``, ``q = b - D A⁻¹ a``; otherwise (``A``
+   singular or nearly so) ``α0`` is chosen to complete the rank of ``A`` with
+   columns of ``C`` (rank-revealing QR on the left/right null spaces of ``A``).
+   Lemke's method on the resulting ``m``-dimensional LCP only *chooses* the
+   active set; ``u, z`` are then recomputed from the bordered system of that
+   set (accurate even when ``M`` is badly conditioned) and verified.
+   Eliminating ``α0`` is a principal pivot transform, which keeps P-matrices
+   P-matrices and positive semidefinite matrices positive semidefinite, so
+   Lemke's guarantees carry over. If the first start basis fails, the next
+   one is tried.
+3. **Enumeration** of the active sets when ``m <= 10`` (complete: when it finds
+   nothing, the problem has no solution).
+4. **Semismooth Newton** (Fischer–Burmeister) on the whole mixed system.
+
+Degenerate pairs (``z_i ≈ 0`` and ``w_i ≈ 0`` at the tolerance) make several
+active sets valid. The normwise residual cannot tell them apart when tiny
+conductances (``gmin ~ 1e-12``) decide the physics, so an accepted answer with
+degenerate pairs whose componentwise residual exceeds :data:`CTOL` is compared
+with the answers obtained by flipping the labels of those pairs, and the one
+with the smallest componentwise residual is returned (see
+:func:`circuitnsds.solvers.residual.componentwise_residual`).
+
+Nothing is returned unverified; when every method fails the solver raises
+:class:`LCPNoSolution` (a Lemke secondary ray — with, for ``m <= 10``, an
+exhaustive search that confirms it) or :class:`LCPSolverFailure`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.linalg.blas import ddot as _ddot
+from scipy.linalg.blas import idamax as _idamax
+
+from ._dense import LU, factorise
+from ._inputs import as_mask, as_vector, bordered
+from .enumeration import MAX_ENUM, enumerate_mlcp
+from .lemke import lemke_pivot
+from .mode import Mode, ModeCache
+from .newton import fb_newton_mlcp
+from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual
+from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
+
+__all__ = ["MLCPSolver", "solve_mlcp"]
+
+#: ``A`` with a reciprocal condition estimate below this is treated as (nearly)
+#: singular and not eliminated directly by the Lemke fallback.
+A_RCOND_GOOD = 1e-8
+#: Largest number of pairs for which the fallback chain enumerates active sets.
+ENUM_FALLBACK_MAX = 10
+#: When a verified answer has degenerate pairs and its componentwise residual
+#: exceeds this, the labels of the degenerate pairs are flipped one at a time and
+#: the verified answer with the smallest componentwise residual is kept.
+CTOL = 1e-6
+#: At most this many degenerate pairs are tried by that search.
+MAX_FLIPS = 8
+
+_METHODS = ("auto", "lemke", "direct", "enum", "newton")
+_NOISE = 1e3 * np.finfo(float).eps  # relative size treated as rounding noise in M̂, q̂
+
+
+class _StartBasis:
+    """Principal pivot transform of the MLCP at a start basis ``α0``.
+
+    With ``(u, z_α0, w_ᾱ0)`` basic and ``ẑ`` = (``z_i`` for ``i ∉ α0``, ``w_i`` for
+    ``i ∈ α0``) nonbasic, the problem becomes ``LCP(M̂, q̂)`` in ``ẑ`` with
+    ``ŵ`` = (``w_i`` for ``i ∉ α0``, ``z_i`` for ``i ∈ α0``).
+    """
+
+    __slots__ = ("mask", "sel0", "lu", "G", "W", "aidx", "bidx", "Mhat", "n", "m")
+
+    def __init__(self, K: np.ndarray, n: int, mask: np.ndarray, lu: LU) -> None:
+        m = K.shape[0] - n
+        aidx = np.flatnonzero(mask)
+        bidx = np.flatnonzero(~mask)
+        p = aidx.size
+        sel0 = np.concatenate([np.arange(n), n + aidx])
+        R = np.zeros((n + p, m))
+        R[:, bidx] = -K[np.ix_(sel0, n + bidx)]
+        R[n + np.arange(p), aidx] = 1.0
+        G = lu.solve(R) if n + p else np.zeros((0, m))
+        W = K[np.ix_(n + bidx, sel0)]
+        Mhat = np.empty((m, m))
+        Mhat[aidx] = G[n:]
+        Mhat[bidx] = W @ G
+        Mhat[np.ix_(bidx, bidx)] += K[np.ix_(n + bidx, n + bidx)]
+        # entries at rounding level are noise of the elimination; zero them so that
+        # Lemke's scaling cannot blow them up into pivot candidates
+        if m:
+            Mhat[np.abs(Mhat) < _NOISE * float(np.abs(Mhat).max())] = 0.0
+        self.mask, self.sel0, self.lu, self.G, self.W = mask, sel0, lu, G, W
+        self.aidx, self.bidx, self.Mhat, self.n, self.m = aidx, bidx, Mhat, n, m
+
+    def rhs(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(q̂, r0)`` for ``c = [a; b]`` (``r0`` = basic values at ``ẑ = 0``)."""
+        r0 = self.lu.solve(-c[self.sel0]) if self.sel0.size else np.zeros(0)
+        qhat = np.empty(self.m)
+        qhat[self.aidx] = r0[self.n :]
+        qhat[self.bidx] = self.W @ r0 + c[self.n + self.bidx]
+        # rounding-level negatives (a degenerate pair computed as -1e-16) would
+        # otherwise make a feasible problem look infeasible
+        big = max(
+            float(np.abs(r0).max()) if r0.size else 0.0, float(np.abs(c).max()) if c.size else 0.0
+        )
+        qhat[(qhat < 0.0) & (qhat > -_NOISE * big)] = 0.0
+        return qhat, r0
+
+    def recover(self, zhat: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        """``x = [u; z]`` from a point ``ẑ`` of the transformed LCP."""
+        x = np.zeros(self.n + self.m)
+        x[self.sel0] = r0 + self.G @ zhat
+        x[self.n + self.bidx] = zhat[self.bidx]
+        return x
+
+
+class MLCPSolver:
+    """Reusable MLCP solver for fixed ``A, C, D, B`` and changing ``a, b``.
+
+    Args:
+        A, C, D, B: blocks (dense or scipy.sparse) with shapes ``(n, n)``,
+            ``(n, m)``, ``(m, n)``, ``(m, m)``; ``n = 0`` gives a plain LCP.
+        cache_size: number of active-set factorisations kept (LRU).
+        tol: largest accepted scaled residual
+            (:func:`circuitnsds.solvers.residual.mlcp_residual`).
+        max_pivots: Lemke pivot limit (default ``50 * (m + 1)``).
+
+    Attributes:
+        n, m: sizes.
+        stats: counters — ``calls``, ``cache_hits``, ``cache_misses``,
+            ``factorisations``, ``evictions``, ``direct_accepted``,
+            ``direct_rejected``, ``fallbacks`` (calls that were not answered by
+            mode reuse), ``lemke_fallbacks`` (calls that ran Lemke),
+            ``lemke_pivots``, ``start_bases`` (Lemke start bases built),
+            ``enum_fallbacks``, ``newton_fallbacks``, ``degenerate_flips``
+            (answers replaced by a componentwise better one), ``failures``.
+    """
+
+    def __init__(
+        self,
+        A: Any,
+        C: Any,
+        D: Any,
+        B: Any,
+        *,
+        cache_size: int = 16,
+        tol: float = 1e-9,
+        max_pivots: int | None = None,
+    ) -> None:
+        K, Ks, n, m, _ = bordered(A, C, D, B)
+        self.n, self.m = n, m
+        self.tol = float(tol)
+        self.max_pivots = max_pivots
+        self._N = n + m
+        self._K = K
+        self._Ks = Ks
+        self._kappa = kappa_of(K)
+        self.stats: dict[str, int] = dict.fromkeys(
+            (
+                "calls",
+                "cache_hits",
+                "cache_misses",
+                "factorisations",
+                "evictions",
+                "direct_accepted",
+                "direct_rejected",
+                "fallbacks",
+                "lemke_fallbacks",
+                "lemke_pivots",
+                "start_bases",
+                "enum_fallbacks",
+                "newton_fallbacks",
+                "degenerate_flips",
+                "failures",
+            ),
+            0,
+        )
+        self._cache = ModeCache(K, n, cache_size, self.stats)
+        self._starts: dict[bytes, _StartBasis | None] = {}
+        self._start_order: list[np.ndarray] | None = None
+        self._rcond_a: float | None = None
+        self._absK: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def size(self) -> dict[str, int]:
+        return {"n": self.n, "m": self.m}
+
+    def _rhs(self, a: Any, b: Any, check: bool = True) -> np.ndarray:
+        """``c = [a; b]``; ``check=False`` (hot path) skips the NaN test (the residual sees NaN)."""
+        c = np.empty(self._N)
+        if check:
+            c[: self.n] = as_vector(a, self.n, "a")
+            c[self.n :] = as_vector(b, self.m, "b")
+            return c
+        av = np.asarray(a, dtype=float)
+        bv = np.asarray(b, dtype=float)
+        if av.shape != (self.n,) or bv.shape != (self.m,):
+            return self._rhs(a, b, True)
+        c[: self.n] = av
+        c[self.n :] = bv
+        return c
+
+    def _result(
+        self,
+        x: np.ndarray,
+        w: np.ndarray,
+        active: np.ndarray,
+        method: str,
+        iterations: int,
+        res: float,
+    ) -> MLCPResult:
+        n = self.n
+        return MLCPResult(
+            u=x[:n], z=x[n:], w=w, active=active, method=method, iterations=iterations, residual=res
+        )
+
+    def _try_mode(self, mode: Mode, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """Solve the bordered system of ``mode`` and evaluate the scaled residual.
+
+        Returns ``(x, w, residual, scale)``; written out (rather than calling
+        :func:`~circuitnsds.solvers.residual.evaluate`) because it is the hot path.
+        """
+        n, m, kappa = self.n, self.m, self._kappa
+        x = np.zeros(self._N)
+        sel = mode.sel
+        if sel.size:
+            x[sel] = mode.lu.solve(np.negative(c[sel]))
+        r = self._K @ x
+        r += c
+        w = r[n:]
+        num = 0.0
+        if m:
+            cmp = np.minimum(x[n:] * kappa, w)
+            num = abs(cmp[_idamax(cmp)])
+        if n:
+            eq = r[:n]
+            num = max(num, abs(eq[_idamax(eq)]))
+        if self._N == 0:
+            return x, w, 0.0, 0.0
+        scale = abs(c[_idamax(c)]) + kappa * abs(x[_idamax(x)])
+        if not np.isfinite(_ddot(r, r)):
+            return x, w, float("inf"), float(scale)
+        if num == 0.0:
+            return x, w, 0.0, float(scale)
+        res = num / scale if scale > 0.0 else float("inf")
+        return x, w, float(res), float(scale)
+
+    def _degenerate(
+        self, x: np.ndarray, w: np.ndarray, mask: np.ndarray, scale: float
+    ) -> np.ndarray:
+        """Indices of pairs that are zero on both sides at the tolerance."""
+        thr = self.tol * scale
+        z = x[self.n :]
+        deg = np.where(mask, self._kappa * np.abs(z) <= thr, np.abs(w) <= thr)
+        return np.flatnonzero(deg)
+
+    def _consistent(
+        self,
+        x: np.ndarray,
+        w: np.ndarray,
+        mask: np.ndarray,
+        res: float,
+        scale: float,
+        c: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """Among verified answers differing in degenerate labels, keep the componentwise best.
+
+        Called only with an answer that passed ``residual <= tol``. Cheap when no
+        pair is degenerate (the usual case).
+        """
+        deg = self._degenerate(x, w, mask, scale)
+        if deg.size == 0:
+            return x, w, mask, res
+        if self._absK is None:
+            self._absK = np.abs(self._K)
+        absK, n = self._absK, self.n
+
+        def rho(xv: np.ndarray, wv: np.ndarray) -> float:
+            r = np.empty(self._N)
+            r[n:] = wv
+            if n:
+                r[:n] = self._K[:n] @ xv + c[:n]
+            return componentwise_residual(absK, n, c, xv, r)
+
+        best_rho = rho(x, w)
+        if best_rho <= CTOL:
+            return x, w, mask, res
+        best = (x, w, mask, res)
+        deg = deg[:MAX_FLIPS]
+        trials: list[np.ndarray | int] = [deg] if deg.size > 1 else []
+        trials.extend(int(i) for i in deg)
+        for flip in trials:
+            trial = best[2].copy()
+            trial[flip] = ~trial[flip]
+            mode = self._cache.get(trial)
+            if not mode.lu.ok:
+                continue
+            x2, w2, res2, _ = self._try_mode(mode, c)
+            if not res2 <= self.tol:
+                continue
+            r2 = rho(x2, w2)
+            if r2 < best_rho:
+                self.stats["degenerate_flips"] += 1
+                best_rho, best = r2, (x2, w2, mode.mask.copy(), res2)
+                if best_rho <= CTOL:
+                    break
+        return best
+
+    @property
+    def rcond_a(self) -> float:
+        """Reciprocal condition estimate of ``A`` (1.0 when ``n == 0``)."""
+        if self._rcond_a is None:
+            self._rcond_a = factorise(self._K[: self.n, : self.n]).rcond if self.n else 1.0
+        return self._rcond_a
+
+    # ------------------------------------------------------------ start bases
+    def _completion_mask(self) -> np.ndarray | None:
+        """Active set that completes the rank of a (nearly) singular ``A``."""
+        n, m, K = self.n, self.m, self._K
+        A, C, D = K[:n, :n], K[:n, n:], K[n:, :n]
+        try:
+            U, s, Vt = sla.svd(A)
+        except (sla.LinAlgError, ValueError):
+            return None
+        smax = float(s[0]) if s.size else 0.0
+        k = int(np.sum(s <= 1e-8 * smax)) if smax > 0 else n
+        k = max(k, 1)
+        if k > m:
+            return None
+        U2 = U[:, n - k :]
+        V2 = Vt[n - k :].T
+        P = np.vstack([U2.T @ C, (D @ V2).T])
+        _, piv = sla.qr(P, pivoting=True, mode="r")
+        mask = np.zeros(m, dtype=bool)
+        mask[piv[:k]] = True
+        return mask
+
+    def _make_start(self, mask: np.ndarray) -> _StartBasis | None:
+        sel = np.concatenate([np.arange(self.n), self.n + np.flatnonzero(mask)])
+        lu = factorise(self._K[np.ix_(sel, sel)])
+        if not lu.ok:
+            return None
+        self.stats["start_bases"] += 1
+        return _StartBasis(self._K, self.n, mask.copy(), lu)
+
+    def _start_bases(self) -> Iterator[_StartBasis]:
+        """Start bases in order of preference, each built on first use and then kept."""
+        if self._start_order is None:
+            empty = np.zeros(self.m, dtype=bool)
+            order: list[np.ndarray] = []
+            if self.rcond_a >= A_RCOND_GOOD:
+                order.append(empty)
+            else:
+                comp = self._completion_mask()
+                if comp is not None and comp.any():
+                    order.append(comp)
+                order.append(empty)
+            self._start_order = order
+        for mask in self._start_order:
+            key = mask.tobytes()
+            if key not in self._starts:
+                self._starts[key] = self._make_start(mask)
+            sb = self._starts[key]
+            if sb is not None:
+                yield sb
+
+    # ---------------------------------------------------------------- methods
+    def _lemke_from(
+        self, sb: _StartBasis, c: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+        qhat, r0 = sb.rhs(c)
+        try:
+            zhat, act_hat, pivots = lemke_pivot(sb.Mhat, qhat, max_pivots=self.max_pivots)
+        except LCPNoSolution as err:
+            if sb.aidx.size and getattr(err, "ray_z", None) is not None:
+                rz, rw = err.ray_z, err.ray_w
+                err.ray_z = np.where(sb.mask, rw, rz)
+                err.ray_w = np.where(sb.mask, rz, rw)
+                err.evidence.update(ray_z=err.ray_z, ray_w=err.ray_w)
+            err.size = self.size
+            err.evidence["start_basis"] = sb.mask.copy()
+            raise
+        except LCPSolverFailure as err:
+            err.size = self.size
+            raise
+        self.stats["lemke_pivots"] += pivots
+        active = act_hat ^ sb.mask
+        best: tuple[float, np.ndarray, np.ndarray, float] | None = None
+        mode = self._cache.get(active)
+        if mode.lu.ok:
+            x, w, res, scale = self._try_mode(mode, c)
+            best = (res, x, w, scale)
+        if best is None or best[0] > self.tol:
+            x = sb.recover(zhat, r0)
+            res, w, scale = evaluate(self._K, self.n, c, x, self._kappa)
+            if best is None or res < best[0]:
+                best = (res, x, w, scale)
+        res, x, w, scale = best
+        if not res <= self.tol:
+            raise LCPSolverFailure(
+                "Lemke's active set does not verify (numerical trouble)",
+                method="lemke",
+                size=self.size,
+                pivots=pivots,
+                residual=float(res),
+                reason="residual above tol",
+                tol=self.tol,
+                start_basis=sb.mask.copy(),
+            )
+        x, w, active, res = self._consistent(x, w, active, res, scale, c)
+        return x, w, active, pivots, float(res)
+
+    def _lemke_chain(self, c: np.ndarray) -> tuple[MLCPResult | None, list[LCPError]]:
+        errors: list[LCPError] = []
+        for sb in self._start_bases():
+            try:
+                x, w, active, pivots, res = self._lemke_from(sb, c)
+            except LCPNoSolution as err:
+                # a ray proves infeasibility only for copositive-plus transforms;
+                # another start basis is cheap to try
+                errors.append(err)
+                continue
+            except LCPSolverFailure as err:
+                errors.append(err)
+                continue
+            return self._result(x, w, active, "lemke", pivots, res), errors
+        if not errors:
+            errors.append(
+                LCPSolverFailure(
+                    "no usable start basis for Lemke (every tried bordered matrix is singular)",
+                    method="lemke",
+                    size=self.size,
+                    pivots=0,
+                    residual=float("inf"),
+                    reason="singular start basis",
+                    rcond_a=self.rcond_a,
+                )
+            )
+        return None, errors
+
+    def _enum(self, c: np.ndarray, force: bool = False) -> MLCPResult | None:
+        found = enumerate_mlcp(self._K, self.n, c, tol=self.tol, force=force)
+        if found is None:
+            return None
+        x, mask, tried, res = found
+        res, w, scale = evaluate(self._K, self.n, c, x, self._kappa)
+        x, w, mask, res = self._consistent(x, w, mask, res, scale, c)
+        return self._result(x, w, mask, "enum", tried, res)
+
+    def _newton(self, c: np.ndarray) -> MLCPResult:
+        K = self._Ks if self._Ks is not None else self._K
+        x, active, it, res = fb_newton_mlcp(K, self.n, c, tol=self.tol)
+        res, w = mlcp_residual(self._K, self.n, c, x, self._kappa)
+        return self._result(x, w, active, "newton", it, res)
+
+    def _fallback(self, c: np.ndarray, prefix: str) -> MLCPResult:
+        if not np.all(np.isfinite(c)):
+            raise ValueError("a or b contains NaN or inf")
+        st = self.stats
+        st["fallbacks"] += 1
+        st["lemke_fallbacks"] += 1
+        result, errors = self._lemke_chain(c)
+        if result is not None:
+            result.method = prefix + "lemke"
+            return result
+        ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
+        chain = prefix + "lemke"
+        if self.m <= ENUM_FALLBACK_MAX:
+            st["enum_fallbacks"] += 1
+            result = self._enum(c)
+            if result is not None:
+                result.method = chain + "->enum"
+                return result
+            st["failures"] += 1
+            if ray is None:
+                ray = LCPNoSolution(
+                    "no solution: no active set solves the MLCP (exhaustive enumeration)",
+                    method=chain + "->enum",
+                    size=self.size,
+                    pivots=2**self.m,
+                    residual=float("inf"),
+                    confirmed_by_enumeration=True,
+                )
+            else:
+                ray.method = chain + "->enum"
+                ray.message = (
+                    "no solution: Lemke ended on a secondary ray and enumeration "
+                    "of all active sets found none"
+                )
+            ray.confirmed_by_enumeration = True
+            ray.evidence["confirmed_by_enumeration"] = True
+            raise ray
+        st["newton_fallbacks"] += 1
+        chain += "->newton"
+        try:
+            result = self._newton(c)
+        except LCPSolverFailure as err:
+            errors.append(err)
+            st["failures"] += 1
+            if ray is not None:
+                ray.method = chain
+                ray.message = (
+                    "Lemke ended on a secondary ray (no solution if the problem is "
+                    "copositive-plus) and semismooth Newton did not converge"
+                )
+                raise ray from err
+            best = min((e.residual for e in errors if e.residual is not None), default=float("inf"))
+            raise LCPSolverFailure(
+                "no method produced a verified MLCP solution ("
+                + chain
+                + "): "
+                + "; ".join(e.message for e in errors),
+                method=chain,
+                size=self.size,
+                pivots=sum(e.pivots or 0 for e in errors),
+                residual=best,
+                reason="all methods failed",
+                rcond_a=self.rcond_a,
+            ) from err
+        result.method = chain
+        return result
+
+    # ------------------------------------------------------------- public API
+    def solve(self, a: Any, b: Any, guess: Any = None) -> MLCPResult:
+        """Solve for new right-hand sides ``a`` (n,), ``b`` (m,).
+
+        Args:
+            a, b: right-hand sides.
+            guess: boolean mask or index array of the pairs expected active
+                (typically the previous call's ``result.active``).
+
+        Returns:
+            :class:`MLCPResult` (``method`` ``"direct"`` with ``iterations == 0``
+            when the guess was right).
+
+        Raises:
+            LCPNoSolution, LCPSolverFailure: see the module docstring.
+        """
+        c = self._rhs(a, b, check=False)
+        self.stats["calls"] += 1
+        prefix = ""
+        if guess is not None:
+            mask = (
+                guess
+                if (
+                    isinstance(guess, np.ndarray)
+                    and guess.dtype == bool
+                    and guess.shape == (self.m,)
+                )
+                else as_mask(guess, self.m)
+            )
+            mode = self._cache.get(mask)
+            if mode.lu.ok:
+                x, w, res, scale = self._try_mode(mode, c)
+                if res <= self.tol:
+                    self.stats["direct_accepted"] += 1
+                    active = mode.mask.copy()
+                    if self.m and np.hypot(x[self.n :] * self._kappa, w).min() <= self.tol * scale:
+                        x, w, active, res = self._consistent(x, w, active, res, scale, c)
+                    return MLCPResult(
+                        u=x[: self.n],
+                        z=x[self.n :],
+                        w=w,
+                        active=active,
+                        method="direct",
+                        iterations=0,
+                        residual=res,
+                    )
+            self.stats["direct_rejected"] += 1
+            prefix = "direct->"
+        return self._fallback(c, prefix)
+
+    def solve_direct(self, a: Any, b: Any, guess: Any) -> MLCPResult:
+        """Mode reuse only: solve the bordered system of ``guess``; no fallback.
+
+        Raises:
+            ValueError: ``guess`` is ``None``.
+            LCPSolverFailure: the guessed active set is singular or not a solution.
+        """
+        if guess is None:
+            raise ValueError('method "direct" needs a guess of the active set')
+        c = self._rhs(a, b)
+        self.stats["calls"] += 1
+        mask = as_mask(guess, self.m)
+        mode = self._cache.get(mask)
+        if not mode.lu.ok:
+            self.stats["direct_rejected"] += 1
+            raise LCPSolverFailure(
+                "the bordered matrix of the guessed active set is singular",
+                method="direct",
+                size=self.size,
+                pivots=0,
+                residual=float("inf"),
+                reason="singular mode",
+                rcond=mode.lu.rcond,
+                guess=mask.copy(),
+            )
+        x, w, res, _ = self._try_mode(mode, c)
+        if not res <= self.tol:
+            self.stats["direct_rejected"] += 1
+            raise LCPSolverFailure(
+                "the guessed active set is not a solution",
+                method="direct",
+                size=self.size,
+                pivots=0,
+                residual=float(res),
+                reason="guess rejected",
+                guess=mask.copy(),
+            )
+        self.stats["direct_accepted"] += 1
+        return self._result(x, w, mode.mask.copy(), "direct", 0, res)
+
+    def solve_lemke(self, a: Any, b: Any) -> MLCPResult:
+        """Lemke on the principal pivot transform (see module docstring), no other fallback."""
+        c = self._rhs(a, b)
+        self.stats["calls"] += 1
+        self.stats["lemke_fallbacks"] += 1
+        result, errors = self._lemke_chain(c)
+        if result is None:
+            self.stats["failures"] += 1
+            ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
+            raise ray if ray is not None else errors[-1]
+        return result
+
+    def solve_enum(self, a: Any, b: Any, *, force: bool = False) -> MLCPResult:
+        """Enumeration of all ``2**m`` active sets (``m <= 12`` unless ``force``).
+
+        Raises:
+            ValueError: ``m > 12`` without ``force``.
+            LCPNoSolution: no active set is a solution.
+        """
+        if self.m > MAX_ENUM and not force:
+            raise ValueError(f"enumeration of {self.m} pairs needs force=True")
+        c = self._rhs(a, b)
+        self.stats["calls"] += 1
+        result = self._enum(c, force=force)
+        if result is None:
+            raise LCPNoSolution(
+                "no active set solves the MLCP (exhaustive enumeration)",
+                method="enum",
+                size=self.size,
+                pivots=2**self.m,
+                residual=float("inf"),
+                confirmed_by_enumeration=True,
+            )
+        return result
+
+    def solve_newton(self, a: Any, b: Any) -> MLCPResult:
+        """Semismooth Newton (Fischer–Burmeister) on the whole mixed system."""
+        c = self._rhs(a, b)
+        self.stats["calls"] += 1
+        return self._newton(c)
+
+
+def solve_mlcp(
+    A: Any,
+    C: Any,
+    D: Any,
+    B: Any,
+    a: Any,
+    b: Any,
+    *,
+    method: str = "auto",
+    guess: Any = None,
+    tol: float = 1e-9,
+    max_pivots: int | None = None,
+) -> MLCPResult:
+    """Solve ``A u + C z + a = 0, w = D u + B z + b, 0 <= z ⊥ w >= 0`` once.
+
+    Args:
+        A, C, D, B: blocks (dense or scipy.sparse), shapes ``(n,n), (n,m), (m,n), (m,m)``.
+        a, b: right-hand sides, shapes ``(n,)``, ``(m,)``.
+        method: ``"auto"`` (mode reuse if ``guess``, then Lemke, enumeration,
+            Newton), ``"lemke"``, ``"direct"`` (needs ``guess``), ``"enum"``
+            (``m <= 12``), ``"newton"``.
+        guess: boolean mask or index array of the expected active pairs.
+        tol: largest accepted scaled residual.
+        max_pivots: Lemke pivot limit (default ``50 * (m + 1)``).
+
+    Returns:
+        :class:`MLCPResult`.
+
+    Raises:
+        LCPNoSolution, LCPSolverFailure, ValueError (bad input or method).
+
+    For repeated solves with the same matrices use :class:`MLCPSolver`.
+    """
+    if method not in _METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {_METHODS}")
+    solver = MLCPSolver(A, C, D, B, tol=tol, max_pivots=max_pivots)
+    if method == "auto":
+        return solver.solve(a, b, guess)
+    if method == "direct":
+        return solver.solve_direct(a, b, guess)
+    if method == "lemke":
+        return solver.solve_lemke(a, b)
+    if method == "enum":
+        return solver.solve_enum(a, b)
+    return solver.solve_newton(a, b)
