@@ -80,7 +80,8 @@ def integrate(
         active0: guessed active set for the first step.
         theta: θ in [0.5, 1].
         tol: complementarity tolerance handed to the solver.
-        progress: ``callback(t, t_end)``, called about twice a second.
+        progress: ``callback(t, t_end)``, called about twice a second (so never
+            for runs shorter than half a second), and once at the end if it was called.
 
     Raises:
         SimulationError: a step has no solution (names the time and devices).
@@ -106,6 +107,7 @@ def integrate(
     solvers: OrderedDict[tuple[float, float], tuple[MLCPSolver, np.ndarray]] = OrderedDict()
     started = wallclock.perf_counter()
     last_report = started
+    reported = False
     charge = charge0 if charge0 is not None else E @ y[0]
     source_now = mlcs.source(grid[0])
     stats = {"steps": count - 1, "factorisations": 0, "cache_hits": 0, "fallbacks": 0}
@@ -137,13 +139,14 @@ def integrate(
         source_now = source_next
         if progress is not None and wallclock.perf_counter() - last_report > 0.5:
             last_report = wallclock.perf_counter()
+            reported = True
             progress(grid[k + 1], grid[-1])
 
     for solver, _ in solvers.values():
         for key in ("factorisations", "cache_hits", "fallbacks"):
             stats[key] += solver.stats.get(key, 0)
     stats["seconds"] = wallclock.perf_counter() - started
-    if progress is not None:
+    if progress is not None and reported:
         progress(grid[-1], grid[-1])
     return Trajectory(grid, y, current, impulse, residual, active, stats)
 
