@@ -9,10 +9,16 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from circuitnsds.errors import CircuitnsdsError
 from circuitnsds.values import parse_value
+
+
+class OutputError(CircuitnsdsError):
+    """An output file cannot be written."""
 
 
 def _seconds(text: str) -> float:
@@ -102,6 +108,16 @@ class _Progress:
             print(file=sys.stderr)
 
 
+@contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """Turn a failure to write ``path`` into a clean error."""
+    try:
+        yield
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
+                          hint="check that the folder exists and is writable") from None
+
+
 def _run(args: argparse.Namespace) -> int:
     from circuitnsds import read_netlist
     from circuitnsds.errors import CircuitError
@@ -115,17 +131,20 @@ def _run(args: argparse.Namespace) -> int:
         progress.close()
     names = None
     if args.signals:
-        names = [name.strip() for name in args.signals.split(",") if name.strip()]
+        names = [name.strip() for name in args.signals.split(",")
+                 if name.strip() and name.strip().lower() != "time"]
         unknown = [name for name in names if name not in waves]
         if unknown:
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
                                where="--signals", hint=f"available: {', '.join(waves.names)}")
     output = args.output or Path(args.netlist.stem + ".csv")
-    waves.to_csv(output, names)
+    with _writing(output):
+        waves.to_csv(output, names)
     if args.plot:
         from circuitnsds.plot import plot_waveforms
 
-        plot_waveforms(waves, args.plot, names)
+        with _writing(args.plot):
+            plot_waveforms(waves, args.plot, names)
     if not args.quiet:
         stats = waves.stats
         print(f"circuitnsds: {stats['steps']} steps in {stats['seconds']:.3g} s "
@@ -160,7 +179,8 @@ def _info(args: argparse.Namespace) -> int:
               + (", UIC" if t.uic else ""))
     print(mlcs)
     if args.matrices:
-        mlcs.save(args.matrices)
+        with _writing(args.matrices):
+            mlcs.save(args.matrices)
         print(f"matrices saved to {args.matrices}")
     return 0
 

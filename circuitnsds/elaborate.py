@@ -267,6 +267,8 @@ def _source_function(reader: _Reader) -> Stimulus:
     while not reader.done():
         token = reader.next("source value")
         if token == "dc":
+            if dc is not None:
+                raise reader.error(f"{name}: the DC value is given twice")
             dc = reader.value("DC value")
         elif token == "ac":
             reader.value("AC magnitude")  # small-signal only: no effect on a transient
@@ -318,7 +320,10 @@ def _function(reader: _Reader, kind: str) -> Stimulus:
             raise reader.error(f"{name}: PULSE rise, fall and width must not be negative")
         return pulse
     if kind == "exp":
-        return Exp(*args[:2], *_defaults(args[2:], [0.0, None, None, None]))
+        function = Exp(*args[:2], *_defaults(args[2:], [0.0, None, None, None]))
+        if any(x is not None and x < 0 for x in (function.rise_tau, function.fall_tau)):
+            raise reader.error(f"{name}: EXP time constants must not be negative")
+        return function
     if len(args) % 2:
         raise reader.error(f"{name}: PWL needs time-value pairs, got {len(args)} numbers")
     times, values = tuple(args[0::2]), tuple(args[1::2])
@@ -420,6 +425,8 @@ def _initial_conditions(circuit: Circuit, reader: _Reader) -> None:
         node = _node(reader.next("node name"))
         if reader.next("')'") != ")" or reader.next("'='") != "=":
             raise reader.error(".ic: expected v(node)=value")
+        if node == "0":
+            raise reader.error(".ic cannot set the ground node: it is 0 V by definition")
         circuit.initial_voltages[node] = (reader.value(f".ic value of v({node})"), reader.location)
 
 
@@ -428,9 +435,11 @@ def _model(circuit: Circuit, reader: _Reader) -> None:
     kind = reader.next("model type")
     if reader.peek() == "(":
         reader.position += 1
-        if ")" not in reader.tokens[reader.position:]:
-            raise reader.error(f".model {name}: missing ')'")
-        reader.tokens = reader.tokens[: len(reader.tokens) - 1 - reader.tokens[::-1].index(")")]
+        if reader.tokens[-1] != ")":
+            raise reader.error(f".model {name}: expected ')' at the end of the line",
+                               hint="write .model NAME D(param=value ...) with every "
+                               "parameter inside the parentheses")
+        reader.tokens = reader.tokens[:-1]
     if name in circuit.models:
         raise reader.error(f".model {name} is defined twice")
     if kind != "d":
@@ -445,6 +454,8 @@ def _diode_model(name: str, reader: _Reader) -> DiodeModel:
     model = DiodeModel(name, location=reader.location)
     params: dict[str, float] = {}
     for key, text in reader.keyword_values():
+        if key in params:
+            raise reader.error(f".model {name}: parameter {key!r} is given twice")
         params[key] = _number(reader, key, text)
     fields = {"vfwd": "forward_drop", "ron": "on_resistance", "roff": "off_resistance",
               "rrev": "breakdown_resistance"}

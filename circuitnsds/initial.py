@@ -64,7 +64,8 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
         raise SimulationError(
             f"the DC operating point has no solution with ideal devices ({exc})",
             where="operating point",
-            hint="check the diode orientations and source values, or add UIC to .tran",
+            hint="check that .ic values do not contradict the sources driving those nodes, "
+            "then the diode orientations and source values; or add UIC to .tran",
         ) from None
     y = np.asarray(result.u[:n], dtype=float)
     if not np.all(np.isfinite(y)):
@@ -77,11 +78,15 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
     """Initial state from ``ic=`` and ``.ic`` values (SPICE's UIC).
 
-    Node voltages at ``t = 0`` are the ``.ic`` values, then are propagated
-    across capacitors with ``ic=`` from known nodes (ground first), so the
-    reported initial waveform shows the capacitor voltages; nodes reached by
-    neither are 0 V. What the integration carries is the charge ``E y``, which
-    is corrected for any capacitor whose ``ic=`` the node voltages cannot express.
+    The integration starts from the charges ``E y`` of these initial conditions
+    (ngspice's rule): a capacitor with ``ic=`` holds that voltage, any other
+    capacitor the difference of its nodes' ``.ic`` values (an unset node counts
+    as 0 V); an inductor carries its ``ic=`` current, else 0.
+
+    The node voltages *reported* at ``t = 0`` are the ``.ic`` values, then
+    propagated across capacitors with ``ic=`` from known nodes (ground first), so
+    the first row of the waveforms shows the capacitor voltages; nodes reached by
+    neither are 0 V.
     """
     y = np.zeros(mlcs.n)
     known = {"0"}
@@ -89,8 +94,17 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
         if node != "0":
             y[circuit.nodes.index(node)] = value
             known.add(node)
+    charge = mlcs.E @ y  # capacitors at their .ic node differences
     capacitors = [e for e in circuit.elements
                   if isinstance(e, Capacitor) and e.initial_voltage is not None]
+    for cap in capacitors:
+        a, b = (_index(circuit, node) for node in cap.nodes)
+        implied = _voltage(circuit, y, cap.nodes[0]) - _voltage(circuit, y, cap.nodes[1])
+        correction = cap.capacitance * (cap.initial_voltage - implied)
+        if a >= 0:
+            charge[a] += correction
+        if b >= 0:
+            charge[b] -= correction
     changed = True
     while changed:
         changed = False
@@ -104,15 +118,6 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
                 y[_index(circuit, b)] = _voltage(circuit, y, a) - cap.initial_voltage
                 known.add(b)
                 changed = True
-    charge = mlcs.E @ y
-    for cap in capacitors:
-        a, b = (_index(circuit, node) for node in cap.nodes)
-        implied = _voltage(circuit, y, cap.nodes[0]) - _voltage(circuit, y, cap.nodes[1])
-        correction = cap.capacitance * (cap.initial_voltage - implied)
-        if a >= 0:
-            charge[a] += correction
-        if b >= 0:
-            charge[b] -= correction
     for element in circuit.elements:
         if isinstance(element, Inductor) and element.initial_current is not None:
             k = mlcs.unknowns.index(f"i({element.name})")

@@ -104,7 +104,8 @@ def integrate(
 
     differential = mlcs.differential_rows
     E, A = mlcs.E.tocsr(), mlcs.A.tocsr()
-    solvers: OrderedDict[tuple[float, float], tuple[MLCPSolver, np.ndarray]] = OrderedDict()
+    solvers: OrderedDict[tuple[float, float], _StepSolver] = OrderedDict()
+    retired: list[_StepSolver] = []  # evicted solvers, kept only for their counters
     started = wallclock.perf_counter()
     last_report = started
     reported = False
@@ -115,13 +116,15 @@ def integrate(
     for k in range(count - 1):
         h = grid[k + 1] - grid[k]
         step_theta = 1.0 if k == 0 else theta
-        solver, weights = _solver_for(solvers, mlcs, E, A, differential, h, step_theta)
+        step_solver = _solver_for(solvers, mlcs, E, A, differential, h, step_theta, tol,
+                                  retired)
+        weights = step_solver.weights
         source_next = mlcs.source(grid[k + 1])
         rhs = charge + h * weights * source_next
         if step_theta != 1.0:
             rhs += h * (1.0 - weights) * (A @ y[k] + source_now)
         try:
-            result = solver.solve(-rhs, mlcs.e, guess=guess)
+            result = step_solver.solver.solve(-rhs, mlcs.e, guess=guess)
         except LCPError as exc:
             raise _step_failure(mlcs, grid[k], grid[k + 1], exc) from None
         y[k + 1] = result.u
@@ -131,8 +134,8 @@ def integrate(
                 where=f"t = {grid[k + 1]:.6g} s",
                 hint="check for a node that hangs on ideal devices with Roff set very large",
             )
-        impulse[k + 1] = result.z
-        current[k + 1] = result.z / h
+        impulse[k + 1] = result.z / step_solver.column_scale
+        current[k + 1] = impulse[k + 1] / h
         residual[k + 1] = result.residual
         active[k + 1] = guess = np.asarray(result.active, dtype=bool)
         charge = E @ y[k + 1]
@@ -142,16 +145,33 @@ def integrate(
             reported = True
             progress(grid[k + 1], grid[-1])
 
-    for solver, _ in solvers.values():
+    for step_solver in list(solvers.values()) + retired:
         for key in ("factorisations", "cache_hits", "fallbacks"):
-            stats[key] += solver.stats.get(key, 0)
+            stats[key] += step_solver.solver.stats.get(key, 0)
     stats["seconds"] = wallclock.perf_counter() - started
     if progress is not None and reported:
         progress(grid[-1], grid[-1])
     return Trajectory(grid, y, current, impulse, residual, active, stats)
 
 
-def _solver_for(cache, mlcs: MLCS, E, A, differential: np.ndarray, h: float, theta: float):
+@dataclass
+class _StepSolver:
+    """The MLCP solver of one step size, with the scalings it was built with.
+
+    ``weights`` is the diagonal of Θ. ``column_scale`` [1 or Ω/s] scales the
+    impulse unknowns handed to the solver, ``z = column_scale * μ``, so that every
+    column of the step matrix has entries of order one: a pair with ``Ron/h`` of
+    1e9 next to node rows of order one would otherwise let a constraint violated
+    by volts pass the solver's normwise residual test.
+    """
+
+    solver: MLCPSolver
+    weights: np.ndarray
+    column_scale: np.ndarray
+
+
+def _solver_for(cache, mlcs: MLCS, E, A, differential: np.ndarray, h: float, theta: float,
+                tol: float, retired: list | None = None) -> _StepSolver:
     """The MLCP solver of a step of size ``h`` (cached per rounded ``h`` and θ)."""
     key = (float(f"{h:.12g}"), theta)
     if key in cache:
@@ -159,10 +179,16 @@ def _solver_for(cache, mlcs: MLCS, E, A, differential: np.ndarray, h: float, the
         return cache[key]
     weights = np.where(differential, theta, 1.0)
     K = (E - h * sp.diags(weights) @ A).tocsc()
-    solver = MLCPSolver(K, -mlcs.B, mlcs.C, mlcs.D / h)
-    cache[key] = (solver, weights)
+    D = (mlcs.D / h).tocsr()
+    column_scale = np.maximum(1.0, np.asarray(abs(D).max(axis=0).todense()).ravel()) \
+        if mlcs.m else np.ones(0)
+    unscale = sp.diags(1.0 / column_scale)
+    solver = MLCPSolver(K, -mlcs.B @ unscale, mlcs.C, D @ unscale, tol=tol)
+    cache[key] = _StepSolver(solver, weights, column_scale)
     if len(cache) > SOLVER_CACHE_SIZE:
-        cache.popitem(last=False)
+        evicted = cache.popitem(last=False)[1]
+        if retired is not None:
+            retired.append(evicted)
     return cache[key]
 
 

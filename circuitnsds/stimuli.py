@@ -6,7 +6,10 @@ instants where its slope jumps, which the time grid steps onto).
 
 Omitted fields take ngspice's defaults, several of which depend on the
 analysis (``TSTEP``, ``TSTOP``); the parser therefore stores ``None`` for an
-omitted field and :meth:`resolve` fills it in once the analysis is known.
+omitted field and :meth:`resolve` fills it in once the analysis is known. As in
+ngspice's source loader, a field given as 0 also takes its default where 0 would
+be meaningless: SIN FREQ, PULSE PW and PER, EXP TAU1 and TAU2. PULSE TR and TF
+given as 0 are kept (an ideal jump), unlike ngspice, which uses TSTEP.
 
 At a corner where the value itself jumps (``PULSE`` with a zero rise time, a
 ``PWL`` with two points at one time) the function is *left*-continuous: the
@@ -43,7 +46,7 @@ class Sin:
     """``SIN(VO VA FREQ TD THETA PHASE)``: VO + VA·exp(-(t-TD)·THETA)·sin(2π·FREQ·(t-TD) + PHASE).
 
     Before ``TD`` the value is ``VO + VA·sin(PHASE)``. ``PHASE`` is in degrees,
-    ``THETA`` in 1/s. Default ``FREQ`` is ``1/TSTOP``.
+    ``THETA`` in 1/s. Default ``FREQ`` (omitted or 0) is ``1/TSTOP``.
     """
 
     offset: float
@@ -54,7 +57,7 @@ class Sin:
     phase_deg: float = 0.0
 
     def resolve(self, tstep: float, tstop: float) -> Sin:
-        return replace(self, frequency=1.0 / tstop) if self.frequency is None else self
+        return replace(self, frequency=1.0 / tstop) if not self.frequency else self
 
     def value(self, t: float) -> float:
         phase = math.radians(self.phase_deg)
@@ -73,9 +76,9 @@ class Sin:
 class Pulse:
     """``PULSE(V1 V2 TD TR TF PW PER)``.
 
-    Defaults: ``TD = 0``, ``TR = TF = TSTEP``, ``PW = PER = TSTOP``. A rise or
-    fall time given as 0 is kept as an instantaneous jump (the ideal engine
-    handles it exactly).
+    Defaults: ``TD = 0``, ``TR = TF = TSTEP``, ``PW = PER = TSTOP`` (also for a
+    PW or PER given as 0). A rise or fall time given as 0 is kept as an
+    instantaneous jump (the ideal engine handles it exactly).
     """
 
     initial: float
@@ -91,8 +94,8 @@ class Pulse:
             self,
             rise=tstep if self.rise is None else self.rise,
             fall=tstep if self.fall is None else self.fall,
-            width=tstop if self.width is None else self.width,
-            period=tstop if self.period is None else self.period,
+            width=self.width or tstop,
+            period=self.period or tstop,
         )
 
     def value(self, t: float) -> float:
@@ -100,10 +103,20 @@ class Pulse:
             return self.initial
         local = t - self.delay
         if self.period > 0:
-            local = math.fmod(local, self.period)
-            if local == 0.0:
-                # exactly on a period boundary: the end of the previous period
+            cycles = math.floor(local / self.period)
+            local -= cycles * self.period
+            # grid points land on corners up to rounding: snap, so that the value at
+            # a corner is always the value before it (a corner at 0 is the previous
+            # period's end)
+            snap = 64 * np.finfo(float).eps * max(t, self.period)
+            if cycles > 0 and local <= snap:
                 local = self.period
+            else:
+                for corner in (self.rise, self.rise + self.width,
+                               self.rise + self.width + self.fall, self.period):
+                    if abs(local - corner) <= snap:
+                        local = corner
+                        break
         span = self.pulsed - self.initial
         if local <= self.rise:
             return self.initial + span * (local / self.rise if self.rise > 0 else 1.0)
@@ -139,8 +152,12 @@ class Pwl:
         times = self.times
         if t <= times[0]:
             return self.values[0]
-        if t >= times[-1]:
+        if t > times[-1]:
             return self.values[-1]
+        if t == times[-1]:
+            # left-continuous: at a vertical last segment take the value before the jump
+            first = times.index(times[-1])
+            return self.values[first]
         # left-continuous at a vertical segment: take the last index with times[i] < t
         index = int(np.searchsorted(times, t, side="left")) - 1
         t0, t1 = times[index], times[index + 1]
@@ -155,7 +172,8 @@ class Pwl:
 class Exp:
     """``EXP(V1 V2 TD1 TAU1 TD2 TAU2)``: rise towards V2 from TD1, fall back towards V1 from TD2.
 
-    Defaults: ``TD1 = 0``, ``TAU1 = TSTEP``, ``TD2 = TD1 + TSTEP``, ``TAU2 = TSTEP``.
+    Defaults: ``TD1 = 0``, ``TAU1 = TSTEP``, ``TD2 = TD1 + TSTEP``, ``TAU2 = TSTEP``
+    (the time constants also when given as 0).
     """
 
     initial: float
@@ -168,9 +186,9 @@ class Exp:
     def resolve(self, tstep: float, tstop: float) -> Exp:
         return replace(
             self,
-            rise_tau=tstep if self.rise_tau is None else self.rise_tau,
+            rise_tau=self.rise_tau or tstep,
             fall_delay=self.rise_delay + tstep if self.fall_delay is None else self.fall_delay,
-            fall_tau=tstep if self.fall_tau is None else self.fall_tau,
+            fall_tau=self.fall_tau or tstep,
         )
 
     def value(self, t: float) -> float:

@@ -9,6 +9,9 @@ import numpy as np
 MERGE_FRACTION = 1e-9
 """Grid points closer than this fraction of the step to a breakpoint are merged into it."""
 
+MAX_POINTS = 50_000_000
+"""Refuse grids longer than this (memory: every point stores every unknown)."""
+
 
 def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = ()) -> np.ndarray:
     """Instants ``0 = t_0 < t_1 < ... < t_N = stop`` [s].
@@ -19,13 +22,18 @@ def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = 
     """
     if step <= 0 or stop <= 0:
         raise ValueError("step and stop must be positive")
+    if stop / step > MAX_POINTS:
+        raise ValueError(f"{stop / step:.3g} steps requested (limit {MAX_POINTS:.0e}): "
+                         "the step is far too small for the stop time")
     count = max(1, math.ceil(stop / step - 1e-9))
     regular = np.arange(count + 1) * step
     regular[-1] = stop
-    points = np.asarray(breakpoints, dtype=float)
-    points = points[(points > 0) & (points < stop)]
+    tolerance = MERGE_FRACTION * step
+    points = np.unique(np.asarray(breakpoints, dtype=float))
+    points = points[(points > tolerance) & (points < stop - tolerance)]
+    if points.size > 1:  # breakpoints within rounding noise of each other are one
+        points = points[np.concatenate([[True], np.diff(points) > tolerance])]
     if points.size:
-        tolerance = MERGE_FRACTION * step
         nearest = np.searchsorted(points, regular)
         close = np.zeros(regular.size, dtype=bool)
         for offset in (-1, 0):

@@ -47,7 +47,12 @@ def run_transient(
 
     mlcs = circuit.mlcs(step, stop)
     h = min(step, max_step) if max_step else step
-    grid = time_grid(h, stop, mlcs.breakpoints(stop))
+    breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
+    try:
+        grid = time_grid(h, stop, breakpoints)
+    except ValueError as exc:
+        raise CircuitError(str(exc), where=circuit.file,
+                           hint="check the units of TSTEP/TMAX and TSTOP") from None
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                            theta=theta, tol=tol, progress=progress)

@@ -7,6 +7,7 @@ one farad, and ``1mF`` is one milli).
 
 from __future__ import annotations
 
+import math
 import re
 from decimal import Decimal
 
@@ -36,11 +37,19 @@ def parse_value(token: str) -> float:
         raise ValueError(f"{token!r} is not a number")
     scale = match["scale"]
     if not scale:
-        return float(match["mantissa"])
-    # decimal arithmetic so that 10u is exactly the double nearest 1e-5
-    return float(Decimal(match["mantissa"]) * Decimal(_SCALES[scale.lower()]))
+        value = float(match["mantissa"])
+    else:
+        # decimal arithmetic so that 10u is exactly the double nearest 1e-5
+        value = float(Decimal(match["mantissa"]) * Decimal(_SCALES[scale.lower()]))
+    if not math.isfinite(value):
+        raise ValueError(f"{token!r} is too large for a double")
+    return value
 
 
 def is_value(token: str) -> bool:
-    """True when ``token`` reads as a SPICE number."""
-    return _NUMBER.match(token.strip()) is not None
+    """True when ``token`` reads as a finite SPICE number."""
+    try:
+        parse_value(token)
+    except ValueError:
+        return False
+    return True

@@ -107,8 +107,13 @@ def parse_netlist(text: str, file: str = "<text>") -> Netlist:
     def flush() -> None:
         if pending:
             joined = " ".join(pending)
+            tokens = tokenize(joined)
+            if not tokens or tokens[0] in {"(", ")", "="}:
+                raise NetlistError(f"cannot read {joined.strip()!r}: a statement starts with "
+                                   "an element name or a dot command",
+                                   where=SourceLocation(file, pending_line))
             netlist.statements.append(
-                Statement(tokenize(joined), SourceLocation(file, pending_line), joined.strip())
+                Statement(tokens, SourceLocation(file, pending_line), joined.strip())
             )
             pending.clear()
 
