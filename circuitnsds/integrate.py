@@ -134,8 +134,8 @@ def integrate(
                 where=f"t = {grid[k + 1]:.6g} s",
                 hint="check for a node that hangs on ideal devices with Roff set very large",
             )
-        impulse[k + 1] = result.z / step_solver.column_scale
-        current[k + 1] = impulse[k + 1] / h
+        impulse[k + 1] = result.z
+        current[k + 1] = result.z / h
         residual[k + 1] = result.residual
         active[k + 1] = guess = np.asarray(result.active, dtype=bool)
         charge = E @ y[k + 1]
@@ -156,39 +156,28 @@ def integrate(
 
 @dataclass
 class _StepSolver:
-    """The MLCP solver of one step size, with the scalings it was built with.
-
-    ``weights`` is the diagonal of Θ. ``column_scale`` [1 or Ω/s] scales the
-    impulse unknowns handed to the solver, ``z = column_scale * μ``, so that every
-    column of the step matrix has entries of order one: a pair with ``Ron/h`` of
-    1e9 next to node rows of order one would otherwise let a constraint violated
-    by volts pass the solver's normwise residual test.
-    """
+    """The MLCP solver of one step size and the diagonal of its Θ."""
 
     solver: MLCPSolver
     weights: np.ndarray
-    column_scale: np.ndarray
 
 
 def _solver_for(cache, mlcs: MLCS, E, A, differential: np.ndarray, h: float, theta: float,
-                tol: float, retired: list | None = None) -> _StepSolver:
-    """The MLCP solver of a step of size ``h`` (cached per rounded ``h`` and θ)."""
+                tol: float, retired: list) -> _StepSolver:
+    """The MLCP solver of a step of size ``h`` (cached per rounded ``h`` and θ).
+
+    Solvers evicted from the cache go to ``retired``, which keeps their counters.
+    """
     key = (float(f"{h:.12g}"), theta)
     if key in cache:
         cache.move_to_end(key)
         return cache[key]
     weights = np.where(differential, theta, 1.0)
     K = (E - h * sp.diags(weights) @ A).tocsc()
-    D = (mlcs.D / h).tocsr()
-    column_scale = np.maximum(1.0, np.asarray(abs(D).max(axis=0).todense()).ravel()) \
-        if mlcs.m else np.ones(0)
-    unscale = sp.diags(1.0 / column_scale)
-    solver = MLCPSolver(K, -mlcs.B @ unscale, mlcs.C, D @ unscale, tol=tol)
-    cache[key] = _StepSolver(solver, weights, column_scale)
+    solver = MLCPSolver(K, -mlcs.B, mlcs.C, mlcs.D / h, tol=tol)
+    cache[key] = _StepSolver(solver, weights)
     if len(cache) > SOLVER_CACHE_SIZE:
-        evicted = cache.popitem(last=False)[1]
-        if retired is not None:
-            retired.append(evicted)
+        retired.append(cache.popitem(last=False)[1])
     return cache[key]
 
 

@@ -51,6 +51,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.linalg as sla
 from scipy.linalg.blas import ddot as _ddot
 from scipy.linalg.blas import idamax as _idamax
@@ -136,6 +137,29 @@ class _StartBasis:
         return x
 
 
+def _equilibrate_pair_columns(
+    K: np.ndarray, Ks: Any, n: int
+) -> tuple[np.ndarray, Any, np.ndarray | None]:
+    """Scale each ``z`` column of ``K`` by ``1 / max(1, max |column|)``.
+
+    The solver then works with ``ẑ = s z``. Without it a pair whose column holds a
+    huge entry (a diode's ``Ron/h ~ 1e9`` beside node rows of order one) inflates
+    ``κ = ||K||_∞`` so much that a constraint violated by volts still passes the
+    normwise residual test. Returns ``(K, Ks, s)`` with ``s = None`` when no column
+    needed scaling.
+    """
+    if K.shape[1] == n:
+        return K, Ks, None
+    scale = np.maximum(1.0, np.abs(K[:, n:]).max(axis=0))
+    if np.all(scale == 1.0):
+        return K, Ks, None
+    factors = np.concatenate([np.ones(n), 1.0 / scale])
+    K = K * factors
+    if Ks is not None:
+        Ks = (Ks @ sp.diags(factors)).tocsr()
+    return K, Ks, scale
+
+
 class MLCPSolver:
     """Reusable MLCP solver for fixed ``A, C, D, B`` and changing ``a, b``.
 
@@ -170,6 +194,7 @@ class MLCPSolver:
         max_pivots: int | None = None,
     ) -> None:
         K, Ks, n, m, _ = bordered(A, C, D, B)
+        K, Ks, self._z_scale = _equilibrate_pair_columns(K, Ks, n)
         self.n, self.m = n, m
         self.tol = float(tol)
         self.max_pivots = max_pivots
@@ -233,6 +258,8 @@ class MLCPSolver:
         res: float,
     ) -> MLCPResult:
         n = self.n
+        if self._z_scale is not None:
+            x[n:] /= self._z_scale  # back from the equilibrated unknowns
         return MLCPResult(
             u=x[:n], z=x[n:], w=w, active=active, method=method, iterations=iterations, residual=res
         )
@@ -580,15 +607,7 @@ class MLCPSolver:
                     active = mode.mask.copy()
                     if self.m and np.hypot(x[self.n :] * self._kappa, w).min() <= self.tol * scale:
                         x, w, active, res = self._consistent(x, w, active, res, scale, c)
-                    return MLCPResult(
-                        u=x[: self.n],
-                        z=x[self.n :],
-                        w=w,
-                        active=active,
-                        method="direct",
-                        iterations=0,
-                        residual=res,
-                    )
+                    return self._result(x, w, active, "direct", 0, res)
             self.stats["direct_rejected"] += 1
             prefix = "direct->"
         return self._fallback(c, prefix)
