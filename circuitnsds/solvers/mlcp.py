@@ -51,8 +51,8 @@ from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.linalg as sla
+import scipy.sparse as sp
 from scipy.linalg.blas import ddot as _ddot
 from scipy.linalg.blas import idamax as _idamax
 
