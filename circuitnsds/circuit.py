@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from circuitnsds.elements import Element
 from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
@@ -91,8 +91,7 @@ class Circuit:
         return builder.build()
 
     def _resolved(self, step: float, stop: float) -> list[Element]:
-        from dataclasses import replace
-
+        """Elements with their source functions' analysis-dependent defaults filled in."""
         resolved = []
         for element in self.elements:
             function = getattr(element, "function", None)

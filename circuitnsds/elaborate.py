@@ -104,8 +104,10 @@ class _Reader:
     def done(self) -> bool:
         return self.position >= len(self.tokens)
 
-    def peek(self) -> str | None:
-        return None if self.done() else self.tokens[self.position]
+    def peek(self, ahead: int = 0) -> str | None:
+        """The token ``ahead`` places after the current one, or ``None`` past the end."""
+        index = self.position + ahead
+        return self.tokens[index] if index < len(self.tokens) else None
 
     def next(self, what: str) -> str:
         if self.done():
@@ -211,9 +213,7 @@ def _passive(letter: str, reader: _Reader) -> Element:
     nodes = reader.nodes(2)
     quantity = {"r": "resistance", "c": "capacitance", "l": "inductance"}[letter]
     value: float | None = None
-    followed_by_equals = reader.position + 1 < len(reader.tokens) and \
-        reader.tokens[reader.position + 1] == "="
-    if reader.peek() is not None and not followed_by_equals:
+    if reader.peek() is not None and reader.peek(1) != "=":
         value = reader.value(quantity)
     initial: float | None = None
     multiplier = 1.0

@@ -22,18 +22,24 @@ from circuitnsds.errors import CircuitError
 GROUND = "0"
 
 
-def check_connected(elements: Sequence[Element], nodes: Sequence[str]) -> None:
-    """Every node must reach ground through some chain of elements."""
+def _unreachable(elements: Sequence[Element], nodes: Sequence[str],
+                 ignored: set[str] = frozenset()) -> list[str]:
+    """Nodes with no path to ground through elements whose ``topology`` is not ``ignored``."""
     graph = nx.MultiGraph()
     graph.add_nodes_from([GROUND, *nodes])
     for element in elements:
-        graph.add_edge(*element.nodes[:2])
+        if element.topology not in ignored:
+            graph.add_edge(*element.nodes[:2])
     reachable = nx.node_connected_component(graph, GROUND)
-    floating = [n for n in nodes if n not in reachable]
+    return sorted(n for n in nodes if n not in reachable)
+
+
+def check_connected(elements: Sequence[Element], nodes: Sequence[str]) -> None:
+    """Every node must reach ground through some chain of elements."""
+    floating = _unreachable(elements, nodes)
     if floating:
-        group = sorted(floating)
         raise CircuitError(
-            f"node(s) {', '.join(group)} have no path to ground (node 0) through any element: "
+            f"node(s) {', '.join(floating)} have no path to ground (node 0) through any element: "
             "their voltages are undefined",
             where="circuit",
             hint="connect that part of the circuit to node 0 (SPICE requires the same)",
@@ -73,14 +79,8 @@ def check_current_cutsets(elements: Sequence[Element], nodes: Sequence[str],
 
     At the operating point capacitors are open and do not count as a path.
     """
-    blocked = {"current", "capacitor"} if operating_point else {"current"}
-    graph = nx.MultiGraph()
-    graph.add_nodes_from([GROUND, *nodes])
-    for element in elements:
-        if element.topology not in blocked:
-            graph.add_edge(*element.nodes[:2])
-    reachable = nx.node_connected_component(graph, GROUND)
-    cut = sorted(n for n in nodes if n not in reachable)
+    cut = _unreachable(elements, nodes,
+                       {"current", "capacitor"} if operating_point else {"current"})
     if not cut:
         return
     if operating_point:
