@@ -35,6 +35,8 @@ class Circuit:
         tran: the ``.tran`` line, if any.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
+        options: ``.options`` the engine uses (``theta``, ``gmin``).
+        saved_signals: signals named by ``.save`` (what the command line writes by default).
     """
 
     title: str = ""
@@ -45,6 +47,9 @@ class Circuit:
     tran: TranSpec | None = None
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
+    options: dict[str, float] = field(default_factory=dict)
+    saved_signals: list[str] = field(default_factory=list)
+    save_location: SourceLocation | None = None
 
     def add(self, element: Element, location: SourceLocation | None = None) -> None:
         """Append an element; its nodes join the node list."""
@@ -107,7 +112,7 @@ class Circuit:
         *,
         start: float | None = None,
         max_step: float | None = None,
-        theta: float = 1.0,
+        theta: float | None = None,
         uic: bool | None = None,
         tol: float = 1e-9,
         progress: Callable[[float, float], None] | None = None,
@@ -120,8 +125,8 @@ class Circuit:
             stop: end time [s] (default: ``.tran`` TSTOP).
             start: first time written to the waveforms [s] (default ``.tran`` TSTART or 0).
             max_step: upper bound on the step [s] (default ``.tran`` TMAX).
-            theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler. The first
-                step is always implicit Euler.
+            theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler (default:
+                ``.options theta``, else 1). The first step is always implicit Euler.
             uic: start from initial conditions instead of the operating point
                 (default: ``.tran``'s UIC flag).
             tol: complementarity tolerance of every step (scaled residual).
@@ -129,6 +134,8 @@ class Circuit:
         """
         from circuitnsds.transient import run_transient
 
+        if theta is None:
+            theta = self.options.get("theta", 1.0)
         return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
                              theta=theta, uic=uic, tol=tol, progress=progress)
 

@@ -21,6 +21,11 @@ Modified nodal analysis turns a circuit with ideal devices into
 
 Outputs (``output_names``) are linear in ``y`` and ``λ``:
 ``outputs = Y_out @ y + L_out @ λ``.
+
+Ideal switches (``switches``) are not complementarity pairs: each owns one
+row of ``A`` whose entries depend on its state, open or closed (an exogenous
+mode set by its control, see :class:`SwitchRelation`). ``A`` holds every
+switch's *open* row; :meth:`MLCS.system_matrix` gives ``A`` for any states.
 """
 
 from __future__ import annotations
@@ -31,7 +36,53 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from circuitnsds.stimuli import Stimulus
+from circuitnsds.stimuli import Stimulus, threshold_crossings
+
+Row = tuple[tuple[int, float], ...]
+"""Sparse row: ``((column, value), ...)``."""
+
+
+@dataclass(frozen=True)
+class SwitchRelation:
+    """One ideal switch as the MLCS sees it.
+
+    Attributes:
+        name: element name (``s1``).
+        row: index of the switch's branch equation, which is also the index of
+            its current unknown ``i(name)`` (flowing from ``n+`` to ``n-`` through it).
+        open_row, closed_row: the entries of ``A[row]`` in each state
+            (``0 = Goff·(v+ - v-) - i`` open, ``0 = v+ - v- - Ron·i`` closed).
+        control: the control quantity as a row over ``y`` (``v(nc+) - v(nc-)`` [V]
+            for ``S``, the current of the controlling source [A] for ``W``).
+        control_stimulus: ``(column of S, sign)`` when the control is exactly a
+            source's time function (a voltage source across the control nodes);
+            such switches change state exactly when the source crosses a threshold.
+        on_threshold: the switch closes when the control exceeds it (``VT + |VH|``).
+        off_threshold: the switch opens when the control falls below it (``VT - |VH|``).
+        initially_on: the ``ON`` flag of the instance (state before the operating point).
+    """
+
+    name: str
+    row: int
+    open_row: Row
+    closed_row: Row
+    control: Row
+    control_stimulus: tuple[int, float] | None
+    on_threshold: float
+    off_threshold: float
+    initially_on: bool = False
+
+    def next_state(self, on: bool, control: float) -> bool:
+        """State after seeing ``control``: hysteresis keeps ``on`` between the thresholds."""
+        if control > self.on_threshold:
+            return True
+        if control < self.off_threshold:
+            return False
+        return on
+
+    def control_value(self, y: np.ndarray) -> float:
+        """The control quantity for MNA unknowns ``y``."""
+        return float(sum(value * y[column] for column, value in self.control))
 
 
 @dataclass
@@ -53,6 +104,7 @@ class MLCS:
     Y_out: sp.csr_matrix
     L_out: sp.csr_matrix
     nodes: list[str] = field(default_factory=list)
+    switches: list[SwitchRelation] = field(default_factory=list)
 
     @property
     def n(self) -> int:
@@ -76,11 +128,30 @@ class MLCS:
         return self.S @ np.array([stimulus.value(t) for stimulus in self.stimuli])
 
     def breakpoints(self, stop: float) -> np.ndarray:
-        """Sorted instants in ``(0, stop)`` where a source's slope jumps."""
+        """Sorted instants in ``(0, stop)`` where a source's slope jumps or a source-driven
+        switch changes state (so that both fall on the time grid)."""
         points: set[float] = set()
         for stimulus in self.stimuli:
             points.update(stimulus.breakpoints(stop))
+        for switch in self.switches:
+            if switch.control_stimulus is not None:
+                column, sign = switch.control_stimulus
+                for level in {switch.on_threshold, switch.off_threshold}:
+                    points.update(threshold_crossings(self.stimuli[column], sign * level, stop))
         return np.array(sorted(points))
+
+    def system_matrix(self, closed: tuple[bool, ...] = ()) -> sp.csr_matrix:
+        """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere)."""
+        if not any(closed):
+            return self.A
+        matrix = self.A.tolil()
+        for switch, on in zip(self.switches, closed):
+            if on:
+                for column, _ in switch.open_row:
+                    matrix[switch.row, column] = 0.0
+                for column, value in switch.closed_row:
+                    matrix[switch.row, column] = value
+        return matrix.tocsr()
 
     def outputs(self, y: np.ndarray, current: np.ndarray) -> np.ndarray:
         """Output signals for states ``y`` and pair currents ``current`` (rows = time points)."""
@@ -106,6 +177,8 @@ class MLCS:
             f"  pairs:    {', '.join(self.pairs) if self.pairs else '(none)'}",
             f"  differential rows: {int(self.differential_rows.sum())} of {self.n}",
         ]
+        if self.switches:
+            lines.append(f"  switches: {', '.join(s.name for s in self.switches)}")
         return "\n".join(lines)
 
 
@@ -123,6 +196,7 @@ class MLCSBuilder:
         self.nodes = list(nodes)
         self._node_index = {name: k for k, name in enumerate(self.nodes)}
         self.unknowns = [f"v({name})" for name in self.nodes]
+        self._branch_index: dict[str, int] = {}
         self.pairs: list[str] = []
         self.pair_devices: list[str] = []
         self.e: list[float] = []
@@ -131,15 +205,33 @@ class MLCSBuilder:
             key: [] for key in ("E", "A", "B", "C", "D", "S")
         }
         self._outputs: list[tuple[str, list[tuple[int, float]], list[tuple[int, float]]]] = []
+        self._switches: list[tuple[dict, tuple[int, int] | None]] = []
+        self._source_columns: dict[tuple[int, int], int] = {}
 
     def node(self, name: str) -> int:
         """Row/column of a node's voltage (``-1`` for ground)."""
         return self._node_index.get(name, self.GROUND)
 
     def branch(self, name: str) -> int:
-        """Allocate a branch-current unknown named ``name`` (e.g. ``i(l1)``)."""
+        """The branch-current unknown named ``name`` (e.g. ``i(l1)``), allocated on first use.
+
+        An element that refers to another's current (``F``, ``H``, ``K``, ``W``)
+        gets the same index as the element that owns it, whichever is stamped first.
+        """
+        if name in self._branch_index:
+            return self._branch_index[name]
         self.unknowns.append(name)
-        return len(self.unknowns) - 1
+        self._branch_index[name] = len(self.unknowns) - 1
+        return self._branch_index[name]
+
+    def voltage_source_stimulus(self, plus: int, minus: int, column: int) -> None:
+        """Record that a voltage source imposes stimulus ``column`` between two nodes."""
+        self._source_columns.setdefault((plus, minus), column)
+
+    def switch(self, relation: dict, control_nodes: tuple[int, int] | None = None) -> None:
+        """Register a switch: the fields of :class:`SwitchRelation` except ``control_stimulus``,
+        which is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them."""
+        self._switches.append((relation, control_nodes))
 
     def pair(self, name: str, device: str, offset: float) -> int:
         """Allocate a complementarity pair with constant term ``e = offset`` [V]."""
@@ -195,6 +287,16 @@ class MLCSBuilder:
                 y_out[row, col] += coefficient
             for col, coefficient in pair_terms:
                 l_out[row, col] += coefficient
+        switches = []
+        for relation, control_nodes in self._switches:
+            stimulus = None
+            if control_nodes is not None:
+                plus, minus = control_nodes
+                if (plus, minus) in self._source_columns:
+                    stimulus = (self._source_columns[plus, minus], 1.0)
+                elif (minus, plus) in self._source_columns:
+                    stimulus = (self._source_columns[minus, plus], -1.0)
+            switches.append(SwitchRelation(**relation, control_stimulus=stimulus))
         return MLCS(
             E=assemble("E"), A=assemble("A"), B=assemble("B"), C=assemble("C"),
             D=assemble("D"), e=np.array(self.e, dtype=float), S=assemble("S"),
@@ -202,4 +304,5 @@ class MLCSBuilder:
             pair_devices=list(self.pair_devices),
             output_names=[name for name, _, _ in outputs],
             Y_out=y_out.tocsr(), L_out=l_out.tocsr(), nodes=list(self.nodes),
+            switches=switches,
         )

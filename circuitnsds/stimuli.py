@@ -37,6 +37,9 @@ class Dc:
     def value(self, t: float) -> float:
         return self.level
 
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(times), self.level, dtype=float)
+
     def breakpoints(self, stop: float) -> list[float]:
         return []
 
@@ -67,6 +70,15 @@ class Sin:
         return self.offset + self.amplitude * math.exp(-tau * self.damping) * math.sin(
             2 * math.pi * self.frequency * tau + phase
         )
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]."""
+        times = np.asarray(times, dtype=float)
+        phase = math.radians(self.phase_deg)
+        tau = np.maximum(times - self.delay, 0.0)
+        wave = self.offset + self.amplitude * np.exp(-tau * self.damping) * np.sin(
+            2 * math.pi * self.frequency * tau + phase)
+        return np.where(times <= self.delay, self.offset + self.amplitude * math.sin(phase), wave)
 
     def breakpoints(self, stop: float) -> list[float]:
         return [self.delay] if 0 < self.delay < stop else []
@@ -126,6 +138,31 @@ class Pulse:
             return self.pulsed - span * ((local - self.rise - self.width) / self.fall)
         return self.initial
 
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s] (same corner snapping)."""
+        times = np.asarray(times, dtype=float)
+        local = np.maximum(times - self.delay, 0.0)
+        if self.period > 0:
+            cycles = np.floor(local / self.period)
+            local = local - cycles * self.period
+            snap = 64 * np.finfo(float).eps * np.maximum(times, self.period)
+            local = np.where((cycles > 0) & (local <= snap), self.period, local)
+            for corner in (self.period, self.rise + self.width + self.fall,
+                           self.rise + self.width, self.rise):
+                local = np.where(np.abs(local - corner) <= snap, corner, local)
+        span = self.pulsed - self.initial
+        rise_end, fall_start = self.rise, self.rise + self.width
+        fall_end = fall_start + self.fall
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rising = self.initial + span * (local / self.rise if self.rise > 0 else 1.0)
+            falling = self.pulsed - span * ((local - fall_start) / self.fall)
+        result = np.select(
+            [local <= rise_end, local <= fall_start, local <= fall_end],
+            [rising, np.full_like(local, self.pulsed), falling],
+            default=self.initial,
+        )
+        return np.where(times <= self.delay, self.initial, result)
+
     def breakpoints(self, stop: float) -> list[float]:
         corners = np.array([0.0, self.rise, self.rise + self.width,
                             self.rise + self.width + self.fall])
@@ -164,6 +201,11 @@ class Pwl:
         v0, v1 = self.values[index], self.values[index + 1]
         return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
 
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]."""
+        return np.array([self.value(t) for t in np.asarray(times, dtype=float).ravel()]
+                        ).reshape(np.shape(times))
+
     def breakpoints(self, stop: float) -> list[float]:
         return sorted({t for t in self.times if 0 < t < stop})
 
@@ -200,8 +242,43 @@ class Exp:
             result -= span * (1 - math.exp(-(t - self.fall_delay) / self.fall_tau))
         return result
 
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]."""
+        times = np.asarray(times, dtype=float)
+        span = self.pulsed - self.initial
+        rise = np.where(times > self.rise_delay,
+                        1 - np.exp(-np.maximum(times - self.rise_delay, 0) / self.rise_tau), 0.0)
+        fall = np.where(times > self.fall_delay,
+                        1 - np.exp(-np.maximum(times - self.fall_delay, 0) / self.fall_tau), 0.0)
+        return self.initial + span * (rise - fall)
+
     def breakpoints(self, stop: float) -> list[float]:
         return [t for t in (self.rise_delay, self.fall_delay) if 0 < t < stop]
 
 
 Stimulus = Dc | Sin | Pulse | Pwl | Exp
+
+
+def threshold_crossings(stimulus: Stimulus, level: float, stop: float) -> list[float]:
+    """Instants in ``(0, stop)`` where a piecewise-linear function crosses ``level`` mid-piece.
+
+    Only ``PULSE`` and ``PWL`` are piecewise linear between their breakpoints;
+    for them each linear piece is fitted from two interior samples and its
+    crossing of ``level`` computed exactly. Crossings at a breakpoint itself (an
+    ideal jump) are already grid points and are not repeated. Other functions
+    give no crossings (a switch they drive changes state at the first grid
+    point past the crossing; see docs/netlist.md).
+    """
+    if not isinstance(stimulus, (Pulse, Pwl)):
+        return []
+    edges = np.array([0.0, *stimulus.breakpoints(stop), stop])
+    left, right = edges[:-1], edges[1:]
+    span = right - left
+    quarter = np.array([stimulus.value(t) for t in left + 0.25 * span])
+    three_quarters = np.array([stimulus.value(t) for t in left + 0.75 * span])
+    slope = (three_quarters - quarter) / (0.5 * span)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crossing = left + 0.25 * span + (level - quarter) / slope
+    margin = 1e-9 * span
+    inside = (slope != 0) & (crossing > left + margin) & (crossing < right - margin)
+    return crossing[inside].tolist()

@@ -28,7 +28,7 @@ def _unreachable(elements: Sequence[Element], nodes: Sequence[str],
     graph = nx.MultiGraph()
     graph.add_nodes_from([GROUND, *nodes])
     for element in elements:
-        if element.topology not in ignored:
+        if element.topology not in ignored and len(element.nodes) >= 2:
             graph.add_edge(*element.nodes[:2])
     reachable = nx.node_connected_component(graph, GROUND)
     return sorted(n for n in nodes if n not in reachable)

@@ -15,9 +15,10 @@ from circuitnsds.mlcs import MLCSBuilder
 
 @dataclass(frozen=True)
 class Resistor(Element):
-    """Linear resistor, ``resistance`` in ohms (> 0)."""
+    """Linear resistor, ``resistance`` in ohms (> 0); ``model``: the ``R`` model it names, if any."""
 
     resistance: float = 1.0
+    model: str | None = None
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)

@@ -31,7 +31,9 @@ class VoltageSource(Element):
         builder.add("A", minus, k, 1.0)
         builder.add("A", k, plus, 1.0)
         builder.add("A", k, minus, -1.0)
-        builder.add("S", k, builder.stimulus(self.function), -1.0)
+        column = builder.stimulus(self.function)
+        builder.add("S", k, column, -1.0)
+        builder.voltage_source_stimulus(plus, minus, column)
         builder.output(f"i({self.name})", [(k, 1.0)])
 
 
