@@ -139,8 +139,13 @@ def integrate(
 
     stepping = _Stepping(mlcs, grid, theta, tol, states[0])
     started = wallclock.perf_counter()
-    last_report = started
-    reported = False
+    clock = {"last": started, "reported": False}
+
+    def _report() -> None:
+        if progress is not None and wallclock.perf_counter() - clock["last"] > 0.5:
+            clock["last"], clock["reported"] = wallclock.perf_counter(), True
+            progress(grid[k], grid[-1])
+
     charge = charge0 if charge0 is not None else mlcs.E @ y[0]
     guess = active0
     last_active: dict[bytes, np.ndarray] = {}
@@ -149,31 +154,28 @@ def integrate(
     k = 0
     while k < count - 1:
         states[k + 1] = stepping.switch_states(k, states[k], y[k])
+        if k > 0 and (states[k + 1] != states[k]).any():
+            # a switch changed: the pairs most likely take the mode they had the last
+            # time the switches were in this state (the other phase of a converter)
+            guess = last_active.get(states[k + 1].tobytes(), guess)
         if k > 0 and guess is not None:
             mode = stepping.mode_map(k, states[k + 1], guess)
             if mode is not None:
-                k_end = min(count - 1, k + CHUNK)
-                done, reason = run_mode(mode, k, k_end, y, current, stepping.sources,
-                                        stepping.step_class, stepping.schedule_code,
+                done, reason = run_mode(mode, k, min(count - 1, k + CHUNK), y, current,
+                                        stepping.sources, stepping.step_class,
+                                        stepping.schedule_code,
                                         *stepping.free_switch_arrays(states[k + 1]),
                                         use_compiled=compiled)
                 if done > k:
                     active[k + 1:done + 1] = guess
                     states[k + 1:done + 1] = states[k + 1]
+                    last_active[states[k + 1].tobytes()] = guess
                     stats["mapped_steps"] += done - k
-                    k = done
-                    charge = None
-                    if reason in (1, 2, 3):
-                        continue
-                    states[k + 1] = stepping.switch_states(k, states[k], y[k])
-        if k >= count - 1:
-            break
+                    k, charge = done, None
+                    _report()
+                    continue  # the next step decides its states and mode afresh
         if charge is None:
             charge = mlcs.E @ y[k]
-        if k > 0 and not np.array_equal(states[k + 1], states[k]):
-            # a switch changed: the pairs most likely take the mode they had the last
-            # time the switches were in this state (the other phase of a converter)
-            guess = last_active.get(states[k + 1].tobytes(), guess)
         result = stepping.solve_step(k, states[k + 1], charge, y[k], guess)
         y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
         current[k + 1] = result.z
@@ -183,10 +185,7 @@ def integrate(
         stats["mlcp_steps"] += 1
         charge = mlcs.E @ y[k + 1]
         k += 1
-        if progress is not None and wallclock.perf_counter() - last_report > 0.5:
-            last_report = wallclock.perf_counter()
-            reported = True
-            progress(grid[k], grid[-1])
+        _report()
 
     impulse = np.zeros((count, m))
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
@@ -194,7 +193,7 @@ def integrate(
         current[0] = current0
     stats.update(stepping.counters())
     stats["seconds"] = wallclock.perf_counter() - started
-    if progress is not None and reported:
+    if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
     return Trajectory(grid, y, current, impulse, residual, active, states, stats)
 
@@ -235,13 +234,20 @@ class _Stepping:
         self.free_controls = controls
         self.free_on = np.array([mlcs.switches[j].on_threshold for j in free])
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
+        self._no_free = (controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
-        self.modes: OrderedDict[tuple, ModeMap | None] = OrderedDict()
+        self.modes: dict[tuple, ModeMap | None] = {}
+        self.built = 0
 
     def switch_states(self, k: int, previous: np.ndarray, y: np.ndarray) -> np.ndarray:
         """States of the switches during step ``k``: scheduled ones from their source,
         the others from their control at ``t_k`` (with hysteresis)."""
+        if not self.free.size:
+            if self.scheduled.size == previous.size:
+                return self.schedule[k]  # every switch scheduled (the usual converter)
+            if not self.scheduled.size:
+                return previous
         states = previous.copy()
         if self.scheduled.size:
             states[self.scheduled] = self.schedule[k]
@@ -251,8 +257,10 @@ class _Stepping:
         return states
 
     def free_switch_arrays(self, states: np.ndarray) -> tuple[np.ndarray, ...]:
-        return (self.free_controls, self.free_on, self.free_off,
-                states[self.free] if self.free.size else np.zeros(0, dtype=bool))
+        """Controls, thresholds and current states of the switches the loop must watch."""
+        if not self.free.size:
+            return self._no_free
+        return self.free_controls, self.free_on, self.free_off, states[self.free]
 
     def _key(self, k: int, states: np.ndarray) -> tuple:
         return int(self.step_class[k]), states.tobytes()
@@ -293,14 +301,13 @@ class _Stepping:
 
     def mode_map(self, k: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
         """The step map of the mode (step size of step ``k``, ``states``, active set ``guess``)."""
-        key = (*self._key(k, states), guess.tobytes())
-        if key in self.modes:
-            self.modes.move_to_end(key)
-            return self.modes[key]
-        mode = self._build_mode(k, states, guess)
-        self.modes[key] = mode
-        if len(self.modes) > MODE_CACHE_SIZE:
-            self.modes.popitem(last=False)
+        key = (self.step_class[k], states.tobytes(), guess.tobytes())
+        mode = self.modes.get(key, False)
+        if mode is False:
+            if len(self.modes) >= MODE_CACHE_SIZE:
+                self.modes.clear()  # a circuit visiting this many modes gains little from maps
+            mode = self.modes[key] = self._build_mode(k, states, guess)
+            self.built += 1
         return mode
 
     def _build_mode(self, k: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
@@ -346,7 +353,7 @@ class _Stepping:
         for step in list(self.solvers.values()) + self.retired:
             for key in totals:
                 totals[key] += step.solver.stats.get(key, 0)
-        totals["modes"] = len(self.modes)
+        totals["modes"] = self.built
         return totals
 
 

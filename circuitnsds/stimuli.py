@@ -274,8 +274,8 @@ def threshold_crossings(stimulus: Stimulus, level: float, stop: float) -> list[f
     edges = np.array([0.0, *stimulus.breakpoints(stop), stop])
     left, right = edges[:-1], edges[1:]
     span = right - left
-    quarter = np.array([stimulus.value(t) for t in left + 0.25 * span])
-    three_quarters = np.array([stimulus.value(t) for t in left + 0.75 * span])
+    quarter = stimulus.sample(left + 0.25 * span)
+    three_quarters = stimulus.sample(left + 0.75 * span)
     slope = (three_quarters - quarter) / (0.5 * span)
     with np.errstate(divide="ignore", invalid="ignore"):
         crossing = left + 0.25 * span + (level - quarter) / slope

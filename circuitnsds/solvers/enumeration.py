@@ -15,7 +15,6 @@ Sizes above :data:`MAX_ENUM` raise ``ValueError`` unless ``force=True``.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from ._dense import factorise
 from .residual import kappa_of, mlcp_residual
@@ -29,6 +28,8 @@ MAX_ENUM = 12
 
 def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
     """A point of the face of ``mask`` found by an LP, or ``None``."""
+    from scipy.optimize import linprog  # imported on first use: it costs ~0.5 s
+
     m = mask.shape[0]
     idx = np.flatnonzero(mask)
     inact = np.flatnonzero(~mask)
