@@ -35,7 +35,7 @@ UNSUPPORTED_ELEMENTS = {
     "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
     "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
 }
-SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, D, S, W (and X, expanded before this stage)"
+SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, D, S, W and X (subcircuit instances)"
 
 
 def elaborate(netlist: Netlist) -> Circuit:
@@ -111,6 +111,9 @@ def _outside_control_blocks(statements: list[Statement]) -> Iterator[Statement]:
 def _element(statement: Statement, models: dict[str, object], voltage_sources: set[str]) -> Element:
     letter = element_letter(statement.keyword)
     reader = StatementReader(statement)
+    if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
+        raise reader.error(f"{statement.keyword}: not an element name",
+                           hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
     if letter in "rcl":
         return devices.passive(reader, letter, models)
     if letter in "vi":

@@ -35,31 +35,74 @@ class InitialState:
             capacitor ``ic=`` values.
         current: pair currents at ``t = 0`` [A].
         active: guessed active set for the first step (``None``: no guess).
+        switches: switch states at ``t = 0`` (closed = true), in ``mlcs.switches`` order.
     """
 
     y: np.ndarray
     charge: np.ndarray
     current: np.ndarray
     active: np.ndarray | None
+    switches: np.ndarray | None = None
 
 
 def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialState:
-    """Solve the DC operating point with ideal devices (see module docstring)."""
+    """Solve the DC operating point with ideal devices (see module docstring).
+
+    Switches start in their ``ON``/``OFF`` state, then follow their control at the
+    operating point (with hysteresis) until no state changes; a set of switches
+    that keeps toggling is an error.
+    """
     check_source_loops(circuit.elements, operating_point=True)
     check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
     _warn_unused_element_ics(circuit)
+    states = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
+    seen: list[bytes] = []
+    while True:
+        result = _solve_dc(circuit, mlcs, states, tol)
+        y = np.asarray(result.u[:mlcs.n], dtype=float)
+        following = np.array([switch.next_state(bool(on), _control_at_zero(mlcs, switch, y))
+                              for switch, on in zip(mlcs.switches, states)], dtype=bool)
+        if np.array_equal(following, states):
+            break
+        seen.append(states.tobytes())
+        if following.tobytes() in seen:
+            names = [s.name for s, a, b in zip(mlcs.switches, states, following) if a != b]
+            raise SimulationError(
+                f"the DC operating point is not consistent: switch(es) {', '.join(names)} "
+                "open and close each other", where="operating point",
+                hint="give the switches an initial state with ON/OFF and a hysteresis (VH), "
+                "or add UIC to .tran")
+        states = following
+    if not np.all(np.isfinite(y)):
+        raise SimulationError("the DC operating point is not finite", where="operating point",
+                              hint="add UIC to .tran to start from initial conditions")
+    return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
+                        active=np.asarray(result.active, dtype=bool), switches=states)
+
+
+def _control_at_zero(mlcs: MLCS, switch, y: np.ndarray) -> float:
+    """A switch's control quantity at the operating point [V or A]."""
+    if switch.control_stimulus is not None:
+        column, sign = switch.control_stimulus
+        return sign * mlcs.stimuli[column].value(0.0)
+    return switch.control_value(y)
+
+
+def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
+    """One DC MLCP with the given switch states and the ``.ic`` nodes held."""
     n = mlcs.n
     held = [node for node in circuit.initial_voltages if node != "0"]
     rows = [circuit.nodes.index(node) for node in held]
     k = len(held)
     incidence = sp.csr_matrix((np.ones(k), (rows, np.arange(k))), shape=(n, k))
-    matrix = sp.bmat([[mlcs.A, incidence], [incidence.T, None]], format="csr")
+    system = mlcs.system_matrix(tuple(bool(on) for on in states))
+    matrix = sp.bmat([[system, incidence], [incidence.T, None]], format="csr")
     source = np.concatenate([mlcs.source(0.0),
                              [-circuit.initial_voltages[node][0] for node in held]])
     coupling = sp.vstack([mlcs.B, sp.csr_matrix((k, mlcs.m))], format="csr")
     output = sp.hstack([mlcs.C, sp.csr_matrix((mlcs.m, k))], format="csr")
     try:
-        result = solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
+        return solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
     except LCPError as exc:
         raise SimulationError(
             f"the DC operating point has no solution with ideal devices ({exc})",
@@ -67,12 +110,6 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
             hint="check that .ic values do not contradict the sources driving those nodes, "
             "then the diode orientations and source values; or add UIC to .tran",
         ) from None
-    y = np.asarray(result.u[:n], dtype=float)
-    if not np.all(np.isfinite(y)):
-        raise SimulationError("the DC operating point is not finite", where="operating point",
-                              hint="add UIC to .tran to start from initial conditions")
-    return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
-                        active=np.asarray(result.active, dtype=bool))
 
 
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
@@ -123,7 +160,9 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
             k = mlcs.unknowns.index(f"i({element.name})")
             y[k] = element.initial_current
             charge[k] = element.inductance * element.initial_current
-    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None)
+    switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
+    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
+                        switches=switches)
 
 
 def _voltage(circuit: Circuit, y: np.ndarray, node: str) -> float:

@@ -276,9 +276,9 @@ def threshold_crossings(stimulus: Stimulus, level: float, stop: float) -> list[f
     span = right - left
     quarter = stimulus.sample(left + 0.25 * span)
     three_quarters = stimulus.sample(left + 0.75 * span)
-    slope = (three_quarters - quarter) / (0.5 * span)
     with np.errstate(divide="ignore", invalid="ignore"):
+        slope = (three_quarters - quarter) / (0.5 * span)
         crossing = left + 0.25 * span + (level - quarter) / slope
     margin = 1e-9 * span
-    inside = (slope != 0) & (crossing > left + margin) & (crossing < right - margin)
+    inside = (span > 0) & (slope != 0) & (crossing > left + margin) & (crossing < right - margin)
     return crossing[inside].tolist()

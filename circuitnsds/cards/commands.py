@@ -8,6 +8,7 @@ import re
 from circuitnsds.cards.reader import StatementReader, node_name
 from circuitnsds.circuit import Circuit, TranSpec
 from circuitnsds.netlist import Statement
+from circuitnsds.units import format_si
 
 IGNORED_COMMANDS = {
     ".print": "every signal is written; choose columns with --signals or .save",
@@ -116,8 +117,10 @@ def _tran(reader: StatementReader) -> TranSpec:
     step, stop = numbers[0], numbers[1]
     start = numbers[2] if len(numbers) > 2 else 0.0
     max_step = numbers[3] if len(numbers) > 3 else None
-    if step <= 0 or stop <= 0:
-        raise reader.error(".tran TSTEP and TSTOP must be positive")
+    for what, value in (("TSTEP", step), ("TSTOP", stop)):
+        if value <= 0:
+            raise reader.error(f".tran {what} = {format_si(value, 's')} must be positive",
+                               hint=".tran TSTEP TSTOP [TSTART [TMAX]] [UIC], e.g. .tran 1u 10m")
     if not 0 <= start < stop:
         raise reader.error(f".tran TSTART={start:g} must lie in [0, TSTOP)")
     if max_step is not None and max_step <= 0:

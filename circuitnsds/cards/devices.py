@@ -87,17 +87,19 @@ def _resistor_model(reader: StatementReader, model: object) -> ResistorModel:
 
 def _model_resistance(reader: StatementReader, model: ResistorModel,
                       geometry: dict[str, float]) -> float:
-    """ngspice's rule without an instance value: the model's ``R``, else ``RSH·(L-SHORT)/(W-NARROW)``."""
-    if model.resistance is not None:
-        return model.resistance
-    if model.sheet_resistance is not None and "l" in geometry:
+    """ngspice's rule without an instance value: ``RSH·(L-SHORT)/(W-NARROW)`` when the model
+    has a sheet resistance (``L``, ``W`` from the instance, else the model's defaults),
+    else the model's ``R``."""
+    if model.sheet_resistance:
         width = geometry.get("w", model.default_width) - model.narrow
-        length = geometry["l"] - model.short
+        length = geometry.get("l", model.default_length) - model.short
         if width <= 0 or length <= 0:
             raise reader.error(f"{reader.name}: the effective length and width must be positive")
         return model.sheet_resistance * length / width
+    if model.resistance is not None:
+        return model.resistance
     raise reader.error(f"{reader.name}: no resistance: give a value, or R= in .model "
-                       f"{model.name}, or RSH there and L= on the instance")
+                       f"{model.name}, or RSH there (with L and W)")
 
 
 def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
@@ -112,7 +114,8 @@ def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
     model = models[model_name]
     if not isinstance(model, DiodeModel):
         raise reader.error(f"{name}: model {model_name!r} is {_kind(model)} model, "
-                           "not a diode (D) model")
+                           "not a diode (D) model",
+                           hint=f"a diode needs a diode model: .model {model_name} D(...)")
     area = 1.0
     if reader.peek() is not None and reader.peek(1) != "=" and reader.peek() != "off":
         area = reader.value("area")
@@ -206,7 +209,7 @@ def inductance_matrix(inductors: list[Inductor], couplings: list[MutualInductanc
 
 def _kind(model: object) -> str:
     if isinstance(model, str):
-        return f"a {MODEL_KINDS.get(model, model.upper())}"
+        return f"a {MODEL_KINDS[model]}" if model in MODEL_KINDS else f"an unknown-type ({model.upper()})"
     return {DiodeModel: "a diode", ResistorModel: "a resistor"}.get(
         type(model), "a current-controlled switch" if getattr(model, "current_controlled", False)
         else "a voltage-controlled switch")

@@ -28,6 +28,8 @@ RESISTOR_TEMPERATURE_PARAMETERS = {"tc1", "tc2", "tce", "tnom", "kf", "af", "lf"
                                    "bv_max", "noisy"}
 DEFAULT_RESISTOR_WIDTH = 10e-6
 """ngspice's ``DEFW`` [m]."""
+DEFAULT_RESISTOR_LENGTH = 10e-6
+"""ngspice's ``DEFL`` [m]."""
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
                "r": "resistor", "res": "resistor"}
@@ -40,7 +42,7 @@ class ResistorModel:
     Attributes:
         resistance: ``R``/``RES`` [Ω], used when the instance gives no value.
         sheet_resistance: ``RSH`` [Ω/square].
-        default_width: ``DEFW`` [m].
+        default_width: ``DEFW`` or ``W`` [m]; default_length: ``DEFL`` or ``L`` [m].
         narrow: ``NARROW`` [m], ``short``: ``SHORT`` [m] (geometry corrections).
     """
 
@@ -48,6 +50,7 @@ class ResistorModel:
     resistance: float | None = None
     sheet_resistance: float | None = None
     default_width: float = DEFAULT_RESISTOR_WIDTH
+    default_length: float = DEFAULT_RESISTOR_LENGTH
     narrow: float = 0.0
     short: float = 0.0
     location: object | None = None
@@ -141,7 +144,8 @@ def _switch_model(name: str, kind: str, params: dict[str, float], reader: Statem
 def _resistor_model(name: str, params: dict[str, float], reader: StatementReader) -> ResistorModel:
     model = ResistorModel(name, location=reader.location)
     fields = {"r": "resistance", "res": "resistance", "rsh": "sheet_resistance",
-              "defw": "default_width", "narrow": "narrow", "short": "short"}
+              "defw": "default_width", "w": "default_width", "defl": "default_length",
+              "l": "default_length", "narrow": "narrow", "short": "short"}
     for key, value in params.items():
         if key in fields:
             model = replace(model, **{fields[key]: value})

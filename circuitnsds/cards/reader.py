@@ -27,6 +27,24 @@ def element_letter(name: str) -> str:
     return name.rsplit(".", 1)[-1][:1]
 
 
+def token_column(statement: Statement, index: int) -> int | None:
+    """1-based column of ``statement.tokens[index]`` in ``statement.text``, or ``None`` when
+    the text does not show it (a token produced by parameter substitution)."""
+    if not statement.tokens:
+        return None
+    index = min(index, len(statement.tokens) - 1)
+    text = statement.text.lower()
+    offset = 0
+    for k, token in enumerate(statement.tokens[:index + 1]):
+        found = text.find(token, offset)
+        if found < 0:
+            return None
+        if k == index:
+            return found + 1
+        offset = found + len(token)
+    return None
+
+
 class StatementReader:
     """Walks the tokens of one statement, turning mistakes into file:line errors."""
 
@@ -45,7 +63,10 @@ class StatementReader:
         return self.statement.location
 
     def error(self, message: str, hint: str | None = None) -> NetlistError:
-        return NetlistError(message, where=self.location, hint=hint)
+        """A :class:`NetlistError` at this statement: file:line, the statement's text and the
+        column of the token read last (the offending one, usually)."""
+        return NetlistError(message, where=self.location, hint=hint, text=self.statement.text,
+                            column=token_column(self.statement, max(0, self.position - 1)))
 
     def warn(self, message: str) -> None:
         warn_at(self.location, message)
@@ -69,8 +90,10 @@ class StatementReader:
         token = self.next(what)
         try:
             return parse_value(token)
-        except ValueError:
-            raise self.error(f"{self.name}: {what} {token!r} is not a number",
+        except ValueError as exc:
+            problem = ("is too large (beyond 1.8e308)" if "too large" in str(exc)
+                       else "is not a number")
+            raise self.error(f"{self.name}: {what} {token!r} {problem}",
                              hint="numbers look like 10, 4.7k, 10uF, 1e-3") from None
 
     def number(self, key: str, text: str) -> float:

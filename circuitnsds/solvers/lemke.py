@@ -50,7 +50,10 @@ def _lex_argmin(rows: np.ndarray, div: np.ndarray, T: np.ndarray, n: int, prefer
     """Row of the lexicographic minimum of ``[rhs, B^-1]_i / div_i`` over ``rows``."""
     rhs_col = T.shape[1] - 1
     dv = div[rows]
-    vals = T[rows, rhs_col] / dv
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # NaN (0/0 with denormal data) never wins; all-NaN keeps every row, and the
+        # caller's residual check rejects whatever pivot follows
+        vals = np.nan_to_num(T[rows, rhs_col] / dv, nan=np.inf)
     best = vals.min()
     keep = vals <= best + _TIE * max(1.0, abs(best))
     rows, dv = rows[keep], dv[keep]
@@ -59,7 +62,8 @@ def _lex_argmin(rows: np.ndarray, div: np.ndarray, T: np.ndarray, n: int, prefer
     if prefer >= 0 and np.any(rows == prefer):
         return prefer
     for j in range(n):
-        vals = T[rows, j] / dv
+        with np.errstate(divide="ignore", invalid="ignore"):
+            vals = np.nan_to_num(T[rows, j] / dv, nan=np.inf)
         best = vals.min()
         keep = vals <= best + _TIE * max(1.0, abs(best))
         rows, dv = rows[keep], dv[keep]
