@@ -1,0 +1,265 @@
+"""Running a netlist in ngspice (shared library, through PySpice) and reading the result.
+
+ngspice is loaded once per process (``libngspice.so`` via PySpice's
+``NgSpiceShared``) and reused: each run loads the translated netlist, runs its
+``.tran`` in the foreground, copies the vectors out, then destroys the plots and
+removes the circuit, so that a failed run leaves the library ready for the next.
+
+ngspice's messages are captured (never printed): a run that stops early ("Timestep
+too small", "singular matrix", "no convergence", ...) is a result,
+:class:`NgspiceRun` with ``status == "failed"``, the reason and the time reached,
+not an exception. PySpice's log (including its warning that ngspice newer than 34
+is "unsupported"; it works) is silenced while ngspice is in use.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import threading
+import time
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from circuitnsds.compare.errors import INSTALL_HINT, NgspiceUnavailable
+from circuitnsds.compare.translate import DiodeOverrides, ngspice_vector
+from circuitnsds.waveforms import Waveforms
+
+#: Message fragments that say why ngspice stopped, most specific first.
+FAILURE_PATTERNS = (
+    "timestep too small", "singular matrix", "no convergence", "iteration limit",
+    "gmin stepping failed", "source stepping failed", "transient op failed", "doanalyses",
+    "circuit not parsed", "error", "aborted",
+)
+_TIME = re.compile(r"\btime\s*=\s*([-+0-9.eE]+)")
+
+_lock = threading.Lock()
+_engine = None
+_engine_error: NgspiceUnavailable | None = None
+
+
+@dataclass
+class NgspiceRun:
+    """One ngspice transient.
+
+    Attributes:
+        status: ``"ok"`` (reached the stop time), ``"failed"`` (stopped early: see
+            ``message`` and ``stopped_at``) or ``"rejected"`` (ngspice did not accept
+            the netlist and ran nothing; ``message`` holds its parser's lines).
+        message: ngspice's own words for a failure (empty when ``ok``).
+        stopped_at: last time point computed [s] (``None`` when nothing was computed).
+        waveforms: the vectors on ngspice's own (adaptive) time points, named as in
+            circuitnsds (``v(out)``, ``i(d1)``); partial for a failed run, ``None``
+            when rejected. Signs are circuitnsds's (which are SPICE's).
+        seconds: wall time of ngspice's ``run`` command (parsing excluded) [s].
+        version: ``"ngspice-39"``.
+        overrides: the diode parameters forced on every ``D`` model.
+        missing: requested signals ngspice did not provide.
+        messages: ngspice's stderr lines (and stdout lines that mention errors).
+        netlist: the netlist text ngspice was given.
+    """
+
+    status: str
+    message: str = ""
+    stopped_at: float | None = None
+    waveforms: Waveforms | None = None
+    seconds: float = 0.0
+    version: str = ""
+    overrides: DiodeOverrides = field(default_factory=DiodeOverrides)
+    missing: list[str] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+    netlist: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+@contextmanager
+def quiet_pyspice() -> Iterator[None]:
+    """Silence PySpice's logger (and its "Unsupported Ngspice version" warning) for a while."""
+    logger = logging.getLogger("PySpice")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _load_engine():
+    """The process-wide ngspice instance (created on first use)."""
+    global _engine, _engine_error
+    if _engine is not None:
+        return _engine
+    if _engine_error is not None:
+        raise _engine_error
+    try:
+        from PySpice.Spice.NgSpice.Shared import NgSpiceShared
+    except ImportError as exc:
+        _engine_error = NgspiceUnavailable(f"PySpice is not installed ({exc})", where="ngspice comparison",
+                                           hint=INSTALL_HINT)
+        raise _engine_error from None
+
+    class _Engine(NgSpiceShared):
+        """NgSpiceShared that keeps every message ngspice writes."""
+
+        def __init__(self) -> None:
+            self.lines: list[str] = []
+            super().__init__(ngspice_id=0, send_data=False)
+
+        def send_char(self, message: str, ngspice_id: int) -> int:
+            self.lines.append(message)
+            return 0
+
+    try:
+        _engine = _Engine()
+    except OSError as exc:
+        library = (NgSpiceShared.LIBRARY_PATH or "libngspice.so").format("")
+        _engine_error = NgspiceUnavailable(f"ngspice's shared library {library} cannot be loaded ({exc})",
+                                           where="ngspice comparison", hint=INSTALL_HINT)
+        raise _engine_error from None
+    return _engine
+
+
+def ngspice_version() -> str:
+    """``"ngspice-39"`` (raises :class:`NgspiceUnavailable` when ngspice or PySpice is missing)."""
+    with _lock, quiet_pyspice():
+        return f"ngspice-{_load_engine().ngspice_version}"
+
+
+def pyspice_version() -> str:
+    try:
+        import PySpice
+    except ImportError:
+        return ""
+    return str(getattr(PySpice, "__version__", ""))
+
+
+def run_ngspice(
+    netlist: str,
+    signals: Iterable[str],
+    stop: float,
+    *,
+    overrides: DiodeOverrides | None = None,
+    title: str = "",
+) -> NgspiceRun:
+    """Run a translated netlist's ``.tran`` in ngspice.
+
+    Args:
+        netlist: ngspice netlist text (see :func:`circuitnsds.compare.translate.translate_netlist`,
+            whose ``saves`` must list the device parameters the signals need).
+        signals: circuitnsds signal names to return (``v(out)``, ``i(d1)``, ...).
+        stop: the ``.tran`` stop time [s]; a run that ends earlier has failed.
+        overrides: recorded in the result (already applied to ``netlist``).
+        title: title of the returned waveforms.
+
+    Raises:
+        NgspiceUnavailable: PySpice or ``libngspice.so`` is missing.
+    """
+    signals = [name.strip().lower() for name in signals]
+    with _lock, quiet_pyspice():
+        engine = _load_engine()
+        result = NgspiceRun("ok", version=f"ngspice-{engine.ngspice_version}",
+                            overrides=overrides or DiodeOverrides(), netlist=netlist)
+        engine.lines.clear()
+        try:
+            _call(engine.load_circuit, netlist)
+            load_errors = [line for line in _stderr(engine.lines) if _is_load_error(line)]
+            parse_messages = _stderr(engine.lines)
+            before = set(engine.plot_names)
+            start = time.perf_counter()
+            completed = _call(engine.run)
+            result.seconds = time.perf_counter() - start
+            plots = [name for name in engine.plot_names if name not in before and name.startswith("tran")]
+            result.messages = _messages(engine.lines)
+            if not plots and load_errors:
+                # the circuit was not loaded (the previous one was removed: nothing ran)
+                result.status = "rejected"
+                result.message = "; ".join(parse_messages[:6])
+                return result
+            if plots:
+                result.waveforms, result.missing = _read_plot(engine, plots[0], signals, title)
+            reached = float(result.waveforms.time[-1]) if result.waveforms is not None \
+                and result.waveforms.time.size else None
+            result.stopped_at = reached
+            if not plots or reached is None or reached < stop * (1 - 1e-9):
+                result.status = "failed"
+                result.message = _reason(engine.lines) or (
+                    "ngspice stopped early" if completed else "ngspice's run command failed")
+                if reached is None:
+                    match = _TIME.search(result.message)
+                    result.stopped_at = float(match.group(1)) if match else None
+        finally:
+            _reset(engine)
+    return result
+
+
+def _call(function, *args) -> bool:
+    """Call a PySpice method; ``False`` when PySpice raised because ngspice reported an error.
+
+    PySpice raises on any non-warning line on stderr, including harmless notes; the
+    outcome is judged from the vectors and messages instead.
+    """
+    from PySpice.Spice.NgSpice.Shared import NgSpiceCircuitError, NgSpiceCommandError
+
+    try:
+        function(*args)
+    except (NgSpiceCommandError, NgSpiceCircuitError):
+        return False
+    return True
+
+
+def _reset(engine) -> None:
+    """Free the plots and the circuit so the next run starts clean (errors ignored)."""
+    for command in ("destroy all", "remcirc"):
+        _call(engine.exec_command, command)
+    engine.lines.clear()
+
+
+def _stderr(lines: list[str]) -> list[str]:
+    return [line.partition(" ")[2].strip() for line in lines if line.startswith("stderr")]
+
+
+def _messages(lines: list[str]) -> list[str]:
+    """stderr lines, and stdout lines that mention an error or a warning."""
+    kept = []
+    for line in lines:
+        stream, _, content = line.partition(" ")
+        content = content.strip()
+        if content and (stream == "stderr" or re.search(r"error|warning|too small|singular", content, re.I)):
+            kept.append(content)
+    return kept
+
+
+def _is_load_error(line: str) -> bool:
+    """A message of ngspice's parser that means the circuit was not loaded."""
+    return line.lower().startswith("error") or "circuit not parsed" in line.lower()
+
+
+def _reason(lines: list[str]) -> str:
+    """The most telling failure line among ngspice's messages (empty when none)."""
+    messages = _messages(lines)
+    for pattern in FAILURE_PATTERNS:
+        for message in messages:
+            if pattern in message.lower() and not message.lower().startswith("warning: model issue"):
+                return message
+    return ""
+
+
+def _read_plot(engine, plot: str, signals: list[str], title: str) -> tuple[Waveforms, list[str]]:
+    vectors = engine.plot(None, plot)
+    arrays = {name.lower(): np.real(np.asarray(vector._data)).astype(float)
+              for name, vector in vectors.items()}
+    time_points = arrays.get("time", np.zeros(0))
+    values, missing = {}, []
+    for signal in signals:
+        vector = ngspice_vector(signal)[0]
+        if vector in arrays and arrays[vector].shape == time_points.shape:
+            values[signal] = arrays[vector]
+        else:
+            missing.append(signal)
+    return Waveforms(time_points, values, title=title, stats={"points": float(time_points.size)}), missing
