@@ -67,6 +67,13 @@ class Waveforms:
 
         return pd.DataFrame(self.signals, index=pd.Index(self.time, name="time"))
 
+    def to_raw(self, path: str | Path, names: Iterable[str] | None = None, *,
+               binary: bool = True) -> None:
+        """Write a SPICE raw file as ngspice's ``write`` does (see :mod:`circuitnsds.rawfile`)."""
+        from circuitnsds.rawfile import write_raw
+
+        write_raw(self, path, names, binary=binary)
+
     def to_csv(self, path: str | Path, names: Iterable[str] | None = None) -> None:
         """Write ``time`` and the signals (all by default) as CSV with a header row."""
         columns = list(names) if names is not None else self.names

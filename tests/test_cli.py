@@ -69,7 +69,7 @@ def test_info_prints_sizes_and_saves_matrices(tmp_path, capsys):
     npz = tmp_path / "m.npz"
     assert main(["info", str(NETLISTS / "book_zener_rlc.cir"), "--matrices", str(npz)]) == 0
     out = capsys.readouterr().out
-    assert "n = 4 unknowns, m = 2 complementarity pairs" in out
+    assert "4 unknowns = 2 states (differential rows) + 2 algebraic; 2 complementarity pairs" in out
     assert "dz1.forward, dz1.reverse" in out
     assert "zener diode" in out
     assert np.load(npz)["A"].shape == (4, 4)
