@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from circuitnsds.elements import Element
 from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
 from circuitnsds.mlcs import MLCS, MLCSBuilder
@@ -37,6 +39,9 @@ class Circuit:
         file: the netlist file name.
         options: ``.options`` the engine uses (``theta``, ``gmin``).
         saved_signals: signals named by ``.save`` (what the command line writes by default).
+        strict: make every warning about the netlist or the circuit an error when the
+            circuit is stamped or simulated (``read_netlist(..., strict=True)`` sets it).
+        reported: the circuit warnings already given (each is given once).
     """
 
     title: str = ""
@@ -50,12 +55,17 @@ class Circuit:
     options: dict[str, float] = field(default_factory=dict)
     saved_signals: list[str] = field(default_factory=list)
     save_location: SourceLocation | None = None
+    strict: bool = False
+    reported: set[str] = field(default_factory=set, repr=False, compare=False)
 
     def add(self, element: Element, location: SourceLocation | None = None) -> None:
         """Append an element; its nodes join the node list."""
-        if any(existing.name == element.name for existing in self.elements):
-            raise NetlistError(f"element {element.name} is defined twice",
-                               where=location or element.name, hint="element names must be unique")
+        for existing in self.elements:
+            if existing.name == element.name:
+                first = f" (first at {existing.location})" if existing.location else ""
+                raise NetlistError(f"element {element.name} is defined twice{first}",
+                                   where=location or element.name,
+                                   hint="element names must be unique")
         self.elements.append(element)
         for node in element.nodes:
             if node != "0" and node not in self.nodes:
@@ -80,20 +90,56 @@ class Circuit:
         ``step`` and ``stop`` [s] fill in source defaults that ngspice ties to the
         analysis (``PULSE`` rise time = TSTEP, ``SIN`` frequency = 1/TSTOP, ...);
         they default to the ``.tran`` line, or 1 s.
+
+        Raises:
+            CircuitError: the circuit fails a check of :mod:`circuitnsds.topology` or
+                :mod:`circuitnsds.checks` (warnings of the latter are errors when ``strict``).
         """
+        from circuitnsds.checks import check_circuit, check_source_timing, check_stamps
         from circuitnsds.topology import check_connected, check_current_cutsets, check_source_loops
 
         if not self.elements:
             raise CircuitError("the circuit has no elements", where=self.file)
+        with self._strictness():
+            check_circuit(self)
         check_connected(self.elements, self.nodes)
         check_source_loops(self.elements)
         check_current_cutsets(self.elements, self.nodes)
         step = step or (self.tran.step if self.tran else 1.0)
         stop = stop or (self.tran.stop if self.tran else 1.0)
+        resolved = self._resolved(step, stop)
+        check_source_timing(resolved, stop)
         builder = MLCSBuilder(self.nodes)
-        for element in self._resolved(step, stop):
-            element.stamp(builder)
-        return builder.build()
+        with np.errstate(all="ignore"):
+            for element in resolved:
+                element.stamp(builder)
+            mlcs = builder.build()
+        check_stamps(resolved, mlcs)
+        return mlcs
+
+    def _strictness(self):
+        """A context in which warnings are errors when the circuit is ``strict``."""
+        from contextlib import nullcontext
+
+        from circuitnsds.errors import strict_warnings
+
+        return strict_warnings() if self.strict else nullcontext()
+
+    def well_posedness(self, step: float | None = None, *, states=None, theta: float = 1.0):
+        """Is each time step's complementarity problem uniquely solvable (see
+        :mod:`circuitnsds.wellposed`)? Returns a list of
+        :class:`~circuitnsds.wellposed.WellPosedness`, one per switch configuration examined.
+
+        Args:
+            step: the time step [s] (default: the ``.tran`` TSTEP, else 1 s).
+            states: switch states to examine, a sequence of tuples of booleans (closed =
+                true) in the order of the switches; default: every combination for up to
+                4 switches, else the initial states, all open and all closed.
+            theta: θ of the θ-method (the LCP of a step depends on it through ``K``).
+        """
+        from circuitnsds.wellposed import analyse_circuit
+
+        return analyse_circuit(self, step, states=states, theta=theta)
 
     def _resolved(self, step: float, stop: float) -> list[Element]:
         """Elements with their source functions' analysis-dependent defaults filled in."""
@@ -131,13 +177,19 @@ class Circuit:
                 (default: ``.tran``'s UIC flag).
             tol: complementarity tolerance of every step (scaled residual).
             progress: ``callback(t, stop)`` called now and then during the run.
+
+        Raises:
+            CircuitError: the circuit or the analysis settings are ill-posed.
+            SimulationError: a step has no solution or a value became non-finite; its
+                ``partial`` attribute holds the waveforms up to the last good step.
         """
         from circuitnsds.transient import run_transient
 
         if theta is None:
             theta = self.options.get("theta", 1.0)
-        return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
-                             theta=theta, uic=uic, tol=tol, progress=progress)
+        with self._strictness():
+            return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
+                                 theta=theta, uic=uic, tol=tol, progress=progress)
 
     def operating_point(self) -> dict[str, float]:
         """DC operating point with ideal devices: every output signal's value [V or A]."""

@@ -9,6 +9,9 @@ prints a traceback for these.
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 
@@ -42,11 +45,81 @@ class CircuitnsdsError(Exception):
         text = f"{self.where}: {self.message}" if self.where is not None else self.message
         if self.hint:
             text += f"\n  hint: {self.hint}"
-        return text
+        return _clip_lines(text)
+
+
+TEXT_SHOWN = 100
+"""Longest excerpt of the offending netlist text shown in a message (characters)."""
 
 
 class NetlistError(CircuitnsdsError):
-    """The netlist text cannot be read or uses something circuitnsds does not support."""
+    """The netlist text cannot be read or uses something circuitnsds does not support.
+
+    Args:
+        message, where, hint: as for :class:`CircuitnsdsError`; ``where`` is usually a
+            :class:`SourceLocation` (file and line).
+        column: 1-based column of the offending text in the statement, when known.
+        text: the offending statement (or token) as written, when known; shown as a
+            second line ``in: ...`` unless the hint already quotes it.
+
+    The first line of the message stays ``file:line: message``.
+    """
+
+    def __init__(self, message: str, *, where: object | None = None, hint: str | None = None,
+                 column: int | None = None, text: str | None = None):
+        self.column = column
+        self.text = text
+        super().__init__(message, where=where, hint=hint)
+
+    @property
+    def file(self) -> str | None:
+        """The netlist file (``<text>`` for a string), or ``None`` when unknown."""
+        if isinstance(self.where, SourceLocation):
+            return self.where.file
+        return str(self.where) if self.where is not None else None
+
+    @property
+    def line(self) -> int | None:
+        """1-based line of the statement, or ``None`` when the error concerns a whole file."""
+        return self.where.line if isinstance(self.where, SourceLocation) else None
+
+    def __str__(self) -> str:
+        text = f"{self.where}: {self.message}" if self.where is not None else self.message
+        excerpt = _excerpt(self.text, self.column) if self.text else None
+        said = self.message + (self.hint or "")
+        quoted = excerpt is not None and (excerpt in said or self.text.strip() in said)
+        if self.hint:
+            text += f"\n  hint: {self.hint}"
+            if excerpt and not quoted:
+                text += f"; in: {excerpt}"
+        elif excerpt and not quoted:
+            text += f"\n  in: {excerpt}"
+        return _clip_lines(text)
+
+
+LINE_SHOWN = 400
+"""Longest line of an error message (characters); longer ones (a netlist line of a megabyte
+quoted whole) are cut in the middle."""
+
+
+def _clip_lines(text: str) -> str:
+    """``text`` with every line longer than :data:`LINE_SHOWN` cut in the middle."""
+    lines = text.split("\n")
+    for k, line in enumerate(lines):
+        if len(line) > LINE_SHOWN:
+            head, tail = LINE_SHOWN - 100, 60
+            lines[k] = f"{line[:head]} ...[{len(line) - head - tail} characters]... {line[-tail:]}"
+    return "\n".join(lines)
+
+
+def _excerpt(text: str, column: int | None) -> str:
+    """``text`` on one line, cut to :data:`TEXT_SHOWN` characters around ``column``."""
+    flat = " ".join(text.split())
+    if len(flat) <= TEXT_SHOWN:
+        return flat
+    start = 0 if column is None else max(0, min(column - 1 - TEXT_SHOWN // 2, len(flat) - TEXT_SHOWN))
+    cut = flat[start:start + TEXT_SHOWN]
+    return ("..." if start > 0 else "") + cut + ("..." if start + TEXT_SHOWN < len(flat) else "")
 
 
 class CircuitError(CircuitnsdsError):
@@ -54,8 +127,64 @@ class CircuitError(CircuitnsdsError):
 
 
 class SimulationError(CircuitnsdsError):
-    """A time step (or the operating point) has no solution or the solver failed."""
+    """A time step (or the operating point) has no solution, the solver failed, or a value
+    became NaN or infinite.
+
+    Args:
+        message, where, hint: as for :class:`CircuitnsdsError`.
+        time: the instant [s] at which the run stopped (end of the failing step).
+        devices: the devices in the active set guessed for the failing step (the
+            conducting diodes), or the devices concerned.
+        residual: the best scaled complementarity residual the solver reached.
+
+    Attributes:
+        partial: the :class:`~circuitnsds.Waveforms` up to the last good step when the
+            failure happened during a transient (set by the transient, else ``None``).
+    """
+
+    def __init__(self, message: str, *, where: object | None = None, hint: str | None = None,
+                 time: float | None = None, devices: tuple[str, ...] = (),
+                 residual: float | None = None):
+        self.time = time
+        self.devices = tuple(devices)
+        self.residual = residual
+        self.partial = None
+        super().__init__(message, where=where, hint=hint)
 
 
 class NetlistWarning(UserWarning):
     """Something in the netlist is accepted but not used (it is reported, never silent)."""
+
+
+class CircuitWarning(NetlistWarning):
+    """The circuit is legal but probably not what was meant: a dangling node, a loop of
+    voltage sources and capacitors with inconsistent initial conditions, a switch that
+    shorts a voltage source when it closes. ``--strict`` makes these errors."""
+
+
+STRICT_HINT = "this is a warning, made an error by strict mode (--strict); fix it or drop --strict"
+
+
+@contextmanager
+def strict_warnings() -> Iterator[None]:
+    """Inside the block every :class:`NetlistWarning` (and :class:`CircuitWarning`) is raised
+    as a :class:`NetlistError` (or :class:`CircuitError`) carrying the warning's text.
+
+    Example::
+
+        with strict_warnings():
+            circuit = circuitnsds.read_netlist("in.cir")
+            circuit.transient()
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NetlistWarning)
+        try:
+            yield
+        except NetlistWarning as warning:
+            raise as_error(warning) from None
+
+
+def as_error(warning: Warning) -> CircuitnsdsError:
+    """The error that a (netlist or circuit) warning becomes in strict mode."""
+    cls = CircuitError if isinstance(warning, CircuitWarning) else NetlistError
+    return cls(str(warning), hint=STRICT_HINT)

@@ -2,7 +2,8 @@
 
 * a group of nodes with no element path to ground (their potential is undefined);
 * a loop made only of voltage sources (their currents are undefined); at the
-  operating point inductors are shorts and count as voltage sources;
+  operating point inductors are shorts and count as voltage sources, and a 0 H
+  inductor always does;
 * a cutset made only of current sources (Kirchhoff's current law cannot hold);
   at the operating point capacitors are open and count with the current sources.
 
@@ -20,6 +21,11 @@ from circuitnsds.elements import Element
 from circuitnsds.errors import CircuitError
 
 GROUND = "0"
+
+
+def is_short(element: Element) -> bool:
+    """An inductor of 0 H: its branch equation is ``0 = v+ - v-``, a 0 V voltage source."""
+    return element.topology == "inductor" and getattr(element, "inductance", 1.0) == 0.0
 
 
 def _unreachable(elements: Sequence[Element], nodes: Sequence[str],
@@ -51,7 +57,7 @@ def check_source_loops(elements: Sequence[Element], operating_point: bool = Fals
     kinds = {"voltage", "inductor"} if operating_point else {"voltage"}
     graph = nx.Graph()
     for element in elements:
-        if element.topology not in kinds:
+        if element.topology not in kinds and not is_short(element):
             continue
         a, b = element.nodes[:2]
         if a == b:

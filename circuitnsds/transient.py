@@ -6,8 +6,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from circuitnsds.checks import check_initial_conditions
 from circuitnsds.circuit import Circuit
-from circuitnsds.errors import CircuitError
+from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.initial import operating_point, uic_state
 from circuitnsds.integrate import integrate
 from circuitnsds.timegrid import time_grid
@@ -30,7 +31,8 @@ def run_transient(
     tran = circuit.tran
     if (step is None or stop is None) and tran is None:
         raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
-                           hint="add '.tran TSTEP TSTOP' to the netlist or pass step and stop")
+                           hint="add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or give "
+                           "--step and --stop (step= and stop= in Python)")
     step = step if step is not None else tran.step
     stop = stop if stop is not None else tran.stop
     start = start if start is not None else (tran.start if tran else 0.0)
@@ -53,9 +55,54 @@ def run_transient(
     except ValueError as exc:
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
+    check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
-    trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
-                           theta=theta, tol=tol, progress=progress)
+    try:
+        trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
+                               state.switches, theta=theta, tol=tol, progress=progress)
+    except SimulationError as exc:
+        _diagnose(exc, circuit, mlcs, grid, theta)
+        if getattr(exc, "trajectory", None) is not None:
+            exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
+        raise
+    return _waveforms(circuit, mlcs, trajectory, start, stop)
+
+
+HUGE = 1e100
+"""A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""
+
+
+def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:
+    """Replace the hint of a failed step by the well-posedness analysis of that step's LCP."""
+    from circuitnsds.wellposed import analyse, forced_currents
+
+    interval = getattr(error, "step_interval", None)
+    if interval is None:
+        return
+    t0, t1 = interval
+    trajectory = getattr(error, "trajectory", None)
+    if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
+        error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: the "
+                      "circuit is unstable (a negative resistance, or controlled sources with a loop "
+                      "gain above 1); the waveforms before that instant are kept")
+        return
+    states = getattr(error, "switch_states", None)
+    try:
+        analysis = analyse(mlcs, t1 - t0, None if states is None else tuple(states),
+                           1.0 if t0 == grid[0] else theta)
+    except CircuitError:  # the step's matrices are not finite: keep the hint as it is
+        return
+    analysis.forced = forced_currents(circuit, analysis.switch_states)
+    if analysis.verdict in {"P", "none"} and not analysis.forced:
+        error.hint = ("this step's LCP has a P-matrix (or no pairs), so it has exactly one solution: "
+                      "the solver failed numerically; try another step size (--step) and please "
+                      "report it")
+    else:
+        error.hint = f"this step's LCP: {analysis.summary()}"
+
+
+def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) -> Waveforms:
+    """Output signals of ``trajectory`` from ``start`` on."""
     keep = trajectory.time >= start - 1e-12 * stop
     values = mlcs.outputs(trajectory.y, trajectory.current)
     signals = {name: np.ascontiguousarray(values[keep, j])
