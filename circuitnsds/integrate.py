@@ -40,21 +40,22 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as la
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
 from circuitnsds.errors import SimulationError
-from circuitnsds.kernel import ModeMap, run_mode
+from circuitnsds.kernel import ModeMap, SparseModeMap, run_mode, run_sparse_mode
 from circuitnsds.mlcs import MLCS
-from circuitnsds.solvers import LCPError, MLCPSolver
+from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
+from circuitnsds.solvers._dense import factorise
 
 SOLVER_CACHE_SIZE = 32
 """How many (step size, switch states) keep their MLCP solver (and its factorisations)."""
 MODE_CACHE_SIZE = 256
 """How many modes keep their step map."""
 DENSE_MAP_LIMIT = 400
-"""Largest ``n + active pairs`` for which a mode gets a dense step map (beyond: MLCP every step)."""
+"""Largest ``n + active pairs`` for which a mode gets a dense step map (beyond: a sparse LU)."""
 CHUNK = 100_000
 """Longest run of mapped steps between progress reports."""
 
@@ -73,8 +74,8 @@ class Trajectory:
         active: active set of each step, shape ``(N, m)``.
         switches: state (closed = true) of each switch during the step ending at
             each point, shape ``(N, number of switches)`` (row 0: the initial state).
-        stats: counters (steps, mapped_steps, mlcp_steps, factorisations, cache hits,
-            Lemke fallbacks, seconds).
+        stats: counters (steps, mapped_steps and the mapped_seconds spent in them,
+            mlcp_steps, modes built, factorisations, cache hits, Lemke fallbacks, seconds).
     """
 
     time: np.ndarray
@@ -119,7 +120,9 @@ def integrate(
             the numpy loop, for comparison).
 
     Raises:
-        SimulationError: a step has no solution (names the time and devices).
+        SimulationError: a source value or the state is not finite, or a step has no
+            solution (names the time and devices); ``error.trajectory`` then holds the
+            points computed before it.
     """
     if not 0.5 <= theta <= 1.0:
         raise ValueError(f"theta must lie in [0.5, 1], got {theta}")
@@ -149,7 +152,8 @@ def integrate(
     charge = charge0 if charge0 is not None else mlcs.E @ y[0]
     guess = active0
     last_active: dict[bytes, np.ndarray] = {}
-    stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0}
+    stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0,
+             "mapped_seconds": 0.0}
 
     k = 0
     while k < count - 1:
@@ -161,11 +165,19 @@ def integrate(
         if k > 0 and guess is not None:
             mode = stepping.mode_map(k, states[k + 1], guess)
             if mode is not None:
-                done, reason = run_mode(mode, k, min(count - 1, k + CHUNK), y, current,
-                                        stepping.sources, stepping.step_class,
-                                        stepping.schedule_code,
-                                        *stepping.free_switch_arrays(states[k + 1]),
-                                        use_compiled=compiled)
+                arguments = (mode, k, min(count - 1, k + CHUNK), y, current, stepping.sources,
+                             stepping.step_class, stepping.schedule_code,
+                             *stepping.free_switch_arrays(states[k + 1]))
+                entered = wallclock.perf_counter()
+                if isinstance(mode, SparseModeMap):
+                    done, _ = run_sparse_mode(*arguments)
+                else:
+                    done, _ = run_mode(*arguments, use_compiled=compiled)
+                stats["mapped_seconds"] += wallclock.perf_counter() - entered
+                if done > k and not np.isfinite(y[done]).all():  # once NaN/inf, it stays
+                    bad = k + 1 + int(np.argmin(np.isfinite(y[k + 1:done + 1]).all(axis=1)))
+                    raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
+                                   residual, active, states, stats)
                 if done > k:
                     active[k + 1:done + 1] = guess
                     states[k + 1:done + 1] = states[k + 1]
@@ -176,7 +188,10 @@ def integrate(
                     continue  # the next step decides its states and mode afresh
         if charge is None:
             charge = mlcs.E @ y[k]
-        result = stepping.solve_step(k, states[k + 1], charge, y[k], guess)
+        try:
+            result = stepping.solve_step(k, states[k + 1], charge, y[k], guess)
+        except SimulationError as exc:  # keep what was computed: the caller writes it
+            raise _stopped(exc, k, grid, y, current, residual, active, states, stats) from None
         y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
         current[k + 1] = result.z
         residual[k + 1] = result.residual
@@ -277,7 +292,14 @@ class _Stepping:
         # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
         # (same solution; the solver's normwise test then weighs currents, not charges,
         # against the voltages, and a wrong-signed current of microamperes is caught)
-        K = (self.E / h - sp.diags(weights) @ A).tocsc()
+        with np.errstate(all="ignore"):
+            K = (self.E / h - sp.diags(weights) @ A).tocsc()
+        if not np.isfinite(K.data).all():
+            raise SimulationError(
+                f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
+                "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
+                time=float(self.grid[k]), hint="check the step (--step, .tran TSTEP) and the "
+                "capacitor and inductor values")
         solver = MLCPSolver(K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
         self.solvers[key] = _StepSolver(solver, weights, A.tocsr(), K)
         if len(self.solvers) > SOLVER_CACHE_SIZE:
@@ -294,12 +316,21 @@ class _Stepping:
         rhs = charge / h + step.weights * source_next
         if k > 0 and self.theta != 1.0:
             rhs += (1.0 - step.weights) * (step.A @ y + S @ self.sources[k])
+        if not np.isfinite(rhs).all():
+            t1 = self.grid[k + 1]
+            raise SimulationError(
+                f"the state overflows in the step from t = {self.grid[k]:.6g} s to {t1:.6g} s "
+                f"(largest |value| {np.abs(y).max():.3g})", where=f"t = {t1:.6g} s", time=float(t1),
+                hint="the circuit is unstable (a negative resistance, or controlled sources with a "
+                "loop gain above 1) or a value overflowed; the waveforms before that instant are kept")
         try:
             return step.solver.solve(-rhs, self.mlcs.e, guess=guess)
         except LCPError as exc:
-            raise _step_failure(self.mlcs, self.grid[k], self.grid[k + 1], exc) from None
+            raise _step_failure(self.mlcs, self.grid[k], self.grid[k + 1], exc, guess,
+                                states) from None
 
-    def mode_map(self, k: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
+    def mode_map(self, k: int, states: np.ndarray, guess: np.ndarray
+                 ) -> ModeMap | SparseModeMap | None:
         """The step map of the mode (step size of step ``k``, ``states``, active set ``guess``)."""
         key = (self.step_class[k], states.tobytes(), guess.tobytes())
         mode = self.modes.get(key, False)
@@ -310,22 +341,19 @@ class _Stepping:
             self.built += 1
         return mode
 
-    def _build_mode(self, k: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
+    def _build_mode(self, k: int, states: np.ndarray, guess: np.ndarray
+                    ) -> ModeMap | SparseModeMap | None:
         mlcs, n = self.mlcs, self.mlcs.n
         act = np.flatnonzero(guess)
         inact = np.flatnonzero(~guess)
-        if n + act.size > DENSE_MAP_LIMIT:
-            return None
         step = self._step_solver(k, states)
+        if n + act.size > DENSE_MAP_LIMIT:
+            return self._build_sparse_mode(k, step, act, inact)
         h = self.grid[k + 1] - self.grid[k]
         B, C, D = (mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray())
         bordered = np.block([[step.K.toarray(), -B[:, act]], [C[act], D[np.ix_(act, act)]]])
-        try:
-            lu = la.lu_factor(bordered, check_finite=False)
-        except (ValueError, la.LinAlgError):
-            return None
-        diagonal = np.abs(np.diag(lu[0]))
-        if diagonal.min() <= 1e-13 * diagonal.max():
+        lu = factorise(bordered)  # the solver's own test of singularity, so both agree
+        if not lu.ok:
             return None
         implicit = np.zeros(n) if k == 0 else (1.0 - step.weights)
         S = mlcs.S.toarray()
@@ -337,7 +365,7 @@ class _Stepping:
         right[:n, n + kstim:n + 2 * kstim] = implicit[:, None] * S
         right[n:, -1] = -mlcs.e[act]
         # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
-        solution, info = lapack.dgetrs(lu[0], lu[1], right)
+        solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
         if info != 0 or not np.all(np.isfinite(solution)):
             return None
         P, Q1 = solution[:, :n], solution[:, n:n + kstim]
@@ -347,6 +375,24 @@ class _Stepping:
                        Q0=np.ascontiguousarray(Q0), c=np.ascontiguousarray(c), W=np.ascontiguousarray(W),
                        e_w=mlcs.e[inact].copy(), active=act.astype(np.int64),
                        inactive=inact.astype(np.int64))
+
+    def _build_sparse_mode(self, k: int, step: _StepSolver, act: np.ndarray,
+                           inact: np.ndarray) -> SparseModeMap | None:
+        mlcs, n = self.mlcs, self.mlcs.n
+        h = self.grid[k + 1] - self.grid[k]
+        B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
+        bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+        try:
+            lu = spla.splu(bordered)
+        except RuntimeError:  # exactly singular
+            return None
+        implicit = np.zeros(n) if k == 0 else (1.0 - step.weights)
+        S = mlcs.S.tocsr()
+        return SparseModeMap(
+            lu=lu, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
+            S_next=(sp.diags(step.weights) @ S).tocsr(), S_now=(sp.diags(implicit) @ S).tocsr(),
+            rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
+            e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
 
     def counters(self) -> dict[str, int]:
         totals = {"factorisations": 0, "cache_hits": 0, "fallbacks": 0}
@@ -360,8 +406,18 @@ class _Stepping:
 def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
     """Every source's value at every grid point, shape ``(N, number of sources)``."""
     values = np.zeros((grid.size, len(mlcs.stimuli)))
-    for column, stimulus in enumerate(mlcs.stimuli):
-        values[:, column] = stimulus.sample(grid)
+    with np.errstate(all="ignore"):
+        for column, stimulus in enumerate(mlcs.stimuli):
+            values[:, column] = stimulus.sample(grid)
+    if not np.isfinite(values).all():
+        row, column = np.argwhere(~np.isfinite(values))[0]
+        rows = mlcs.S.tocsc()[:, column].indices
+        owner = ", ".join(mlcs.unknowns[r].replace("v(", "node ").replace("i(", "source ").rstrip(")")
+                          for r in rows) or "a source"
+        raise SimulationError(
+            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s ({owner}: "
+            f"{mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s", time=float(grid[row]),
+            hint="check the source's parameters (a zero time constant or period, an overflow)")
     return values
 
 
@@ -392,13 +448,57 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
     return np.array(scheduled, dtype=np.int64), states, code
 
 
-def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError) -> SimulationError:
-    devices = sorted(set(mlcs.pair_devices))
-    return SimulationError(
-        f"the time step from t = {t0:.6g} s to {t1:.6g} s has no solution with ideal devices "
-        f"({type(exc).__name__}: {exc})",
-        where=f"t = {t1:.6g} s",
-        hint=f"devices involved: {', '.join(devices)}; look for a diode (or Zener) that no "
-        "current can pass in either state, e.g. in series with a current source or an "
-        "inductor forced against it",
+def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
+                  guess: np.ndarray | None = None, states: np.ndarray | None = None) -> SimulationError:
+    """The error of a step whose MLCP has no (verified) solution.
+
+    Carries the time, the devices of the active set tried first (those conducting in the
+    previous step), the solver's best residual and, as ``step_interval`` and
+    ``switch_states``, what the caller needs to diagnose the step (:mod:`circuitnsds.wellposed`).
+    """
+    conducting = [] if guess is None else [mlcs.pair_devices[j] for j in np.flatnonzero(guess)]
+    conducting = list(dict.fromkeys(conducting))
+    closed = [] if states is None else [s.name for s, on in zip(mlcs.switches, states) if on]
+    residual = getattr(exc, "residual", None)
+    verdict = "has no solution" if isinstance(exc, LCPNoSolution) else "could not be solved"
+    details = [f"conducting before it: {', '.join(conducting) or 'none'}"]
+    if mlcs.switches:
+        details.append(f"closed switches: {', '.join(closed) or 'none'}")
+    if residual is not None and np.isfinite(residual):
+        details.append(f"best residual {residual:.2g}")
+    error = SimulationError(
+        f"the time step from t = {t0:.6g} s to {t1:.6g} s {verdict} with ideal devices "
+        f"({'; '.join(details)})",
+        where=f"t = {t1:.6g} s", time=float(t1), devices=tuple(conducting), residual=residual,
+        hint=f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
+        "Zener) that no current can pass in either state, e.g. in series with a current source",
     )
+    error.step_interval = (float(t0), float(t1))
+    error.switch_states = None if states is None else np.array(states, dtype=bool)
+    return error
+
+
+def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
+    """The error for the first grid point ``k`` whose state holds NaN or an infinity."""
+    bad = np.flatnonzero(~np.isfinite(y[k]))
+    names = ", ".join(f"{mlcs.unknowns[j]} = {y[k, j]}" for j in bad[:4])
+    return SimulationError(
+        f"the state is not finite at t = {grid[k]:.6g} s ({names}{', ...' if bad.size > 4 else ''})",
+        where=f"t = {grid[k]:.6g} s", time=float(grid[k]),
+        hint="the circuit is unstable (a negative resistance, or controlled sources with a loop "
+        "gain above 1) or a value overflowed; the waveforms before that instant are kept",
+    )
+
+
+def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
+             residual: np.ndarray, active: np.ndarray, states: np.ndarray,
+             stats: dict) -> SimulationError:
+    """Attach to ``error`` the trajectory up to grid point ``k`` (the last good one) as
+    ``error.trajectory``, so that the caller can still write it."""
+    end = k + 1
+    impulse = np.zeros((end, current.shape[1]))
+    impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]
+    error.trajectory = Trajectory(grid[:end].copy(), y[:end].copy(), current[:end].copy(), impulse,
+                                  residual[:end].copy(), active[:end].copy(), states[:end].copy(),
+                                  dict(stats, steps=k))
+    return error

@@ -146,3 +146,48 @@ def run_mode(mode: ModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndar
                          mode.Q0, mode.c, mode.W, mode.e_w, mode.active, controls, on_threshold,
                          off_threshold, switch_on)
     return int(k), int(reason)
+
+
+@dataclass
+class SparseModeMap:
+    """The step map of one mode of a large circuit, kept factorised (sparse LU).
+
+    Each step solves ``bordered · x = [carry·y_k + Sw f_{k+1} + Si f_k; -e_α]``: the
+    cost grows with the number of non-zeros, not with the square of the size.
+    """
+
+    lu: object
+    carry: object
+    S_next: object
+    S_now: object
+    rhs_pairs: np.ndarray
+    W: object
+    e_w: np.ndarray
+    active: np.ndarray
+    n: int
+
+
+def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
+                    F: np.ndarray, step_class: np.ndarray, schedule: np.ndarray,
+                    controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
+                    switch_on: np.ndarray) -> tuple[int, int]:
+    """:func:`run_mode` for a :class:`SparseModeMap` (a Python loop around a sparse solve)."""
+    n = mode.n
+    rhs = np.empty(n + mode.active.size)
+    rhs[n:] = mode.rhs_pairs
+    k = k0
+    while k < k_end:
+        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
+            return k, STOP_SCHEDULE
+        rhs[:n] = mode.carry @ y[k] + mode.S_next @ F[k + 1] + mode.S_now @ F[k]
+        x = mode.lu.solve(rhs)
+        if (x[n:] < 0.0).any() or (mode.W @ x + mode.e_w < 0.0).any():
+            return k, STOP_LEFT_MODE
+        y[k + 1] = x[:n]
+        current[k + 1, mode.active] = x[n:]
+        k += 1
+        if controls.shape[0]:
+            value = controls @ y[k]
+            if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
+                return k, STOP_SWITCH
+    return k, STOP_END

@@ -1,0 +1,231 @@
+"""Issue 8 benchmark: circuitnsds against ngspice on switching circuits; prints one table, writes JSON.
+
+For each case:
+
+* circuitnsds: whole-process wall time of ``python -m circuitnsds run NETLIST -r out.raw
+  --signals v(out)`` (start-up, netlist, simulation and writing the waveform included), the
+  in-process stepping time, steps, µs per step, and the share of steps taken by the mode
+  loop (the mode did not change, no MLCP solved);
+* ngspice: whole-process wall time of ``ngspice -b`` on the same netlist (Shockley diodes)
+  with a ``.control`` block that runs and writes ``v(out)`` with ``wrdata``; whether it finished;
+* accuracy of both: the largest difference of ``v(out)`` from a circuitnsds run with a 10×
+  smaller step (the ideal reference) over a window, normalised by the reference's range;
+  for case 1 also ngspice against its own fine-step reference (TMAX = TSTEP/10).
+
+Usage: ``python benchmarks/performance.py [--quick] [--json out.json]``. ``--quick``
+shortens every run (a smoke test; the figures in the issue note come from the full run).
+ngspice is optional: without it the ngspice columns say so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import circuitnsds
+from circuitnsds.rawfile import read_raw
+
+HERE = Path(__file__).parent
+NETLISTS = HERE / "netlists"
+
+
+def run_process(command: list[str], cwd: Path) -> tuple[float, subprocess.CompletedProcess]:
+    started = time.perf_counter()
+    done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False)
+    return time.perf_counter() - started, done
+
+
+def with_tran(text: str, tran: str, control: str | None = None) -> str:
+    """Replace the ``.tran`` line and, for ngspice, add a ``.control`` block before ``.end``."""
+    text = re.sub(r"(?im)^\.tran.*$", tran, text)
+    if control:
+        text = re.sub(r"(?im)^\.end\s*$", control + "\n.end", text)
+    return text
+
+
+def ours_process(netlist_text: str, workdir: Path, name: str) -> dict:
+    """Whole-process run of the command line, then read back what it wrote."""
+    path = workdir / f"{name}.cir"
+    path.write_text(netlist_text)
+    raw = workdir / f"{name}.raw"
+    seconds, done = run_process([sys.executable, "-m", "circuitnsds", "run", str(path), "-r", str(raw),
+                                 "--signals", "v(out)", "-q"], workdir)
+    if done.returncode != 0:
+        return {"wall_s": seconds, "ok": False, "error": done.stderr.strip()[-300:]}
+    data = read_raw(raw)
+    return {"wall_s": seconds, "ok": True, "time": data.time, "v": data["v(out)"]}
+
+
+def ours_in_process(netlist_text: str, step: float | None = None, stop: float | None = None) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuitnsds.read_netlist(netlist_text)
+        started = time.perf_counter()
+        waves = circuit.transient(step=step, stop=stop)
+        wall = time.perf_counter() - started
+    stats = waves.stats
+    return {"wall_s": wall, "stepping_s": stats["seconds"], "steps": stats["steps"],
+            "us_per_step": 1e6 * stats["seconds"] / stats["steps"],
+            "us_per_mapped_step": 1e6 * stats["mapped_seconds"] / max(stats["mapped_steps"], 1),
+            "mapped_share": stats["mapped_steps"] / stats["steps"], "mlcp_steps": stats["mlcp_steps"],
+            "pairs": stats["pairs"], "unknowns": stats["unknowns"],
+            "time": waves.time, "v": waves.signals.get("v(out)")}
+
+
+def ngspice_process(netlist_text: str, tran: str, workdir: Path, name: str) -> dict:
+    if shutil.which("ngspice") is None:
+        return {"ok": False, "error": "ngspice not installed", "wall_s": float("nan")}
+    out = workdir / f"{name}.ng.txt"
+    control = f".control\nrun\nwrdata {out} v(out)\n.endc"
+    path = workdir / f"{name}.ng.cir"
+    path.write_text(with_tran(netlist_text, tran, control))
+    seconds, done = run_process(["ngspice", "-b", str(path)], workdir)
+    log = done.stdout + done.stderr
+    failure = re.search(r"(?i)(timestep too small[^\n]*|singular matrix[^\n]*|no convergence[^\n]*)", log)
+    if not out.exists() or out.stat().st_size == 0:
+        return {"ok": False, "wall_s": seconds, "error": failure.group(1) if failure else log.strip()[-200:]}
+    data = np.loadtxt(out)
+    return {"ok": failure is None, "wall_s": seconds, "error": failure.group(1) if failure else "",
+            "time": data[:, 0], "v": data[:, 1], "stopped_at": float(data[-1, 0])}
+
+
+def error_against(reference: dict, run: dict, window: tuple[float, float]) -> float:
+    """max |v - v_ref| / range(v_ref) on the reference grid inside ``window``."""
+    if not run.get("time") is not None or len(run.get("time", [])) == 0:
+        return float("nan")
+    t = reference["time"]
+    keep = (t >= window[0]) & (t <= min(window[1], run["time"][-1]))
+    v_ref = reference["v"][keep]
+    v = np.interp(t[keep], run["time"], run["v"])
+    span = float(np.ptp(v_ref)) or 1.0
+    return float(np.max(np.abs(v - v_ref)) / span)
+
+
+def case(label: str, netlist: Path, step: float, stop: float, window: float, workdir: Path,
+         own_reference: bool = False) -> dict:
+    text = netlist.read_text()
+    tran = f".tran {step!r} {stop!r}"
+    name = re.sub(r"\W+", "_", label)  # file names for ngspice: no spaces
+    ours = ours_process(with_tran(text, tran), workdir, name)
+    inproc = ours_in_process(with_tran(text, tran))
+    reference = ours_in_process(with_tran(text, f".tran {step / 10!r} {window!r}"))
+    ngspice = ngspice_process(text, tran, workdir, name)
+    row = {
+        "case": label, "steps": inproc["steps"], "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
+        "ours_process_s": ours["wall_s"], "ours_stepping_s": inproc["stepping_s"],
+        "us_per_step": inproc["us_per_step"], "mapped_share": inproc["mapped_share"],
+        "us_per_mapped_step": inproc["us_per_mapped_step"],
+        "ours_error": error_against(reference, inproc, (0.0, window)),
+        "ngspice_process_s": ngspice["wall_s"], "ngspice_ok": ngspice["ok"],
+        "ngspice_note": ngspice.get("error", ""), "ngspice_stopped_at": ngspice.get("stopped_at"),
+        "ngspice_error_vs_ideal": error_against(reference, ngspice, (0.0, window)),
+    }
+    row["ratio"] = row["ngspice_process_s"] / row["ours_process_s"] if ours["ok"] else float("nan")
+    if own_reference:
+        ng_fine = ngspice_process(text, f".tran {step!r} {window!r} 0 {step / 10!r}", workdir,
+                                  name + "_fine")
+        ours_short = ours_in_process(with_tran(text, f".tran {step!r} {window!r}"))
+        row["ngspice_error_vs_own_fine"] = error_against(ng_fine, ngspice, (0.0, window)) \
+            if ng_fine["ok"] else float("nan")
+        row["ours_error_vs_own_fine"] = error_against(reference, ours_short, (0.0, window))
+    return row
+
+
+def ladder_netlist(sections: int, stop: float) -> str:
+    """N diode-RC sections in cascade from a source of 10 V with a 1 V, 1 kHz ripple: every diode
+    conducts all the time (the mode never changes), the ripple propagates down the ladder."""
+    lines = [f"Ladder of {sections} diode-RC sections", "V1 n0 0 SIN(10 1 1k)"]
+    for k in range(1, sections + 1):
+        lines += [f"D{k} n{k - 1} n{k} dl", f"R{k} n{k} 0 {1e3 * sections!r}", f"C{k} n{k} 0 1u"]
+    lines += ["Rout out 0 1meg", f"Rlink n{sections} out 1", ".model dl D(Ron=1)",
+              f".tran 10u {stop!r}", ".end"]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="short runs (smoke test)")
+    parser.add_argument("--json", type=Path, default=HERE / "results" / "performance.json")
+    args = parser.parse_args(argv)
+    scale = 0.05 if args.quick else 1.0
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        workdir = Path(tmp)
+        rows.append(case("1 buck 100 kHz", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
+                         5e-3 * scale, workdir, own_reference=True))
+        rows.append(case("2 bridge 470 uF", NETLISTS / "bridge_200ms.cir", 20e-6, 200e-3 * scale,
+                         200e-3 * scale, workdir))
+        rows.append(case("3 CW x5", NETLISTS / "cw5_1s.cir", 20e-6, 1.0 * scale, 0.2 * scale, workdir))
+        zener = (HERE.parent / "netlists" / "book_zener_rlc.cir").read_text()
+        for step in (5e-3, 5e-5):
+            inproc = ours_in_process(zener, step=step, stop=5.0)
+            rows.append({"case": f"5 Zener RLC h={step:g}", "steps": inproc["steps"],
+                         "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
+                         "ours_stepping_s": inproc["stepping_s"], "us_per_step": inproc["us_per_step"],
+                         "us_per_mapped_step": inproc["us_per_mapped_step"],
+                         "mapped_share": inproc["mapped_share"]})
+        for sections in (10, 100, 1000):
+            inproc = ours_in_process(ladder_netlist(sections, 5e-3 * max(scale, 0.1)))
+            rows.append({"case": f"4 ladder N={sections}", "steps": inproc["steps"],
+                         "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
+                         "ours_stepping_s": inproc["stepping_s"], "us_per_step": inproc["us_per_step"],
+                         "us_per_mapped_step": inproc["us_per_mapped_step"],
+                         "mapped_share": inproc["mapped_share"]})
+    print_table(rows)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    meta = {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
+            "quick": args.quick, "ngspice": ngspice_version()}
+    args.json.write_text(json.dumps({"meta": meta, "rows": rows}, indent=2, default=float))
+    print(f"\nJSON: {args.json}")
+    return 0
+
+
+def ngspice_version() -> str:
+    if shutil.which("ngspice") is None:
+        return "not installed"
+    done = subprocess.run(["ngspice", "-v"], capture_output=True, text=True, check=False)
+    found = re.search(r"ngspice-(\S+)", done.stdout)
+    return found.group(1) if found else done.stdout.strip()[:40]
+
+
+def print_table(rows: list[dict]) -> None:
+    def f(value, spec):
+        return format(value, spec) if isinstance(value, (int, float)) and value == value else "-"
+
+    print(f"{'case':<22}{'steps':>9}{'pairs':>6}{'us/step':>9}{'us/map':>8}{'mapped':>8}{'ours[s]':>9}"
+          f"{'ngspice[s]':>11}{'ratio':>7}  {'err ours':>9}{'err ng':>9}  ngspice")
+    for r in rows:
+        note = ("ok" if r.get("ngspice_ok") else (r.get("ngspice_note") or "")[:40]) \
+            if "ngspice_ok" in r else ""
+        if r.get("ngspice_stopped_at") and not r.get("ngspice_ok"):
+            note += f" (stopped at {r['ngspice_stopped_at']:.4g} s)"
+        print(f"{r['case']:<22}{r['steps']:>9}{r['pairs']:>6}{f(r['us_per_step'], '9.2f')}"
+              f"{f(r.get('us_per_mapped_step'), '8.2f')}"
+              f"{f(100 * r['mapped_share'], '7.1f')}%{f(r.get('ours_process_s'), '9.2f')}"
+              f"{f(r.get('ngspice_process_s'), '11.2f')}{f(r.get('ratio'), '7.1f')}  "
+              f"{f(r.get('ours_error'), '9.1e')}{f(r.get('ngspice_error_vs_ideal'), '9.1e')}  {note}")
+    for r in rows:
+        if "ngspice_error_vs_own_fine" in r:
+            print(f"\ncase {r['case']}: against each one's own fine-step reference (TSTEP/10): "
+                  f"circuitnsds {r['ours_error_vs_own_fine']:.2e}, "
+                  f"ngspice {r['ngspice_error_vs_own_fine']:.2e}")
+    print("ours[s], ngspice[s]: whole processes from the command line, writing v(out) to a file. "
+          "us/step: in-process stepping time / steps; us/map: the same for the steps taken by the "
+          "mode loop (mode unchanged), mapped: their share. "
+          "err: max |v(out) - ideal reference| / range over the case's window.")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
