@@ -16,10 +16,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from circuitnsds import (
+    _blas,  # noqa: F401  (first: before numpy is imported)
+    measure,
+)
 from circuitnsds.circuit import Circuit, TranSpec
+from circuitnsds.compare import compare  # the function; the subpackage stays importable by name
 from circuitnsds.errors import (
     CircuitError,
     CircuitnsdsError,
+    CircuitWarning,
     NetlistError,
     NetlistWarning,
     SimulationError,
@@ -30,21 +36,38 @@ from circuitnsds.waveforms import Waveforms
 __version__ = "0.1.0"
 
 
-def read_netlist(source: str | Path) -> Circuit:
+def read_netlist(source: str | Path, *, strict: bool = False) -> Circuit:
     """Read a netlist file (a path) or netlist text (a string with a newline) into a Circuit.
 
-    Raises:
-        NetlistError: malformed or unsupported input, with file:line.
-    """
-    from circuitnsds.elaborate import elaborate
-    from circuitnsds.netlist import parse_netlist, read_netlist_file
+    Includes, parameters and subcircuits are expanded first (``.include`` paths in text
+    are relative to the current directory).
 
-    if isinstance(source, Path) or "\n" not in source:
-        return elaborate(read_netlist_file(source))
-    return elaborate(parse_netlist(source))
+    Args:
+        source: a path, or netlist text.
+        strict: every warning (an ignored construct here, a suspicious circuit later when
+            the circuit is stamped or simulated) is an error instead (``Circuit.strict``).
+
+    Raises:
+        NetlistError: malformed or unsupported input, with file:line (under ``strict``
+            also for what would be a :class:`NetlistWarning`).
+    """
+    from contextlib import nullcontext
+
+    from circuitnsds.elaborate import elaborate
+    from circuitnsds.errors import strict_warnings
+    from circuitnsds.netlist import load_netlist, load_netlist_text
+
+    with strict_warnings() if strict else nullcontext():
+        if isinstance(source, Path) or "\n" not in source:
+            circuit = elaborate(load_netlist(source))
+        else:
+            circuit = elaborate(load_netlist_text(source))
+    circuit.strict = strict
+    return circuit
 
 
 __all__ = [
-    "MLCS", "Circuit", "CircuitError", "CircuitnsdsError", "NetlistError", "NetlistWarning",
-    "SimulationError", "TranSpec", "Waveforms", "read_netlist",
+    "MLCS", "Circuit", "CircuitError", "CircuitWarning", "CircuitnsdsError", "NetlistError",
+    "NetlistWarning",
+    "SimulationError", "TranSpec", "Waveforms", "compare", "measure", "read_netlist",
 ]
