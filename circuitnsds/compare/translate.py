@@ -36,6 +36,7 @@ from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
 from circuitnsds.errors import NetlistError
+from circuitnsds.netlist.parser import strip_comment
 
 #: Diode-model parameters of the idealised (circuitnsds / LTspice) diode that ngspice lacks.
 IDEAL_ONLY_PARAMETERS = frozenset(
@@ -172,19 +173,6 @@ def _read(path: Path, where: str | None) -> str:
                            "file)") from None
 
 
-def _strip_comment(line: str) -> str:
-    """Drop ``;``, ``//`` and whitespace-``$`` comments (ngspice's end-of-line comments)."""
-    cut = len(line)
-    for marker in (";", "//"):
-        position = line.find(marker)
-        if position != -1:
-            cut = min(cut, position)
-    dollar = re.search(r"\s\$", line)
-    if dollar is not None:
-        cut = min(cut, dollar.start())
-    return line[:cut].strip()
-
-
 def _statements(lines: list[str]) -> list[tuple[list[str], str]]:
     """Group physical lines into ``(physical lines, logical text without comments)``.
 
@@ -207,7 +195,7 @@ def _statements(lines: list[str]) -> list[tuple[list[str], str]]:
         if not stripped or stripped.startswith("*"):
             trailing.append(raw)
             continue
-        content = _strip_comment(stripped)
+        content = strip_comment(stripped).strip()
         if stripped.startswith("+") and pending:
             pending.extend(trailing)
             trailing.clear()

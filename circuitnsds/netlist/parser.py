@@ -76,7 +76,7 @@ class Netlist:
     ended: bool = False
 
 
-def _strip_comment(line: str) -> str:
+def strip_comment(line: str) -> str:
     """Remove ``;``, ``//`` and whitespace-``$`` comments from a physical line."""
     cut = len(line)
     for marker in (";", "//"):
@@ -190,7 +190,7 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
         stripped = raw.strip()
         if not stripped or stripped.startswith("*"):
             continue
-        content = _strip_comment(stripped).strip()
+        content = strip_comment(stripped).strip()
         if stripped.startswith("+"):
             if not pending:
                 raise NetlistError(
