@@ -19,7 +19,8 @@ from circuitnsds.netlist.parser import tokenize
 @pytest.mark.parametrize("text, value", [
     ("4.7k", 4700.0), ("10u", 1e-5), ("2.2meg", 2.2e6), ("1e-3", 1e-3), ("10uF", 1e-5), (".5", 0.5),
     ("1+2*3", 7.0), ("(1+2)*3", 9.0), ("8/4/2", 1.0), ("2-3-4", -5.0),
-    ("2^3", 8.0), ("2**3", 8.0), ("2^3^2", 512.0), ("-2^2", -4.0), ("(-2)^2", 4.0), ("2^-1", 0.5),
+    ("2^3", 8.0), ("2**3", 8.0), ("2^3^2", 64.0), ("2**3**2", 64.0),
+    ("2^(3^2)", 512.0), ("-2^2", -4.0), ("(-2)^2", 4.0), ("2^-1", 0.5),
     ("-+-3", 3.0), ("2*-3", -6.0), ("1k*2m", 2.0), (" 1 +\t2 ", 3.0), ("PI", math.pi),
     ("sqrt(16)", 4.0), ("exp(0)", 1.0), ("log(exp(2))", 2.0), ("ln(exp(3))", 3.0), ("log10(1k)", 3.0),
     ("sin(0)", 0.0), ("cos(0)", 1.0), ("tan(0)", 0.0), ("abs(-2.5)", 2.5), ("min(3, 1, 2)", 1.0),
@@ -104,6 +105,13 @@ def precedence(tree) -> int:
     return PRECEDENCE.get(tree[0], 5)
 
 
+def signed_atom(tree) -> bool:
+    """Whether the tree renders as an atom with optional leading signs."""
+    if tree[0] == "neg":
+        return signed_atom(tree[1])
+    return tree[0] in {"leaf", "call", "call2"}
+
+
 def render(tree, spaces) -> str:
     gap = " " if next(spaces) else ""
     kind = tree[0]
@@ -120,9 +128,10 @@ def render(tree, spaces) -> str:
     left, right = render(tree[1], spaces), render(tree[2], spaces)
     mine = PRECEDENCE[kind]
     if kind == "^":
-        # the base must be an atom; the exponent is a unary expression (so 2^-1, 2^3^2)
-        left = left if precedence(tree[1]) > mine else f"({left})"
-        right = right if precedence(tree[2]) >= PRECEDENCE["neg"] else f"({right})"
+        # left-associative (2^3^2 = (2^3)^2, as ngspice-39); the exponent is an atom with
+        # optional signs (2^-1)
+        left = left if precedence(tree[1]) >= mine else f"({left})"
+        right = right if signed_atom(tree[2]) else f"({right})"
         return f"{left}{gap}{'^' if next(spaces) else '**'}{gap}{right}"
     left = left if precedence(tree[1]) >= mine else f"({left})"
     right = right if precedence(tree[2]) > mine else f"({right})"

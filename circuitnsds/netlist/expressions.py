@@ -6,10 +6,12 @@ A small recursive-descent parser over this grammar (case-insensitive)::
     sum        := product (("+" | "-") product)*
     product    := unary (("*" | "/") unary)*
     unary      := ("+" | "-") unary | power
-    power      := atom (("^" | "**") unary)?          # right-associative: 2^3^2 = 2^9
+    power      := atom (("^" | "**") signed)*         # left-associative, as ngspice-39: 2^3^2 = 64
+    signed     := ("+" | "-") signed | atom
     atom       := NUMBER | NAME | NAME "(" sum ("," sum)* ")" | "(" sum ")"
 
-So unary minus binds looser than the power: ``-2^2`` is ``-4`` and ``2^-1`` is ``0.5``.
+So unary minus binds looser than the power: ``-2^2`` is ``-4`` and ``2^-1`` is ``0.5``;
+``2^3^2`` is ``(2^3)^2 = 64`` as in ngspice-39 (which the same netlist must agree with).
 ``NUMBER`` is a SPICE number with its scale suffix and units (``4.7k``, ``10u``,
 ``1e-3``, ``2.2meg``; see :func:`circuitnsds.values.parse_value`). ``NAME`` is a
 parameter (``[a-z_][a-z0-9_]*``) or the constant ``pi`` (unless a parameter is so
@@ -176,11 +178,17 @@ class _Parser:
         return self.power()
 
     def power(self) -> float:
-        base = self.atom()
-        if self.accept("^", "**") is None:
-            return base
-        exponent = self.unary()
-        return _power(base, exponent, self.text)
+        value = self.atom()
+        while self.accept("^", "**") is not None:
+            value = _power(value, self.signed(), self.text)
+        return value
+
+    def signed(self) -> float:
+        """An exponent: an atom with any number of signs (``2^-1``)."""
+        if (op := self.accept("+", "-")) is not None:
+            value = self.signed()
+            return -value if op == "-" else value
+        return self.atom()
 
     def atom(self) -> float:
         kind, token, _ = self.current
