@@ -114,3 +114,10 @@ def test_a_name_ending_with_the_hierarchy_separator_is_not_an_element():
     # fuzzing: "fig." has an empty type letter, and "" in "rcl" is true
     with pytest.raises(circuitnsds.NetlistError, match=r"<text>:2: fig\.: not an element name"):
         circuitnsds.read_netlist("title\nfig. a b\nR1 a 0 1\n")
+
+
+def test_a_form_feed_does_not_end_a_line():
+    # fuzzing: str.splitlines() split the title at a form feed and made "fig." a statement
+    circuit = circuitnsds.read_netlist("Title \x0c Fig. 1\nR1 a 0 1\nV1 a 0 1\n.tran 1m 2m\n.end\n")
+    assert [element.name for element in circuit.elements] == ["r1", "v1"]
+    assert "Fig. 1" in circuit.title

@@ -36,7 +36,7 @@ from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
 from circuitnsds.errors import NetlistError
-from circuitnsds.netlist.parser import strip_comment
+from circuitnsds.netlist.parser import physical_lines, strip_comment
 
 #: Diode-model parameters of the idealised (circuitnsds / LTspice) diode that ngspice lacks.
 IDEAL_ONLY_PARAMETERS = frozenset(
@@ -146,7 +146,7 @@ def translate_netlist(
     else:
         text, base, name = source, Path.cwd(), "<text>"
     translation = Translation("", ammeters={name.lower() for name in ammeters})
-    lines = text.splitlines()
+    lines = physical_lines(text)
     if not lines:
         raise NetlistError("the netlist is empty", where=name)
     body = _translate_lines(lines[1:], base, name, overrides, step, stop, scratch, translation)
@@ -342,7 +342,7 @@ def _include(
         raise NetlistError(f"{keyword} needs a scratch folder for the translated file",
                            where=name, hint="pass scratch=Path(...) to translate_netlist")
     text = _read(path, f"{name}: {keyword} {target}")
-    body = _translate_lines(text.splitlines(), path.resolve().parent, str(path), overrides, step,
+    body = _translate_lines(physical_lines(text), path.resolve().parent, str(path), overrides, step,
                             stop, scratch, translation)
     copy = scratch / f"{len(translation.includes) + 1}_{path.name}"
     copy.write_text("\n".join(body) + "\n", encoding="utf-8")

@@ -144,6 +144,13 @@ def tokenize(text: str, strict: bool = True) -> tuple[str, ...]:
     return tuple(tokens)
 
 
+def physical_lines(text: str) -> list[str]:
+    """Split at ``\\n``, ``\\r\\n`` and ``\\r`` only, as ngspice does: ``str.splitlines`` also
+    splits at form feeds and other separators that may sit inside a line."""
+    lines = re.split(r"\r\n|\r|\n", text)
+    return lines[:-1] if lines and lines[-1] == "" else lines
+
+
 def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Netlist:
     """Parse netlist text.
 
@@ -157,7 +164,7 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
         NetlistError: for a continuation line with nothing to continue, an unclosed
             ``{`` or quote, or an empty netlist.
     """
-    lines = text.splitlines()
+    lines = physical_lines(text)
     if not lines and has_title:
         raise NetlistError("the netlist is empty", where=file,
                            hint="the first line of a netlist is its title, then elements and .tran")
