@@ -73,7 +73,7 @@ def _run_mode_loop(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_
     k = k0
     while k < k_end:
         if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
-            return k, 2
+            return k, STOP_SCHEDULE
         for r in range(rows):
             acc = c[r]
             for j in range(n):
@@ -83,13 +83,13 @@ def _run_mode_loop(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_
             x[r] = acc
         for r in range(n, rows):
             if x[r] < 0.0:
-                return k, 0
+                return k, STOP_LEFT_MODE
         for r in range(nw):
             acc = e_w[r]
             for j in range(rows):
                 acc += W[r, j] * x[j]
             if acc < 0.0:
-                return k, 0
+                return k, STOP_LEFT_MODE
         for j in range(n):
             y[k + 1, j] = x[j]
         for r in range(n, rows):
@@ -101,31 +101,32 @@ def _run_mode_loop(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_
                 value += controls[s, j] * y[k, j]
             if switch_on[s]:
                 if value < off_threshold[s]:
-                    return k, 1
+                    return k, STOP_SWITCH
             elif value > on_threshold[s]:
-                return k, 1
-    return k, 3
+                return k, STOP_SWITCH
+    return k, STOP_END
 
 
-def _run_mode_numpy(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_w, active,
-                    controls, on_threshold, off_threshold, switch_on):
-    """The same loop as :func:`_run_mode_loop` with numpy products (no compiler)."""
+def _run_python_loop(advance, W, e_w, active, k0, k_end, y, current, step_class, schedule,
+                     controls, on_threshold, off_threshold, switch_on):
+    """The loop of :func:`_run_mode_loop` in Python, for any way of taking one step:
+    ``advance(k)`` returns ``x_{k+1} = [y_{k+1}; λ_α]``."""
     n = y.shape[1]
     k = k0
     while k < k_end:
         if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
-            return k, 2
-        x = P @ y[k] + Q1 @ F[k + 1] + Q0 @ F[k] + c
+            return k, STOP_SCHEDULE
+        x = advance(k)
         if (x[n:] < 0.0).any() or (W @ x + e_w < 0.0).any():
-            return k, 0
+            return k, STOP_LEFT_MODE
         y[k + 1] = x[:n]
-        z[k + 1, active] = x[n:]
+        current[k + 1, active] = x[n:]
         k += 1
         if controls.shape[0]:
             value = controls @ y[k]
             if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
-                return k, 1
-    return k, 3
+                return k, STOP_SWITCH
+    return k, STOP_END
 
 
 _compiled = njit(cache=True, nogil=True)(_run_mode_loop) if njit is not None else None
@@ -141,11 +142,17 @@ def run_mode(mode: ModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndar
              controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
              switch_on: np.ndarray, use_compiled: bool = True) -> tuple[int, int]:
     """Run the loop (compiled if possible); see :func:`_run_mode_loop`."""
-    function = _compiled if (use_compiled and _compiled is not None) else _run_mode_numpy
-    k, reason = function(k0, k_end, y, current, F, step_class, schedule, mode.P, mode.Q1,
-                         mode.Q0, mode.c, mode.W, mode.e_w, mode.active, controls, on_threshold,
-                         off_threshold, switch_on)
-    return int(k), int(reason)
+    if use_compiled and _compiled is not None:
+        k, reason = _compiled(k0, k_end, y, current, F, step_class, schedule, mode.P, mode.Q1,
+                              mode.Q0, mode.c, mode.W, mode.e_w, mode.active, controls,
+                              on_threshold, off_threshold, switch_on)
+        return int(k), int(reason)
+
+    def advance(k: int) -> np.ndarray:
+        return mode.P @ y[k] + mode.Q1 @ F[k + 1] + mode.Q0 @ F[k] + mode.c
+
+    return _run_python_loop(advance, mode.W, mode.e_w, mode.active, k0, k_end, y, current,
+                            step_class, schedule, controls, on_threshold, off_threshold, switch_on)
 
 
 @dataclass
@@ -175,19 +182,10 @@ def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, cur
     n = mode.n
     rhs = np.empty(n + mode.active.size)
     rhs[n:] = mode.rhs_pairs
-    k = k0
-    while k < k_end:
-        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
-            return k, STOP_SCHEDULE
+
+    def advance(k: int) -> np.ndarray:
         rhs[:n] = mode.carry @ y[k] + mode.S_next @ F[k + 1] + mode.S_now @ F[k]
-        x = mode.lu.solve(rhs)
-        if (x[n:] < 0.0).any() or (mode.W @ x + mode.e_w < 0.0).any():
-            return k, STOP_LEFT_MODE
-        y[k + 1] = x[:n]
-        current[k + 1, mode.active] = x[n:]
-        k += 1
-        if controls.shape[0]:
-            value = controls @ y[k]
-            if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
-                return k, STOP_SWITCH
-    return k, STOP_END
+        return mode.lu.solve(rhs)
+
+    return _run_python_loop(advance, mode.W, mode.e_w, mode.active, k0, k_end, y, current,
+                            step_class, schedule, controls, on_threshold, off_threshold, switch_on)
