@@ -45,7 +45,7 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
 from circuitnsds.errors import SimulationError
-from circuitnsds.kernel import ModeMap, SparseModeMap, run_mode, run_sparse_mode
+from circuitnsds.kernel import ModeMap, ModeTable, SparseModeMap, run_sparse_mode, run_table
 from circuitnsds.mlcs import MLCS
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
 from circuitnsds.solvers._dense import factorise
@@ -154,42 +154,61 @@ def integrate(
     last_active: dict[bytes, np.ndarray] = {}
     stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0,
              "mapped_seconds": 0.0}
+    used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
 
     k = 0
     while k < count - 1:
         states[k + 1] = stepping.switch_states(k, states[k], y[k])
-        if k > 0 and (states[k + 1] != states[k]).any():
+        changed = k > 0 and bool((states[k + 1] != states[k]).any())
+        if changed:
             # a switch changed: the pairs most likely take the mode they had the last
             # time the switches were in this state (the other phase of a converter)
             guess = last_active.get(states[k + 1].tobytes(), guess)
+        cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
         if k > 0 and guess is not None:
-            mode = stepping.mode_map(k, states[k + 1], guess)
-            if mode is not None:
-                arguments = (mode, k, min(count - 1, k + CHUNK), y, current, stepping.sources,
-                             stepping.step_class, stepping.schedule_code,
-                             *stepping.free_switch_arrays(states[k + 1]))
-                entered = wallclock.perf_counter()
-                if isinstance(mode, SparseModeMap):
-                    done, _ = run_sparse_mode(*arguments)
-                else:
-                    done, _ = run_mode(*arguments, use_compiled=compiled)
-                stats["mapped_seconds"] += wallclock.perf_counter() - entered
-                if done > k and not np.isfinite(y[done]).all():  # once NaN/inf, it stays
+            k_end = min(count - 1, k + CHUNK)
+            entered = wallclock.perf_counter()
+            if stepping.dense:
+                mode = stepping.dense_mode(k, cls, states[k + 1], guess)
+                done, last = k, mode
+                if mode is not None:
+                    table = stepping.table
+                    done, _, last = run_table(table, mode, cls, k, k_end, y, current, stepping.sources,
+                                              stepping.step_class, stepping.sched_state,
+                                              stepping.free_id(states[k + 1]),
+                                              *stepping.free_switch_arrays(states[k + 1]), used,
+                                              use_compiled=compiled)
+                    if done > k:
+                        active[k + 1:done + 1] = table.mask[used[k + 1:done + 1]]
+                        guess = table.mask[last].copy()
+            else:
+                mode = stepping.sparse_mode(k, cls, states[k + 1], guess)
+                done = k
+                if mode is not None:
+                    # a θ = 1 restart step found at run time is one step of its own
+                    last_step = k + 1 if cls != stepping.step_class[k] else k_end
+                    done, _ = run_sparse_mode(mode, k, last_step, y, current, stepping.sources,
+                                              stepping.step_class, stepping.sched_state,
+                                              *stepping.free_switch_arrays(states[k + 1]))
+                    active[k + 1:done + 1] = guess
+            stats["mapped_seconds"] += wallclock.perf_counter() - entered
+            if done > k:
+                if not np.isfinite(y[done]).all():  # once NaN/inf, it stays
                     bad = k + 1 + int(np.argmin(np.isfinite(y[k + 1:done + 1]).all(axis=1)))
                     raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
                                    residual, active, states, stats)
-                if done > k:
-                    active[k + 1:done + 1] = guess
-                    states[k + 1:done + 1] = states[k + 1]
-                    last_active[states[k + 1].tobytes()] = guess
-                    stats["mapped_steps"] += done - k
-                    k, charge = done, None
-                    _report()
-                    continue  # the next step decides its states and mode afresh
+                states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
+                if stepping.scheduled.size:
+                    states[k + 1:done + 1, stepping.scheduled] = stepping.schedule[k:done]
+                last_active[states[done].tobytes()] = guess
+                stats["mapped_steps"] += done - k
+                k, charge = done, None
+                _report()
+                continue  # the next step decides its states and mode afresh
         if charge is None:
             charge = mlcs.E @ y[k]
         try:
-            result = stepping.solve_step(k, states[k + 1], charge, y[k], guess)
+            result = stepping.solve_step(k, cls, states[k + 1], charge, y[k], guess)
         except SimulationError as exc:  # keep what was computed: the caller writes it
             raise _stopped(exc, k, grid, y, current, residual, active, states, stats) from None
         y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
@@ -224,7 +243,15 @@ class _StepSolver:
 
 
 class _Stepping:
-    """Everything the time loop needs that depends on the grid, cached per step size and mode."""
+    """Everything the time loop needs that depends on the grid, cached per step class and mode.
+
+    Steps are grouped in *classes*: equal step sizes (to 1e-9 relative; grid rounding is
+    ~1e-16·t) share one, and a *restart* step of each size has a class of its own. A
+    restart step is implicit Euler whatever θ is: the first step, and with θ < 1 the step
+    after a switch changes state, whose ``y_k`` holds the algebraic unknowns of the old
+    switch state (the θ-method's explicit part would carry them into the new one, an
+    O(h) error at every switching instant).
+    """
 
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
                  initial_states: np.ndarray):
@@ -233,13 +260,16 @@ class _Stepping:
         self.differential = mlcs.differential_rows
         self.sources = _source_values(mlcs, grid)
         steps = np.diff(grid)
-        # steps equal to 1e-9 relative share one class (grid rounding is ~1e-16·t)
         quantum = 1e-9 * steps.max()
-        self.step_class = np.unique(np.round(steps / quantum),
-                                    return_inverse=True)[1].astype(np.int64)
-        self.step_class[0] = -1  # the first step is implicit Euler whatever θ is
-        self.scheduled, self.schedule, self.schedule_code = _switch_schedule(
+        self.base_class = np.unique(np.round(steps / quantum), return_inverse=True)[1].astype(np.int64)
+        self.sizes = int(self.base_class.max()) + 1
+        self.scheduled, self.schedule, self.sched_state = _switch_schedule(
             mlcs, grid, self.sources, initial_states)
+        restart = np.zeros(steps.size, dtype=bool)
+        restart[0] = True
+        if theta != 1.0:
+            restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
+        self.step_class = self.base_class + self.sizes * restart
         free = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is None]
         self.free = np.array(free, dtype=np.int64)
         controls = np.zeros((len(free), mlcs.n))
@@ -250,10 +280,22 @@ class _Stepping:
         self.free_on = np.array([mlcs.switches[j].on_threshold for j in free])
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
         self._no_free = (controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
+        self._free_ids: dict[bytes, int] = {}
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
-        self.modes: dict[tuple, ModeMap | None] = {}
+        self.dense = mlcs.n + mlcs.m <= DENSE_MAP_LIMIT
+        self.table = (ModeTable(mlcs.n, mlcs.m, len(mlcs.stimuli), most=MODE_CACHE_SIZE)
+                      if self.dense else None)
+        self.unmappable: set[tuple] = set()
+        self.modes: dict[tuple, SparseModeMap | None] = {}
         self.built = 0
+
+    def restart_class(self, k: int) -> int:
+        """Class of step ``k`` when a switch changed state at ``t_k``."""
+        return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 or k == 0 else 0)
+
+    def theta_of(self, cls: int) -> float:
+        return 1.0 if cls >= self.sizes else self.theta
 
     def switch_states(self, k: int, previous: np.ndarray, y: np.ndarray) -> np.ndarray:
         """States of the switches during step ``k``: scheduled ones from their source,
@@ -277,17 +319,17 @@ class _Stepping:
             return self._no_free
         return self.free_controls, self.free_on, self.free_off, states[self.free]
 
-    def _key(self, k: int, states: np.ndarray) -> tuple:
-        return int(self.step_class[k]), states.tobytes()
+    def free_id(self, states: np.ndarray) -> int:
+        """A small integer naming the states of the state-controlled switches."""
+        return self._free_ids.setdefault(states[self.free].tobytes(), len(self._free_ids))
 
-    def _step_solver(self, k: int, states: np.ndarray) -> _StepSolver:
-        key = self._key(k, states)
+    def _step_solver(self, k: int, cls: int, states: np.ndarray) -> _StepSolver:
+        key = (cls, states.tobytes())
         if key in self.solvers:
             self.solvers.move_to_end(key)
             return self.solvers[key]
         h = self.grid[k + 1] - self.grid[k]
-        theta = 1.0 if k == 0 else self.theta
-        weights = np.where(self.differential, theta, 1.0)
+        weights = np.where(self.differential, self.theta_of(cls), 1.0)
         A = self.mlcs.system_matrix(tuple(bool(s) for s in states))
         # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
         # (same solution; the solver's normwise test then weighs currents, not charges,
@@ -306,15 +348,15 @@ class _Stepping:
             self.retired.append(self.solvers.popitem(last=False)[1])
         return self.solvers[key]
 
-    def solve_step(self, k: int, states: np.ndarray, charge: np.ndarray, y: np.ndarray,
+    def solve_step(self, k: int, cls: int, states: np.ndarray, charge: np.ndarray, y: np.ndarray,
                    guess: np.ndarray | None):
-        """Solve step ``k`` as an MLCP (see module docstring)."""
-        step = self._step_solver(k, states)
+        """Solve step ``k`` (of class ``cls``) as an MLCP (see module docstring)."""
+        step = self._step_solver(k, cls, states)
         h = self.grid[k + 1] - self.grid[k]
         S = self.mlcs.S
         source_next = S @ self.sources[k + 1]
         rhs = charge / h + step.weights * source_next
-        if k > 0 and self.theta != 1.0:
+        if self.theta_of(cls) != 1.0:
             rhs += (1.0 - step.weights) * (step.A @ y + S @ self.sources[k])
         if not np.isfinite(rhs).all():
             t1 = self.grid[k + 1]
@@ -329,33 +371,43 @@ class _Stepping:
             raise _step_failure(self.mlcs, self.grid[k], self.grid[k + 1], exc, guess,
                                 states) from None
 
-    def mode_map(self, k: int, states: np.ndarray, guess: np.ndarray
-                 ) -> ModeMap | SparseModeMap | None:
-        """The step map of the mode (step size of step ``k``, ``states``, active set ``guess``)."""
-        key = (self.step_class[k], states.tobytes(), guess.tobytes())
+    def dense_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> int | None:
+        """Index in :attr:`table` of the mode (class, switch states, active set ``guess``) of
+        step ``k``, built if new; ``None`` when its step matrix is singular."""
+        key = (cls, int(self.sched_state[k]), self.free_id(states), guess.tobytes())
+        found = self.table.find(key)
+        if found is not None or key in self.unmappable:
+            return found
+        mode = self._build_mode(k, cls, states, guess)
+        self.built += 1
+        if mode is None:
+            self.unmappable.add(key)
+            return None
+        return self.table.add(key, mode)
+
+    def sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> SparseModeMap | None:
+        """The factorised step map of the mode of step ``k`` (large circuits)."""
+        key = (cls, states.tobytes(), guess.tobytes())
         mode = self.modes.get(key, False)
         if mode is False:
             if len(self.modes) >= MODE_CACHE_SIZE:
                 self.modes.clear()  # a circuit visiting this many modes gains little from maps
-            mode = self.modes[key] = self._build_mode(k, states, guess)
+            mode = self.modes[key] = self._build_sparse_mode(k, cls, states, guess)
             self.built += 1
         return mode
 
-    def _build_mode(self, k: int, states: np.ndarray, guess: np.ndarray
-                    ) -> ModeMap | SparseModeMap | None:
+    def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
         mlcs, n = self.mlcs, self.mlcs.n
         act = np.flatnonzero(guess)
         inact = np.flatnonzero(~guess)
-        step = self._step_solver(k, states)
-        if n + act.size > DENSE_MAP_LIMIT:
-            return self._build_sparse_mode(k, step, act, inact)
+        step = self._step_solver(k, cls, states)
         h = self.grid[k + 1] - self.grid[k]
         B, C, D = (mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray())
         bordered = np.block([[step.K.toarray(), -B[:, act]], [C[act], D[np.ix_(act, act)]]])
         lu = factorise(bordered)  # the solver's own test of singularity, so both agree
         if not lu.ok:
             return None
-        implicit = np.zeros(n) if k == 0 else (1.0 - step.weights)
+        implicit = 1.0 - step.weights
         S = mlcs.S.toarray()
         carry = self.E.toarray() / h + implicit[:, None] * step.A.toarray()
         kstim = S.shape[1]
@@ -371,14 +423,15 @@ class _Stepping:
         P, Q1 = solution[:, :n], solution[:, n:n + kstim]
         Q0, c = solution[:, n + kstim:n + 2 * kstim], solution[:, -1]
         W = np.hstack([C[inact], D[np.ix_(inact, act)]])
-        return ModeMap(P=np.ascontiguousarray(P), Q1=np.ascontiguousarray(Q1),
-                       Q0=np.ascontiguousarray(Q0), c=np.ascontiguousarray(c), W=np.ascontiguousarray(W),
-                       e_w=mlcs.e[inact].copy(), active=act.astype(np.int64),
+        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64),
                        inactive=inact.astype(np.int64))
 
-    def _build_sparse_mode(self, k: int, step: _StepSolver, act: np.ndarray,
-                           inact: np.ndarray) -> SparseModeMap | None:
+    def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
+                           ) -> SparseModeMap | None:
         mlcs, n = self.mlcs, self.mlcs.n
+        act = np.flatnonzero(guess)
+        inact = np.flatnonzero(~guess)
+        step = self._step_solver(k, cls, states)
         h = self.grid[k + 1] - self.grid[k]
         B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
         bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
@@ -386,7 +439,7 @@ class _Stepping:
             lu = spla.splu(bordered)
         except RuntimeError:  # exactly singular
             return None
-        implicit = np.zeros(n) if k == 0 else (1.0 - step.weights)
+        implicit = 1.0 - step.weights
         S = mlcs.S.tocsr()
         return SparseModeMap(
             lu=lu, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
@@ -426,8 +479,8 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
     """States of the source-controlled switches for every step, from their control at the
     step's midpoint (with hysteresis, starting from ``initial``).
 
-    Returns ``(switch indices, states (steps, count), one integer code per step)``; the
-    code changes exactly where some scheduled state does (the mode loop watches it).
+    Returns ``(switch indices, states (steps, count), state id per step)``: steps with
+    the same scheduled states have the same id, and only they.
     """
     scheduled = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is not None]
     steps = grid.size - 1
@@ -443,9 +496,11 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
                            np.where(control < switch.off_threshold, 0, -1))
         last = np.maximum.accumulate(np.where(decided >= 0, np.arange(steps), -1))
         states[:, column] = np.where(last >= 0, decided[np.maximum(last, 0)] == 1, initial[j])
-    changes = np.any(states[1:] != states[:-1], axis=1)
-    code = np.concatenate([[0], np.cumsum(changes)]).astype(np.int64)
-    return np.array(scheduled, dtype=np.int64), states, code
+    if len(scheduled) < 63:  # the states as the bits of one integer
+        ids = states.astype(np.int64) @ (np.int64(1) << np.arange(len(scheduled), dtype=np.int64))
+    else:
+        ids = np.unique(states, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
+    return np.array(scheduled, dtype=np.int64), states, ids
 
 
 def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,

@@ -1,4 +1,4 @@
-"""The stepping loop for runs of steps whose mode does not change (DESIGN.md §2, "mode reuse").
+"""The stepping loop for steps whose mode is already known (DESIGN.md §2, "mode reuse").
 
 While the active set of the complementarity pairs, the switch states and the
 step size stay the same, one θ-method step is an affine map
@@ -6,31 +6,48 @@ step size stay the same, one θ-method step is an affine map
     x_{k+1} = [y_{k+1}; λ_α] = P y_k + Q1 f_{k+1} + Q0 f_k + c
 
 (``f`` the sources' values, ``λ_α = μ_α/h`` the currents of the active pairs),
-valid as long as ``λ_α >= 0`` and the inactive pairs' ``w = W x + e_w >= 0``. A
-:class:`ModeMap` holds those matrices; :func:`run_mode` applies the map step
-after step and stops at the first step that leaves the mode, which the caller
-then solves as a full MLCP.
+valid as long as ``λ_α >= 0`` and the inactive pairs' ``w = W x + e_w >= 0``:
+then ``x`` *is* the step's MLCP solution (the equations hold by construction,
+complementarity is checked exactly).
 
-The loop is compiled with numba when it is installed; otherwise the same
-loop runs with numpy matrix products (same arithmetic up to the summation
-order of the products, so results agree to rounding, not bit for bit).
+A :class:`ModeTable` keeps the maps of every mode seen so far, padded into
+arrays indexed by mode. :func:`run_table` applies them step after step. When
+the step size class or the state of the source-scheduled switches changes, it
+continues with the mode that class and switch state had the last time. It
+returns to the caller when a step's signs fail (the caller solves that step as
+an MLCP, which decides the new mode exactly as a step outside the loop would),
+when no mode is stored for the step, when a state-controlled switch must
+change, or at the end. A converter thus runs its thousands of periods in one
+call once both phases' modes are known.
+
+The loop is compiled with numba when it is installed. ``compiled=False`` runs
+the same loop in Python with a numpy step (same arithmetic up to the summation
+order of the products: results agree to rounding, not bit for bit).
 """
 
 from __future__ import annotations
 
+import types
 from dataclasses import dataclass
 
 import numpy as np
 
-try:  # numba is optional: it makes the loop ~20x faster, nothing else depends on it
+try:  # numba makes the loop ~50x faster; nothing else depends on it
     from numba import njit
-except ImportError:  # pragma: no cover - exercised by the fallback test via NUMBA_DISABLE_JIT
+except ImportError:  # pragma: no cover - the Python loop is tested with compiled=False
     njit = None
 
-STOP_LEFT_MODE = 0
+STOP_NO_MODE = 0
+"""Step ``k`` fits none of the table's modes (nothing written for it)."""
 STOP_SWITCH = 1
-STOP_SCHEDULE = 2
+"""A state-controlled switch must change after step ``k - 1``."""
 STOP_END = 3
+"""``k_end`` reached."""
+STOP_SCHEDULE = 2
+"""(Sparse loop only) the step size class or a scheduled switch state changes at step ``k``."""
+
+TABLE_BYTES = 64 * 2**20
+"""Memory the padded arrays of a :class:`ModeTable` may take [bytes]."""
 
 
 @dataclass
@@ -53,47 +70,140 @@ class ModeMap:
     inactive: np.ndarray
 
 
-def _run_mode_loop(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_w, active,
-                   controls, on_threshold, off_threshold, switch_on):
-    """Apply the map from step ``k0`` until the mode is left; returns ``(k, reason)``.
+class ModeTable:
+    """The dense step maps of the modes seen so far, padded into arrays indexed by mode.
 
-    ``k`` is the index of the first grid point *not* computed (steps ``k0 .. k-1``
-    are done: ``y[k0+1 .. k]`` and the active columns of ``z[k0+1 .. k]``, the
-    pair currents, are written; the other columns must hold zeros). ``reason``: 0 the
-    step ``k`` left the mode (nothing written for it), 1 a state-controlled switch
-    must change after step ``k-1``, 2 the step size or a scheduled switch state
-    changes at step ``k``, 3 ``k_end`` reached.
+    A mode is identified by its step class (step size, and whether the step is a
+    θ = 1 restart), the id of the scheduled switches' states, the id of the other
+    switches' states and the active set. Row ``i`` of the arrays holds mode ``i``:
+    ``P[i, :rows[i]]`` etc. (``rows = n + a``), ``W[i, :nw[i], :rows[i]]``
+    (``nw = m - a``). When full, the table starts afresh.
+    """
+
+    def __init__(self, n: int, m: int, kstim: int, budget: int = TABLE_BYTES, most: int = 256):
+        self.n, self.m, self.kstim = n, m, kstim
+        width = n + m
+        per_mode = 8 * (width * n + 2 * width * kstim + width + m * width + 3 * m + 8)
+        self.capacity = int(max(1, min(most, budget // per_mode)))
+        self.count = 0
+        self.index: dict[tuple, int] = {}
+        self._allocate(min(self.capacity, 4))
+
+    def _allocate(self, size: int) -> None:
+        n, m, ks, width = self.n, self.m, self.kstim, self.n + self.m
+        fresh = {
+            "P": np.zeros((size, width, n)), "Q1": np.zeros((size, width, ks)),
+            "Q0": np.zeros((size, width, ks)), "c": np.zeros((size, width)),
+            "W": np.zeros((size, m, width)), "e_w": np.zeros((size, m)),
+            "active": np.zeros((size, m), dtype=np.int64), "mask": np.zeros((size, m), dtype=bool),
+            "rows": np.zeros(size, dtype=np.int64), "nw": np.zeros(size, dtype=np.int64),
+            "mode_class": np.zeros(size, dtype=np.int64), "mode_sched": np.zeros(size, dtype=np.int64),
+            "mode_free": np.zeros(size, dtype=np.int64), "last_used": np.zeros(size, dtype=np.int64),
+        }
+        for name, array in fresh.items():
+            old = getattr(self, name, None)
+            if old is not None:
+                array[:self.count] = old[:self.count]
+            setattr(self, name, array)
+
+    def find(self, key: tuple) -> int | None:
+        """Index of the mode ``key`` (``(class, sched, free, active bytes)``), if stored."""
+        return self.index.get(key)
+
+    def add(self, key: tuple, mode: ModeMap) -> int:
+        """Store ``mode`` under ``key`` = ``(class, sched, free, active bytes)``; returns its index."""
+        if self.count == self.capacity:
+            self.count = 0
+            self.index.clear()
+        if self.count == self.P.shape[0]:
+            self._allocate(min(self.capacity, 2 * self.P.shape[0]))
+        i = self.count
+        rows, a = mode.P.shape[0], mode.active.size
+        self.P[i, :rows] = mode.P
+        self.Q1[i, :rows] = mode.Q1
+        self.Q0[i, :rows] = mode.Q0
+        self.c[i, :rows] = mode.c
+        self.W[i, :mode.W.shape[0], :rows] = mode.W
+        self.e_w[i, :mode.e_w.size] = mode.e_w
+        self.active[i, :a] = mode.active
+        self.mask[i] = False
+        self.mask[i, mode.active] = True
+        self.rows[i], self.nw[i] = rows, mode.W.shape[0]
+        self.mode_class[i], self.mode_sched[i], self.mode_free[i] = key[0], key[1], key[2]
+        self.last_used[i] = -1
+        self.index[key] = i
+        self.count += 1
+        return i
+
+
+def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+    """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold."""
+    n = y.shape[1]
+    size = rows[mode]
+    kstim = F.shape[1]
+    for r in range(size):
+        acc = c[mode, r]
+        for j in range(n):
+            acc += P[mode, r, j] * y[k, j]
+        for j in range(kstim):
+            acc += Q1[mode, r, j] * F[k + 1, j] + Q0[mode, r, j] * F[k, j]
+        x[r] = acc
+    for r in range(n, size):
+        if x[r] < 0.0:
+            return False
+    for r in range(nw[mode]):
+        acc = e_w[mode, r]
+        for j in range(size):
+            acc += W[mode, r, j] * x[j]
+        if acc < 0.0:
+            return False
+    return True
+
+
+def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+    """:func:`_try_mode_scalar` with numpy products (the loop without numba)."""
+    n, size, q = y.shape[1], rows[mode], nw[mode]
+    x[:size] = P[mode, :size] @ y[k] + Q1[mode, :size] @ F[k + 1] + Q0[mode, :size] @ F[k] + c[mode, :size]
+    if (x[n:size] < 0.0).any():
+        return False
+    return not (W[mode, :q, :size] @ x[:size] + e_w[mode, :q] < 0.0).any()
+
+
+def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id,
+                P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free,
+                last_used, count, controls, on_threshold, off_threshold, switch_on, used, x):
+    """Step from ``k0`` (with mode ``mode`` first, ``class0`` the class of step ``k0``) until
+    no stored mode fits, a state-controlled switch changes, or ``k_end``.
+
+    Returns ``(k, reason, last)``: steps ``k0 .. k-1`` are done (``y[k0+1 .. k]``, the
+    active columns of ``z[k0+1 .. k]``, the pair currents, and ``used[k0+1 .. k]``, the
+    mode of each step, are written; ``z``'s other columns must hold zeros), ``reason`` is
+    a ``STOP_*`` code, ``last`` the mode of the last step done (``mode`` if none).
     """
     n = y.shape[1]
-    rows = P.shape[0]
-    kstim = F.shape[1]
-    nw = W.shape[0]
     ns = controls.shape[0]
-    x = np.empty(rows)
+    last = mode
     k = k0
     while k < k_end:
-        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
-            return k, STOP_SCHEDULE
-        for r in range(rows):
-            acc = c[r]
-            for j in range(n):
-                acc += P[r, j] * y[k, j]
-            for j in range(kstim):
-                acc += Q1[r, j] * F[k + 1, j] + Q0[r, j] * F[k, j]
-            x[r] = acc
-        for r in range(n, rows):
-            if x[r] < 0.0:
-                return k, STOP_LEFT_MODE
-        for r in range(nw):
-            acc = e_w[r]
-            for j in range(rows):
-                acc += W[r, j] * x[j]
-            if acc < 0.0:
-                return k, STOP_LEFT_MODE
-        for j in range(n):
-            y[k + 1, j] = x[j]
-        for r in range(n, rows):
-            z[k + 1, active[r - n]] = x[r]
+        cls = class0 if k == k0 else step_class[k]
+        if mode < 0 or mode_class[mode] != cls or mode_sched[mode] != sched_state[k]:
+            # the step size or the scheduled switches changed: the mode this step's
+            # class and switch states had the last time (the other phase of a converter)
+            mode = -1
+            for i in range(count):
+                if (mode_class[i] == cls and mode_sched[i] == sched_state[k] and mode_free[i] == free_id
+                        and (mode < 0 or last_used[i] > last_used[mode])):
+                    mode = i
+            if mode < 0:
+                return k, STOP_NO_MODE, last
+        if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+            return k, STOP_NO_MODE, last  # the caller's MLCP finds the new mode
+        y[k + 1, :] = x[:n]
+        for r in range(n, rows[mode]):
+            z[k + 1, active[mode, r - n]] = x[r]
+        used[k + 1] = mode
+        last_used[mode] = k
+        last = mode
         k += 1
         for s in range(ns):
             value = 0.0
@@ -101,35 +211,21 @@ def _run_mode_loop(k0, k_end, y, z, F, step_class, schedule, P, Q1, Q0, c, W, e_
                 value += controls[s, j] * y[k, j]
             if switch_on[s]:
                 if value < off_threshold[s]:
-                    return k, STOP_SWITCH
+                    return k, STOP_SWITCH, last
             elif value > on_threshold[s]:
-                return k, STOP_SWITCH
-    return k, STOP_END
+                return k, STOP_SWITCH, last
+    return k, STOP_END, last
 
 
-def _run_python_loop(advance, W, e_w, active, k0, k_end, y, current, step_class, schedule,
-                     controls, on_threshold, off_threshold, switch_on):
-    """The loop of :func:`_run_mode_loop` in Python, for any way of taking one step:
-    ``advance(k)`` returns ``x_{k+1} = [y_{k+1}; λ_α]``."""
-    n = y.shape[1]
-    k = k0
-    while k < k_end:
-        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
-            return k, STOP_SCHEDULE
-        x = advance(k)
-        if (x[n:] < 0.0).any() or (W @ x + e_w < 0.0).any():
-            return k, STOP_LEFT_MODE
-        y[k + 1] = x[:n]
-        current[k + 1, active] = x[n:]
-        k += 1
-        if controls.shape[0]:
-            value = controls @ y[k]
-            if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
-                return k, STOP_SWITCH
-    return k, STOP_END
-
-
-_compiled = njit(cache=True, nogil=True)(_run_mode_loop) if njit is not None else None
+if njit is not None:
+    _try_mode = njit(cache=True, nogil=True)(_try_mode_scalar)
+    _compiled = njit(cache=True, nogil=True)(_table_loop)
+else:  # pragma: no cover - numba is a dependency
+    _try_mode = _try_mode_numpy
+    _compiled = None
+# the same loop with the numpy step: one copy of the loop's logic, two step kernels
+_python_loop = types.FunctionType(_table_loop.__code__, {**globals(), "_try_mode": _try_mode_numpy},
+                                  "_python_loop")
 
 
 def compiled() -> bool:
@@ -137,22 +233,19 @@ def compiled() -> bool:
     return _compiled is not None
 
 
-def run_mode(mode: ModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
-             F: np.ndarray, step_class: np.ndarray, schedule: np.ndarray,
-             controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
-             switch_on: np.ndarray, use_compiled: bool = True) -> tuple[int, int]:
-    """Run the loop (compiled if possible); see :func:`_run_mode_loop`."""
-    if use_compiled and _compiled is not None:
-        k, reason = _compiled(k0, k_end, y, current, F, step_class, schedule, mode.P, mode.Q1,
-                              mode.Q0, mode.c, mode.W, mode.e_w, mode.active, controls,
-                              on_threshold, off_threshold, switch_on)
-        return int(k), int(reason)
-
-    def advance(k: int) -> np.ndarray:
-        return mode.P @ y[k] + mode.Q1 @ F[k + 1] + mode.Q0 @ F[k] + mode.c
-
-    return _run_python_loop(advance, mode.W, mode.e_w, mode.active, k0, k_end, y, current,
-                            step_class, schedule, controls, on_threshold, off_threshold, switch_on)
+def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
+              current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
+              free_id: int, controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
+              switch_on: np.ndarray, used: np.ndarray, use_compiled: bool = True) -> tuple[int, int, int]:
+    """Run the loop of :func:`_table_loop` over ``table`` (compiled if possible)."""
+    loop = _compiled if use_compiled and _compiled is not None else _python_loop
+    x = np.empty(table.n + table.m)
+    k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,
+                           table.P, table.Q1, table.Q0, table.c, table.W, table.e_w, table.active,
+                           table.rows, table.nw, table.mode_class, table.mode_sched, table.mode_free,
+                           table.last_used, table.count, controls, on_threshold,
+                           off_threshold, switch_on, used, x)
+    return int(k), int(reason), int(last)
 
 
 @dataclass
@@ -178,14 +271,29 @@ def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, cur
                     F: np.ndarray, step_class: np.ndarray, schedule: np.ndarray,
                     controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
                     switch_on: np.ndarray) -> tuple[int, int]:
-    """:func:`run_mode` for a :class:`SparseModeMap` (a Python loop around a sparse solve)."""
+    """Apply one sparse mode from step ``k0`` until it is left; returns ``(k, reason)``.
+
+    Steps ``k0 .. k-1`` are done (``y`` and the active columns of ``current`` written).
+    ``reason``: :data:`STOP_NO_MODE` step ``k`` left the mode, :data:`STOP_SWITCH`,
+    :data:`STOP_SCHEDULE` the step class or scheduled switch state changes at ``k``,
+    :data:`STOP_END`.
+    """
     n = mode.n
     rhs = np.empty(n + mode.active.size)
     rhs[n:] = mode.rhs_pairs
-
-    def advance(k: int) -> np.ndarray:
+    k = k0
+    while k < k_end:
+        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
+            return k, STOP_SCHEDULE
         rhs[:n] = mode.carry @ y[k] + mode.S_next @ F[k + 1] + mode.S_now @ F[k]
-        return mode.lu.solve(rhs)
-
-    return _run_python_loop(advance, mode.W, mode.e_w, mode.active, k0, k_end, y, current,
-                            step_class, schedule, controls, on_threshold, off_threshold, switch_on)
+        x = mode.lu.solve(rhs)
+        if (x[n:] < 0.0).any() or (mode.W @ x + mode.e_w < 0.0).any():
+            return k, STOP_NO_MODE
+        y[k + 1] = x[:n]
+        current[k + 1, mode.active] = x[n:]
+        k += 1
+        if controls.shape[0]:
+            value = controls @ y[k]
+            if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
+                return k, STOP_SWITCH
+    return k, STOP_END

@@ -12,7 +12,7 @@ from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.initial import operating_point, uic_state
 from circuitnsds.integrate import integrate
 from circuitnsds.timegrid import time_grid
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.waveforms import LazySignals, Waveforms
 
 
 def run_transient(
@@ -102,15 +102,26 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
 
 
 def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) -> Waveforms:
-    """Output signals of ``trajectory`` from ``start`` on."""
-    keep = trajectory.time >= start - 1e-12 * stop
-    values = mlcs.outputs(trajectory.y, trajectory.current)
-    signals = {name: np.ascontiguousarray(values[keep, j])
-               for j, name in enumerate(mlcs.output_names)}
+    """Output signals of ``trajectory`` from ``start`` on (each computed when first read)."""
+    first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
+    y, current = trajectory.y[first:], trajectory.current[first:]
+    rows = {name: j for j, name in enumerate(mlcs.output_names)}
+    Y_out, L_out = mlcs.Y_out.tocsr(), mlcs.L_out.tocsr()
+
+    def signal(name: str) -> np.ndarray:
+        j = rows[name]
+        values = np.zeros(y.shape[0])
+        for matrix, unknowns in ((Y_out, y), (L_out, current)):
+            span = slice(matrix.indptr[j], matrix.indptr[j + 1])
+            for column, weight in zip(matrix.indices[span], matrix.data[span]):
+                values += weight * unknowns[:, column]
+        return values
+
     impulses: dict[str, np.ndarray] = {}
     for j, (pair, device) in enumerate(zip(mlcs.pairs, mlcs.pair_devices)):
         sign = -1.0 if pair.endswith(".reverse") else 1.0
-        impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[keep, j]
+        impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[first:, j]
     stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
-    return Waveforms(time=trajectory.time[keep], signals=signals, impulses=impulses,
-                     residual=trajectory.residual[keep], title=circuit.title, stats=stats)
+    return Waveforms(time=trajectory.time[first:], signals=LazySignals(mlcs.output_names, signal),
+                     impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
+                     stats=stats)

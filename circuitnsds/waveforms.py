@@ -2,11 +2,42 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+
+class LazySignals(Mapping):
+    """Signal name -> values, each computed the first time it is read, then kept.
+
+    A transient run returns its signals this way: a run of a million steps that
+    writes one signal computes one column, not every output of the circuit.
+    ``dict(signals)`` computes them all.
+    """
+
+    def __init__(self, names: Iterable[str], compute: Callable[[str], np.ndarray]):
+        self._names = list(names)
+        self._known = set(self._names)
+        self._compute = compute
+        self._values: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._values:
+            if name not in self._known:
+                raise KeyError(name)
+            self._values[name] = self._compute(name)
+        return self._values[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def __repr__(self) -> str:
+        return f"LazySignals({self._names!r}, computed: {sorted(self._values)!r})"
 
 
 @dataclass
@@ -20,7 +51,8 @@ class Waveforms:
 
     Attributes:
         time: instants [s].
-        signals: name -> values.
+        signals: name -> values (a dict, or a :class:`LazySignals` that computes each
+            signal when first read).
         impulses: device name -> charge [C] that passed in the step ending at each
             instant (``μ`` of the scheme). Where a state jumps, the current is a
             Dirac: its weight is this charge, which does not shrink with the step.
@@ -30,7 +62,7 @@ class Waveforms:
     """
 
     time: np.ndarray
-    signals: dict[str, np.ndarray]
+    signals: Mapping[str, np.ndarray]
     impulses: dict[str, np.ndarray] = field(default_factory=dict)
     residual: np.ndarray | None = None
     title: str = ""
@@ -65,7 +97,7 @@ class Waveforms:
         """A pandas DataFrame indexed by time (pandas must be installed)."""
         import pandas as pd
 
-        return pd.DataFrame(self.signals, index=pd.Index(self.time, name="time"))
+        return pd.DataFrame(dict(self.signals), index=pd.Index(self.time, name="time"))
 
     def to_raw(self, path: str | Path, names: Iterable[str] | None = None, *,
                binary: bool = True) -> None:

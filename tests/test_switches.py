@@ -272,26 +272,30 @@ S1 x 0 x 0 sw
 # --- the three stepping paths agree ------------------------------------------------------------
 
 
-def _run_paths(circuit, monkeypatch, stop):
-    results = {"compiled": circuit.transient(stop=stop)}
+def _run_paths(circuit, monkeypatch, stop, theta=1.0):
+    results = {"compiled": circuit.transient(stop=stop, theta=theta)}
     numpy_loop = functools.partial(circuitnsds.integrate.integrate, compiled=False)
     with monkeypatch.context() as patch:
         patch.setattr(circuitnsds.transient, "integrate", numpy_loop)
-        results["numpy"] = circuit.transient(stop=stop)
+        results["numpy"] = circuit.transient(stop=stop, theta=theta)
     with monkeypatch.context() as patch:  # no dense step maps
         patch.setattr(circuitnsds.integrate, "DENSE_MAP_LIMIT", 0)
-        results["no dense map"] = circuit.transient(stop=stop)
+        results["no dense map"] = circuit.transient(stop=stop, theta=theta)
     with monkeypatch.context() as patch:  # no step maps at all: one MLCP per step
-        patch.setattr(circuitnsds.integrate._Stepping, "mode_map", lambda *args: None)
-        results["mlcp"] = circuit.transient(stop=stop)
+        patch.setattr(circuitnsds.integrate._Stepping, "dense_mode", lambda *args: None)
+        patch.setattr(circuitnsds.integrate._Stepping, "sparse_mode", lambda *args: None)
+        results["mlcp"] = circuit.transient(stop=stop, theta=theta)
     return results
 
 
-@pytest.mark.parametrize(("netlist", "stop"), [("buck_converter.cir", 0.3e-3),
-                                                ("bridge_rectifier.cir", 30e-3)])
-def test_compiled_numpy_and_mlcp_paths_agree(monkeypatch, netlist, stop):
+@pytest.mark.parametrize(("netlist", "stop", "theta"), [("buck_converter.cir", 0.3e-3, 1.0),
+                                                         ("buck_converter.cir", 0.3e-3, 0.5),
+                                                         ("bridge_rectifier.cir", 30e-3, 1.0)])
+def test_compiled_numpy_and_mlcp_paths_agree(monkeypatch, netlist, stop, theta):
+    """The mode table (compiled and numpy), the sparse maps and one MLCP per step are one
+    scheme: the same steps, restarts and modes, so the same numbers to rounding."""
     circuit = circuitnsds.read_netlist(NETLISTS / netlist)
-    results = _run_paths(circuit, monkeypatch, stop)
+    results = _run_paths(circuit, monkeypatch, stop, theta)
     assert results["compiled"].stats["mapped_steps"] > 0.2 * results["compiled"].stats["steps"]
     assert results["numpy"].stats["mapped_steps"] == results["compiled"].stats["mapped_steps"]
     assert results["mlcp"].stats["mapped_steps"] == 0
@@ -343,3 +347,24 @@ def test_negative_hysteresis_is_taken_as_its_magnitude_with_a_warning():
         circuit = circuit_from(body)
     waves = circuit.transient()
     np.testing.assert_array_equal(closed_steps(waves), waves.time > 0.54e-3 + 1e-15)
+
+
+def _buck_error(step: float, theta: float, reference) -> float:
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    waves = circuit.transient(step=step, stop=0.4e-3, theta=theta)
+    t_ref, v_ref = reference
+    return float(np.max(np.abs(np.interp(t_ref, waves.time, waves["v(out)"]) - v_ref)))
+
+
+@pytest.mark.parametrize(("theta", "order"), [(1.0, 1), (0.5, 2)])
+def test_converter_convergence_order(theta, order):
+    """Every switching instant of the buck converter is a grid point, so the θ-method keeps
+    its order across them: halving the step divides the error by 2 (implicit Euler) or by
+    4 (θ = 0.5, whose step after each switching is an implicit Euler restart, an O(h²) local
+    error at a fixed number of instants)."""
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    fine = circuit.transient(step=0.1e-6 / 16, stop=0.4e-3, theta=theta)
+    reference = (fine.time, fine["v(out)"])
+    errors = [_buck_error(h, theta, reference) for h in (0.2e-6, 0.1e-6)]
+    ratio = errors[0] / errors[1]
+    assert 0.8 * 2**order < ratio < 1.25 * 2**order, (errors, ratio)
