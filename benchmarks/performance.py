@@ -12,6 +12,12 @@ For each case:
   smaller step (the ideal reference) over a window, normalised by the reference's range;
   for case 1 also ngspice against its own fine-step reference (TMAX = TSTEP/10).
 
+Case 1 runs twice: with implicit Euler (θ = 1, the default) and with ``--theta 0.5`` (the
+trapezoidal rule, second order here because every switching instant is a grid point). A
+"start-up" row times both simulators on the same netlist over 10 steps: the fixed cost of
+a whole process (for circuitnsds the interpreter, numpy/scipy/networkx/numba imports and
+numba's first call), which bounds the whole-process ratio however fast the stepping is.
+
 Usage: ``python benchmarks/performance.py [--quick] [--json out.json]``. ``--quick``
 shortens every run (a smoke test; the figures in the issue note come from the full run).
 ngspice is optional: without it the ngspice columns say so.
@@ -55,25 +61,26 @@ def with_tran(text: str, tran: str, control: str | None = None) -> str:
     return text
 
 
-def ours_process(netlist_text: str, workdir: Path, name: str) -> dict:
+def ours_process(netlist_text: str, workdir: Path, name: str, theta: float = 1.0) -> dict:
     """Whole-process run of the command line, then read back what it wrote."""
     path = workdir / f"{name}.cir"
     path.write_text(netlist_text)
     raw = workdir / f"{name}.raw"
     seconds, done = run_process([sys.executable, "-m", "circuitnsds", "run", str(path), "-r", str(raw),
-                                 "--signals", "v(out)", "-q"], workdir)
+                                 "--signals", "v(out)", "--theta", str(theta), "-q"], workdir)
     if done.returncode != 0:
         return {"wall_s": seconds, "ok": False, "error": done.stderr.strip()[-300:]}
     data = read_raw(raw)
     return {"wall_s": seconds, "ok": True, "time": data.time, "v": data["v(out)"]}
 
 
-def ours_in_process(netlist_text: str, step: float | None = None, stop: float | None = None) -> dict:
+def ours_in_process(netlist_text: str, step: float | None = None, stop: float | None = None,
+                    theta: float = 1.0) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         circuit = circuitnsds.read_netlist(netlist_text)
         started = time.perf_counter()
-        waves = circuit.transient(step=step, stop=stop)
+        waves = circuit.transient(step=step, stop=stop, theta=theta)
         wall = time.perf_counter() - started
     stats = waves.stats
     return {"wall_s": wall, "stepping_s": stats["seconds"], "steps": stats["steps"],
@@ -114,13 +121,13 @@ def error_against(reference: dict, run: dict, window: tuple[float, float]) -> fl
 
 
 def case(label: str, netlist: Path, step: float, stop: float, window: float, workdir: Path,
-         own_reference: bool = False) -> dict:
+         own_reference: bool = False, theta: float = 1.0) -> dict:
     text = netlist.read_text()
     tran = f".tran {step!r} {stop!r}"
     name = re.sub(r"\W+", "_", label)  # file names for ngspice: no spaces
-    ours = ours_process(with_tran(text, tran), workdir, name)
-    inproc = ours_in_process(with_tran(text, tran))
-    reference = ours_in_process(with_tran(text, f".tran {step / 10!r} {window!r}"))
+    ours = ours_process(with_tran(text, tran), workdir, name, theta)
+    inproc = ours_in_process(with_tran(text, tran), theta=theta)
+    reference = ours_in_process(with_tran(text, f".tran {step / 10!r} {window!r}"), theta=theta)
     ngspice = ngspice_process(text, tran, workdir, name)
     row = {
         "case": label, "steps": inproc["steps"], "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
@@ -136,11 +143,23 @@ def case(label: str, netlist: Path, step: float, stop: float, window: float, wor
     if own_reference:
         ng_fine = ngspice_process(text, f".tran {step!r} {window!r} 0 {step / 10!r}", workdir,
                                   name + "_fine")
-        ours_short = ours_in_process(with_tran(text, f".tran {step!r} {window!r}"))
+        ours_short = ours_in_process(with_tran(text, f".tran {step!r} {window!r}"), theta=theta)
         row["ngspice_error_vs_own_fine"] = error_against(ng_fine, ngspice, (0.0, window)) \
             if ng_fine["ok"] else float("nan")
         row["ours_error_vs_own_fine"] = error_against(reference, ours_short, (0.0, window))
     return row
+
+
+def start_up(netlist: Path, workdir: Path) -> dict:
+    """Fixed cost of a whole process: the buck netlist over 10 steps (interpreter, imports,
+    numba's first call / ngspice's start-up, netlist, operating point, writing)."""
+    text = with_tran(netlist.read_text(), ".tran 0.1u 1u")
+    ours = ours_process(text, workdir, "startup")
+    ngspice = ngspice_process(text, ".tran 0.1u 1u", workdir, "startup")
+    return {"case": "start-up (10 steps)", "steps": 10, "pairs": 1, "ours_process_s": ours["wall_s"],
+            "ngspice_process_s": ngspice["wall_s"], "ngspice_ok": ngspice["ok"],
+            "ngspice_note": ngspice.get("error", ""),
+            "ratio": ngspice["wall_s"] / ours["wall_s"]}
 
 
 def ladder_netlist(sections: int, stop: float) -> str:
@@ -161,10 +180,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     scale = 0.05 if args.quick else 1.0
     rows = []
+    # numba's first call (loading the compiled loop, ~0.3 s) is start-up, not stepping
+    ours_in_process(with_tran((NETLISTS / "buck_100ms.cir").read_text(), ".tran 0.1u 20u"))
     with tempfile.TemporaryDirectory() as tmp:
         workdir = Path(tmp)
-        rows.append(case("1 buck 100 kHz", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
-                         5e-3 * scale, workdir, own_reference=True))
+        for theta in (1.0, 0.5):
+            rows.append(case(f"1 buck θ={theta:g}", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
+                             5e-3 * scale, workdir, own_reference=True, theta=theta))
+        rows.append(start_up(NETLISTS / "buck_100ms.cir", workdir))
         rows.append(case("2 bridge 470 uF", NETLISTS / "bridge_200ms.cir", 20e-6, 200e-3 * scale,
                          200e-3 * scale, workdir))
         rows.append(case("3 CW x5", NETLISTS / "cw5_1s.cir", 20e-6, 1.0 * scale, 0.2 * scale, workdir))
@@ -211,11 +234,12 @@ def print_table(rows: list[dict]) -> None:
             if "ngspice_ok" in r else ""
         if r.get("ngspice_stopped_at") and not r.get("ngspice_ok"):
             note += f" (stopped at {r['ngspice_stopped_at']:.4g} s)"
-        print(f"{r['case']:<22}{r['steps']:>9}{r['pairs']:>6}{f(r['us_per_step'], '9.2f')}"
-              f"{f(r.get('us_per_mapped_step'), '8.2f')}"
-              f"{f(100 * r['mapped_share'], '7.1f')}%{f(r.get('ours_process_s'), '9.2f')}"
-              f"{f(r.get('ngspice_process_s'), '11.2f')}{f(r.get('ratio'), '7.1f')}  "
-              f"{f(r.get('ours_error'), '9.1e')}{f(r.get('ngspice_error_vs_ideal'), '9.1e')}  {note}")
+        print(f"{r['case']:<22}{r['steps']:>9}{r['pairs']:>6}{f(r.get('us_per_step'), '9.2f'):>9}"
+              f"{f(r.get('us_per_mapped_step'), '8.2f'):>8}"
+              f"{f(100 * r.get('mapped_share', float('nan')), '7.1f'):>7}%"
+              f"{f(r.get('ours_process_s'), '9.2f'):>9}"
+              f"{f(r.get('ngspice_process_s'), '11.2f'):>11}{f(r.get('ratio'), '7.1f'):>7}  "
+              f"{f(r.get('ours_error'), '9.1e'):>9}{f(r.get('ngspice_error_vs_ideal'), '9.1e'):>9}  {note}")
     for r in rows:
         if "ngspice_error_vs_own_fine" in r:
             print(f"\ncase {r['case']}: against each one's own fine-step reference (TSTEP/10): "

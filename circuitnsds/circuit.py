@@ -172,7 +172,8 @@ class Circuit:
             start: first time written to the waveforms [s] (default ``.tran`` TSTART or 0).
             max_step: upper bound on the step [s] (default ``.tran`` TMAX).
             theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler (default:
-                ``.options theta``, else 1). The first step is always implicit Euler.
+                ``.options theta``, else 1). The first step, and with θ < 1 the step
+                after a switch changes state, is implicit Euler.
             uic: start from initial conditions instead of the operating point
                 (default: ``.tran``'s UIC flag).
             tol: complementarity tolerance of every step (scaled residual).

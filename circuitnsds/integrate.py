@@ -10,7 +10,8 @@ the unknowns ``y_{k+1}`` and the impulses ``μ = h·λ`` [C] solve
 Impulses rather than currents keep a Dirac current (a capacitor charged from
 a voltage source through an ideal diode) finite: it shows as one step whose
 ``μ`` does not shrink with ``h``. The first step is always implicit Euler
-(θ = 1), because the initial state need not satisfy the algebraic rows.
+(θ = 1), because the initial state need not satisfy the algebraic rows; with
+θ < 1 so is the step after a switch changes state (see :class:`_Stepping`).
 Numerically the rows are divided by ``h`` and the solver's pair unknowns are
 the currents ``λ = μ/h``: the same solution, but the solver's normwise test
 then weighs currents (not tiny charges) against voltages.
@@ -24,9 +25,10 @@ Switch states for a step are decided before it is solved:
 * any other switch takes the state its control had at the *start* of the step
   (at most one step late).
 
-Steps whose mode (active pairs, switch states, step size) is the previous
-step's run through :mod:`circuitnsds.kernel` (one affine map per step, checked
-for complementarity); a step that leaves the mode is solved as a full MLCP.
+Steps whose mode (active pairs, switch states, step class) is already known run
+through :mod:`circuitnsds.kernel` (one affine map per step, checked for
+complementarity, the modes kept in a table); a step that leaves its mode is
+solved as a full MLCP, which decides the next mode.
 
 This module knows nothing about netlists: it takes an :class:`MLCS`, a grid
 and a starting point.
