@@ -254,6 +254,8 @@ class SparseModeMap:
 
     Each step solves ``bordered · x = [carry·y_k + Sw f_{k+1} + Si f_k; -e_α]``: the
     cost grows with the number of non-zeros, not with the square of the size.
+    ``compiled`` holds the same map as plain arrays for the compiled loop
+    (:func:`circuitnsds.sparse_kernel.compile_sparse_map`).
     """
 
     lu: object
@@ -265,6 +267,7 @@ class SparseModeMap:
     e_w: np.ndarray
     active: np.ndarray
     n: int
+    compiled: object = None
 
 
 def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
