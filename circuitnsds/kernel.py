@@ -37,6 +37,9 @@ try:  # numba makes the loop ~50x faster; nothing else depends on it
 except ImportError:  # pragma: no cover - the Python loop is tested with compiled=False
     njit = None
 
+SIGN_TOL = 1e-7
+"""Relative tolerance of the sign checks (the MLCP solver's, :data:`circuitnsds.solvers.mlcp.SIGN_TOL`)."""
+
 STOP_NO_MODE = 0
 """Step ``k`` fits none of the table's modes (nothing written for it)."""
 STOP_SWITCH = 1
@@ -137,7 +140,13 @@ class ModeTable:
 
 
 def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
-    """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold."""
+    """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold.
+
+    A sign holds when the value is ``>= 0`` or, like the MLCP solver's test of a guessed
+    mode, negative by less than ``SIGN_TOL`` times the sum of the magnitudes of the terms
+    that make it up (rounding noise of a pair at zero on both sides: a diode carrying
+    -3e-12 A out of terms of amperes in a voltage multiplier).
+    """
     n = y.shape[1]
     size = rows[mode]
     kstim = F.shape[1]
@@ -150,12 +159,21 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
         x[r] = acc
     for r in range(n, size):
         if x[r] < 0.0:
-            return False
+            magnitude = abs(c[mode, r])
+            for j in range(n):
+                magnitude += abs(P[mode, r, j] * y[k, j])
+            for j in range(kstim):
+                magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
+            if x[r] < -SIGN_TOL * magnitude:
+                return False
     for r in range(nw[mode]):
         acc = e_w[mode, r]
+        magnitude = abs(acc)
         for j in range(size):
-            acc += W[mode, r, j] * x[j]
-        if acc < 0.0:
+            term = W[mode, r, j] * x[j]
+            acc += term
+            magnitude += abs(term)
+        if acc < -SIGN_TOL * magnitude:
             return False
     return True
 
@@ -163,10 +181,13 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
 def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     """:func:`_try_mode_scalar` with numpy products (the loop without numba)."""
     n, size, q = y.shape[1], rows[mode], nw[mode]
-    x[:size] = P[mode, :size] @ y[k] + Q1[mode, :size] @ F[k + 1] + Q0[mode, :size] @ F[k] + c[mode, :size]
-    if (x[n:size] < 0.0).any():
+    parts = (P[mode, :size] * y[k], Q1[mode, :size] * F[k + 1], Q0[mode, :size] * F[k], c[mode, :size, None])
+    x[:size] = sum(part.sum(axis=1) for part in parts)
+    if (x[n:size] < -SIGN_TOL * sum(np.abs(part).sum(axis=1) for part in parts)[n:]).any():
         return False
-    return not (W[mode, :q, :size] @ x[:size] + e_w[mode, :q] < 0.0).any()
+    terms = W[mode, :q, :size] * x[:size]
+    w = terms.sum(axis=1) + e_w[mode, :q]
+    return not (w < -SIGN_TOL * (np.abs(terms).sum(axis=1) + np.abs(e_w[mode, :q]))).any()
 
 
 def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id,

@@ -290,23 +290,30 @@ def _run_paths(circuit, monkeypatch, stop, theta=1.0):
 
 @pytest.mark.parametrize(("netlist", "stop", "theta"), [("buck_converter.cir", 0.3e-3, 1.0),
                                                          ("buck_converter.cir", 0.3e-3, 0.5),
-                                                         ("bridge_rectifier.cir", 30e-3, 1.0)])
+                                                         ("bridge_rectifier.cir", 30e-3, 1.0),
+                                                         ("cockcroft_walton.cir", 0.1, 1.0)])
 def test_compiled_numpy_and_mlcp_paths_agree(monkeypatch, netlist, stop, theta):
     """The mode table (compiled and numpy), the sparse maps and one MLCP per step are one
     scheme: the same steps, restarts and modes, so the same numbers to rounding."""
     circuit = circuitnsds.read_netlist(NETLISTS / netlist)
     results = _run_paths(circuit, monkeypatch, stop, theta)
     assert results["compiled"].stats["mapped_steps"] > 0.2 * results["compiled"].stats["steps"]
+    if netlist == "cockcroft_walton.cir":  # diodes at zero current: within the sign tolerance
+        assert results["compiled"].stats["mapped_steps"] > 0.9 * results["compiled"].stats["steps"]
     assert results["numpy"].stats["mapped_steps"] == results["compiled"].stats["mapped_steps"]
     assert results["mlcp"].stats["mapped_steps"] == 0
     assert results["mlcp"].stats["mlcp_steps"] == results["mlcp"].stats["steps"]
     reference = results["compiled"]
+    # where diodes sit at zero current on both sides, each path may settle such a pair on
+    # either side within the sign tolerance (1e-7 of the terms that make up a value; for a
+    # diode current the terms are C/h·v, 1000x the current): 3e-10 A of 4e-4 A, not 1e-9
+    relative = 1e-6 if netlist == "cockcroft_walton.cir" else 1e-9
     for path in ("numpy", "no dense map", "mlcp"):
         other = results[path]
         np.testing.assert_array_equal(other.time, reference.time)
         for name in reference.names:
             scale = max(np.abs(reference[name]).max(), 1e-30)
-            np.testing.assert_allclose(other[name], reference[name], rtol=0, atol=1e-9 * scale,
+            np.testing.assert_allclose(other[name], reference[name], rtol=0, atol=relative * scale,
                                        err_msg=f"{netlist}: {name} ({path} path)")
 
 
