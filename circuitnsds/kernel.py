@@ -179,15 +179,20 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
 
 
 def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
-    """:func:`_try_mode_scalar` with numpy products (the loop without numba)."""
+    """:func:`_try_mode_scalar` with numpy products (the loop without numba); the magnitudes
+    of the terms are computed only for a value that is negative."""
     n, size, q = y.shape[1], rows[mode], nw[mode]
-    parts = (P[mode, :size] * y[k], Q1[mode, :size] * F[k + 1], Q0[mode, :size] * F[k], c[mode, :size, None])
-    x[:size] = sum(part.sum(axis=1) for part in parts)
-    if (x[n:size] < -SIGN_TOL * sum(np.abs(part).sum(axis=1) for part in parts)[n:]).any():
-        return False
-    terms = W[mode, :q, :size] * x[:size]
-    w = terms.sum(axis=1) + e_w[mode, :q]
-    return not (w < -SIGN_TOL * (np.abs(terms).sum(axis=1) + np.abs(e_w[mode, :q]))).any()
+    x[:size] = P[mode, :size] @ y[k] + Q1[mode, :size] @ F[k + 1] + Q0[mode, :size] @ F[k] + c[mode, :size]
+    if (x[n:size] < 0.0).any():
+        magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
+                     + np.abs(Q0[mode, n:size]) @ np.abs(F[k]) + np.abs(c[mode, n:size]))
+        if (x[n:size] < -SIGN_TOL * magnitude).any():
+            return False
+    w = W[mode, :q, :size] @ x[:size] + e_w[mode, :q]
+    if (w < 0.0).any():
+        magnitude = np.abs(W[mode, :q, :size]) @ np.abs(x[:size]) + np.abs(e_w[mode, :q])
+        return not (w < -SIGN_TOL * magnitude).any()
+    return True
 
 
 def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id,
