@@ -84,7 +84,8 @@ class Trajectory:
         switches: state (closed = true) of each switch during the step ending at
             each point, shape ``(N, number of switches)`` (row 0: the initial state).
         stats: counters (steps, mapped_steps and the mapped_seconds spent in them,
-            mlcp_steps, modes built, factorisations, cache hits, Lemke fallbacks, seconds).
+            mlcp_steps, modes built, factorisations, cache hits, fallbacks (MLCP steps whose
+            guess was wrong), pivoting_solves and lemke_fallbacks among them, seconds).
     """
 
     time: np.ndarray
@@ -465,7 +466,8 @@ class _Stepping:
         return mode
 
     def counters(self) -> dict[str, int]:
-        totals = {"factorisations": 0, "cache_hits": 0, "fallbacks": 0}
+        totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",
+                                "lemke_fallbacks"), 0)
         for step in list(self.solvers.values()) + self.retired:
             for key in totals:
                 totals[key] += step.solver.stats.get(key, 0)

@@ -15,6 +15,9 @@ of a circuit's per-step problem), the Newton method keeps sparse input sparse.
    LU factors of the bordered matrix ``K_α`` of the guessed active set,
    accepted when the scaled residual is ``<= tol`` (which checks ``z_α >= 0``,
    ``w_ᾱ >= 0`` and the equations). See :mod:`circuitnsds.solvers.mode`.
+   From :data:`PIVOTING_MIN_PAIRS` pairs on, **block principal pivoting** from the
+   guess (or from no pair active) follows, with the same acceptance test
+   (:mod:`circuitnsds.solvers.pivoting`).
 2. **Lemke on a principal pivot transform.** A *start basis* ``α0`` with a
    well-conditioned ``K_α0`` is eliminated: ``α0 = ∅`` when ``A`` is
    well-conditioned (reciprocal condition >= ``1e-8``), which gives the Schur
@@ -62,6 +65,7 @@ from .enumeration import MAX_ENUM, enumerate_mlcp
 from .lemke import lemke_pivot
 from .mode import Mode, ModeCache
 from .newton import fb_newton_mlcp
+from .pivoting import TRIALS, BlockPivoting
 from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual
 from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
 
@@ -78,6 +82,10 @@ ENUM_FALLBACK_MAX = 10
 CTOL = 1e-6
 #: Largest relative sign violation (see ``MLCPSolver._signs_hold``) accepted from a guessed mode.
 SIGN_TOL = 1e-7
+#: From this many pairs on, block principal pivoting from the guess (or from no pair
+#: active) runs before Lemke: each trial is one factorisation, where Lemke's pivots cost
+#: O(m²) each and number O(m) (seconds at 1000 pairs).
+PIVOTING_MIN_PAIRS = 50
 #: At most this many degenerate pairs are tried by that search.
 MAX_FLIPS = 8
 
@@ -214,6 +222,7 @@ class MLCPSolver:
                 "direct_accepted",
                 "direct_rejected",
                 "fallbacks",
+                "pivoting_solves",
                 "lemke_fallbacks",
                 "lemke_pivots",
                 "start_bases",
@@ -528,11 +537,41 @@ class MLCPSolver:
         res, w = mlcp_residual(self._K, self.n, c, x, self._kappa)
         return self._result(x, w, active, "newton", it, res)
 
-    def _fallback(self, c: np.ndarray, prefix: str) -> MLCPResult:
+    def _pivoting(self, c: np.ndarray, start: np.ndarray) -> MLCPResult | None:
+        """Block principal pivoting from ``start`` (:mod:`.pivoting`); each trial's answer is
+        accepted only as a guessed mode's is (residual and signs). ``None`` when it fails."""
+        n = self.n
+        pivoting = BlockPivoting(start)
+        for trial in range(1, TRIALS + 1):
+            mode = self._cache.get(pivoting.mask)
+            if not mode.lu.ok:
+                return None
+            x, w, res, scale = self._try_mode(mode, c)
+            if not np.isfinite(res):
+                return None
+            if res <= self.tol and self._signs_hold(x, w, c):
+                active = mode.mask.copy()
+                if np.hypot(x[n:] * self._kappa, w).min() <= self.tol * scale:
+                    x, w, active, res = self._consistent(x, w, active, res, scale, c)
+                self.stats["pivoting_solves"] += 1
+                return self._result(x, w, active, "pivoting", trial, res)
+            violated = np.flatnonzero(np.where(mode.mask, x[n:] < 0.0, w < 0.0))
+            if not violated.size:  # signs right but the residual is not: leave it to Lemke
+                return None
+            pivoting.update(violated)
+        return None
+
+    def _fallback(self, c: np.ndarray, prefix: str, start: np.ndarray | None = None) -> MLCPResult:
         if not np.all(np.isfinite(c)):
             raise ValueError("a or b contains NaN or inf")
         st = self.stats
         st["fallbacks"] += 1
+        if self.m >= PIVOTING_MIN_PAIRS:
+            result = self._pivoting(c, np.zeros(self.m, dtype=bool) if start is None else start)
+            if result is not None:
+                result.method = prefix + result.method
+                return result
+            prefix += "pivoting->"
         st["lemke_fallbacks"] += 1
         result, errors = self._lemke_chain(c)
         if result is not None:
@@ -613,7 +652,6 @@ class MLCPSolver:
         """
         c = self._rhs(a, b, check=False)
         self.stats["calls"] += 1
-        prefix = ""
         if guess is not None:
             mask = (
                 guess
@@ -634,8 +672,8 @@ class MLCPSolver:
                         x, w, active, res = self._consistent(x, w, active, res, scale, c)
                     return self._result(x, w, active, "direct", 0, res)
             self.stats["direct_rejected"] += 1
-            prefix = "direct->"
-        return self._fallback(c, prefix)
+            return self._fallback(c, "direct->", mask)
+        return self._fallback(c, "")
 
     def solve_direct(self, a: Any, b: Any, guess: Any) -> MLCPResult:
         """Mode reuse only: solve the bordered system of ``guess``; no fallback.
