@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+import pytest
 
 import circuitnsds
 import circuitnsds.integrate
@@ -51,10 +52,11 @@ def test_ladder_paths_agree_with_one_lemke_mlcp_per_step(monkeypatch):
             np.testing.assert_allclose(other[name], fast[name], rtol=0, atol=1e-9 * scale, err_msg=name)
 
 
-def test_ladder_operating_point_by_pivoting_matches_lemke(monkeypatch):
+@pytest.mark.parametrize("sections", [120, 200])  # 200: past SPARSE_MIN, a sparse LU per trial
+def test_ladder_operating_point_by_pivoting_matches_lemke(monkeypatch, sections):
     """At DC every diode of the ladder conducts: pivoting from 'none conducts' reaches that
     set (the front moves tens of pairs per trial) and must agree with Lemke."""
-    circuit = circuitnsds.read_netlist(ladder(120, 1e-3))
+    circuit = circuitnsds.read_netlist(ladder(sections, 1e-3))
     pivoted = circuit.operating_point()
     with monkeypatch.context() as patch:
         patch.setattr(circuitnsds.solvers.mlcp, "PIVOTING_MIN_PAIRS", 10**9)
@@ -63,7 +65,7 @@ def test_ladder_operating_point_by_pivoting_matches_lemke(monkeypatch):
         assert abs(pivoted[name] - value) <= 1e-9 * max(1.0, abs(value)), name
     # every diode conducting (Vfwd = 0, Ron = 1 Ω) makes the ladder a resistive network:
     # (v_{k-1} - v_k)/Ron = v_k/R + (v_k - v_{k+1})/Ron, solved here independently
-    sections, ron, r = 120, 1.0, 120e3
+    ron, r = 1.0, 1e3 * sections
     G = np.zeros((sections, sections))
     rhs = np.zeros(sections)
     for k in range(sections):

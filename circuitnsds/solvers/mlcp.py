@@ -233,7 +233,7 @@ class MLCPSolver:
             ),
             0,
         )
-        self._cache = ModeCache(K, n, cache_size, self.stats)
+        self._cache = ModeCache(K, n, cache_size, self.stats, Ks)
         self._starts: dict[bytes, _StartBasis | None] = {}
         self._start_order: list[np.ndarray] | None = None
         self._rcond_a: float | None = None

@@ -21,6 +21,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ._dense import LU, factorise
+from ._sparse import SPARSE_MIN, SparseLU, factorise_sparse
 
 __all__ = ["Mode", "ModeCache"]
 
@@ -31,12 +32,13 @@ class Mode:
     Attributes:
         mask: boolean mask of the active pairs (do not modify).
         sel: indices into ``x = [u; z]`` of the unknowns of the linear system.
-        lu: :class:`~circuitnsds.solvers._dense.LU` of ``K_α``.
+        lu: :class:`~circuitnsds.solvers._dense.LU` of ``K_α`` (a
+            :class:`~circuitnsds.solvers._sparse.SparseLU` for large sparse ``K``).
     """
 
     __slots__ = ("mask", "sel", "lu")
 
-    def __init__(self, mask: np.ndarray, sel: np.ndarray, lu: LU) -> None:
+    def __init__(self, mask: np.ndarray, sel: np.ndarray, lu: LU | SparseLU) -> None:
         self.mask = mask
         self.sel = sel
         self.lu = lu
@@ -59,12 +61,17 @@ class ModeCache:
         size: maximum number of cached modes (>= 1).
         stats: dict whose ``cache_hits``, ``cache_misses``, ``factorisations`` and
             ``evictions`` counters are incremented.
+        K_sparse: the same ``K`` as a sparse matrix, when the input was sparse: bordered
+            systems of :data:`~circuitnsds.solvers._sparse.SPARSE_MIN` unknowns or more
+            are then factorised with SuperLU.
     """
 
-    def __init__(self, K: np.ndarray, n: int, size: int, stats: dict[str, int]) -> None:
+    def __init__(self, K: np.ndarray, n: int, size: int, stats: dict[str, int],
+                 K_sparse=None) -> None:
         if size < 1:
             raise ValueError("cache_size must be >= 1")
         self._K = K
+        self._Ks = None if K_sparse is None else K_sparse.tocsr()
         self._n = n
         self._size = size
         self._modes: OrderedDict[bytes, Mode] = OrderedDict()
@@ -87,7 +94,10 @@ class ModeCache:
 
     def _insert(self, key: bytes, mask: np.ndarray) -> Mode:
         sel = np.concatenate([self._free, self._n + np.flatnonzero(mask)])
-        lu = factorise(self._K[np.ix_(sel, sel)])
+        if self._Ks is not None and sel.size >= SPARSE_MIN:
+            lu = factorise_sparse(self._Ks[sel][:, sel])
+        else:
+            lu = factorise(self._K[np.ix_(sel, sel)])
         self.stats["factorisations"] += 1
         mode = Mode(mask.copy(), sel, lu)
         self._modes[key] = mode

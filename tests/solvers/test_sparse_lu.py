@@ -1,0 +1,44 @@
+"""SparseLU (large bordered systems) against the dense LU it stands in for."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from circuitnsds.solvers._dense import factorise
+from circuitnsds.solvers._sparse import factorise_sparse
+
+
+def _sparse_matrix(rng: np.random.Generator, size: int, density: float, dominance: float) -> np.ndarray:
+    K = sp.random(size, size, density=density, random_state=rng, data_rvs=rng.standard_normal).toarray()
+    return K + np.diag(dominance * (np.abs(K).sum(axis=1) + 1.0) * rng.choice([-1.0, 1.0], size))
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), size=st.integers(1, 80), density=st.floats(0.0, 0.2),
+       dominance=st.floats(0.01, 2.0))
+def test_solves_and_condition_estimate_match_the_dense_lu(seed, size, density, dominance):
+    rng = np.random.default_rng(seed)
+    K = _sparse_matrix(rng, size, density, dominance)
+    dense, sparse = factorise(K), factorise_sparse(sp.csr_matrix(K))
+    b = rng.standard_normal((size, 3))
+    np.testing.assert_allclose(sparse.solve(b), dense.solve(b), rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(sparse.solve(b[:, 0]), dense.solve(b[:, 0]), rtol=1e-8, atol=1e-10)
+    # both are 1-norm estimates of the same quantity: within a factor of 10 of each other
+    assert dense.rcond / 10 <= sparse.rcond <= dense.rcond * 10
+    assert sparse.ok == dense.ok or min(sparse.rcond, dense.rcond) < 1e-13
+
+
+def test_singular_and_non_finite_matrices_are_not_ok():
+    K = np.eye(4)
+    K[2, 2] = 0.0
+    assert not factorise_sparse(sp.csr_matrix(K)).ok
+    K = np.eye(4)
+    K[1, 1] = np.inf
+    assert not factorise_sparse(sp.csr_matrix(K)).ok
+    K = np.eye(4)
+    K[3] = K[0]  # two equal rows, structurally non-zero
+    K[3, 3] = 0.0
+    assert not factorise_sparse(sp.csr_matrix(K)).ok
