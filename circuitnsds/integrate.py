@@ -43,14 +43,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
 from circuitnsds.errors import SimulationError
-from circuitnsds.kernel import ModeMap, ModeTable, SparseModeMap, run_sparse_mode, run_table
+from circuitnsds.kernel import STOP_LEFT_MODE, ModeMap, ModeTable, SparseModeMap, run_sparse_mode, run_table
 from circuitnsds.mlcs import MLCS
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
 from circuitnsds.solvers._dense import factorise
+from circuitnsds.solvers._sparse import factorise_sparse
 from circuitnsds.sparse_kernel import compile_sparse_map, run_compiled_sparse
 from circuitnsds.sparse_kernel import compiled as sparse_compiled
 
@@ -79,7 +79,7 @@ class Trajectory:
         current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial).
         impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0).
         residual: scaled complementarity residual of each step solved as an MLCP;
-            0 for a step taken by the mode map, whose signs are checked exactly.
+            0 for a step taken by the mode map (its signs are checked, see :mod:`circuitnsds.kernel`).
         active: active set of each step, shape ``(N, m)``.
         switches: state (closed = true) of each switch during the step ending at
             each point, shape ``(N, number of switches)`` (row 0: the initial state).
@@ -165,6 +165,7 @@ def integrate(
     stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0,
              "mapped_seconds": 0.0}
     used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
+    left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
 
     k = 0
     while k < count - 1:
@@ -175,7 +176,7 @@ def integrate(
             # time the switches were in this state (the other phase of a converter)
             guess = last_active.get(states[k + 1].tobytes(), guess)
         cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
-        if k > 0 and guess is not None:
+        if k > 0 and guess is not None and k != left_mode_at:
             k_end = min(count - 1, k + CHUNK)
             if stepping.dense:
                 mode = stepping.dense_mode(k, cls, states[k + 1], guess)
@@ -183,7 +184,7 @@ def integrate(
                 entered = wallclock.perf_counter()  # mapped_seconds: stepping, not building maps
                 if mode is not None:
                     table = stepping.table
-                    done, _, last = run_table(table, mode, cls, k, k_end, y, current, stepping.sources,
+                    done, reason, last = run_table(table, mode, cls, k, k_end, y, current, stepping.sources,
                                               stepping.step_class, stepping.sched_state,
                                               stepping.free_id(states[k + 1]),
                                               *stepping.free_switch_arrays(states[k + 1]), used,
@@ -201,14 +202,17 @@ def integrate(
                     arguments = (k, last_step, y, current, stepping.sources, stepping.step_class,
                                  stepping.sched_state, *stepping.free_switch_arrays(states[k + 1]))
                     if compiled and sparse_compiled():
-                        done, _ = run_compiled_sparse(mode.compiled, *arguments)
+                        done, reason = run_compiled_sparse(mode.compiled, *arguments)
                     else:
-                        done, _ = run_sparse_mode(mode, *arguments)
+                        done, reason = run_sparse_mode(mode, *arguments)
                     active[k + 1:done + 1] = guess
             stats["mapped_seconds"] += wallclock.perf_counter() - entered
+            # the loop stopped because step `done` leaves its mode: the MLCP solves that step
+            left_mode_at = done if mode is not None and reason == STOP_LEFT_MODE else -1
             if done > k:
-                if not np.isfinite(y[done]).all():  # once NaN/inf, it stays
-                    bad = k + 1 + int(np.argmin(np.isfinite(y[k + 1:done + 1]).all(axis=1)))
+                finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
+                if not finite.all():
+                    bad = k + 1 + int(np.argmin(finite))
                     raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
                                    residual, active, states, stats)
                 states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
@@ -306,7 +310,7 @@ class _Stepping:
 
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
-        return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 or k == 0 else 0)
+        return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 else 0)
 
     def theta_of(self, cls: int) -> float:
         return 1.0 if cls >= self.sizes else self.theta
@@ -437,8 +441,7 @@ class _Stepping:
         P, Q1 = solution[:, :n], solution[:, n:n + kstim]
         Q0, c = solution[:, n + kstim:n + 2 * kstim], solution[:, -1]
         W = np.hstack([C[inact], D[np.ix_(inact, act)]])
-        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64),
-                       inactive=inact.astype(np.int64))
+        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64))
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> SparseModeMap | None:
@@ -449,20 +452,22 @@ class _Stepping:
         h = self.grid[k + 1] - self.grid[k]
         B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
         bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
-        try:
-            # minimum degree on A + Aᵀ: the same fill as the default COLAMD on a ladder, but
-            # triangular solves ~1.5x faster (shorter chains of dependent rows)
-            lu = spla.splu(bordered, permc_spec="MMD_AT_PLUS_A")
-        except RuntimeError:  # exactly singular
+        # SuperLU with a minimum degree ordering on A + Aᵀ (the same fill as COLAMD on a ladder,
+        # triangular solves ~1.5x faster) and the MLCP solver's test of singularity
+        lu = factorise_sparse(bordered)
+        if not lu.ok:
             return None
         implicit = 1.0 - step.weights
         S = mlcs.S.tocsr()
         mode = SparseModeMap(
-            lu=lu, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
+            lu=lu.factors, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
             S_next=(sp.diags(step.weights) @ S).tocsr(), S_now=(sp.diags(implicit) @ S).tocsr(),
             rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
             e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
-        mode.compiled = compile_sparse_map(mode)  # the same map as plain arrays, for the compiled loop
+        try:
+            mode.compiled = compile_sparse_map(mode)  # the same map as plain arrays, for the compiled loop
+        except ValueError:  # a zero or non-finite pivot: leave such a mode to the MLCP solver
+            return None
         return mode
 
     def counters(self) -> dict[str, int]:

@@ -7,17 +7,23 @@ step size stay the same, one θ-method step is an affine map
 
 (``f`` the sources' values, ``λ_α = μ_α/h`` the currents of the active pairs),
 valid as long as ``λ_α >= 0`` and the inactive pairs' ``w = W x + e_w >= 0``:
-then ``x`` *is* the step's MLCP solution (the equations hold by construction,
-complementarity is checked exactly).
+then ``x`` *is* the step's MLCP solution (the equations hold by construction, up
+to the rounding of the products). A sign counts as holding when the value is
+``>= 0`` or negative by less than :data:`SIGN_TOL` times the sum of the
+magnitudes of the terms that make it up: rounding noise, as for a diode at zero
+current on both sides. The MLCP solver accepts a guessed mode by a test of the
+same kind (:meth:`circuitnsds.solvers.MLCPSolver._signs_hold`), measured against
+the rows of the step matrix instead, so in such degenerate cases the two may
+settle a pair on different sides within that tolerance.
 
 A :class:`ModeTable` keeps the maps of every mode seen so far, padded into
 arrays indexed by mode. :func:`run_table` applies them step after step. When
 the step size class or the state of the source-scheduled switches changes, it
 continues with the mode that class and switch state had the last time. It
-returns to the caller when a step's signs fail (the caller solves that step as
-an MLCP, which decides the new mode exactly as a step outside the loop would),
-when no mode is stored for the step, when a state-controlled switch must
-change, or at the end. A converter thus runs its thousands of periods in one
+returns to the caller when a step's signs fail with that mode (the caller solves
+that step as an MLCP, which decides the new mode), when no mode is stored for
+the step's class and switch state, when a state-controlled switch must change,
+or at the end. A converter thus runs its thousands of periods in one
 call once both phases' modes are known.
 
 The loop is compiled with numba when it is installed. ``compiled=False`` runs
@@ -32,16 +38,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from circuitnsds.solvers.mlcp import SIGN_TOL
+
 try:  # numba makes the loop ~50x faster; nothing else depends on it
     from numba import njit
 except ImportError:  # pragma: no cover - the Python loop is tested with compiled=False
     njit = None
 
-SIGN_TOL = 1e-7
-"""Relative tolerance of the sign checks (the MLCP solver's, :data:`circuitnsds.solvers.mlcp.SIGN_TOL`)."""
 
-STOP_NO_MODE = 0
-"""Step ``k`` fits none of the table's modes (nothing written for it)."""
+STOP_LEFT_MODE = 0
+"""Step ``k`` leaves its mode: a sign fails (nothing written for it)."""
+STOP_NO_MODE = 4
+"""No mode is stored for the class and switch state of step ``k`` (nothing written for it)."""
 STOP_SWITCH = 1
 """A state-controlled switch must change after step ``k - 1``."""
 STOP_END = 3
@@ -60,7 +68,7 @@ class ModeMap:
     Attributes:
         P: ``(n + a, n)``; Q1, Q0: ``(n + a, k)``; c: ``(n + a,)``.
         W: ``(m - a, n + a)`` and e_w ``(m - a,)``: the inactive pairs' ``w``.
-        active: indices of the active pairs (``a`` of them); inactive: the others.
+        active: indices of the active pairs (``a`` of them).
     """
 
     P: np.ndarray
@@ -70,7 +78,6 @@ class ModeMap:
     W: np.ndarray
     e_w: np.ndarray
     active: np.ndarray
-    inactive: np.ndarray
 
 
 class ModeTable:
@@ -199,7 +206,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
                 P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free,
                 last_used, count, controls, on_threshold, off_threshold, switch_on, used, x):
     """Step from ``k0`` (with mode ``mode`` first, ``class0`` the class of step ``k0``) until
-    no stored mode fits, a state-controlled switch changes, or ``k_end``.
+    a step leaves its mode or has none stored, a state-controlled switch changes, or ``k_end``.
 
     Returns ``(k, reason, last)``: steps ``k0 .. k-1`` are done (``y[k0+1 .. k]``, the
     active columns of ``z[k0+1 .. k]``, the pair currents, and ``used[k0+1 .. k]``, the
@@ -223,7 +230,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
             if mode < 0:
                 return k, STOP_NO_MODE, last
         if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
-            return k, STOP_NO_MODE, last  # the caller's MLCP finds the new mode
+            return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
         y[k + 1, :] = x[:n]
         for r in range(n, rows[mode]):
             z[k + 1, active[mode, r - n]] = x[r]
@@ -303,7 +310,7 @@ def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, cur
     """Apply one sparse mode from step ``k0`` until it is left; returns ``(k, reason)``.
 
     Steps ``k0 .. k-1`` are done (``y`` and the active columns of ``current`` written).
-    ``reason``: :data:`STOP_NO_MODE` step ``k`` left the mode, :data:`STOP_SWITCH`,
+    ``reason``: :data:`STOP_LEFT_MODE` step ``k`` left the mode, :data:`STOP_SWITCH`,
     :data:`STOP_SCHEDULE` the step class or scheduled switch state changes at ``k``,
     :data:`STOP_END`.
     """
@@ -317,7 +324,7 @@ def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, cur
         rhs[:n] = mode.carry @ y[k] + mode.S_next @ F[k + 1] + mode.S_now @ F[k]
         x = mode.lu.solve(rhs)
         if (x[n:] < 0.0).any() or (mode.W @ x + mode.e_w < 0.0).any():
-            return k, STOP_NO_MODE
+            return k, STOP_LEFT_MODE
         y[k + 1] = x[:n]
         current[k + 1, mode.active] = x[n:]
         k += 1

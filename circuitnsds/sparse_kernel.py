@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from circuitnsds.kernel import STOP_END, STOP_NO_MODE, STOP_SCHEDULE, STOP_SWITCH, SparseModeMap
+from circuitnsds.kernel import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH, SparseModeMap
 
 try:  # numba is optional here as in circuitnsds.kernel: without it the loop runs in Python
     from numba import njit
@@ -205,7 +205,7 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
                      on_threshold, off_threshold, switch_on):
     """Step the factorised mode from ``k0``; returns ``(k, reason)`` exactly as
     :func:`circuitnsds.kernel.run_sparse_mode` does (``k`` the first grid point not
-    computed; ``reason`` one of ``STOP_NO_MODE``, ``STOP_SWITCH``, ``STOP_SCHEDULE``,
+    computed; ``reason`` one of ``STOP_LEFT_MODE``, ``STOP_SWITCH``, ``STOP_SCHEDULE``,
     ``STOP_END``).
 
     The matrices are CSR triples (see :class:`CompiledSparseMap`), the free switches'
@@ -241,13 +241,13 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
                        perm_c)
         for r in range(n, size):
             if x[r] < 0.0:
-                return k, STOP_NO_MODE
+                return k, STOP_LEFT_MODE
         for r in range(nw):
             acc = 0.0
             for p in range(W_indptr[r], W_indptr[r + 1]):
                 acc += W_data[p] * x[W_indices[p]]
             if acc + e_w[r] < 0.0:
-                return k, STOP_NO_MODE
+                return k, STOP_LEFT_MODE
         for j in range(n):
             y[k + 1, j] = x[j]
         for r in range(pairs):

@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, MutableMapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 
-class LazySignals(Mapping):
+class LazySignals(MutableMapping):
     """Signal name -> values, each computed the first time it is read, then kept.
 
     A transient run returns its signals this way: a run of a million steps that
     writes one signal computes one column, not every output of the circuit.
-    ``dict(signals)`` computes them all.
+    ``dict(signals)`` computes them all; so does pickling (it pickles as a dict).
+    Signals may be added, replaced or deleted as in a dict.
     """
 
     def __init__(self, names: Iterable[str], compute: Callable[[str], np.ndarray]):
@@ -30,11 +31,27 @@ class LazySignals(Mapping):
             self._values[name] = self._compute(name)
         return self._values[name]
 
+    def __setitem__(self, name: str, values: np.ndarray) -> None:
+        if name not in self._known:
+            self._names.append(name)
+            self._known.add(name)
+        self._values[name] = values
+
+    def __delitem__(self, name: str) -> None:
+        if name not in self._known:
+            raise KeyError(name)
+        self._names.remove(name)
+        self._known.discard(name)
+        self._values.pop(name, None)
+
     def __iter__(self) -> Iterator[str]:
-        return iter(self._names)
+        return iter(list(self._names))
 
     def __len__(self) -> int:
         return len(self._names)
+
+    def __reduce__(self):
+        return dict, (dict(self),)
 
     def __repr__(self) -> str:
         return f"LazySignals({self._names!r}, computed: {sorted(self._values)!r})"

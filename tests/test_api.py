@@ -35,3 +35,24 @@ def test_transient_overrides_and_waveforms_access():
 def test_mlcs_is_printable():
     text = str(circuitnsds.read_netlist(NETLISTS / "bridge_rectifier.cir").mlcs())
     assert "m = 4 complementarity pairs" in text and "d1, d2, d3, d4" in text
+
+
+def test_signals_are_computed_when_read_and_behave_as_a_dict():
+    """A transient's signals are a LazySignals: each column is computed on first access (the
+    values themselves are checked by every other test), can be replaced, added or deleted
+    like a dict entry, and the whole thing pickles as a plain dict."""
+    import pickle
+
+    circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
+    waves = circuit.transient()
+    signals = waves.signals
+    assert not signals._values  # nothing computed yet
+    out = waves["v(out)"]
+    assert list(signals._values) == ["v(out)"]
+    restored = pickle.loads(pickle.dumps(waves))
+    assert isinstance(restored.signals, dict) and list(restored.signals) == list(signals)
+    np.testing.assert_array_equal(restored["v(out)"], out)
+    signals["twice"] = 2 * out
+    assert "twice" in waves and waves.names[-1] == "twice"
+    del signals["twice"]
+    assert "twice" not in waves

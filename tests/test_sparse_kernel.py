@@ -20,7 +20,7 @@ from circuitnsds import sparse_kernel
 from circuitnsds.kernel import SparseModeMap, run_sparse_mode
 from circuitnsds.sparse_kernel import (
     STOP_END,
-    STOP_NO_MODE,
+    STOP_LEFT_MODE,
     STOP_SCHEDULE,
     STOP_SWITCH,
     CompiledSparseMap,
@@ -169,7 +169,7 @@ def build_case(seed: int, scenario: str, *, n: int = 24, a: int = 4, inactive: i
     switch_on = np.zeros(0, dtype=bool)
     middle = (steps - k0) // 2  # steps after k0 at which the watched check fires
     rate = 0.0
-    expected = {"end": STOP_END, "pair": STOP_NO_MODE, "w": STOP_NO_MODE, "switch_off": STOP_SWITCH,
+    expected = {"end": STOP_END, "pair": STOP_LEFT_MODE, "w": STOP_LEFT_MODE, "switch_off": STOP_SWITCH,
                 "switch_on": STOP_SWITCH, "step_class": STOP_SCHEDULE, "schedule": STOP_SCHEDULE}[scenario]
     if scenario == "pair":  # λ_r ≈ (rhs_r - y_0)/D_rr turns negative about the middle
         r = int(rng.integers(a))
@@ -264,7 +264,7 @@ def test_pair_leaving_writes_nothing_for_that_step():
     case = build_case(11, "pair")
     reference, result, (y_ref, _), (y, _) = run_both(case)
     k, reason = result
-    assert reason == STOP_NO_MODE and result == reference
+    assert reason == STOP_LEFT_MODE and result == reference
     assert (y[k + 1:] == SENTINEL).all() and (y[k] != SENTINEL).all()
 
 
@@ -275,7 +275,7 @@ def test_empty_run_and_first_step_leaving():
     case = build_case(2, "w")
     case["mode"].e_w[0] = -1.0  # w < 0 already at the first step
     reference, result, *_ = run_both(case)
-    assert reference == result == (case["k0"], STOP_NO_MODE)
+    assert reference == result == (case["k0"], STOP_LEFT_MODE)
 
 
 def test_schedule_change_only_counts_after_k0():

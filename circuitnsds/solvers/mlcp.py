@@ -545,6 +545,9 @@ class MLCPSolver:
         for trial in range(1, TRIALS + 1):
             mode = self._cache.get(pivoting.mask)
             if not mode.lu.ok:
+                if trial == 1 and start.any():  # a singular guess: start from no pair active
+                    pivoting = BlockPivoting(np.zeros(self.m, dtype=bool))
+                    continue
                 return None
             x, w, res, scale = self._try_mode(mode, c)
             if not np.isfinite(res):

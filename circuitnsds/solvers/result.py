@@ -42,9 +42,9 @@ class LCPResult:
         active: boolean mask, ``True`` where ``w_i == 0`` is imposed and ``z_i``
             carries the value.
         method: the method(s) actually used, e.g. ``"lemke"``, ``"direct"``,
-            ``"direct->lemke"``, ``"lemke->enum"``.
-        iterations: Lemke pivots, Newton iterations, or active sets tried by
-            enumeration; 0 for a direct (mode reuse) solve.
+            ``"direct->lemke"``, ``"lemke->enum"``, ``"direct->pivoting"``.
+        iterations: Lemke pivots, Newton iterations, active sets tried by
+            enumeration or pivoting trials; 0 for a direct (mode reuse) solve.
         residual: scaled residual (see :func:`circuitnsds.solvers.residual.lcp_residual`).
     """
 

@@ -7,7 +7,6 @@ Lemke's, and it must satisfy complementarity on its own.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -68,10 +67,11 @@ def test_block_rule_switches_to_single_pair_when_it_would_cycle():
     assert pivoting.mask.tolist() == [True, False, False, True]
 
 
-@pytest.mark.parametrize("m", [PIVOTING_MIN_PAIRS - 1])
-def test_small_problems_do_not_pivot(m):
+def test_small_problems_do_not_pivot():
+    m = PIVOTING_MIN_PAIRS - 1
     rng = np.random.default_rng(3)
     A, C, D, B, a, b = _mixed_problem(rng, 3, m, "pd")
     solver = MLCPSolver(A, C, D, B)
-    solver.solve(a, b, np.zeros(m, dtype=bool))
-    assert solver.stats["pivoting_solves"] == 0
+    result = solver.solve(a, b, ~np.zeros(m, dtype=bool))  # all active: wrong for this q
+    assert solver.stats["fallbacks"] == 1 and solver.stats["lemke_fallbacks"] == 1
+    assert solver.stats["pivoting_solves"] == 0 and result.method == "direct->lemke"

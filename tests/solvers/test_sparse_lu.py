@@ -42,3 +42,13 @@ def test_singular_and_non_finite_matrices_are_not_ok():
     K[3] = K[0]  # two equal rows, structurally non-zero
     K[3, 3] = 0.0
     assert not factorise_sparse(sp.csr_matrix(K)).ok
+
+
+def test_condition_estimate_is_deterministic_and_leaves_numpy_random_alone():
+    rng = np.random.default_rng(11)
+    K = sp.csr_matrix(_sparse_matrix(rng, 60, 0.05, 0.3))
+    np.random.seed(5)
+    before = np.random.get_state()[1].copy()
+    estimates = {factorise_sparse(K).rcond for _ in range(3)}
+    assert len(estimates) == 1
+    np.testing.assert_array_equal(np.random.get_state()[1], before)
