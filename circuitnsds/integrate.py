@@ -207,8 +207,12 @@ def integrate(
                         done, reason = run_sparse_mode(mode, *arguments)
                     active[k + 1:done + 1] = guess
             stats["mapped_seconds"] += wallclock.perf_counter() - entered
-            # the loop stopped because step `done` leaves its mode: the MLCP solves that step
-            left_mode_at = done if mode is not None and reason == STOP_LEFT_MODE else -1
+            # step `done` left the mode it continued with (same class and switch state as the
+            # step before): the MLCP solves it. After a change the loop tried the mode stored
+            # for the new state; the guess below (the set last seen with it) may differ.
+            left_mode_at = done if (mode is not None and reason == STOP_LEFT_MODE and done > k and
+                                    stepping.step_class[done] == stepping.step_class[done - 1] and
+                                    stepping.sched_state[done] == stepping.sched_state[done - 1]) else -1
             if done > k:
                 finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
                 if not finite.all():

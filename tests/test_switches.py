@@ -419,3 +419,13 @@ def test_mode_table_grows_and_starts_afresh_when_full():
     assert table.find(keys[1]) == 1
     assert table.add(keys[3], mode(3.0)) == 0  # full: starts afresh
     assert table.count == 1 and table.find(keys[1]) is None and table.P[0, 0, 0] == 3.0
+
+
+@pytest.mark.parametrize("theta", [1.0, 0.5])
+def test_converter_stays_in_the_mode_loop(theta):
+    """Once both phases' modes are known the buck converter's periods run in the mode table:
+    only the first periods (and the start-up transient) solve MLCPs. A regression here (an
+    MLCP at every switching) once made the benchmark 6x slower with the same waveforms."""
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    stats = circuit.transient(theta=theta).stats
+    assert stats["mlcp_steps"] < 0.005 * stats["steps"], stats
