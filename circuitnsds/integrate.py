@@ -46,13 +46,17 @@ import scipy.sparse as sp
 from scipy.linalg import lapack
 
 from circuitnsds.errors import SimulationError
-from circuitnsds.kernel import STOP_LEFT_MODE, ModeMap, ModeTable, SparseModeMap, run_sparse_mode, run_table
+from circuitnsds.kernel import STOP_LEFT_MODE, ModeMap, ModeTable, run_table
 from circuitnsds.mlcs import MLCS
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
 from circuitnsds.solvers._dense import factorise
 from circuitnsds.solvers._sparse import factorise_sparse
-from circuitnsds.sparse_kernel import compile_sparse_map, run_compiled_sparse
-from circuitnsds.sparse_kernel import compiled as sparse_compiled
+from circuitnsds.sparse_kernel import (
+    CompiledSparseMap,
+    SparseModeMap,
+    compile_sparse_map,
+    run_compiled_sparse,
+)
 
 SOLVER_CACHE_SIZE = 32
 """How many (step size, switch states) keep their MLCP solver (and its factorisations)."""
@@ -201,10 +205,7 @@ def integrate(
                     last_step = k + 1 if cls != stepping.step_class[k] else k_end
                     arguments = (k, last_step, y, current, stepping.sources, stepping.step_class,
                                  stepping.sched_state, *stepping.free_switch_arrays(states[k + 1]))
-                    if compiled and sparse_compiled():
-                        done, reason = run_compiled_sparse(mode.compiled, *arguments)
-                    else:
-                        done, reason = run_sparse_mode(mode, *arguments)
+                    done, reason = run_compiled_sparse(mode, *arguments, use_compiled=compiled)
                     active[k + 1:done + 1] = guess
             stats["mapped_seconds"] += wallclock.perf_counter() - entered
             # step `done` left the mode it continued with (same class and switch state as the
@@ -309,7 +310,7 @@ class _Stepping:
         self.table = (ModeTable(mlcs.n, mlcs.m, len(mlcs.stimuli), most=MODE_CACHE_SIZE)
                       if self.dense else None)
         self.unmappable: set[tuple] = set()
-        self.modes: dict[tuple, SparseModeMap | None] = {}
+        self.modes: dict[tuple, CompiledSparseMap | None] = {}
         self.built = 0
 
     def restart_class(self, k: int) -> int:
@@ -407,7 +408,8 @@ class _Stepping:
             return None
         return self.table.add(key, mode)
 
-    def sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> SparseModeMap | None:
+    def sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
+                    ) -> CompiledSparseMap | None:
         """The factorised step map of the mode of step ``k`` (large circuits)."""
         key = (cls, states.tobytes(), guess.tobytes())
         mode = self.modes.get(key, False)
@@ -448,7 +450,7 @@ class _Stepping:
         return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64))
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
-                           ) -> SparseModeMap | None:
+                           ) -> CompiledSparseMap | None:
         mlcs, n = self.mlcs, self.mlcs.n
         act = np.flatnonzero(guess)
         inact = np.flatnonzero(~guess)
@@ -469,10 +471,9 @@ class _Stepping:
             rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
             e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
         try:
-            mode.compiled = compile_sparse_map(mode)  # the same map as plain arrays, for the compiled loop
+            return compile_sparse_map(mode)  # plain arrays, for the compiled loop
         except ValueError:  # a zero or non-finite pivot: leave such a mode to the MLCP solver
             return None
-        return mode
 
     def counters(self) -> dict[str, int]:
         totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",

@@ -1,43 +1,39 @@
-"""A compiled stepping loop for the sparse (factorised) modes of large circuits.
+"""The stepping loop for the sparse (factorised) modes of large circuits.
 
-:func:`circuitnsds.kernel.run_sparse_mode` runs a :class:`~circuitnsds.kernel.SparseModeMap`
-in a Python loop: every step makes three scipy sparse products, one SuperLU
-``solve`` and a handful of numpy temporaries. For a 1000-section diode-RC
-ladder (2003 unknowns and active pairs) that is ~180 µs per step, ~150 µs of
-it inside SuperLU's ``solve`` itself (its supernodal triangular solves are
-slow when the supernodes are tiny, as in a ladder), the rest call overhead.
+A mode of a circuit with more than ``DENSE_MAP_LIMIT`` unknowns and pairs is kept
+as a SuperLU factorisation of its bordered matrix (:class:`SparseModeMap`). Run
+as Python around scipy (three sparse products, one SuperLU ``solve`` and a few
+numpy temporaries per step), a 1000-section diode-RC ladder (2003 unknowns and
+active pairs) cost ~180 µs per step, ~150 µs of it inside SuperLU's ``solve``
+(its supernodal triangular solves are slow when the supernodes are tiny).
 
-This module takes the same mode apart into plain arrays
-(:class:`CompiledSparseMap`: CSR matrices, the SuperLU factors ``L`` and ``U``
-and their permutations) once, with :func:`compile_sparse_map`, and runs the
-identical loop as scalar code compiled by numba (:func:`run_compiled_sparse`).
-One step is then
+This module takes the mode apart into plain arrays (:class:`CompiledSparseMap`:
+CSR matrices, the SuperLU factors ``L`` and ``U`` and their permutations) once,
+with :func:`compile_sparse_map`, and runs the loop as scalar code compiled by
+numba (:func:`run_compiled_sparse`). One step is then
 
 * the right-hand side ``carry·y_k + S_next·f_{k+1} + S_now·f_k`` (CSR products),
   scattered straight into SuperLU's row order;
 * a forward substitution with the unit lower triangle ``L`` and a back
   substitution with ``U``, then SuperLU's column permutation;
-* the complementarity checks ``λ_α >= 0`` and ``W·x + e_w >= 0`` (CSR product),
-  and the free switches' controls (kept as CSR too);
+* the complementarity checks ``λ_α >= 0`` and ``W·x + e_w >= 0`` (CSR product,
+  strict signs), and the free switches' controls (kept as CSR too);
 
 so its cost is proportional to ``nnz(L) + nnz(U) + nnz(carry) + nnz(S_next) +
 nnz(S_now) + nnz(W) + nnz(controls)`` plus the size, with no allocation per
-step (two work vectors are allocated once per call): ~10 µs per 1000 unknowns
-for the ladder, 7-20x faster than the Python loop. The triangular solves
-dominate; they are bound by the latency of their chain of dependent
-operations (~7 ns per row for a ladder), not by the number of operations.
+step: ~10 µs per 1000 unknowns for the ladder. The triangular solves dominate;
+they are bound by the latency of their chain of dependent operations (~7 ns per
+row for a ladder), not by the number of operations.
 
 SuperLU's convention (checked numerically by the tests): with
 ``Pr[perm_r[i], i] = 1`` and ``Pc[i, perm_c[i]] = 1``, ``Pr·A·Pc = L·U``. So
 ``A·x = b`` is solved by ``c[perm_r[i]] = b[i]``, ``L·U·z = c``,
 ``x[i] = z[perm_c[i]]``.
 
-The arithmetic is the same as ``run_sparse_mode``'s up to the summation order
-inside the triangular solves (SuperLU works by supernodes) and a multiplication
-by the reciprocal of ``U``'s pivots instead of a division, so results agree to
-rounding (~1e-15 relative on the ladder), not bit for bit. Without numba the same scalar loop runs in
-Python: correct but much slower than ``run_sparse_mode``, which callers should
-then prefer (see :func:`compiled`).
+The results agree with SuperLU's own ``solve`` to rounding (~1e-15 relative on
+the ladder; the tests compare the loop with a plain scipy one), not bit for bit:
+SuperLU sums by supernodes, and the loop multiplies by the reciprocals of ``U``'s
+pivots. ``use_compiled=False`` (or no numba) runs the same scalar loop in Python.
 """
 
 from __future__ import annotations
@@ -47,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from circuitnsds.kernel import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH, SparseModeMap
+from circuitnsds.kernel import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH
 
 try:  # numba is optional here as in circuitnsds.kernel: without it the loop runs in Python
     from numba import njit
@@ -55,8 +51,28 @@ except ImportError:  # pragma: no cover - numba is a dependency; the fallback is
     njit = None
 
 @dataclass
+class SparseModeMap:
+    """The step map of one mode of a large circuit, kept factorised (sparse LU).
+
+    Each step solves ``bordered · x = [carry·y_k + Sw f_{k+1} + Si f_k; -e_α]``: the
+    cost grows with the number of non-zeros, not with the square of the size.
+    :func:`compile_sparse_map` takes it apart into the arrays the loop runs on.
+    """
+
+    lu: object
+    carry: object
+    S_next: object
+    S_now: object
+    rhs_pairs: np.ndarray
+    W: object
+    e_w: np.ndarray
+    active: np.ndarray
+    n: int
+
+
+@dataclass
 class CompiledSparseMap:
-    """A :class:`~circuitnsds.kernel.SparseModeMap` as plain numpy arrays.
+    """A :class:`SparseModeMap` as plain numpy arrays.
 
     Every matrix is CSR: ``<name>_indptr`` (int64, rows + 1), ``<name>_indices``
     (int64 column indices, sorted within a row) and ``<name>_data`` (float64).
@@ -203,10 +219,8 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
                      perm_r, perm_c, rhs_pairs, e_w, active,
                      controls_indptr, controls_indices, controls_data,
                      on_threshold, off_threshold, switch_on):
-    """Step the factorised mode from ``k0``; returns ``(k, reason)`` exactly as
-    :func:`circuitnsds.kernel.run_sparse_mode` does (``k`` the first grid point not
-    computed; ``reason`` one of ``STOP_LEFT_MODE``, ``STOP_SWITCH``, ``STOP_SCHEDULE``,
-    ``STOP_END``).
+    """Step the factorised mode from ``k0``; returns ``(k, reason)`` as described in
+    :func:`run_compiled_sparse` (``k`` the first grid point not computed).
 
     The matrices are CSR triples (see :class:`CompiledSparseMap`), the free switches'
     ``controls`` too. Writes ``y[k0+1 .. k]`` and the active columns of
@@ -224,7 +238,7 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
         if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
             return k, STOP_SCHEDULE
         for i in range(n):
-            # three sums added as run_sparse_mode adds its three products
+            # the three products summed in the order scipy's would be
             a = 0.0
             for p in range(carry_indptr[i], carry_indptr[i + 1]):
                 a += carry_data[p] * y[k, carry_indices[p]]
@@ -273,8 +287,7 @@ else:  # pragma: no cover
 
 
 def compiled() -> bool:
-    """Whether :func:`run_compiled_sparse` runs compiled (numba installed). Without numba
-    :func:`circuitnsds.kernel.run_sparse_mode` is the faster choice."""
+    """Whether :func:`run_compiled_sparse` runs compiled (numba installed)."""
     return _compiled is not None
 
 
@@ -309,10 +322,13 @@ _NO_CONTROLS = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zer
 def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
                         F: np.ndarray, step_class: np.ndarray, schedule: np.ndarray,
                         controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
-                        switch_on: np.ndarray) -> tuple[int, int]:
-    """:func:`circuitnsds.kernel.run_sparse_mode` for a :class:`CompiledSparseMap`, compiled.
+                        switch_on: np.ndarray, use_compiled: bool = True) -> tuple[int, int]:
+    """Apply one sparse mode from step ``k0`` until it is left; returns ``(k, reason)``.
 
-    Same arguments (but the map) and result ``(k, reason)``: steps ``k0 .. k-1`` are
+    ``reason``: :data:`~circuitnsds.kernel.STOP_LEFT_MODE` step ``k`` left the mode,
+    ``STOP_SWITCH`` a state-controlled switch must change after step ``k - 1``,
+    ``STOP_SCHEDULE`` the step class or scheduled switch state changes at ``k``,
+    ``STOP_END`` ``k_end`` reached. Steps ``k0 .. k-1`` are
     done, ``y[k0+1 .. k]`` (float64, ``(grid points, n)``) and the active columns of
     ``current[k0+1 .. k]`` (the pair currents λ [A]) written. ``F`` holds the sources'
     values at every grid point, ``step_class`` and ``schedule`` one integer per step
@@ -334,7 +350,7 @@ def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndar
         csr = (controls_csr.indptr.astype(np.int64), controls_csr.indices.astype(np.int64), controls_csr.data)
     else:  # no state-controlled switch (the usual case): no scipy call on every entry
         csr = _NO_CONTROLS
-    loop = _compiled if _compiled is not None else _run_sparse_loop
+    loop = _compiled if use_compiled and _compiled is not None else _run_sparse_loop
     k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, *_map_arguments(cmap),
                      *csr, np.asarray(on_threshold, dtype=np.float64),
                      np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))

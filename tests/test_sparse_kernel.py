@@ -2,7 +2,8 @@
 
 Two properties: the triangular solves with SuperLU's factors taken apart equal
 ``lu.solve`` (which fixes the permutation convention), and ``run_compiled_sparse``
-stops where ``circuitnsds.kernel.run_sparse_mode`` stops, for the same reason,
+stops where ``run_sparse_mode`` (the same loop written plainly around scipy, below)
+stops, for the same reason,
 having written the same rows. The modes are built by hand from random sparse
 matrices (a decoupled integrator unknown ``y_0`` gives each stop a known cause).
 """
@@ -17,13 +18,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from circuitnsds import sparse_kernel
-from circuitnsds.kernel import SparseModeMap, run_sparse_mode
 from circuitnsds.sparse_kernel import (
     STOP_END,
     STOP_LEFT_MODE,
     STOP_SCHEDULE,
     STOP_SWITCH,
     CompiledSparseMap,
+    SparseModeMap,
     compile_sparse_map,
     run_compiled_sparse,
     solve_compiled,
@@ -31,6 +32,33 @@ from circuitnsds.sparse_kernel import (
 
 RTOL = 1e-12
 SENTINEL = -12345.678  # rows a loop must not write keep it (a value no step produces)
+
+
+def run_sparse_mode(mode: SparseModeMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
+                    F: np.ndarray, step_class: np.ndarray, schedule: np.ndarray,
+                    controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
+                    switch_on: np.ndarray) -> tuple[int, int]:
+    """The reference: the same loop written plainly around scipy (sparse products and
+    SuperLU's own ``solve``), against which the compiled loop is checked."""
+    n = mode.n
+    rhs = np.empty(n + mode.active.size)
+    rhs[n:] = mode.rhs_pairs
+    k = k0
+    while k < k_end:
+        if k > k0 and (step_class[k] != step_class[k0] or schedule[k] != schedule[k0]):
+            return k, STOP_SCHEDULE
+        rhs[:n] = mode.carry @ y[k] + mode.S_next @ F[k + 1] + mode.S_now @ F[k]
+        x = mode.lu.solve(rhs)
+        if (x[n:] < 0.0).any() or (mode.W @ x + mode.e_w < 0.0).any():
+            return k, STOP_LEFT_MODE
+        y[k + 1] = x[:n]
+        current[k + 1, mode.active] = x[n:]
+        k += 1
+        if controls.shape[0]:
+            value = controls @ y[k]
+            if (np.where(switch_on, value < off_threshold, value > on_threshold)).any():
+                return k, STOP_SWITCH
+    return k, STOP_END
 
 
 def random_sparse(rng: np.random.Generator, rows: int, cols: int, density: float, scale: float) -> np.ndarray:
