@@ -130,8 +130,8 @@ def integrate(
         tol: complementarity tolerance handed to the solver.
         progress: ``callback(t, t_end)``, called about twice a second (so never
             for runs shorter than half a second), and once at the end if it was called.
-        compiled: use the compiled mode loop when numba is installed (``False``:
-            the numpy loop, for comparison).
+        compiled: use the compiled mode loops when numba is installed (``False``:
+            the same loops in Python, for comparison).
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -166,8 +166,7 @@ def integrate(
     charge = charge0 if charge0 is not None else mlcs.E @ y[0]
     guess = active0
     last_active: dict[bytes, np.ndarray] = {}
-    stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0,
-             "mapped_seconds": 0.0}
+    stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0}
     used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
     left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
 
@@ -181,39 +180,13 @@ def integrate(
             guess = last_active.get(states[k + 1].tobytes(), guess)
         cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
         if k > 0 and guess is not None and k != left_mode_at:
-            k_end = min(count - 1, k + CHUNK)
-            if stepping.dense:
-                mode = stepping.dense_mode(k, cls, states[k + 1], guess)
-                done, last = k, mode
-                entered = wallclock.perf_counter()  # mapped_seconds: stepping, not building maps
-                if mode is not None:
-                    table = stepping.table
-                    done, reason, last = run_table(table, mode, cls, k, k_end, y, current, stepping.sources,
-                                              stepping.step_class, stepping.sched_state,
-                                              stepping.free_id(states[k + 1]),
-                                              *stepping.free_switch_arrays(states[k + 1]), used,
-                                              use_compiled=compiled)
-                    if done > k:
-                        active[k + 1:done + 1] = table.mask[used[k + 1:done + 1]]
-                        guess = table.mask[last].copy()
-            else:
-                mode = stepping.sparse_mode(k, cls, states[k + 1], guess)
-                done = k
-                entered = wallclock.perf_counter()
-                if mode is not None:
-                    # a θ = 1 restart step found at run time is one step of its own
-                    last_step = k + 1 if cls != stepping.step_class[k] else k_end
-                    arguments = (k, last_step, y, current, stepping.sources, stepping.step_class,
-                                 stepping.sched_state, *stepping.free_switch_arrays(states[k + 1]))
-                    done, reason = run_compiled_sparse(mode, *arguments, use_compiled=compiled)
-                    active[k + 1:done + 1] = guess
-            stats["mapped_seconds"] += wallclock.perf_counter() - entered
-            # step `done` left the mode it continued with (same class and switch state as the
-            # step before): the MLCP solves it. After a change the loop tried the mode stored
-            # for the new state; the guess below (the set last seen with it) may differ.
-            left_mode_at = done if (mode is not None and reason == STOP_LEFT_MODE and done > k and
-                                    stepping.step_class[done] == stepping.step_class[done - 1] and
-                                    stepping.sched_state[done] == stepping.sched_state[done - 1]) else -1
+            done, reason, guess = stepping.run_mapped(k, min(count - 1, k + CHUNK), cls, states[k + 1],
+                                                      guess, y, current, active, used, compiled)
+            # step `done` left the mode the loop continued with (same class and switch state
+            # as the step before): the MLCP solves it. After a change the loop tried the mode
+            # stored for the new state; the guess (the set last seen with it) may differ.
+            left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
+                                    and stepping.continues(done)) else -1
             if done > k:
                 finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
                 if not finite.all():
@@ -248,7 +221,7 @@ def integrate(
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
     if current0 is not None:
         current[0] = current0
-    stats.update(stepping.counters())
+    stats.update(stepping.counters(), mapped_seconds=stepping.mapped_seconds)
     stats["seconds"] = wallclock.perf_counter() - started
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
@@ -312,6 +285,7 @@ class _Stepping:
         self.unmappable: set[tuple] = set()
         self.modes: dict[tuple, CompiledSparseMap | None] = {}
         self.built = 0
+        self.mapped_seconds = 0.0
 
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
@@ -393,6 +367,47 @@ class _Stepping:
         except LCPError as exc:
             raise _step_failure(self.mlcs, self.grid[k], self.grid[k + 1], exc, guess,
                                 states) from None
+
+    def run_mapped(self, k: int, k_end: int, cls: int, states: np.ndarray, guess: np.ndarray,
+                   y: np.ndarray, current: np.ndarray, active: np.ndarray, used: np.ndarray,
+                   compiled: bool) -> tuple[int, int | None, np.ndarray]:
+        """Take steps ``k, k+1, ...`` (up to ``k_end``) with step maps, starting in the mode of
+        class ``cls``, switch ``states`` and active set ``guess``: the mode table (dense) or
+        one sparse mode. Writes ``y``, ``current`` and ``active`` of the steps done.
+
+        Returns ``(done, reason, guess)``: the first step not done, the loop's ``STOP_*``
+        code (``None`` when the mode has no map) and the active set of the last step done.
+        """
+        if self.dense:
+            mode = self.dense_mode(k, cls, states, guess)
+        else:
+            mode = self.sparse_mode(k, cls, states, guess)
+        if mode is None:
+            return k, None, guess
+        entered = wallclock.perf_counter()  # mapped_seconds: stepping, not building maps
+        free = self.free_switch_arrays(states)
+        if self.dense:
+            done, reason, last = run_table(self.table, mode, cls, k, k_end, y, current, self.sources,
+                                           self.step_class, self.sched_state, self.free_id(states),
+                                           *free, used, use_compiled=compiled)
+            active[k + 1:done + 1] = self.table.mask[used[k + 1:done + 1]]
+            if done > k:
+                guess = self.table.mask[last].copy()
+        else:
+            # a restart step found at run time (a state-controlled switch changed) is one
+            # step of its own: the steps after it are of the ordinary class
+            last_step = k + 1 if cls != self.step_class[k] else k_end
+            done, reason = run_compiled_sparse(mode, k, last_step, y, current, self.sources,
+                                               self.step_class, self.sched_state, *free,
+                                               use_compiled=compiled)
+            active[k + 1:done + 1] = guess
+        self.mapped_seconds += wallclock.perf_counter() - entered
+        return done, reason, guess
+
+    def continues(self, k: int) -> bool:
+        """Whether step ``k`` has the class and scheduled switch states of step ``k - 1``."""
+        return bool(self.step_class[k] == self.step_class[k - 1]
+                    and self.sched_state[k] == self.sched_state[k - 1])
 
     def dense_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> int | None:
         """Index in :attr:`table` of the mode (class, switch states, active set ``guess``) of
