@@ -261,11 +261,6 @@ _python_loop = types.FunctionType(_table_loop.__code__, {**globals(), "_try_mode
                                   "_python_loop")
 
 
-def compiled() -> bool:
-    """Whether the compiled loop is available (numba installed)."""
-    return _compiled is not None
-
-
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
               current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
               free_id: int, controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
