@@ -195,7 +195,7 @@ def run_case(data: bytes, directory: Path, cli: bool = False) -> str:
                                  f"input (without comment lines): {_shown(data)!r}\n"
                                  + traceback.format_exc()) from None
     if cli:
-        from circuitnsds.cli import main
+        from circuitnsds.cli.main import main
 
         stdout, stderr = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
@@ -222,8 +222,8 @@ def _init_worker(seeds: dict[str, bytes], directory: str) -> None:
         (_DIRECTORY / lib.name).write_bytes(lib.read_bytes())
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_BYTES, MEMORY_BYTES))
     import circuitnsds  # noqa: F401 - imported once per worker, not timed per case
-    import circuitnsds.cli  # noqa: F401
-    import circuitnsds.wellposed  # noqa: F401
+    import circuitnsds.checks.wellposed  # noqa: F401
+    import circuitnsds.cli.main  # noqa: F401
 
 
 class _Timeout(BaseException):  # not caught by the "except Exception" of run_case

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import circuitnsds
-from circuitnsds.rawfile import read_raw
+from circuitnsds.output.rawfile import read_raw
 
 HERE = Path(__file__).parent
 NETLISTS = HERE / "netlists"

@@ -16,11 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from circuitnsds import (
-    _blas,  # noqa: F401  (first: before numpy is imported)
-    measure,
-)
-from circuitnsds.circuit import Circuit, TranSpec
+from circuitnsds import _blas  # noqa: F401  (first: before numpy is imported)
+from circuitnsds.circuit.circuit import Circuit, TranSpec
 from circuitnsds.compare import compare  # the function; the subpackage stays importable by name
 from circuitnsds.errors import (
     CircuitError,
@@ -30,8 +27,9 @@ from circuitnsds.errors import (
     NetlistWarning,
     SimulationError,
 )
-from circuitnsds.mlcs import MLCS
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.output import measure
+from circuitnsds.output.waveforms import Waveforms
+from circuitnsds.system.mlcs import MLCS
 
 __version__ = "0.1.0"
 
@@ -53,8 +51,8 @@ def read_netlist(source: str | Path, *, strict: bool = False) -> Circuit:
     """
     from contextlib import nullcontext
 
-    from circuitnsds.elaborate import elaborate
     from circuitnsds.errors import strict_warnings
+    from circuitnsds.frontend.elaborate import elaborate
     from circuitnsds.netlist import load_netlist, load_netlist_text
 
     with strict_warnings() if strict else nullcontext():

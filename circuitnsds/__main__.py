@@ -2,6 +2,6 @@
 
 import sys
 
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 
 sys.exit(main())

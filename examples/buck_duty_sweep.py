@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import circuitnsds
-from circuitnsds import measure
+from circuitnsds.output import measure
 
 VIN, FSW, L, C, RLOAD = 12.0, 100e3, 100e-6, 100e-6, 5.0
 RON_SWITCH, VFWD, RON_DIODE, R_WINDING = 50e-3, 0.7, 20e-3, 50e-3

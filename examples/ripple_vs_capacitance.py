@@ -6,7 +6,7 @@ Run from the repository root::
 
 For each capacitance the netlist's C1 is replaced, the transient is run with
 ideal piecewise-linear diodes, and the last two mains periods give the mean
-output voltage and the peak-to-peak ripple (``circuitnsds.measure``). The
+output voltage and the peak-to-peak ripple (``circuitnsds.output.measure``). The
 textbook estimate ``ΔV ≈ V_out / (R_load · 2 f · C)`` is printed and drawn beside it.
 """
 
@@ -17,7 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import circuitnsds
-from circuitnsds import measure
+from circuitnsds.output import measure
 
 NETLIST = Path(__file__).resolve().parent.parent / "netlists" / "bridge_rectifier.cir"
 MAINS_HZ, LOAD_OHM = 50.0, 1e3

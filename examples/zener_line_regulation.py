@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import circuitnsds
-from circuitnsds import measure
+from circuitnsds.output import measure
 
 BV, RZ, RS, VMAX, RAMP = 5.1, 7.0, 100.0, 15.0, 10e-3
 LOADS = (250.0, 500.0, 1000.0)

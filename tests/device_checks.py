@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from circuitnsds.circuit import Circuit
-from circuitnsds.elements import Diode
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements import Diode
+from circuitnsds.output.waveforms import Waveforms
 
 
 def voltage(waves: Waveforms, node: str) -> np.ndarray:

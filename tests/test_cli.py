@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 from tests.conftest import NETLISTS
 
 

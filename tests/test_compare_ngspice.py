@@ -238,7 +238,7 @@ def test_cli_table_json_and_plots(tmp_path):
 
 
 def test_cli_reports_an_ngspice_failure_with_status_0(capsys):
-    from circuitnsds.cli import main
+    from circuitnsds.cli.main import main
 
     assert main(["compare", str(NETLISTS / "bridge_rectifier.cir"), "--n", "0.1", "--stop", "20m"]) == 0
     out = capsys.readouterr().out
@@ -251,7 +251,7 @@ def test_cli_reports_an_ngspice_failure_with_status_0(capsys):
     (["--n", "0"], "N=0 must be positive"),
 ])
 def test_cli_errors_are_one_message(args, message, capsys):
-    from circuitnsds.cli import main
+    from circuitnsds.cli.main import main
 
     assert main(["compare", str(NETLISTS / "half_wave_rectifier.cir"), *args]) == 1
     err = capsys.readouterr().err

@@ -208,7 +208,7 @@ def test_bad_overrides_are_refused():
 
 
 def test_missing_pyspice_is_one_message_with_the_install_command(tmp_path):
-    code = ("import sys; sys.modules['PySpice'] = None; from circuitnsds.cli import main; "
+    code = ("import sys; sys.modules['PySpice'] = None; from circuitnsds.cli.main import main; "
             f"sys.exit(main(['compare', {str(NETLISTS / 'half_wave_rectifier.cir')!r}]))")
     env = {**os.environ, "PYTHONPATH": str(NETLISTS.parent)}
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
@@ -225,7 +225,7 @@ def test_missing_pyspice_is_one_message_with_the_install_command(tmp_path):
     (["--n", "abc"], "is not a number"),
 ])
 def test_malformed_options_are_usage_errors(args, message, capsys):
-    from circuitnsds.cli import main
+    from circuitnsds.cli.main import main
 
     with pytest.raises(SystemExit) as exit_info:
         main(["compare", str(NETLISTS / "half_wave_rectifier.cir"), *args])

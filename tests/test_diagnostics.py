@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import circuitnsds
-from circuitnsds.circuit import Circuit
-from circuitnsds.cli import EXIT_STATUS, main
-from circuitnsds.elements import (
+from circuitnsds.checks.wellposed import EXACT_LIMIT, analyse
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements import (
     Capacitor,
     Inductor,
     MutualInductance,
@@ -17,6 +17,7 @@ from circuitnsds.elements import (
     SwitchModel,
     VoltageSource,
 )
+from circuitnsds.cli.main import EXIT_STATUS, main
 from circuitnsds.errors import (
     CircuitError,
     CircuitWarning,
@@ -24,8 +25,7 @@ from circuitnsds.errors import (
     SimulationError,
     SourceLocation,
 )
-from circuitnsds.stimuli import Dc, Sin
-from circuitnsds.wellposed import EXACT_LIMIT, analyse
+from circuitnsds.system.stimuli import Dc, Sin
 
 
 def read(body: str, **kwargs):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"

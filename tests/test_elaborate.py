@@ -5,9 +5,9 @@ import warnings
 import pytest
 
 import circuitnsds
-from circuitnsds.elements import Capacitor, Diode, Inductor, Resistor, VoltageSource
+from circuitnsds.circuit.elements import Capacitor, Diode, Inductor, Resistor, VoltageSource
 from circuitnsds.errors import NetlistError, NetlistWarning
-from circuitnsds.stimuli import Dc, Exp, Pulse, Pwl, Sin
+from circuitnsds.system.stimuli import Dc, Exp, Pulse, Pwl, Sin
 
 
 def read(body: str, title: str = "test"):

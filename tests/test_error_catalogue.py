@@ -7,7 +7,7 @@ users see; change them here on purpose, never by accident.
 
 import pytest
 
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 
 ERROR = "circuitnsds: error: "
 

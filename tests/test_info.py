@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 from tests.conftest import NETLISTS
 
 

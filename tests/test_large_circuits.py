@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import circuitnsds
-import circuitnsds.integrate
+import circuitnsds.analyses.transient
+import circuitnsds.engine.integrate
 import circuitnsds.solvers.mlcp
-import circuitnsds.transient
 
 
 def ladder(sections: int, stop: float) -> str:
@@ -33,16 +33,16 @@ def test_ladder_paths_agree_with_one_lemke_mlcp_per_step(monkeypatch):
     circuit = circuitnsds.read_netlist(ladder(60, 3e-3))
     fast = circuit.transient()
     stats = fast.stats
-    assert circuit.mlcs().n + circuit.mlcs().m > circuitnsds.integrate.DENSE_MAP_LIMIT  # sparse maps
+    assert circuit.mlcs().n + circuit.mlcs().m > circuitnsds.engine.integrate.DENSE_MAP_LIMIT  # sparse maps
     assert stats["mlcp_steps"] >= 3  # the diodes block and conduct again: mode changes
     assert stats["pivoting_solves"] >= 2  # found by pivoting, not Lemke
     assert stats["mapped_steps"] > 0.9 * stats["steps"]
     with monkeypatch.context() as patch:
-        patch.setattr(circuitnsds.transient, "integrate",
-                      functools.partial(circuitnsds.integrate.integrate, compiled=False))
+        patch.setattr(circuitnsds.analyses.transient, "integrate",
+                      functools.partial(circuitnsds.engine.integrate.integrate, compiled=False))
         numpy_loop = circuit.transient()
     with monkeypatch.context() as patch:  # no maps, no pivoting: Lemke for every step
-        patch.setattr(circuitnsds.integrate._Stepping, "sparse_mode", lambda *args: None)
+        patch.setattr(circuitnsds.engine.integrate._Stepping, "sparse_mode", lambda *args: None)
         patch.setattr(circuitnsds.solvers.mlcp, "PIVOTING_MIN_PAIRS", 10**9)
         lemke = circuit.transient()
     assert lemke.stats["mlcp_steps"] == lemke.stats["steps"]

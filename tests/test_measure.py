@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import circuitnsds
-from circuitnsds import measure
-from circuitnsds.cli import main
-from circuitnsds.measure import MeasurementError, evaluate, parse_measurement
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.cli.main import main
+from circuitnsds.output import measure
+from circuitnsds.output.measure import MeasurementError, evaluate, parse_measurement
+from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import NETLISTS, circuit_from
 
 F = 50.0

@@ -6,9 +6,9 @@ from matplotlib.figure import Figure
 
 import circuitnsds
 from circuitnsds import units
-from circuitnsds.cli import main
-from circuitnsds.plot import PlotError, draw, plot_waveforms, show_waveforms
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.cli.main import main
+from circuitnsds.output.plot import PlotError, draw, plot_waveforms, show_waveforms
+from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import NETLISTS
 
 

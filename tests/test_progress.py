@@ -4,8 +4,8 @@ import io
 
 import pytest
 
-from circuitnsds.cli import main
-from circuitnsds.progress import ProgressBar, format_progress
+from circuitnsds.cli.main import main
+from circuitnsds.cli.progress import ProgressBar, format_progress
 from tests.conftest import NETLISTS
 
 

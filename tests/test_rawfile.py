@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import circuitnsds
-from circuitnsds.cli import main
-from circuitnsds.rawfile import RawFileError, read_raw, write_raw
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.cli.main import main
+from circuitnsds.output.rawfile import RawFileError, read_raw, write_raw
+from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import NETLISTS
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
-from circuitnsds.cli import main
+from circuitnsds.cli.main import main
 from circuitnsds.errors import CircuitError, NetlistError
 from tests.conftest import NETLISTS, circuit_from
 from tests.device_checks import assert_device_laws

@@ -1,4 +1,4 @@
-"""The compiled sparse mode loop (circuitnsds.sparse_kernel) against the Python one.
+"""The compiled sparse mode loop (circuitnsds.engine.sparse_loop) against the Python one.
 
 Two properties: the triangular solves with SuperLU's factors taken apart equal
 ``lu.solve`` (which fixes the permutation convention), and ``run_compiled_sparse``
@@ -17,8 +17,8 @@ import scipy.sparse.linalg as spla
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from circuitnsds import sparse_kernel
-from circuitnsds.sparse_kernel import (
+from circuitnsds.engine import sparse_loop as sparse_kernel
+from circuitnsds.engine.sparse_loop import (
     STOP_END,
     STOP_LEFT_MODE,
     STOP_SCHEDULE,

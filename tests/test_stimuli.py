@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from circuitnsds.stimuli import Exp, Pulse, Pwl, Sin
-from circuitnsds.timegrid import MERGE_FRACTION, time_grid
+from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
+from circuitnsds.system.stimuli import Exp, Pulse, Pwl, Sin
 
 
 def test_sin_with_delay_damping_and_phase():

@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from circuitnsds.stimuli import Dc, Exp, Pulse, Pwl, Sin, threshold_crossings
+from circuitnsds.system.stimuli import Dc, Exp, Pulse, Pwl, Sin, threshold_crossings
 
 levels = st.floats(-20, 20, allow_nan=False)
 durations = st.floats(1e-9, 1e-3, allow_nan=False)

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import circuitnsds
-import circuitnsds.integrate
-import circuitnsds.transient
+import circuitnsds.analyses.transient
+import circuitnsds.engine.integrate
 from tests.conftest import NETLISTS, circuit_from
 
 VIN, RSERIES = 10.0, 1e3
@@ -274,16 +274,16 @@ S1 x 0 x 0 sw
 
 def _run_paths(circuit, monkeypatch, stop, theta=1.0):
     results = {"compiled": circuit.transient(stop=stop, theta=theta)}
-    numpy_loop = functools.partial(circuitnsds.integrate.integrate, compiled=False)
+    numpy_loop = functools.partial(circuitnsds.engine.integrate.integrate, compiled=False)
     with monkeypatch.context() as patch:
-        patch.setattr(circuitnsds.transient, "integrate", numpy_loop)
+        patch.setattr(circuitnsds.analyses.transient, "integrate", numpy_loop)
         results["numpy"] = circuit.transient(stop=stop, theta=theta)
     with monkeypatch.context() as patch:  # no dense step maps
-        patch.setattr(circuitnsds.integrate, "DENSE_MAP_LIMIT", 0)
+        patch.setattr(circuitnsds.engine.integrate, "DENSE_MAP_LIMIT", 0)
         results["no dense map"] = circuit.transient(stop=stop, theta=theta)
     with monkeypatch.context() as patch:  # no step maps at all: one MLCP per step
-        patch.setattr(circuitnsds.integrate._Stepping, "dense_mode", lambda *args: None)
-        patch.setattr(circuitnsds.integrate._Stepping, "sparse_mode", lambda *args: None)
+        patch.setattr(circuitnsds.engine.integrate._Stepping, "dense_mode", lambda *args: None)
+        patch.setattr(circuitnsds.engine.integrate._Stepping, "sparse_mode", lambda *args: None)
         results["mlcp"] = circuit.transient(stop=stop, theta=theta)
     return results
 
@@ -406,7 +406,7 @@ C2 y 0 10n
 
 
 def test_mode_table_grows_and_starts_afresh_when_full():
-    from circuitnsds.kernel import ModeMap, ModeTable
+    from circuitnsds.engine.dense_loop import ModeMap, ModeTable
 
     table = ModeTable(n=2, m=1, kstim=1, most=3)
     def mode(value):

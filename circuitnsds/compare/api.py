@@ -20,7 +20,7 @@ from circuitnsds.compare.metrics import (
 )
 from circuitnsds.compare.ngspice import NgspiceRun, ngspice_version, pyspice_version, run_ngspice
 from circuitnsds.compare.translate import DiodeOverrides, ngspice_vector, translate_netlist
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.output.waveforms import Waveforms
 
 #: Element letters whose currents are compared by default (with every node voltage).
 DEFAULT_CURRENT_LETTERS = ("v", "l", "d")

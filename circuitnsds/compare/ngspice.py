@@ -26,7 +26,7 @@ import numpy as np
 
 from circuitnsds.compare.errors import INSTALL_HINT, NgspiceUnavailable
 from circuitnsds.compare.translate import DiodeOverrides, ngspice_vector
-from circuitnsds.waveforms import Waveforms
+from circuitnsds.output.waveforms import Waveforms
 
 #: Message fragments that say why ngspice stopped, most specific first.
 FAILURE_PATTERNS = (

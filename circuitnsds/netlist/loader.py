@@ -3,7 +3,7 @@
     file or text --parse--> Netlist --includes--> Netlist --flatten--> flat Netlist
 
 The flat :class:`~circuitnsds.netlist.parser.Netlist` is what
-:func:`circuitnsds.elaborate.elaborate` reads.
+:func:`circuitnsds.frontend.elaborate.elaborate` reads.
 """
 
 from __future__ import annotations

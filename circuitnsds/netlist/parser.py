@@ -2,7 +2,7 @@
 
 This stage knows the file syntax only: the title line, comments, ``+``
 continuation lines, ``.end``, case folding and tokens. What a statement means
-(an element, a model, an analysis) is decided by :mod:`circuitnsds.elaborate`.
+(an element, a model, an analysis) is decided by :mod:`circuitnsds.frontend.elaborate`.
 
 Lexical rules (ngspice):
 

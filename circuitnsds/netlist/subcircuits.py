@@ -2,7 +2,7 @@
 
 :func:`flatten` takes the statements of a netlist whose includes are already expanded
 (:mod:`circuitnsds.netlist.includes`) and returns statements that
-:func:`circuitnsds.elaborate.elaborate` reads as they are:
+:func:`circuitnsds.frontend.elaborate.elaborate` reads as they are:
 
 * every ``{expr}`` / ``'expr'`` token of an element, ``.model``, ``.tran`` or ``.ic``
   line is replaced by its value (``repr(float)``), evaluated in the scope where the

@@ -1,0 +1,186 @@
+"""The state a transient starts from: the DC operating point, or UIC initial conditions.
+
+* Operating point (SPICE default): capacitors open, inductors shorted, ideal
+  devices as complementarity pairs, sources at ``t = 0``, ``.ic`` nodes held at
+  their values. This is one MLCP (seed 000 §1.1.7, equilibrium points).
+* UIC: capacitor voltages from ``ic=`` (else the difference of the ``.ic``
+  node voltages, unset nodes at 0 V), inductor currents from ``ic=`` (else 0).
+  Algebraic unknowns are left at 0 (the first implicit-Euler step settles them).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements import Capacitor, Inductor
+from circuitnsds.errors import NetlistWarning, SimulationError
+from circuitnsds.solvers import LCPError, solve_mlcp
+from circuitnsds.system.mlcs import MLCS
+
+
+@dataclass
+class InitialState:
+    """Starting point of the integration.
+
+    Attributes:
+        y: MNA unknowns at ``t = 0`` (volts, amperes).
+        charge: ``E @ y`` [C on node rows, Wb on inductor rows]: what the
+            time stepping carries; differs from ``E @ y`` only under UIC with
+            capacitor ``ic=`` values.
+        current: pair currents at ``t = 0`` [A].
+        active: guessed active set for the first step (``None``: no guess).
+        switches: switch states at ``t = 0`` (closed = true), in ``mlcs.switches`` order.
+    """
+
+    y: np.ndarray
+    charge: np.ndarray
+    current: np.ndarray
+    active: np.ndarray | None
+    switches: np.ndarray | None = None
+
+
+def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialState:
+    """Solve the DC operating point with ideal devices (see module docstring).
+
+    Switches start in their ``ON``/``OFF`` state, then follow their control at the
+    operating point (with hysteresis) until no state changes; a set of switches
+    that keeps toggling is an error.
+    """
+    check_source_loops(circuit.elements, operating_point=True)
+    check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
+    _warn_unused_element_ics(circuit)
+    states = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
+    seen: list[bytes] = []
+    while True:
+        result = _solve_dc(circuit, mlcs, states, tol)
+        y = np.asarray(result.u[:mlcs.n], dtype=float)
+        following = np.array([switch.next_state(bool(on), _control_at_zero(mlcs, switch, y))
+                              for switch, on in zip(mlcs.switches, states)], dtype=bool)
+        if np.array_equal(following, states):
+            break
+        seen.append(states.tobytes())
+        if following.tobytes() in seen:
+            names = [s.name for s, a, b in zip(mlcs.switches, states, following) if a != b]
+            raise SimulationError(
+                f"the DC operating point is not consistent: switch(es) {', '.join(names)} "
+                "open and close each other", where="operating point",
+                hint="give the switches an initial state with ON/OFF and a hysteresis (VH), "
+                "or add UIC to .tran")
+        states = following
+    if not np.all(np.isfinite(y)):
+        raise SimulationError("the DC operating point is not finite", where="operating point",
+                              hint="add UIC to .tran to start from initial conditions")
+    return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
+                        active=np.asarray(result.active, dtype=bool), switches=states)
+
+
+def _control_at_zero(mlcs: MLCS, switch, y: np.ndarray) -> float:
+    """A switch's control quantity at the operating point [V or A]."""
+    if switch.control_stimulus is not None:
+        column, sign = switch.control_stimulus
+        return sign * mlcs.stimuli[column].value(0.0)
+    return switch.control_value(y)
+
+
+def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
+    """One DC MLCP with the given switch states and the ``.ic`` nodes held."""
+    n = mlcs.n
+    held = [node for node in circuit.initial_voltages if node != "0"]
+    rows = [circuit.nodes.index(node) for node in held]
+    k = len(held)
+    incidence = sp.csr_matrix((np.ones(k), (rows, np.arange(k))), shape=(n, k))
+    system = mlcs.system_matrix(tuple(bool(on) for on in states))
+    matrix = sp.bmat([[system, incidence], [incidence.T, None]], format="csr")
+    source = np.concatenate([mlcs.source(0.0),
+                             [-circuit.initial_voltages[node][0] for node in held]])
+    coupling = sp.vstack([mlcs.B, sp.csr_matrix((k, mlcs.m))], format="csr")
+    output = sp.hstack([mlcs.C, sp.csr_matrix((mlcs.m, k))], format="csr")
+    try:
+        return solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
+    except LCPError as exc:
+        raise SimulationError(
+            f"the DC operating point has no solution with ideal devices ({exc})",
+            where="operating point",
+            hint="check that .ic values do not contradict the sources driving those nodes, "
+            "then the diode orientations and source values; or add UIC to .tran",
+        ) from None
+
+
+def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
+    """Initial state from ``ic=`` and ``.ic`` values (SPICE's UIC).
+
+    The integration starts from the charges ``E y`` of these initial conditions
+    (ngspice's rule): a capacitor with ``ic=`` holds that voltage, any other
+    capacitor the difference of its nodes' ``.ic`` values (an unset node counts
+    as 0 V); an inductor carries its ``ic=`` current, else 0.
+
+    The node voltages *reported* at ``t = 0`` are the ``.ic`` values, then
+    propagated across capacitors with ``ic=`` from known nodes (ground first), so
+    the first row of the waveforms shows the capacitor voltages; nodes reached by
+    neither are 0 V.
+    """
+    y = np.zeros(mlcs.n)
+    known = {"0"}
+    for node, (value, _) in circuit.initial_voltages.items():
+        if node != "0":
+            y[circuit.nodes.index(node)] = value
+            known.add(node)
+    charge = mlcs.E @ y  # capacitors at their .ic node differences
+    capacitors = [e for e in circuit.elements
+                  if isinstance(e, Capacitor) and e.initial_voltage is not None]
+    for cap in capacitors:
+        a, b = (_index(circuit, node) for node in cap.nodes)
+        implied = _voltage(circuit, y, cap.nodes[0]) - _voltage(circuit, y, cap.nodes[1])
+        correction = cap.capacitance * (cap.initial_voltage - implied)
+        if a >= 0:
+            charge[a] += correction
+        if b >= 0:
+            charge[b] -= correction
+    changed = True
+    while changed:
+        changed = False
+        for cap in capacitors:
+            a, b = cap.nodes
+            if b in known and a not in known:
+                y[_index(circuit, a)] = _voltage(circuit, y, b) + cap.initial_voltage
+                known.add(a)
+                changed = True
+            elif a in known and b not in known:
+                y[_index(circuit, b)] = _voltage(circuit, y, a) - cap.initial_voltage
+                known.add(b)
+                changed = True
+    for element in circuit.elements:
+        if isinstance(element, Inductor) and element.initial_current is not None:
+            k = mlcs.unknowns.index(f"i({element.name})")
+            y[k] = element.initial_current
+            charge[k] = element.inductance * element.initial_current
+    switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
+    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
+                        switches=switches)
+
+
+def _voltage(circuit: Circuit, y: np.ndarray, node: str) -> float:
+    return 0.0 if node == "0" else float(y[circuit.nodes.index(node)])
+
+
+def _index(circuit: Circuit, node: str) -> int:
+    return -1 if node == "0" else circuit.nodes.index(node)
+
+
+def _warn_unused_element_ics(circuit: Circuit) -> None:
+    for element in circuit.elements:
+        value = getattr(element, "initial_voltage", None)
+        if value is None:
+            value = getattr(element, "initial_current", None)
+        if value is not None:
+            warnings.warn(
+                f"{element.describe()}: ic={value:g} is ignored without UIC (as in SPICE); "
+                "the transient starts from the operating point",
+                NetlistWarning, stacklevel=4,
+            )

@@ -1,0 +1,127 @@
+"""Glue for a transient analysis: circuit -> MLCS, grid, initial state, integration, waveforms."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from circuitnsds.analyses.operating_point import operating_point, uic_state
+from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.errors import CircuitError, SimulationError
+from circuitnsds.output.waveforms import LazySignals, Waveforms
+
+
+def run_transient(
+    circuit: Circuit,
+    *,
+    step: float | None,
+    stop: float | None,
+    start: float | None,
+    max_step: float | None,
+    theta: float,
+    uic: bool | None,
+    tol: float,
+    progress: Callable[[float, float], None] | None,
+) -> Waveforms:
+    """See :meth:`Circuit.transient`."""
+    tran = circuit.tran
+    if (step is None or stop is None) and tran is None:
+        raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
+                           hint="add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or give "
+                           "--step and --stop (step= and stop= in Python)")
+    step = step if step is not None else tran.step
+    stop = stop if stop is not None else tran.stop
+    start = start if start is not None else (tran.start if tran else 0.0)
+    max_step = max_step if max_step is not None else (tran.max_step if tran else None)
+    uic = uic if uic is not None else (tran.uic if tran else False)
+    if step <= 0 or stop <= 0:
+        raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
+                           where=circuit.file)
+    if not 0.5 <= theta <= 1.0:
+        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+                           hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
+    if not 0 <= start < stop:
+        raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
+
+    mlcs = circuit.mlcs(step, stop)
+    h = min(step, max_step) if max_step else step
+    breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
+    try:
+        grid = time_grid(h, stop, breakpoints)
+    except ValueError as exc:
+        raise CircuitError(str(exc), where=circuit.file,
+                           hint="check the units of TSTEP/TMAX and TSTOP") from None
+    check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
+    state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
+    try:
+        trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
+                               state.switches, theta=theta, tol=tol, progress=progress)
+    except SimulationError as exc:
+        _diagnose(exc, circuit, mlcs, grid, theta)
+        if getattr(exc, "trajectory", None) is not None:
+            exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
+        raise
+    return _waveforms(circuit, mlcs, trajectory, start, stop)
+
+
+HUGE = 1e100
+"""A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""
+
+
+def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:
+    """Replace the hint of a failed step by the well-posedness analysis of that step's LCP."""
+    from circuitnsds.checks.wellposed import analyse, forced_currents
+
+    interval = getattr(error, "step_interval", None)
+    if interval is None:
+        return
+    t0, t1 = interval
+    trajectory = getattr(error, "trajectory", None)
+    if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
+        error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: the "
+                      "circuit is unstable (a negative resistance, or controlled sources with a loop "
+                      "gain above 1); the waveforms before that instant are kept")
+        return
+    states = getattr(error, "switch_states", None)
+    try:
+        analysis = analyse(mlcs, t1 - t0, None if states is None else tuple(states),
+                           1.0 if t0 == grid[0] else theta)
+    except CircuitError:  # the step's matrices are not finite: keep the hint as it is
+        return
+    analysis.forced = forced_currents(circuit, analysis.switch_states)
+    if analysis.verdict in {"P", "none"} and not analysis.forced:
+        error.hint = ("this step's LCP has a P-matrix (or no pairs), so it has exactly one solution: "
+                      "the solver failed numerically; try another step size (--step) and please "
+                      "report it")
+    else:
+        error.hint = f"this step's LCP: {analysis.summary()}"
+
+
+def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) -> Waveforms:
+    """Output signals of ``trajectory`` from ``start`` on (each computed when first read)."""
+    first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
+    y, current = trajectory.y[first:], trajectory.current[first:]
+    rows = {name: j for j, name in enumerate(mlcs.output_names)}
+    Y_out, L_out = mlcs.Y_out.tocsr(), mlcs.L_out.tocsr()
+
+    def signal(name: str) -> np.ndarray:
+        j = rows[name]
+        values = np.zeros(y.shape[0])
+        for matrix, unknowns in ((Y_out, y), (L_out, current)):
+            span = slice(matrix.indptr[j], matrix.indptr[j + 1])
+            for column, weight in zip(matrix.indices[span], matrix.data[span]):
+                values += weight * unknowns[:, column]
+        return values
+
+    impulses: dict[str, np.ndarray] = {}
+    for j, (pair, device) in enumerate(zip(mlcs.pairs, mlcs.pair_devices)):
+        sign = -1.0 if pair.endswith(".reverse") else 1.0
+        impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[first:, j]
+    stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
+    return Waveforms(time=trajectory.time[first:], signals=LazySignals(mlcs.output_names, signal),
+                     impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
+                     stats=stats)

@@ -1,0 +1,202 @@
+"""A circuit: elements, models, analysis settings; the user's entry point to simulation."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from circuitnsds.circuit.elements import Element
+from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
+from circuitnsds.system.mlcs import MLCS, MLCSBuilder
+
+
+@dataclass(frozen=True)
+class TranSpec:
+    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]`` (times in seconds)."""
+
+    step: float
+    stop: float
+    start: float = 0.0
+    max_step: float | None = None
+    uic: bool = False
+    location: SourceLocation | None = None
+
+
+@dataclass
+class Circuit:
+    """Elements and settings read from a netlist (or built in Python).
+
+    Attributes:
+        title: the netlist's first line.
+        elements: in netlist order.
+        nodes: node names in order of first appearance, ground (``0``) excluded.
+        models: model name -> :class:`~circuitnsds.circuit.elements.DiodeModel` (or the type
+            letter of a model the engine does not use).
+        tran: the ``.tran`` line, if any.
+        initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
+        file: the netlist file name.
+        options: ``.options`` the engine uses (``theta``, ``gmin``).
+        saved_signals: signals named by ``.save`` (what the command line writes by default).
+        strict: make every warning about the netlist or the circuit an error when the
+            circuit is stamped or simulated (``read_netlist(..., strict=True)`` sets it).
+        reported: the circuit warnings already given (each is given once).
+    """
+
+    title: str = ""
+    elements: list[Element] = field(default_factory=list)
+    nodes: list[str] = field(default_factory=list)
+    models: dict[str, object] = field(default_factory=dict)
+    model_locations: dict[str, SourceLocation] = field(default_factory=dict)
+    tran: TranSpec | None = None
+    initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
+    file: str = "<text>"
+    options: dict[str, float] = field(default_factory=dict)
+    saved_signals: list[str] = field(default_factory=list)
+    save_location: SourceLocation | None = None
+    strict: bool = False
+    reported: set[str] = field(default_factory=set, repr=False, compare=False)
+
+    def add(self, element: Element, location: SourceLocation | None = None) -> None:
+        """Append an element; its nodes join the node list."""
+        for existing in self.elements:
+            if existing.name == element.name:
+                first = f" (first at {existing.location})" if existing.location else ""
+                raise NetlistError(f"element {element.name} is defined twice{first}",
+                                   where=location or element.name,
+                                   hint="element names must be unique")
+        self.elements.append(element)
+        for node in element.nodes:
+            if node != "0" and node not in self.nodes:
+                self.nodes.append(node)
+
+    def set_tran(self, tran: TranSpec, location: SourceLocation | None = None) -> None:
+        if self.tran is not None:
+            raise NetlistError("more than one .tran line", where=location,
+                               hint="keep one .tran TSTEP TSTOP line")
+        self.tran = tran
+
+    def element(self, name: str) -> Element:
+        """The element called ``name`` (case-insensitive)."""
+        for element in self.elements:
+            if element.name == name.lower():
+                return element
+        raise KeyError(name)
+
+    def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
+        """Stamp every element into the circuit's MLCS.
+
+        ``step`` and ``stop`` [s] fill in source defaults that ngspice ties to the
+        analysis (``PULSE`` rise time = TSTEP, ``SIN`` frequency = 1/TSTOP, ...);
+        they default to the ``.tran`` line, or 1 s.
+
+        Raises:
+            CircuitError: the circuit fails a check of :mod:`circuitnsds.checks.topology` or
+                :mod:`circuitnsds.checks.rules` (warnings of the latter are errors when ``strict``).
+        """
+        from circuitnsds.checks.rules import check_circuit, check_source_timing, check_stamps
+        from circuitnsds.checks.topology import check_connected, check_current_cutsets, check_source_loops
+
+        if not self.elements:
+            raise CircuitError("the circuit has no elements", where=self.file)
+        with self._strictness():
+            check_circuit(self)
+        check_connected(self.elements, self.nodes)
+        check_source_loops(self.elements)
+        check_current_cutsets(self.elements, self.nodes)
+        step = step or (self.tran.step if self.tran else 1.0)
+        stop = stop or (self.tran.stop if self.tran else 1.0)
+        resolved = self._resolved(step, stop)
+        check_source_timing(resolved, stop)
+        builder = MLCSBuilder(self.nodes)
+        with np.errstate(all="ignore"):
+            for element in resolved:
+                element.stamp(builder)
+            mlcs = builder.build()
+        check_stamps(resolved, mlcs)
+        return mlcs
+
+    def _strictness(self):
+        """A context in which warnings are errors when the circuit is ``strict``."""
+        from contextlib import nullcontext
+
+        from circuitnsds.errors import strict_warnings
+
+        return strict_warnings() if self.strict else nullcontext()
+
+    def well_posedness(self, step: float | None = None, *, states=None, theta: float = 1.0):
+        """Is each time step's complementarity problem uniquely solvable (see
+        :mod:`circuitnsds.checks.wellposed`)? Returns a list of
+        :class:`~circuitnsds.checks.wellposed.WellPosedness`, one per switch configuration examined.
+
+        Args:
+            step: the time step [s] (default: the ``.tran`` TSTEP, else 1 s).
+            states: switch states to examine, a sequence of tuples of booleans (closed =
+                true) in the order of the switches; default: every combination for up to
+                4 switches, else the initial states, all open and all closed.
+            theta: θ of the θ-method (the LCP of a step depends on it through ``K``).
+        """
+        from circuitnsds.checks.wellposed import analyse_circuit
+
+        return analyse_circuit(self, step, states=states, theta=theta)
+
+    def _resolved(self, step: float, stop: float) -> list[Element]:
+        """Elements with their source functions' analysis-dependent defaults filled in."""
+        resolved = []
+        for element in self.elements:
+            function = getattr(element, "function", None)
+            if function is not None:
+                element = replace(element, function=function.resolve(step, stop))
+            resolved.append(element)
+        return resolved
+
+    def transient(
+        self,
+        step: float | None = None,
+        stop: float | None = None,
+        *,
+        start: float | None = None,
+        max_step: float | None = None,
+        theta: float | None = None,
+        uic: bool | None = None,
+        tol: float = 1e-9,
+        progress: Callable[[float, float], None] | None = None,
+    ):
+        """Run a transient analysis with ideal devices; returns :class:`~circuitnsds.Waveforms`.
+
+        Args:
+            step: time step [s] (default: the ``.tran`` TSTEP). Every source
+                breakpoint is also a grid point.
+            stop: end time [s] (default: ``.tran`` TSTOP).
+            start: first time written to the waveforms [s] (default ``.tran`` TSTART or 0).
+            max_step: upper bound on the step [s] (default ``.tran`` TMAX).
+            theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler (default:
+                ``.options theta``, else 1). The first step, and with θ < 1 the step
+                after a switch changes state, is implicit Euler.
+            uic: start from initial conditions instead of the operating point
+                (default: ``.tran``'s UIC flag).
+            tol: complementarity tolerance of every step (scaled residual).
+            progress: ``callback(t, stop)`` called now and then during the run.
+
+        Raises:
+            CircuitError: the circuit or the analysis settings are ill-posed.
+            SimulationError: a step has no solution or a value became non-finite; its
+                ``partial`` attribute holds the waveforms up to the last good step.
+        """
+        from circuitnsds.analyses.transient import run_transient
+
+        if theta is None:
+            theta = self.options.get("theta", 1.0)
+        with self._strictness():
+            return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
+                                 theta=theta, uic=uic, tol=tol, progress=progress)
+
+    def operating_point(self) -> dict[str, float]:
+        """DC operating point with ideal devices: every output signal's value [V or A]."""
+        from circuitnsds.analyses.operating_point import operating_point
+
+        mlcs = self.mlcs()
+        state = operating_point(self, mlcs)
+        values = mlcs.outputs(state.y[None, :], state.current[None, :])[0]
+        return dict(zip(mlcs.output_names, values.tolist()))

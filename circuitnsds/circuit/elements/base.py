@@ -1,0 +1,35 @@
+"""What every element has: a name, terminals, where it was written, and a stamp."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from circuitnsds.errors import SourceLocation
+from circuitnsds.system.mlcs import MLCSBuilder
+
+
+@dataclass(frozen=True)
+class Element:
+    """Base of all elements.
+
+    Attributes:
+        name: lower-case element name as in the netlist (``r1``).
+        nodes: terminal node names, lower-case, ground is ``0``.
+        location: netlist file and line, or ``None`` for elements made in Python.
+        topology: how the element connects its nodes, for the circuit checks:
+            ``conductive`` (R, D), ``capacitor``, ``inductor``, ``voltage``, ``current``.
+    """
+
+    name: str
+    nodes: tuple[str, ...]
+    location: SourceLocation | None = None
+    topology: ClassVar[str] = "conductive"
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        """Add this element's entries to the MLCS under construction."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """Short human description for messages: ``r1 (line 4)``."""
+        return f"{self.name} ({self.location})" if self.location else self.name

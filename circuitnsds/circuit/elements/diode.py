@@ -1,0 +1,91 @@
+"""Ideal, piecewise-linear and Zener diodes as complementarity pairs.
+
+Sign conventions: the diode current ``i`` flows from anode (``nodes[0]``) to
+cathode (``nodes[1]``); ``v = v(anode) - v(cathode)``.
+
+* forward pair:  ``0 <= i_f  ⊥  Ron·i_f + Vfwd - v >= 0``
+* reverse pair (Zener only): ``0 <= i_r  ⊥  Rrev·i_r + Vz + v >= 0``
+* off-conductance ``1/Roff`` in parallel (SPICE's gmin by default).
+
+The net diode current reported as ``i(name)`` is ``i_f - i_r + v/Roff``.
+With ``area`` (the SPICE instance multiplier) the device behaves as ``area``
+diodes in parallel: ``Ron``, ``Rrev`` and ``Roff`` are divided by it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from circuitnsds.circuit.elements.base import Element
+from circuitnsds.errors import SourceLocation
+from circuitnsds.system.mlcs import MLCSBuilder
+
+DEFAULT_OFF_RESISTANCE = 1e12
+"""Default ``Roff`` [Ω]: the conductance 1e-12 S is SPICE's default gmin."""
+
+
+@dataclass(frozen=True)
+class DiodeModel:
+    """What the ideal engine takes from a ``.model NAME D(...)`` card.
+
+    Attributes:
+        name: model name, lower-case.
+        forward_drop: ``Vfwd`` [V], forward voltage of the conducting diode.
+        on_resistance: ``Ron`` [Ω], slope of the conducting branch.
+        off_resistance: ``Roff`` [Ω], resistance of the blocking diode.
+        breakdown_voltage: ``BV`` or ``Vrev`` [V] (> 0); ``None`` for a plain diode.
+        breakdown_resistance: ``Rrev`` [Ω], slope of the breakdown branch.
+        location: where the card was written.
+    """
+
+    name: str
+    forward_drop: float = 0.0
+    on_resistance: float = 0.0
+    off_resistance: float = DEFAULT_OFF_RESISTANCE
+    breakdown_voltage: float | None = None
+    breakdown_resistance: float = 0.0
+    location: SourceLocation | None = None
+
+    @property
+    def kind(self) -> str:
+        """``ideal``, ``piecewise-linear`` or ``zener``."""
+        if self.breakdown_voltage is not None:
+            return "zener"
+        if self.forward_drop or self.on_resistance:
+            return "piecewise-linear"
+        return "ideal"
+
+
+@dataclass(frozen=True)
+class Diode(Element):
+    """A diode instance ``D name anode cathode model [area]``."""
+
+    model: DiodeModel = DiodeModel("ideal")
+    area: float = 1.0
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        anode, cathode = (builder.node(n) for n in self.nodes)
+        model = self.model
+        g_off = self.area / model.off_resistance
+        builder.add_conductance("A", anode, cathode, -g_off)
+
+        forward = builder.pair(self.name if model.kind != "zener" else f"{self.name}.forward",
+                               self.name, model.forward_drop)
+        self._stamp_pair(builder, forward, anode, cathode, model.on_resistance / self.area)
+        current_terms = [(forward, 1.0)]
+        if model.kind == "zener":
+            reverse = builder.pair(f"{self.name}.reverse", self.name, model.breakdown_voltage)
+            self._stamp_pair(builder, reverse, cathode, anode,
+                             model.breakdown_resistance / self.area)
+            current_terms.append((reverse, -1.0))
+        builder.output(f"i({self.name})", [(anode, g_off), (cathode, -g_off)], current_terms)
+
+    @staticmethod
+    def _stamp_pair(builder: MLCSBuilder, pair: int, into: int, out_of: int,
+                    resistance: float) -> None:
+        """Pair current flows from node ``into`` to node ``out_of``; ``w = R·λ + e - (v_into - v_out_of)``."""
+        builder.add("B", into, pair, -1.0)
+        builder.add("B", out_of, pair, 1.0)
+        builder.add("C", pair, into, -1.0)
+        builder.add("C", pair, out_of, 1.0)
+        builder.add("D", pair, pair, resistance)

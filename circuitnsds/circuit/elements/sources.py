@@ -1,0 +1,51 @@
+"""Independent voltage and current sources (SPICE sign conventions).
+
+* ``V name n+ n- ...``: ``v(n+) - v(n-) = V(t)``; the unknown ``i(name)`` is the
+  current flowing *into* ``n+`` through the source to ``n-`` (so a source that
+  delivers power has a negative current, as in SPICE).
+* ``I name n+ n- ...``: a current ``I(t)`` flows from ``n+`` through the source
+  to ``n-`` (it leaves the circuit at ``n+`` and enters it at ``n-``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from circuitnsds.circuit.elements.base import Element
+from circuitnsds.system.mlcs import MLCSBuilder
+from circuitnsds.system.stimuli import Dc, Stimulus
+
+
+@dataclass(frozen=True)
+class VoltageSource(Element):
+    """Independent voltage source with time function ``function`` [V]."""
+
+    function: Stimulus = Dc(0.0)
+    topology: ClassVar[str] = "voltage"
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        plus, minus = (builder.node(n) for n in self.nodes)
+        k = builder.branch(f"i({self.name})")
+        builder.add("A", plus, k, -1.0)
+        builder.add("A", minus, k, 1.0)
+        builder.add("A", k, plus, 1.0)
+        builder.add("A", k, minus, -1.0)
+        column = builder.stimulus(self.function)
+        builder.add("S", k, column, -1.0)
+        builder.voltage_source_stimulus(plus, minus, column)
+        builder.output(f"i({self.name})", [(k, 1.0)])
+
+
+@dataclass(frozen=True)
+class CurrentSource(Element):
+    """Independent current source with time function ``function`` [A]."""
+
+    function: Stimulus = Dc(0.0)
+    topology: ClassVar[str] = "current"
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        plus, minus = (builder.node(n) for n in self.nodes)
+        column = builder.stimulus(self.function)
+        builder.add("S", plus, column, -1.0)
+        builder.add("S", minus, column, 1.0)

@@ -1,0 +1,1 @@
+"""The ``circuitnsds`` command: ``run``, ``info``, ``compare`` (see :mod:`.main`)."""

@@ -1,0 +1,154 @@
+"""What ``circuitnsds info`` prints: a circuit's elements, nodes, MLCS size, breakpoints, checks.
+
+:func:`circuit_report` returns the text and whether every check needed for a
+transient passed; it builds the MLCS only when they did (it cannot exist otherwise).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.errors import CircuitError
+from circuitnsds.units import format_si
+
+BREAKPOINTS_SHOWN = 8
+"""How many source breakpoints the report lists before it only counts them."""
+
+_KINDS = {
+    "Resistor": "resistors", "Capacitor": "capacitors", "Inductor": "inductors",
+    "MutualInductance": "coupled inductors", "VoltageSource": "voltage sources",
+    "CurrentSource": "current sources", "Diode": "diodes", "Switch": "switches",
+    "VoltageControlledVoltageSource": "controlled sources (E)",
+    "CurrentControlledCurrentSource": "controlled sources (F)",
+    "VoltageControlledCurrentSource": "controlled sources (G)",
+    "CurrentControlledVoltageSource": "controlled sources (H)",
+}
+
+
+def element_kind(element) -> str:
+    """Plural kind of an element for the report (``diodes``, ``Zener diodes``, ``resistors``)."""
+    name = type(element).__name__
+    if name == "Diode" and getattr(getattr(element, "model", None), "kind", "") == "zener":
+        return "Zener diodes"
+    return _KINDS.get(name, name)
+
+
+def _model_detail(element) -> str | None:
+    """One line on how the engine reads a device's model (diodes, Zeners, switches)."""
+    model = getattr(element, "model", None)
+    if model is None:
+        return None
+    if hasattr(model, "forward_drop"):
+        detail = (f"{model.kind} diode, Vfwd={model.forward_drop:g} V, Ron={model.on_resistance:g} Ω, "
+                  f"Roff={model.off_resistance:g} Ω")
+        if model.kind == "zener":
+            detail += f", BV={model.breakdown_voltage:g} V, Rrev={model.breakdown_resistance:g} Ω"
+        return f"model {model.name}: {detail}"
+    if hasattr(model, "threshold"):
+        unit = "A" if model.current_controlled else "V"
+        control = f"current of {element.control}" if getattr(element, "control", None) \
+            else f"v({element.nodes[2]}) - v({element.nodes[3]})"
+        return (f"model {model.name}: ideal switch on {control}, closes above "
+                f"{model.threshold + abs(model.hysteresis):g} {unit}, opens below "
+                f"{model.threshold - abs(model.hysteresis):g} {unit}, Ron={model.on_resistance:g} Ω, "
+                f"Roff={model.off_resistance:g} Ω")
+    return None
+
+
+def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
+    """The circuit checks: ``(what, failure message or None, needed for the transient)``.
+
+    The operating-point checks are not needed when the transient starts from initial
+    conditions (UIC).
+    """
+    from circuitnsds.checks import topology
+
+    checks: list[tuple[str, Callable[[], None], bool]] = [
+        ("every node has a path to ground",
+         lambda: topology.check_connected(circuit.elements, circuit.nodes), True),
+        ("no loop of voltage sources only",
+         lambda: topology.check_source_loops(circuit.elements), True),
+        ("no node fed only by current sources",
+         lambda: topology.check_current_cutsets(circuit.elements, circuit.nodes), True),
+    ]
+    uic = bool(circuit.tran and circuit.tran.uic)
+    checks += [
+        ("DC operating point: no loop of voltage sources and inductors",
+         lambda: topology.check_source_loops(circuit.elements, operating_point=True), not uic),
+        ("DC operating point: every node has a DC path to ground",
+         lambda: topology.check_current_cutsets(circuit.elements, circuit.nodes,
+                                                operating_point=True), not uic),
+    ]
+    results = []
+    for what, check, needed in checks:
+        try:
+            check()
+            results.append((what, None, needed))
+        except CircuitError as exc:
+            results.append((what, exc.message, needed))
+    return results
+
+
+def circuit_report(circuit: Circuit) -> tuple[str, bool]:
+    """The text of ``circuitnsds info`` and whether the circuit passed the checks a transient needs.
+
+    The MLCS is built (and described) whenever the structural checks pass, even if
+    the operating point is undefined.
+    """
+    lines = [f"title:     {circuit.title}", f"file:      {circuit.file}"]
+    lines.append(f"nodes:     {len(circuit.nodes)} + ground 0: {', '.join(circuit.nodes)}")
+    kinds: dict[str, list] = {}
+    for element in circuit.elements:
+        kinds.setdefault(element_kind(element), []).append(element)
+    lines.append(f"elements:  {len(circuit.elements)}")
+    for kind, elements in kinds.items():
+        lines.append(f"  {kind} ({len(elements)}): {', '.join(e.name for e in elements)}")
+    details = [(e, _model_detail(e)) for e in circuit.elements]
+    details = [(e, d) for e, d in details if d]
+    if details:
+        lines.append("devices:")
+        lines += [f"  {e.name} {' '.join(e.nodes)}: {d}" for e, d in details]
+    if circuit.tran:
+        t = circuit.tran
+        lines.append(f"tran:      step {format_si(t.step, 's')}, stop {format_si(t.stop, 's')}"
+                     + (f", start {format_si(t.start, 's')}" if t.start else "")
+                     + (f", max step {format_si(t.max_step, 's')}" if t.max_step else "")
+                     + (", UIC" if t.uic else ""))
+    else:
+        lines.append("tran:      none (give step and stop to run)")
+
+    checks = run_checks(circuit)
+    ok = all(failure is None for _, failure, needed in checks if needed)
+    structural = all(failure is None for _, failure, _ in checks[:3])
+    lines.append("checks:")
+    for what, failure, needed in checks:
+        if failure is None:
+            lines.append(f"  pass  {what}")
+        else:
+            lines.append(f"  {'FAIL' if needed else 'skip'}  {what}: {failure}"
+                         + ("" if needed else " (not needed: the transient starts from UIC)"))
+    if not structural:
+        lines.append("MLCS:      not built: the circuit fails the checks above")
+        return "\n".join(lines), False
+
+    mlcs = circuit.mlcs()
+    states = int(mlcs.differential_rows.sum())
+    switches = getattr(mlcs, "switches", [])
+    lines.append(f"MLCS:      {mlcs.n} unknowns = {states} states (differential rows) + "
+                 f"{mlcs.n - states} algebraic; {mlcs.m} complementarity pairs"
+                 + (f"; {len(switches)} switches (exogenous modes)" if switches else "")
+                 + f"; {len(mlcs.stimuli)} source function(s)")
+    lines.append(f"  unknowns: {', '.join(mlcs.unknowns)}")
+    lines.append(f"  pairs:    {', '.join(mlcs.pairs) if mlcs.pairs else '(none)'}")
+    stop = circuit.tran.stop if circuit.tran else None
+    if stop is not None:
+        points = mlcs.breakpoints(stop)
+        shown = ", ".join(format_si(float(p), "s", 6) for p in points[:BREAKPOINTS_SHOWN])
+        more = f", ... ({len(points)} in all)" if len(points) > BREAKPOINTS_SHOWN else ""
+        lines.append(f"breakpoints: {len(points)} in (0, {format_si(stop, 's')})"
+                     + (f": {shown}{more}" if len(points) else ""))
+    from circuitnsds.checks.wellposed import report_lines
+
+    lines += report_lines(circuit)
+    return "\n".join(lines), ok

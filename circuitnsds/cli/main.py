@@ -1,0 +1,263 @@
+"""The ``circuitnsds`` command: ``run`` a netlist's transient, or print ``info`` about it.
+
+Errors in the input print one message (file:line, what, hint) on stderr and
+exit with status 1; no traceback. ``--debug`` shows tracebacks.
+
+Exit status (:data:`EXIT_STATUS`): 0 success; 1 the netlist, the circuit or the
+simulation is at fault (any :class:`~circuitnsds.errors.CircuitnsdsError`, and any
+warning under ``--strict``); 2 bad command-line arguments, or an internal error of
+circuitnsds (a bug: please report it); 130 interrupted (Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from circuitnsds.cli.progress import ProgressBar
+from circuitnsds.errors import CircuitnsdsError, NetlistWarning, SimulationError, as_error
+from circuitnsds.values import parse_value
+
+EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
+               "under --strict)", 2: "bad command-line arguments, or an internal error (a bug)",
+               130: "interrupted"}
+"""The exit statuses of the command and their meaning (docs/usage.md lists them)."""
+STRICT_HELP = "treat every warning (ignored constructs, suspicious circuits) as an error"
+
+
+class OutputError(CircuitnsdsError):
+    """An output file cannot be written."""
+
+
+def _seconds(text: str) -> float:
+    try:
+        return parse_value(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 1u, 10ms, 2e-3)") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="circuitnsds",
+        description="Transient simulation of SPICE netlists with ideal diodes and Zeners.",
+    )
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")
+    run.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    run.add_argument("-o", "--output", type=Path,
+                     help="CSV file to write (default: NETLIST name with .csv, in the "
+                     "current directory, unless only -r is given)")
+    run.add_argument("-r", "--raw", type=Path, metavar="RAW",
+                     help="also write a SPICE raw file (binary, as ngspice's write) for ngspice, "
+                     "LTspice's viewer, spicelib")
+    run.add_argument("--ascii", action="store_true", help="write the raw file in ASCII")
+    run.add_argument("--plot", type=Path, metavar="PNG",
+                     help="also write a figure to this PNG (PDF, SVG by the extension)")
+    run.add_argument("--show", action="store_true",
+                     help="open the figure in a window (needs a display)")
+    run.add_argument("--measure", action="append", default=[], metavar="EXPR",
+                     help='measure on the results, e.g. "mean(v(out))", "ripple(v(out), 80m, 100m)", '
+                     '"power(rload, period=20m)", "thd(v(in), 50)"; repeatable; printed as a table')
+    run.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
+                     "(default: all)")
+    run.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
+    run.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
+    run.add_argument("--theta", type=float, default=None,
+                     help="θ of the θ-method in [0.5, 1] (default: .options theta, else 1: implicit Euler)")
+    run.add_argument("--uic", action="store_true",
+                     help="start from initial conditions (as .tran ... UIC)")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
+    run.add_argument("--strict", action="store_true", help=STRICT_HELP)
+
+    info = commands.add_parser("info", help="print elements, nodes, MLCS size, breakpoints "
+                               "and the circuit checks")
+    info.add_argument("netlist", type=Path)
+    info.add_argument("--matrices", type=Path, metavar="NPZ",
+                      help="also save the MLCS matrices to this .npz file")
+    info.add_argument("--strict", action="store_true", help=STRICT_HELP + " (after the report)")
+
+    from circuitnsds.compare.cli import add_compare_parser
+
+    add_compare_parser(commands)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        strict = getattr(args, "strict", False)
+        if strict and args.command == "run":  # stop at the first warning, before any output
+            warnings.filterwarnings("error", category=NetlistWarning)
+        try:
+            if args.command == "compare":
+                from circuitnsds.compare.cli import run_compare
+
+                status = run_compare(args)
+            else:
+                status = _run(args) if args.command == "run" else _info(args)
+        except CircuitnsdsError as exc:
+            _print_warnings(caught)
+            if args.debug:
+                raise
+            print(f"circuitnsds: error: {exc}", file=sys.stderr)
+            return 1
+        except NetlistWarning as warning:  # --strict
+            _print_warnings(caught)
+            if args.debug:
+                raise
+            print(f"circuitnsds: error: {as_error(warning)}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:
+            print("circuitnsds: interrupted", file=sys.stderr)
+            return 130
+        except BrokenPipeError:  # output piped into `head` and the like: not an error
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (interpreter exit flushes it)
+            return 0
+        except Exception as exc:  # a bug in circuitnsds, not bad input
+            if args.debug:
+                raise
+            print(f"circuitnsds: internal error: {type(exc).__name__}: {exc}\n"
+                  "  this is a bug; please report it with the netlist "
+                  "(run with --debug for the traceback)", file=sys.stderr)
+            return 2
+    _print_warnings(caught)
+    if strict and status == 0 and any(issubclass(w.category, NetlistWarning) for w in caught):
+        print("circuitnsds: error: the warnings above are errors under --strict", file=sys.stderr)
+        return 1
+    return status
+
+
+def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
+    for warning in caught:
+        print(f"circuitnsds: warning: {warning.message}", file=sys.stderr)
+
+
+@contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """Turn a failure to write ``path`` into a clean error."""
+    try:
+        yield
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
+                          hint="check that the folder exists and is writable") from None
+
+
+def _run(args: argparse.Namespace) -> int:
+    from circuitnsds import read_netlist
+    from circuitnsds.output.measure import parse_measurement
+
+    circuit = read_netlist(args.netlist)
+    if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
+        args.signals = ",".join(circuit.saved_signals)
+    for expression in args.measure:  # syntax errors before a long run, not after it
+        parse_measurement(expression)
+    if args.show:
+        from circuitnsds.output.plot import check_display
+
+        check_display()
+    progress = ProgressBar(sys.stderr, enabled=False if args.quiet else None)
+    try:
+        waves = circuit.transient(args.step, args.stop, theta=args.theta,
+                                  uic=True if args.uic else None, progress=progress)
+    except SimulationError as exc:
+        progress.close()
+        _write_partial(args, exc)
+        raise
+    finally:
+        progress.close()
+    names, written = _write_outputs(args, waves)
+    if args.measure:
+        from circuitnsds.output.measure import evaluate, format_table
+
+        print(format_table([evaluate(expression, waves, circuit) for expression in args.measure]),
+              flush=True)
+    if not args.quiet:
+        stats = waves.stats
+        print(f"circuitnsds: {stats['steps']} steps in {stats['seconds']:.3g} s "
+              f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
+              f"max residual {waves.residual.max():.1e}; wrote {', '.join(map(str, written))}",
+              file=sys.stderr)
+    if args.show:
+        from circuitnsds.output.plot import show_waveforms
+
+        show_waveforms(waves, names)
+    return 0
+
+
+def _write_partial(args: argparse.Namespace, error: SimulationError) -> None:
+    """Write the waveforms computed before a failed step to the files asked for (the error
+    itself is reported by the caller); a failure to write them is only mentioned."""
+    partial = error.partial
+    if partial is None or partial.time.size == 0:
+        return
+    try:
+        _, written = _write_outputs(args, partial)
+    except CircuitnsdsError as exc:
+        print(f"circuitnsds: the results before the failure were not written: {exc.message}",
+              file=sys.stderr)
+        return
+    print(f"circuitnsds: wrote the results up to t = {partial.time[-1]:.6g} s "
+          f"(before the failure) to {', '.join(map(str, written))}", file=sys.stderr)
+
+
+def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, list[Path]]:
+    """Write the CSV (and the raw file and figure asked for); returns the signal names
+    chosen with ``--signals`` (``None``: all) and the files written."""
+    from circuitnsds.errors import CircuitError
+
+    names = None
+    if args.signals:
+        names = [name.strip() for name in args.signals.split(",")
+                 if name.strip() and name.strip().lower() != "time"]
+        unknown = [name for name in names if name not in waves]
+        if unknown:
+            raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
+                               where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
+    written = []
+    if args.output or not args.raw:  # a raw file alone replaces the default CSV
+        output = args.output or Path(args.netlist.stem + ".csv")
+        with _writing(output):
+            waves.to_csv(output, names)
+        written.append(output)
+    if args.raw:
+        from circuitnsds.output.rawfile import write_raw
+
+        with _writing(args.raw):
+            write_raw(waves, args.raw, names, binary=not args.ascii)
+        written.append(args.raw)
+    if args.plot:
+        from circuitnsds.output.plot import plot_waveforms
+
+        with _writing(args.plot):
+            plot_waveforms(waves, args.plot, names)
+        written.append(args.plot)
+    return names, written
+
+
+def _info(args: argparse.Namespace) -> int:
+    from circuitnsds import read_netlist
+    from circuitnsds.cli.info import circuit_report
+
+    circuit = read_netlist(args.netlist)
+    report, ok = circuit_report(circuit)
+    print(report)
+    if not ok:
+        print("circuitnsds: error: the circuit fails the checks above", file=sys.stderr)
+        return 1
+    if args.matrices:
+        with _writing(args.matrices):
+            circuit.mlcs().save(args.matrices)
+        print(f"matrices saved to {args.matrices}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

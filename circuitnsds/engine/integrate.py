@@ -1,0 +1,604 @@
+"""θ-method time stepping of an MLCS with one MLCP per step (DESIGN.md §2).
+
+For the step ``t_k -> t_{k+1}`` of length ``h``, with ``Θ = diag(θ on rows with
+a time derivative, 1 on algebraic rows)`` and ``A`` for the step's switch states,
+the unknowns ``y_{k+1}`` and the impulses ``μ = h·λ`` [C] solve
+
+    (E - hΘA) y_{k+1} - B μ = E y_k + h(I-Θ)(A y_k + s_k) + hΘ s_{k+1}
+    w = C y_{k+1} + (D/h) μ + e,        0 <= w ⊥ μ >= 0
+
+Impulses rather than currents keep a Dirac current (a capacitor charged from
+a voltage source through an ideal diode) finite: it shows as one step whose
+``μ`` does not shrink with ``h``. The first step is always implicit Euler
+(θ = 1), because the initial state need not satisfy the algebraic rows; with
+θ < 1 so is the step after a switch changes state (see :class:`_Stepping`).
+Numerically the rows are divided by ``h`` and the solver's pair unknowns are
+the currents ``λ = μ/h``: the same solution, but the solver's normwise test
+then weighs currents (not tiny charges) against voltages.
+
+Switch states for a step are decided before it is solved:
+
+* a switch whose control is a source's time function (a voltage source across
+  its control nodes) takes the state its control has in the *middle* of the
+  step; the threshold crossings of piecewise-linear sources are grid points
+  (:meth:`MLCS.breakpoints`), so it switches exactly at the crossing;
+* any other switch takes the state its control had at the *start* of the step
+  (at most one step late).
+
+Steps whose mode (active pairs, switch states, step class) is already known run
+through :mod:`circuitnsds.engine.dense_loop` (one affine map per step, checked for
+complementarity, the modes kept in a table); a step that leaves its mode is
+solved as a full MLCP, which decides the next mode.
+
+This module knows nothing about netlists: it takes an :class:`MLCS`, a grid
+and a starting point.
+"""
+
+from __future__ import annotations
+
+import time as wallclock
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.linalg import lapack
+
+from circuitnsds.engine.dense_loop import STOP_LEFT_MODE, ModeMap, ModeTable, run_table
+from circuitnsds.engine.sparse_loop import (
+    CompiledSparseMap,
+    SparseModeMap,
+    compile_sparse_map,
+    run_compiled_sparse,
+)
+from circuitnsds.errors import SimulationError
+from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
+from circuitnsds.solvers._dense import factorise
+from circuitnsds.solvers._sparse import factorise_sparse
+from circuitnsds.system.mlcs import MLCS
+
+SOLVER_CACHE_SIZE = 32
+"""How many (step size, switch states) keep their MLCP solver (and its factorisations)."""
+MODE_CACHE_SIZE = 256
+"""How many modes keep their step map."""
+DENSE_MAP_LIMIT = 64
+"""Largest ``n + m`` (unknowns + pairs) whose modes get dense step maps in the mode table;
+larger circuits keep a sparse LU per mode, stepped by :mod:`circuitnsds.engine.sparse_loop`.
+Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped step,
+dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
+100: 10.3 / 2.95. The dense table also changes modes without leaving the compiled
+loop, which is what converters (small ``n``, many switchings) need."""
+CHUNK = 100_000
+"""Longest run of mapped steps between progress reports."""
+
+
+@dataclass
+class Trajectory:
+    """Raw result of :func:`integrate` (one row per grid point).
+
+    Attributes:
+        time: grid [s], shape ``(N,)``.
+        y: MNA unknowns, shape ``(N, n)``.
+        current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial).
+        impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0).
+        residual: scaled complementarity residual of each step solved as an MLCP;
+            0 for a step taken by the mode map (its signs are checked, see
+            :mod:`circuitnsds.engine.dense_loop`).
+        active: active set of each step, shape ``(N, m)``.
+        switches: state (closed = true) of each switch during the step ending at
+            each point, shape ``(N, number of switches)`` (row 0: the initial state).
+        stats: counters (steps, mapped_steps and the mapped_seconds spent in them,
+            mlcp_steps, modes built, factorisations, cache hits, fallbacks (MLCP steps whose
+            guess was wrong), pivoting_solves and lemke_fallbacks among them, seconds).
+    """
+
+    time: np.ndarray
+    y: np.ndarray
+    current: np.ndarray
+    impulse: np.ndarray
+    residual: np.ndarray
+    active: np.ndarray
+    switches: np.ndarray
+    stats: dict[str, float] = field(default_factory=dict)
+
+
+def integrate(
+    mlcs: MLCS,
+    grid: np.ndarray,
+    y0: np.ndarray,
+    charge0: np.ndarray | None = None,
+    current0: np.ndarray | None = None,
+    active0: np.ndarray | None = None,
+    switches0: np.ndarray | None = None,
+    *,
+    theta: float = 1.0,
+    tol: float = 1e-9,
+    progress: Callable[[float, float], None] | None = None,
+    compiled: bool = True,
+) -> Trajectory:
+    """Integrate ``mlcs`` over ``grid`` from ``y0``.
+
+    Args:
+        mlcs: the system.
+        grid: increasing time points [s], ``grid[0]`` is the initial time.
+        y0: unknowns at ``grid[0]``.
+        charge0: ``E y0`` to use instead (initial conditions that ``y0`` cannot express).
+        current0: pair currents at ``grid[0]`` [A] (reported only).
+        active0: guessed active set for the first step.
+        switches0: switch states at ``grid[0]`` (default: each switch's ``ON`` flag).
+        theta: θ in [0.5, 1].
+        tol: complementarity tolerance handed to the solver.
+        progress: ``callback(t, t_end)``, called about twice a second (so never
+            for runs shorter than half a second), and once at the end if it was called.
+        compiled: use the compiled mode loops when numba is installed (``False``:
+            the same loops in Python, for comparison).
+
+    Raises:
+        SimulationError: a source value or the state is not finite, or a step has no
+            solution (names the time and devices); ``error.trajectory`` then holds the
+            points computed before it.
+    """
+    if not 0.5 <= theta <= 1.0:
+        raise ValueError(f"theta must lie in [0.5, 1], got {theta}")
+    grid = np.asarray(grid, dtype=float)
+    count, n, m = grid.size, mlcs.n, mlcs.m
+    switches = mlcs.switches
+    y = np.empty((count, n))
+    current = np.zeros((count, m))
+    residual = np.zeros(count)
+    active = np.zeros((count, m), dtype=bool)
+    states = np.zeros((count, len(switches)), dtype=bool)
+    y[0] = y0
+    if active0 is not None:
+        active[0] = active0
+    states[0] = (switches0 if switches0 is not None
+                 else [switch.initially_on for switch in switches])
+
+    stepping = _Stepping(mlcs, grid, theta, tol, states[0])
+    started = wallclock.perf_counter()
+    clock = {"last": started, "reported": False}
+
+    def _report() -> None:
+        if progress is not None and wallclock.perf_counter() - clock["last"] > 0.5:
+            clock["last"], clock["reported"] = wallclock.perf_counter(), True
+            progress(grid[k], grid[-1])
+
+    charge = charge0 if charge0 is not None else mlcs.E @ y[0]
+    guess = active0
+    last_active: dict[bytes, np.ndarray] = {}
+    stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0}
+    used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
+    left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
+
+    k = 0
+    while k < count - 1:
+        states[k + 1] = stepping.switch_states(k, states[k], y[k])
+        changed = k > 0 and bool((states[k + 1] != states[k]).any())
+        if changed:
+            # a switch changed: the pairs most likely take the mode they had the last
+            # time the switches were in this state (the other phase of a converter)
+            guess = last_active.get(states[k + 1].tobytes(), guess)
+        cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
+        if k > 0 and guess is not None and k != left_mode_at:
+            done, reason, guess = stepping.run_mapped(k, min(count - 1, k + CHUNK), cls, states[k + 1],
+                                                      guess, y, current, active, used, compiled)
+            # step `done` left the mode the loop continued with (same class and switch state
+            # as the step before): the MLCP solves it. After a change the loop tried the mode
+            # stored for the new state; the guess (the set last seen with it) may differ.
+            left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
+                                    and stepping.continues(done)) else -1
+            if done > k:
+                finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
+                if not finite.all():
+                    bad = k + 1 + int(np.argmin(finite))
+                    raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
+                                   residual, active, states, stats)
+                states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
+                if stepping.scheduled.size:
+                    states[k + 1:done + 1, stepping.scheduled] = stepping.schedule[k:done]
+                last_active[states[done].tobytes()] = guess
+                stats["mapped_steps"] += done - k
+                k, charge = done, None
+                _report()
+                continue  # the next step decides its states and mode afresh
+        if charge is None:
+            charge = mlcs.E @ y[k]
+        try:
+            result = stepping.solve_step(k, cls, states[k + 1], charge, y[k], guess)
+        except SimulationError as exc:  # keep what was computed: the caller writes it
+            raise _stopped(exc, k, grid, y, current, residual, active, states, stats) from None
+        y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
+        current[k + 1] = result.z
+        residual[k + 1] = result.residual
+        active[k + 1] = guess = np.asarray(result.active, dtype=bool)
+        last_active[states[k + 1].tobytes()] = guess
+        stats["mlcp_steps"] += 1
+        charge = mlcs.E @ y[k + 1]
+        k += 1
+        _report()
+
+    impulse = np.zeros((count, m))
+    impulse[1:] = current[1:] * np.diff(grid)[:, None]
+    if current0 is not None:
+        current[0] = current0
+    stats.update(stepping.counters(), mapped_seconds=stepping.mapped_seconds)
+    stats["seconds"] = wallclock.perf_counter() - started
+    if progress is not None and clock["reported"]:
+        progress(grid[-1], grid[-1])
+    return Trajectory(grid, y, current, impulse, residual, active, states, stats)
+
+
+@dataclass
+class _StepSolver:
+    """The MLCP solver of one step size and switch state, with its Θ diagonal and ``A``."""
+
+    solver: MLCPSolver
+    weights: np.ndarray
+    A: sp.csr_matrix
+    K: sp.csc_matrix
+
+
+class _Stepping:
+    """Everything the time loop needs that depends on the grid, cached per step class and mode.
+
+    Steps are grouped in *classes*: equal step sizes (to 1e-9 relative; grid rounding is
+    ~1e-16·t) share one, and a *restart* step of each size has a class of its own. A
+    restart step is implicit Euler whatever θ is: the first step, and with θ < 1 the step
+    after a switch changes state, whose ``y_k`` holds the algebraic unknowns of the old
+    switch state (the θ-method's explicit part would carry them into the new one, an
+    O(h) error at every switching instant).
+    """
+
+    def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
+                 initial_states: np.ndarray):
+        self.mlcs, self.grid, self.theta, self.tol = mlcs, grid, theta, tol
+        self.E = mlcs.E.tocsr()
+        self.differential = mlcs.differential_rows
+        self.sources = _source_values(mlcs, grid)
+        steps = np.diff(grid)
+        quantum = 1e-9 * steps.max()
+        self.base_class = np.unique(np.round(steps / quantum), return_inverse=True)[1].astype(np.int64)
+        self.sizes = int(self.base_class.max()) + 1
+        self.scheduled, self.schedule, self.sched_state = _switch_schedule(
+            mlcs, grid, self.sources, initial_states)
+        restart = np.zeros(steps.size, dtype=bool)
+        restart[0] = True
+        if theta != 1.0:
+            restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
+        self.step_class = self.base_class + self.sizes * restart
+        free = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is None]
+        self.free = np.array(free, dtype=np.int64)
+        controls = np.zeros((len(free), mlcs.n))
+        for row, j in enumerate(free):
+            for column, value in mlcs.switches[j].control:
+                controls[row, column] += value
+        self.free_controls = controls
+        self.free_on = np.array([mlcs.switches[j].on_threshold for j in free])
+        self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
+        self._no_free = (controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
+        self._free_ids: dict[bytes, int] = {}
+        self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
+        self.retired: list[_StepSolver] = []
+        self.dense = mlcs.n + mlcs.m <= DENSE_MAP_LIMIT
+        self.table = (ModeTable(mlcs.n, mlcs.m, len(mlcs.stimuli), most=MODE_CACHE_SIZE)
+                      if self.dense else None)
+        self.unmappable: set[tuple] = set()
+        self.modes: dict[tuple, CompiledSparseMap | None] = {}
+        self.built = 0
+        self.mapped_seconds = 0.0
+
+    def restart_class(self, k: int) -> int:
+        """Class of step ``k`` when a switch changed state at ``t_k``."""
+        return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 else 0)
+
+    def theta_of(self, cls: int) -> float:
+        return 1.0 if cls >= self.sizes else self.theta
+
+    def switch_states(self, k: int, previous: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """States of the switches during step ``k``: scheduled ones from their source,
+        the others from their control at ``t_k`` (with hysteresis)."""
+        if not self.free.size:
+            if self.scheduled.size == previous.size:
+                return self.schedule[k]  # every switch scheduled (the usual converter)
+            if not self.scheduled.size:
+                return previous
+        states = previous.copy()
+        if self.scheduled.size:
+            states[self.scheduled] = self.schedule[k]
+        for row, j in enumerate(self.free):
+            states[j] = self.mlcs.switches[j].next_state(bool(previous[j]),
+                                                         float(self.free_controls[row] @ y))
+        return states
+
+    def free_switch_arrays(self, states: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Controls, thresholds and current states of the switches the loop must watch."""
+        if not self.free.size:
+            return self._no_free
+        return self.free_controls, self.free_on, self.free_off, states[self.free]
+
+    def free_id(self, states: np.ndarray) -> int:
+        """A small integer naming the states of the state-controlled switches."""
+        return self._free_ids.setdefault(states[self.free].tobytes(), len(self._free_ids))
+
+    def _step_solver(self, k: int, cls: int, states: np.ndarray) -> _StepSolver:
+        key = (cls, states.tobytes())
+        if key in self.solvers:
+            self.solvers.move_to_end(key)
+            return self.solvers[key]
+        h = self.grid[k + 1] - self.grid[k]
+        weights = np.where(self.differential, self.theta_of(cls), 1.0)
+        A = self.mlcs.system_matrix(tuple(bool(s) for s in states))
+        # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
+        # (same solution; the solver's normwise test then weighs currents, not charges,
+        # against the voltages, and a wrong-signed current of microamperes is caught)
+        with np.errstate(all="ignore"):
+            K = (self.E / h - sp.diags(weights) @ A).tocsc()
+        if not np.isfinite(K.data).all():
+            raise SimulationError(
+                f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
+                "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
+                time=float(self.grid[k]), hint="check the step (--step, .tran TSTEP) and the "
+                "capacitor and inductor values")
+        solver = MLCPSolver(K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        self.solvers[key] = _StepSolver(solver, weights, A.tocsr(), K)
+        if len(self.solvers) > SOLVER_CACHE_SIZE:
+            self.retired.append(self.solvers.popitem(last=False)[1])
+        return self.solvers[key]
+
+    def solve_step(self, k: int, cls: int, states: np.ndarray, charge: np.ndarray, y: np.ndarray,
+                   guess: np.ndarray | None):
+        """Solve step ``k`` (of class ``cls``) as an MLCP (see module docstring)."""
+        step = self._step_solver(k, cls, states)
+        h = self.grid[k + 1] - self.grid[k]
+        S = self.mlcs.S
+        source_next = S @ self.sources[k + 1]
+        rhs = charge / h + step.weights * source_next
+        if self.theta_of(cls) != 1.0:
+            rhs += (1.0 - step.weights) * (step.A @ y + S @ self.sources[k])
+        if not np.isfinite(rhs).all():
+            t1 = self.grid[k + 1]
+            raise SimulationError(
+                f"the state overflows in the step from t = {self.grid[k]:.6g} s to {t1:.6g} s "
+                f"(largest |value| {np.abs(y).max():.3g})", where=f"t = {t1:.6g} s", time=float(t1),
+                hint="the circuit is unstable (a negative resistance, or controlled sources with a "
+                "loop gain above 1) or a value overflowed; the waveforms before that instant are kept")
+        try:
+            return step.solver.solve(-rhs, self.mlcs.e, guess=guess)
+        except LCPError as exc:
+            raise _step_failure(self.mlcs, self.grid[k], self.grid[k + 1], exc, guess,
+                                states) from None
+
+    def run_mapped(self, k: int, k_end: int, cls: int, states: np.ndarray, guess: np.ndarray,
+                   y: np.ndarray, current: np.ndarray, active: np.ndarray, used: np.ndarray,
+                   compiled: bool) -> tuple[int, int | None, np.ndarray]:
+        """Take steps ``k, k+1, ...`` (up to ``k_end``) with step maps, starting in the mode of
+        class ``cls``, switch ``states`` and active set ``guess``: the mode table (dense) or
+        one sparse mode. Writes ``y``, ``current`` and ``active`` of the steps done.
+
+        Returns ``(done, reason, guess)``: the first step not done, the loop's ``STOP_*``
+        code (``None`` when the mode has no map) and the active set of the last step done.
+        """
+        if self.dense:
+            mode = self.dense_mode(k, cls, states, guess)
+        else:
+            mode = self.sparse_mode(k, cls, states, guess)
+        if mode is None:
+            return k, None, guess
+        entered = wallclock.perf_counter()  # mapped_seconds: stepping, not building maps
+        free = self.free_switch_arrays(states)
+        if self.dense:
+            done, reason, last = run_table(self.table, mode, cls, k, k_end, y, current, self.sources,
+                                           self.step_class, self.sched_state, self.free_id(states),
+                                           *free, used, use_compiled=compiled)
+            active[k + 1:done + 1] = self.table.mask[used[k + 1:done + 1]]
+            if done > k:
+                guess = self.table.mask[last].copy()
+        else:
+            # a restart step found at run time (a state-controlled switch changed) is one
+            # step of its own: the steps after it are of the ordinary class
+            last_step = k + 1 if cls != self.step_class[k] else k_end
+            done, reason = run_compiled_sparse(mode, k, last_step, y, current, self.sources,
+                                               self.step_class, self.sched_state, *free,
+                                               use_compiled=compiled)
+            active[k + 1:done + 1] = guess
+        self.mapped_seconds += wallclock.perf_counter() - entered
+        return done, reason, guess
+
+    def continues(self, k: int) -> bool:
+        """Whether step ``k`` has the class and scheduled switch states of step ``k - 1``."""
+        return bool(self.step_class[k] == self.step_class[k - 1]
+                    and self.sched_state[k] == self.sched_state[k - 1])
+
+    def dense_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> int | None:
+        """Index in :attr:`table` of the mode (class, switch states, active set ``guess``) of
+        step ``k``, built if new; ``None`` when its step matrix is singular."""
+        key = (cls, int(self.sched_state[k]), self.free_id(states), guess.tobytes())
+        found = self.table.find(key)
+        if found is not None or key in self.unmappable:
+            return found
+        mode = self._build_mode(k, cls, states, guess)
+        self.built += 1
+        if mode is None:
+            self.unmappable.add(key)
+            return None
+        return self.table.add(key, mode)
+
+    def sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
+                    ) -> CompiledSparseMap | None:
+        """The factorised step map of the mode of step ``k`` (large circuits)."""
+        key = (cls, states.tobytes(), guess.tobytes())
+        mode = self.modes.get(key, False)
+        if mode is False:
+            if len(self.modes) >= MODE_CACHE_SIZE:
+                self.modes.clear()  # a circuit visiting this many modes gains little from maps
+            mode = self.modes[key] = self._build_sparse_mode(k, cls, states, guess)
+            self.built += 1
+        return mode
+
+    def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
+        mlcs, n = self.mlcs, self.mlcs.n
+        act = np.flatnonzero(guess)
+        inact = np.flatnonzero(~guess)
+        step = self._step_solver(k, cls, states)
+        h = self.grid[k + 1] - self.grid[k]
+        B, C, D = (mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray())
+        bordered = np.block([[step.K.toarray(), -B[:, act]], [C[act], D[np.ix_(act, act)]]])
+        lu = factorise(bordered)  # the solver's own test of singularity, so both agree
+        if not lu.ok:
+            return None
+        implicit = 1.0 - step.weights
+        S = mlcs.S.toarray()
+        carry = self.E.toarray() / h + implicit[:, None] * step.A.toarray()
+        kstim = S.shape[1]
+        right = np.zeros((n + act.size, n + 2 * kstim + 1))
+        right[:n, :n] = carry
+        right[:n, n:n + kstim] = step.weights[:, None] * S
+        right[:n, n + kstim:n + 2 * kstim] = implicit[:, None] * S
+        right[n:, -1] = -mlcs.e[act]
+        # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
+        solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
+        if info != 0 or not np.all(np.isfinite(solution)):
+            return None
+        P, Q1 = solution[:, :n], solution[:, n:n + kstim]
+        Q0, c = solution[:, n + kstim:n + 2 * kstim], solution[:, -1]
+        W = np.hstack([C[inact], D[np.ix_(inact, act)]])
+        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64))
+
+    def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
+                           ) -> CompiledSparseMap | None:
+        mlcs, n = self.mlcs, self.mlcs.n
+        act = np.flatnonzero(guess)
+        inact = np.flatnonzero(~guess)
+        step = self._step_solver(k, cls, states)
+        h = self.grid[k + 1] - self.grid[k]
+        B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
+        bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+        # SuperLU with a minimum degree ordering on A + Aᵀ (the same fill as COLAMD on a ladder,
+        # triangular solves ~1.5x faster) and the MLCP solver's test of singularity
+        lu = factorise_sparse(bordered)
+        if not lu.ok:
+            return None
+        implicit = 1.0 - step.weights
+        S = mlcs.S.tocsr()
+        mode = SparseModeMap(
+            lu=lu.factors, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
+            S_next=(sp.diags(step.weights) @ S).tocsr(), S_now=(sp.diags(implicit) @ S).tocsr(),
+            rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
+            e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
+        try:
+            return compile_sparse_map(mode)  # plain arrays, for the compiled loop
+        except ValueError:  # a zero or non-finite pivot: leave such a mode to the MLCP solver
+            return None
+
+    def counters(self) -> dict[str, int]:
+        totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",
+                                "lemke_fallbacks"), 0)
+        for step in list(self.solvers.values()) + self.retired:
+            for key in totals:
+                totals[key] += step.solver.stats.get(key, 0)
+        totals["modes"] = self.built
+        return totals
+
+
+def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
+    """Every source's value at every grid point, shape ``(N, number of sources)``."""
+    values = np.zeros((grid.size, len(mlcs.stimuli)))
+    with np.errstate(all="ignore"):
+        for column, stimulus in enumerate(mlcs.stimuli):
+            values[:, column] = stimulus.sample(grid)
+    if not np.isfinite(values).all():
+        row, column = np.argwhere(~np.isfinite(values))[0]
+        rows = mlcs.S.tocsc()[:, column].indices
+        owner = ", ".join(mlcs.unknowns[r].replace("v(", "node ").replace("i(", "source ").rstrip(")")
+                          for r in rows) or "a source"
+        raise SimulationError(
+            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s ({owner}: "
+            f"{mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s", time=float(grid[row]),
+            hint="check the source's parameters (a zero time constant or period, an overflow)")
+    return values
+
+
+def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
+                     initial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """States of the source-controlled switches for every step, from their control at the
+    step's midpoint (with hysteresis, starting from ``initial``).
+
+    Returns ``(switch indices, states (steps, count), state id per step)``: steps with
+    the same scheduled states have the same id, and only they.
+    """
+    scheduled = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is not None]
+    steps = grid.size - 1
+    states = np.zeros((steps, len(scheduled)), dtype=bool)
+    if not scheduled:
+        return np.zeros(0, dtype=np.int64), states, np.zeros(steps, dtype=np.int64)
+    middles = 0.5 * (grid[:-1] + grid[1:])
+    for column, j in enumerate(scheduled):
+        switch = mlcs.switches[j]
+        stimulus, sign = switch.control_stimulus
+        control = sign * mlcs.stimuli[stimulus].sample(middles)
+        decided = np.where(control > switch.on_threshold, 1,
+                           np.where(control < switch.off_threshold, 0, -1))
+        last = np.maximum.accumulate(np.where(decided >= 0, np.arange(steps), -1))
+        states[:, column] = np.where(last >= 0, decided[np.maximum(last, 0)] == 1, initial[j])
+    if len(scheduled) < 63:  # the states as the bits of one integer
+        ids = states.astype(np.int64) @ (np.int64(1) << np.arange(len(scheduled), dtype=np.int64))
+    else:
+        ids = np.unique(states, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
+    return np.array(scheduled, dtype=np.int64), states, ids
+
+
+def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
+                  guess: np.ndarray | None = None, states: np.ndarray | None = None) -> SimulationError:
+    """The error of a step whose MLCP has no (verified) solution.
+
+    Carries the time, the devices of the active set tried first (those conducting in the
+    previous step), the solver's best residual and, as ``step_interval`` and
+    ``switch_states``, what the caller needs to diagnose the step (:mod:`circuitnsds.checks.wellposed`).
+    """
+    conducting = [] if guess is None else [mlcs.pair_devices[j] for j in np.flatnonzero(guess)]
+    conducting = list(dict.fromkeys(conducting))
+    closed = [] if states is None else [s.name for s, on in zip(mlcs.switches, states) if on]
+    residual = getattr(exc, "residual", None)
+    verdict = "has no solution" if isinstance(exc, LCPNoSolution) else "could not be solved"
+    details = [f"conducting before it: {', '.join(conducting) or 'none'}"]
+    if mlcs.switches:
+        details.append(f"closed switches: {', '.join(closed) or 'none'}")
+    if residual is not None and np.isfinite(residual):
+        details.append(f"best residual {residual:.2g}")
+    error = SimulationError(
+        f"the time step from t = {t0:.6g} s to {t1:.6g} s {verdict} with ideal devices "
+        f"({'; '.join(details)})",
+        where=f"t = {t1:.6g} s", time=float(t1), devices=tuple(conducting), residual=residual,
+        hint=f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
+        "Zener) that no current can pass in either state, e.g. in series with a current source",
+    )
+    error.step_interval = (float(t0), float(t1))
+    error.switch_states = None if states is None else np.array(states, dtype=bool)
+    return error
+
+
+def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
+    """The error for the first grid point ``k`` whose state holds NaN or an infinity."""
+    bad = np.flatnonzero(~np.isfinite(y[k]))
+    names = ", ".join(f"{mlcs.unknowns[j]} = {y[k, j]}" for j in bad[:4])
+    return SimulationError(
+        f"the state is not finite at t = {grid[k]:.6g} s ({names}{', ...' if bad.size > 4 else ''})",
+        where=f"t = {grid[k]:.6g} s", time=float(grid[k]),
+        hint="the circuit is unstable (a negative resistance, or controlled sources with a loop "
+        "gain above 1) or a value overflowed; the waveforms before that instant are kept",
+    )
+
+
+def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
+             residual: np.ndarray, active: np.ndarray, states: np.ndarray,
+             stats: dict) -> SimulationError:
+    """Attach to ``error`` the trajectory up to grid point ``k`` (the last good one) as
+    ``error.trajectory``, so that the caller can still write it."""
+    end = k + 1
+    impulse = np.zeros((end, current.shape[1]))
+    impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]
+    error.trajectory = Trajectory(grid[:end].copy(), y[:end].copy(), current[:end].copy(), impulse,
+                                  residual[:end].copy(), active[:end].copy(), states[:end].copy(),
+                                  dict(stats, steps=k))
+    return error

@@ -1,0 +1,146 @@
+"""Dot commands: ``.tran``, ``.ic``, ``.options``, ``.save``, ``.title``; warnings for
+commands that concern other analyses or output, errors for unsupported ones."""
+
+from __future__ import annotations
+
+import re
+
+from circuitnsds.circuit.circuit import Circuit, TranSpec
+from circuitnsds.frontend.cards.reader import StatementReader, node_name
+from circuitnsds.netlist import Statement
+from circuitnsds.units import format_si
+
+IGNORED_COMMANDS = {
+    ".print": "every signal is written; choose columns with --signals or .save",
+    ".plot": "every signal is written; choose columns with --signals or .save",
+    ".probe": "every signal is written; choose columns with --signals or .save",
+    ".op": "only .tran is run (its operating point is computed unless UIC)",
+    ".ac": "only .tran is supported", ".dc": "only .tran is supported",
+    ".noise": "only .tran is supported", ".tf": "only .tran is supported",
+    ".sens": "only .tran is supported", ".pz": "only .tran is supported",
+    ".disto": "only .tran is supported", ".four": "Fourier analysis is not supported",
+    ".meas": ".meas is not supported; compute measurements from the waveforms (run --measure)",
+    ".measure": ".meas is not supported; compute measurements from the waveforms (run --measure)",
+    ".temp": "the ideal devices have no temperature dependence",
+    ".width": "output formatting does not apply", ".nodeset": "the ideal operating point needs no hints",
+}
+
+UNSUPPORTED_COMMANDS = {".func", ".csparam", ".if", ".else", ".elseif", ".endif"}
+
+USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
+                "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)"}
+OPTION_KEYWORDS = {".options", ".option", ".opt"}
+
+
+def read_options(reader: StatementReader) -> dict[str, float]:
+    """``.options name[=value] ...``: the options the engine uses, checked; one warning
+    naming all the others."""
+    used: dict[str, float] = {}
+    ignored: list[str] = []
+    while not reader.done():
+        key = reader.next("option")
+        text = None
+        if reader.peek() == "=":
+            reader.position += 1
+            text = reader.next(f"value of {key}")
+        if key not in USED_OPTIONS:
+            ignored.append(key if text is None else f"{key}={text}")
+            continue
+        if text is None:
+            raise reader.error(f".options {key} needs a value", hint=f"{key}: {USED_OPTIONS[key]}")
+        value = reader.number(key, text)
+        if key == "theta" and not 0.5 <= value <= 1.0:
+            raise reader.error(f".options theta={value:g} must lie in [0.5, 1]",
+                               hint="1 is implicit Euler, 0.5 the trapezoidal rule")
+        if key == "gmin" and value <= 0:
+            raise reader.error(f".options gmin={value:g} must be positive")
+        used[key] = value
+    if ignored:
+        reader.warn(f".options {' '.join(ignored)} ignored (circuitnsds uses only "
+                    f"{', '.join(USED_OPTIONS)})")
+    return used
+
+
+def command(circuit: Circuit, statement: Statement) -> None:
+    """Apply a dot command (other than ``.model`` and ``.options``) to ``circuit``."""
+    keyword = statement.keyword
+    reader = StatementReader(statement)
+    if keyword == ".tran":
+        circuit.set_tran(_tran(reader), statement.location)
+    elif keyword == ".ic":
+        _initial_conditions(circuit, reader)
+    elif keyword == ".save":
+        _save(circuit, statement)
+    elif keyword == ".title":
+        circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""
+    elif keyword in IGNORED_COMMANDS:
+        reader.warn(f"{keyword} ignored ({IGNORED_COMMANDS[keyword]}): {statement.text}")
+    elif keyword in UNSUPPORTED_COMMANDS:
+        raise reader.error(f"{keyword} is not supported",
+                           hint="write the netlist without it (parameters with .param, "
+                           "subcircuits with .subckt are supported)")
+    else:
+        raise reader.error(f"unknown command {keyword}",
+                           hint="supported: .tran, .ic, .model, .options, .param, .subckt, "
+                           ".include, .lib, .save, .end")
+
+
+_SIGNAL = re.compile(r"[a-z]+\s*\([^)]*\)|[^\s,]+", re.IGNORECASE)
+
+
+def _save(circuit: Circuit, statement: Statement) -> None:
+    """``.save v(out) i(l1) ...`` selects the signals written by the command line."""
+    text = statement.text.split(None, 1)[1] if " " in statement.text.strip() else ""
+    names = [re.sub(r"\s+", "", name).lower() for name in _SIGNAL.findall(text)]
+    names = [name for name in names if name not in {"all", "allv", "alli"}]
+    for name in names:
+        if name.startswith("@"):
+            StatementReader(statement).warn(f".save {name} ignored: device parameters (@...) "
+                                            "are not outputs of circuitnsds")
+        elif name not in circuit.saved_signals:
+            circuit.saved_signals.append(name)
+    circuit.save_location = statement.location
+
+
+def _tran(reader: StatementReader) -> TranSpec:
+    numbers: list[float] = []
+    uic = False
+    while not reader.done():
+        token = reader.peek()
+        if token == "uic":
+            uic = True
+            reader.position += 1
+        else:
+            numbers.append(reader.value(".tran time"))
+    if not 2 <= len(numbers) <= 4:
+        raise reader.error(f".tran takes TSTEP TSTOP [TSTART [TMAX]] [UIC], got {len(numbers)} numbers")
+    step, stop = numbers[0], numbers[1]
+    start = numbers[2] if len(numbers) > 2 else 0.0
+    max_step = numbers[3] if len(numbers) > 3 else None
+    for what, value in (("TSTEP", step), ("TSTOP", stop)):
+        if value <= 0:
+            raise reader.error(f".tran {what} = {format_si(value, 's')} must be positive",
+                               hint=".tran TSTEP TSTOP [TSTART [TMAX]] [UIC], e.g. .tran 1u 10m")
+    if not 0 <= start < stop:
+        raise reader.error(f".tran TSTART={start:g} must lie in [0, TSTOP)")
+    if max_step is not None and max_step <= 0:
+        raise reader.error(".tran TMAX must be positive")
+    return TranSpec(step=step, stop=stop, start=start, max_step=max_step, uic=uic,
+                    location=reader.location)
+
+
+def _initial_conditions(circuit: Circuit, reader: StatementReader) -> None:
+    while not reader.done():
+        kind = reader.next("v(node)=value")
+        if kind != "v" or reader.peek() != "(":
+            raise reader.error(f".ic: expected v(node)=value, found {kind!r}",
+                               hint=".ic sets node voltages only: .ic v(out)=5 v(in)=0")
+        reader.position += 1
+        node = node_name(reader.next("node name"))
+        if reader.next("')'") != ")" or reader.next("'='") != "=":
+            raise reader.error(".ic: expected v(node)=value")
+        if node == "0":
+            raise reader.error(".ic cannot set the ground node: it is 0 V by definition")
+        circuit.initial_voltages[node] = (reader.value(f".ic value of v({node})"), reader.location)
+
+

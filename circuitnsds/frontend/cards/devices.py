@@ -1,0 +1,215 @@
+"""Device lines: ``R C L`` (resistors possibly with a model), ``D``, ``S``/``W`` switches, ``K``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from circuitnsds.circuit.elements import (
+    Capacitor,
+    Diode,
+    DiodeModel,
+    Element,
+    Inductor,
+    MutualInductance,
+    Resistor,
+    Switch,
+    SwitchModel,
+)
+from circuitnsds.frontend.cards.models import MODEL_KINDS, ResistorModel
+from circuitnsds.frontend.cards.reader import StatementReader
+
+IGNORED_PASSIVE_PARAMETERS = {"tc1", "tc2", "tc", "temp", "dtemp", "noisy", "scale", "ac"}
+
+
+def passive(reader: StatementReader, letter: str, models: dict[str, object]) -> Element:
+    """``R|C|L name n1 n2 [VALUE] [key=value ...]``; a resistor may name an ``R`` model
+    before or after its value (``R1 a b RMOD 2.5`` or ``R1 a b 2.5 RMOD``)."""
+    name = reader.name
+    nodes = reader.nodes(2)
+    quantity = {"r": "resistance", "c": "capacitance", "l": "inductance"}[letter]
+    value: float | None = None
+    model: ResistorModel | None = None
+    while reader.peek() is not None and reader.peek(1) != "=":
+        token = reader.peek()
+        if letter == "r" and model is None and token in models:
+            model = _resistor_model(reader, models[token])
+            reader.position += 1
+        elif value is None:
+            value = reader.value(quantity)
+        else:
+            raise reader.error(f"{name}: unexpected {token!r}", hint=f"in: {reader.statement.text}")
+    initial: float | None = None
+    multiplier = 1.0
+    geometry: dict[str, float] = {}
+    for key, text in reader.keyword_values():
+        number = reader.number(key, text)
+        if key == letter and value is None:
+            value = number
+        elif key == "ic" and letter in "cl":
+            initial = number
+        elif key == "m":
+            multiplier = number
+        elif key in {"l", "w"} and model is not None:
+            geometry[key] = number
+        elif key in IGNORED_PASSIVE_PARAMETERS:
+            reader.warn(f"{name}: {key}= ignored (no temperature, noise or small-signal modelling)")
+        else:
+            raise reader.error(f"{name}: parameter {key!r} is not supported",
+                               hint=f"write {letter.upper()}name n1 n2 VALUE"
+                               + (" [ic=VALUE]" if letter in "cl" else ""))
+    if value is None and model is not None:
+        value = _model_resistance(reader, model, geometry)
+    if value is None:
+        raise reader.error(f"{name}: missing {quantity}", hint=f"in: {reader.statement.text}")
+    if multiplier <= 0:
+        raise reader.error(f"{name}: m={multiplier:g} must be positive")
+    if letter == "r":
+        if value <= 0:
+            raise reader.error(f"{name}: resistance must be positive, got {value:g}",
+                               hint="use a 0 V voltage source for a short circuit")
+        return Resistor(name, nodes, reader.location, resistance=value / multiplier,
+                        model=model.name if model else None)
+    if value < 0:
+        raise reader.error(f"{name}: {quantity} must not be negative, got {value:g}")
+    if letter == "c":
+        return Capacitor(name, nodes, reader.location, capacitance=value * multiplier,
+                         initial_voltage=initial)
+    return Inductor(name, nodes, reader.location, inductance=value / multiplier,
+                    initial_current=initial)
+
+
+def _resistor_model(reader: StatementReader, model: object) -> ResistorModel:
+    if not isinstance(model, ResistorModel):
+        raise reader.error(f"{reader.name}: model {reader.peek()!r} is {_kind(model)} model, "
+                           "not a resistor (R) model")
+    return model
+
+
+def _model_resistance(reader: StatementReader, model: ResistorModel,
+                      geometry: dict[str, float]) -> float:
+    """ngspice's rule without an instance value: ``RSH·(L-SHORT)/(W-NARROW)`` when the model
+    has a sheet resistance (``L``, ``W`` from the instance, else the model's defaults),
+    else the model's ``R``."""
+    if model.sheet_resistance:
+        width = geometry.get("w", model.default_width) - model.narrow
+        length = geometry.get("l", model.default_length) - model.short
+        if width <= 0 or length <= 0:
+            raise reader.error(f"{reader.name}: the effective length and width must be positive")
+        return model.sheet_resistance * length / width
+    if model.resistance is not None:
+        return model.resistance
+    raise reader.error(f"{reader.name}: no resistance: give a value, or R= in .model "
+                       f"{model.name}, or RSH there (with L and W)")
+
+
+def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
+    """``D name anode cathode MODEL [area] [area=..] [m=..] [off] [ic=..]``."""
+    name = reader.name
+    nodes = reader.nodes(2)
+    model_name = reader.next("model name")
+    if model_name not in models:
+        raise reader.error(f"{name}: diode model {model_name!r} is not defined",
+                           hint=f"add a line such as: .model {model_name} D()  "
+                           f"(an ideal diode) or .model {model_name} D(Vfwd=0.7 Ron=10m)")
+    model = models[model_name]
+    if not isinstance(model, DiodeModel):
+        raise reader.error(f"{name}: model {model_name!r} is {_kind(model)} model, "
+                           "not a diode (D) model",
+                           hint=f"a diode needs a diode model: .model {model_name} D(...)")
+    area = 1.0
+    if reader.peek() is not None and reader.peek(1) != "=" and reader.peek() != "off":
+        area = reader.value("area")
+    while not reader.done():
+        token = reader.next("parameter")
+        if token == "off":
+            reader.warn(f"{name}: 'off' ignored (the ideal operating point needs no hint)")
+            continue
+        if reader.peek() != "=":
+            raise reader.error(f"{name}: unexpected {token!r}",
+                               hint="write Dname anode cathode MODEL [area]")
+        reader.position += 1
+        number = reader.number(token, reader.next(f"value of {token}"))
+        if token in {"area", "m"}:
+            area *= number
+        elif token in {"ic", "temp", "dtemp", "pj", "lm", "lp", "wm", "wp"}:
+            reader.warn(f"{name}: {token}= ignored by the ideal diode")
+        else:
+            raise reader.error(f"{name}: instance parameter {token!r} is not supported")
+    if area <= 0:
+        raise reader.error(f"{name}: area must be positive, got {area:g}")
+    return Diode(name, nodes, reader.location, model=model, area=area)
+
+
+def switch(reader: StatementReader, letter: str, models: dict[str, object],
+           voltage_sources: set[str]) -> Switch:
+    """``S name n+ n- nc+ nc- MODEL [ON|OFF]`` or ``W name n+ n- VNAME MODEL [ON|OFF]``."""
+    name = reader.name
+    control: str | None = None
+    if letter == "s":
+        nodes = reader.nodes(4)
+    else:
+        nodes = reader.nodes(2)
+        control = reader.next("controlling voltage source")
+        if control not in voltage_sources:
+            raise reader.error(f"{name}: controlling source {control!r} is not a voltage source "
+                               "of this circuit",
+                               hint="a W switch senses the current of a V source (0 V is fine)")
+    model_name = reader.next("model name")
+    wanted = "SW" if letter == "s" else "CSW"
+    if model_name not in models:
+        raise reader.error(f"{name}: switch model {model_name!r} is not defined",
+                           hint=f"add a line such as: .model {model_name} {wanted}("
+                           + ("VT=2.5 VH=0.1" if letter == "s" else "IT=1m IH=0.1m")
+                           + " RON=10m ROFF=1meg)")
+    model = models[model_name]
+    if not isinstance(model, SwitchModel) or model.current_controlled != (letter == "w"):
+        raise reader.error(f"{name}: model {model_name!r} is {_kind(model)} model, "
+                           f"a {letter.upper()} switch needs a {wanted} model")
+    initially_on = False
+    while not reader.done():
+        token = reader.next("ON or OFF")
+        if token not in {"on", "off"}:
+            raise reader.error(f"{name}: unexpected {token!r}",
+                               hint="the only flags after the model are ON and OFF (initial state)")
+        initially_on = token == "on"
+    return Switch(name, nodes, reader.location, model=model, control=control,
+                  initially_on=initially_on)
+
+
+def mutual_inductance(reader: StatementReader, inductors: dict[str, Inductor]) -> MutualInductance:
+    """``K name L1 L2 k``: couples two inductors already in the circuit."""
+    name = reader.name
+    names = (reader.next("first inductor"), reader.next("second inductor"))
+    coupling = reader.value("coupling coefficient")
+    if not reader.done():
+        raise reader.error(f"{name}: unexpected {reader.peek()!r}", hint="write Kname L1 L2 k")
+    for inductor in names:
+        if inductor not in inductors:
+            raise reader.error(f"{name}: {inductor!r} is not an inductor of this circuit",
+                               hint="K couples two L elements by name: K1 L1 L2 0.99")
+    if names[0] == names[1]:
+        raise reader.error(f"{name}: an inductor cannot be coupled to itself")
+    if not 0 < abs(coupling) <= 1:
+        raise reader.error(f"{name}: coupling coefficient k={coupling:g} must satisfy 0 < |k| <= 1")
+    return MutualInductance(name, (), reader.location, inductors=names,
+                            inductances=tuple(inductors[n].inductance for n in names),
+                            coupling=coupling)
+
+
+def inductance_matrix(inductors: list[Inductor], couplings: list[MutualInductance]) -> np.ndarray:
+    """The symmetric inductance matrix [H] of ``inductors`` (in that order) with their couplings."""
+    index = {inductor.name: k for k, inductor in enumerate(inductors)}
+    matrix = np.diag([inductor.inductance for inductor in inductors])
+    for coupling in couplings:
+        a, b = (index[name] for name in coupling.inductors)
+        matrix[a, b] += coupling.mutual
+        matrix[b, a] += coupling.mutual
+    return matrix
+
+
+def _kind(model: object) -> str:
+    if isinstance(model, str):
+        return f"a {MODEL_KINDS[model]}" if model in MODEL_KINDS else f"an unknown-type ({model.upper()})"
+    return {DiodeModel: "a diode", ResistorModel: "a resistor"}.get(
+        type(model), "a current-controlled switch" if getattr(model, "current_controlled", False)
+        else "a voltage-controlled switch")

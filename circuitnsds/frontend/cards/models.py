@@ -1,0 +1,154 @@
+"""``.model NAME TYPE(param=value ...)`` cards: diodes (``D``), switches (``SW``, ``CSW``)
+and resistors (``R``/``RES``). Other model types are recorded so that a use can be
+reported precisely."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from circuitnsds.circuit.elements import DiodeModel, SwitchModel
+from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+from circuitnsds.frontend.cards.reader import StatementReader
+
+# Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
+SHOCKLEY_PARAMETERS = {
+    "is", "js", "n", "rs", "cjo", "cj0", "cj", "vj", "pb", "m", "mj", "tt", "fc", "ibv", "ib",
+    "nbv", "ikf", "ik", "ikr", "isr", "nr", "jsw", "cjsw", "cjp", "php", "vjsw", "mjsw", "fcs",
+    "eg", "xti", "kf", "af", "tnom", "tref", "level", "area", "pj", "trs", "trs1", "trs2", "tm1",
+    "tm2", "ttt1", "ttt2", "tlev", "tlevc", "cta", "ctp", "tcv", "tpb", "tphp", "bvj", "gap1",
+    "gap2", "mfg", "type", "iave", "ipk", "vpk", "diss", "xp", "rsw", "nbvl", "ibvl",
+}
+# LTspice idealised-diode parameters that the ideal engine does not model.
+UNMODELLED_PARAMETERS = {
+    "ilimit": "current limiting", "revilimit": "reverse current limiting",
+    "epsilon": "the quadratic smoothing of the knee", "revepsilon": "the quadratic smoothing of the knee",
+}
+# Resistor model parameters that only matter away from the nominal temperature or for noise.
+RESISTOR_TEMPERATURE_PARAMETERS = {"tc1", "tc2", "tce", "tnom", "kf", "af", "lf", "wf", "ef",
+                                   "bv_max", "noisy"}
+DEFAULT_RESISTOR_WIDTH = 10e-6
+"""ngspice's ``DEFW`` [m]."""
+DEFAULT_RESISTOR_LENGTH = 10e-6
+"""ngspice's ``DEFL`` [m]."""
+
+MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
+               "r": "resistor", "res": "resistor"}
+
+
+@dataclass(frozen=True)
+class ResistorModel:
+    """``.model NAME R(...)``: what determines a model-named resistor's resistance.
+
+    Attributes:
+        resistance: ``R``/``RES`` [Ω], used when the instance gives no value.
+        sheet_resistance: ``RSH`` [Ω/square].
+        default_width: ``DEFW`` or ``W`` [m]; default_length: ``DEFL`` or ``L`` [m].
+        narrow: ``NARROW`` [m], ``short``: ``SHORT`` [m] (geometry corrections).
+    """
+
+    name: str
+    resistance: float | None = None
+    sheet_resistance: float | None = None
+    default_width: float = DEFAULT_RESISTOR_WIDTH
+    default_length: float = DEFAULT_RESISTOR_LENGTH
+    narrow: float = 0.0
+    short: float = 0.0
+    location: object | None = None
+
+
+def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESISTANCE
+               ) -> tuple[str, object]:
+    """Read a ``.model`` card; returns ``(name, model)``.
+
+    ``model`` is a :class:`DiodeModel`, :class:`SwitchModel` or :class:`ResistorModel`,
+    or the type name (a string) for a type the engine does not use.
+    ``off_resistance`` [Ω] is the default off-resistance of diodes and switches
+    (``1/GMIN``, from ``.options gmin``).
+    """
+    name = reader.next("model name")
+    kind = reader.next("model type")
+    if reader.peek() == "(":
+        reader.position += 1
+        if reader.tokens[-1] != ")":
+            raise reader.error(f".model {name}: expected ')' at the end of the line",
+                               hint=f"write .model NAME {kind.upper()}(param=value ...) with every "
+                               "parameter inside the parentheses")
+        reader.tokens = reader.tokens[:-1]
+    if kind not in MODEL_KINDS:
+        return name, kind
+    params: dict[str, float] = {}
+    for key, text in reader.keyword_values():
+        if key in params:
+            raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        params[key] = reader.number(key, text)
+    if kind == "d":
+        return name, _diode_model(name, params, reader, off_resistance)
+    if kind in {"sw", "csw"}:
+        return name, _switch_model(name, kind, params, reader, off_resistance)
+    return name, _resistor_model(name, params, reader)
+
+
+def _diode_model(name: str, params: dict[str, float], reader: StatementReader,
+                 off_resistance: float) -> DiodeModel:
+    model = DiodeModel(name, off_resistance=off_resistance, location=reader.location)
+    fields = {"vfwd": "forward_drop", "ron": "on_resistance", "roff": "off_resistance",
+              "rrev": "breakdown_resistance"}
+    for key, value in params.items():
+        if key in fields:
+            if value < 0 or (key == "roff" and value == 0):
+                raise reader.error(f".model {name}: {key}={value:g} must be "
+                                   + ("positive" if key == "roff" else "non-negative"))
+            model = replace(model, **{fields[key]: value})
+        elif key in {"bv", "vrev"}:
+            if value <= 0:
+                raise reader.error(f".model {name}: {key}={value:g}: the breakdown voltage "
+                                   "must be positive")
+            if model.breakdown_voltage not in (None, value):
+                raise reader.error(f".model {name}: BV and Vrev disagree "
+                                   f"({model.breakdown_voltage:g} vs {value:g})",
+                                   hint="give the breakdown voltage once")
+            model = replace(model, breakdown_voltage=value)
+        elif key in UNMODELLED_PARAMETERS:
+            reader.warn(f".model {name}: {key} ignored: the ideal engine does not "
+                        f"model {UNMODELLED_PARAMETERS[key]}")
+        elif key not in SHOCKLEY_PARAMETERS:
+            reader.warn(f".model {name}: unknown diode parameter {key!r} ignored")
+    if "rrev" in params and model.breakdown_voltage is None:
+        reader.warn(f".model {name}: Rrev ignored: it needs a breakdown voltage (BV or Vrev)")
+    return model
+
+
+def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
+                  off_resistance: float) -> SwitchModel:
+    current = kind == "csw"
+    threshold_key, hysteresis_key = ("it", "ih") if current else ("vt", "vh")
+    known = {threshold_key, hysteresis_key, "ron", "roff"}
+    for key in params:
+        if key not in known:
+            raise reader.error(f".model {name} {kind.upper()}: unknown parameter {key!r}",
+                               hint=f"{kind.upper()} models take {', '.join(sorted(known))}")
+    on_resistance = params.get("ron", 1.0)
+    off = params.get("roff", off_resistance)
+    if on_resistance < 0:
+        raise reader.error(f".model {name}: RON={on_resistance:g} must not be negative")
+    if off <= 0:
+        raise reader.error(f".model {name}: ROFF={off:g} must be positive")
+    if params.get(hysteresis_key, 0.0) < 0:
+        reader.warn(f".model {name}: negative {hysteresis_key.upper()} taken as its magnitude "
+                    "(a hysteresis band of half-width |VH| around VT)")
+    return SwitchModel(name, current_controlled=current, threshold=params.get(threshold_key, 0.0),
+                       hysteresis=params.get(hysteresis_key, 0.0), on_resistance=on_resistance,
+                       off_resistance=off, location=reader.location)
+
+
+def _resistor_model(name: str, params: dict[str, float], reader: StatementReader) -> ResistorModel:
+    model = ResistorModel(name, location=reader.location)
+    fields = {"r": "resistance", "res": "resistance", "rsh": "sheet_resistance",
+              "defw": "default_width", "w": "default_width", "defl": "default_length",
+              "l": "default_length", "narrow": "narrow", "short": "short"}
+    for key, value in params.items():
+        if key in fields:
+            model = replace(model, **{fields[key]: value})
+        elif key not in RESISTOR_TEMPERATURE_PARAMETERS:
+            reader.warn(f".model {name}: unknown resistor parameter {key!r} ignored")
+    return model

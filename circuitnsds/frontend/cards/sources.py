@@ -1,0 +1,155 @@
+"""Independent sources ``V``/``I`` with their time functions, and controlled sources ``E F G H``."""
+
+from __future__ import annotations
+
+from circuitnsds.circuit.elements import (
+    CurrentControlledCurrentSource,
+    CurrentControlledVoltageSource,
+    CurrentSource,
+    Element,
+    VoltageControlledCurrentSource,
+    VoltageControlledVoltageSource,
+    VoltageSource,
+)
+from circuitnsds.frontend.cards.reader import StatementReader
+from circuitnsds.system.stimuli import Dc, Exp, Pulse, Pwl, Sin, Stimulus
+from circuitnsds.values import is_value, parse_value
+
+BEHAVIOURAL_KEYWORDS = {"value", "poly", "table", "laplace", "freq", "cur", "vol"}
+
+
+def independent_source(reader: StatementReader, letter: str) -> Element:
+    """``V name n+ n- [DC] value [AC ...] [SIN|PULSE|PWL|EXP(...)]`` (and ``I``)."""
+    nodes = reader.nodes(2)
+    function = _source_function(reader)
+    cls = VoltageSource if letter == "v" else CurrentSource
+    return cls(reader.name, nodes, reader.location, function=function)
+
+
+def controlled_source(reader: StatementReader, letter: str, voltage_sources: set[str]) -> Element:
+    """``E``/``G`` (4 nodes and a gain) or ``F``/``H`` (2 nodes, a voltage source, a gain).
+
+    ``voltage_sources`` holds the names of the circuit's voltage sources (for ``F``/``H``).
+    """
+    name = reader.name
+    if any(token in BEHAVIOURAL_KEYWORDS for token in reader.tokens[1:]):
+        raise reader.error(f"{name}: behavioural and polynomial controlled sources "
+                           "(VALUE=, POLY, TABLE, LAPLACE) are not supported",
+                           hint=f"write a linear source: {letter.upper()}name n+ n- "
+                           + ("nc+ nc- GAIN" if letter in "eg" else "VNAME GAIN"))
+    if letter in "eg":
+        nodes = reader.nodes(4)
+        gain = reader.value("gain" if letter == "e" else "transconductance")
+        _no_more(reader)
+        if letter == "e":
+            return VoltageControlledVoltageSource(name, nodes, reader.location, gain=gain)
+        return VoltageControlledCurrentSource(name, nodes, reader.location, transconductance=gain)
+    nodes = reader.nodes(2)
+    control = reader.next("controlling voltage source")
+    gain = reader.value("gain" if letter == "f" else "transresistance")
+    _no_more(reader)
+    if control not in voltage_sources:
+        raise reader.error(f"{name}: controlling source {control!r} is not a voltage source "
+                           "of this circuit",
+                           hint="F and H sense the current of a V source; add a 0 V source in "
+                           "series with the branch to sense")
+    if letter == "f":
+        return CurrentControlledCurrentSource(name, nodes, reader.location, control=control, gain=gain)
+    return CurrentControlledVoltageSource(name, nodes, reader.location, control=control,
+                                          transresistance=gain)
+
+
+def _no_more(reader: StatementReader) -> None:
+    if not reader.done():
+        if reader.peek() == "m" and reader.peek(1) == "=":
+            raise reader.error(f"{reader.name}: m= is not supported on controlled sources",
+                               hint="scale the gain instead")
+        raise reader.error(f"{reader.name}: unexpected {reader.peek()!r}",
+                           hint=f"in: {reader.statement.text}")
+
+
+def _is_number(token: str | None) -> bool:
+    return token is not None and is_value(token)
+
+
+FUNCTION_ARITY = {"sin": (2, 6), "pulse": (2, 7), "exp": (2, 6), "pwl": (2, None)}
+
+
+def _source_function(reader: StatementReader) -> Stimulus:
+    """Parse ``[DC] value [AC mag [phase]] [SIN(...)|PULSE(...)|PWL(...)|EXP(...)]``."""
+    name = reader.name
+    dc: float | None = None
+    function: Stimulus | None = None
+    while not reader.done():
+        token = reader.next("source value")
+        if token == "dc":
+            if dc is not None:
+                raise reader.error(f"{name}: the DC value is given twice")
+            dc = reader.value("DC value")
+        elif token == "ac":
+            magnitude = reader.value("AC magnitude") if _is_number(reader.peek()) else 1.0
+            phase = reader.value("AC phase") if _is_number(reader.peek()) else 0.0
+            reader.warn(f"{name}: AC {magnitude:g} {phase:g} ignored (small-signal .ac "
+                        "analysis only; it has no effect on a transient)")
+        elif token in FUNCTION_ARITY:
+            if function is not None:
+                raise reader.error(f"{name}: more than one transient function")
+            function = _function(reader, token)
+        elif token in {"sffm", "am", "trnoise", "trrandom", "distof1", "distof2"}:
+            raise reader.error(f"{name}: {token.upper()} sources are not supported",
+                               hint="use DC, SIN, PULSE, PWL or EXP")
+        elif is_value(token) and dc is None:
+            dc = parse_value(token)
+        else:
+            raise reader.error(f"{name}: unexpected {token!r} in a source specification",
+                               hint="write V1 n+ n- [DC] VALUE or V1 n+ n- SIN(VO VA FREQ ...)")
+    if function is not None:
+        return function
+    return Dc(0.0 if dc is None else dc)
+
+
+def _function(reader: StatementReader, kind: str) -> Stimulus:
+    name = reader.name
+    args: list[float] = []
+    parenthesised = reader.peek() == "("
+    if parenthesised:
+        reader.position += 1
+    while not reader.done() and reader.peek() != ")":
+        if not is_value(reader.peek()):
+            if parenthesised:
+                raise reader.error(f"{name}: {kind.upper()} argument {reader.peek()!r} "
+                                   "is not a number (PWL options r= and td= are not supported)")
+            break
+        args.append(reader.value(f"{kind.upper()} argument"))
+    if parenthesised:
+        if reader.done():
+            raise reader.error(f"{name}: {kind.upper()}( has no closing parenthesis")
+        reader.position += 1
+    low, high = FUNCTION_ARITY[kind]
+    if len(args) < low or (high is not None and len(args) > high):
+        expected = f"{low} to {high}" if high else f"at least {low}"
+        raise reader.error(f"{name}: {kind.upper()} takes {expected} numbers, got {len(args)}")
+    if kind == "sin":
+        return Sin(*args[:2], *_defaults(args[2:], [None, 0.0, 0.0, 0.0]))
+    if kind == "pulse":
+        pulse = Pulse(*args[:2], *_defaults(args[2:], [0.0, None, None, None, None]))
+        if any(x is not None and x < 0 for x in (pulse.rise, pulse.fall, pulse.width)):
+            raise reader.error(f"{name}: PULSE rise, fall and width must not be negative")
+        return pulse
+    if kind == "exp":
+        function = Exp(*args[:2], *_defaults(args[2:], [0.0, None, None, None]))
+        if any(x is not None and x < 0 for x in (function.rise_tau, function.fall_tau)):
+            raise reader.error(f"{name}: EXP time constants must not be negative")
+        return function
+    if len(args) % 2:
+        raise reader.error(f"{name}: PWL needs time-value pairs, got {len(args)} numbers")
+    times, values = tuple(args[0::2]), tuple(args[1::2])
+    if any(b < a for a, b in zip(times, times[1:])):
+        raise reader.error(f"{name}: PWL times must not decrease")
+    return Pwl(times, values)
+
+
+def _defaults(given: list[float], defaults: list[float | None]) -> list[float | None]:
+    return list(given) + defaults[len(given):]
+
+

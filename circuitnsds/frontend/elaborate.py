@@ -1,0 +1,196 @@
+"""Netlist statements -> :class:`~circuitnsds.circuit.circuit.Circuit` (elements, models, analysis).
+
+This is where each statement gets its meaning (the readers of each kind of
+line live in :mod:`circuitnsds.frontend.cards`). Anything the engine does not support is
+an error naming ``file:line`` (when it changes the circuit) or a warning (when
+it only concerns other analyses or output): never silence.
+
+The netlist is expected flat (subcircuits expanded, parameters substituted);
+element names may be hierarchical (``x1.d3`` is a diode).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements import (
+    Diode,
+    Element,
+    Inductor,
+    MutualInductance,
+    Resistor,
+    Switch,
+)
+from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+from circuitnsds.errors import NetlistError, SourceLocation
+from circuitnsds.frontend.cards import commands, devices, sources
+from circuitnsds.frontend.cards.models import read_model
+from circuitnsds.frontend.cards.reader import StatementReader, element_letter, warn_at
+from circuitnsds.netlist import Netlist, Statement
+
+UNSUPPORTED_ELEMENTS = {
+    "a": "XSPICE code models", "b": "behavioural sources", "j": "JFETs",
+    "m": "MOSFETs", "o": "lossy transmission lines", "p": "coupled transmission lines",
+    "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
+    "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
+}
+SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, D, S, W and X (subcircuit instances)"
+
+
+def elaborate(netlist: Netlist) -> Circuit:
+    """Build the :class:`Circuit` described by a flat ``netlist``.
+
+    Order: ``.options`` first (``gmin`` sets model defaults), then every
+    ``.model`` (a model may follow the elements using it), then elements and
+    commands in netlist order, and couplings (``K``) last.
+
+    Raises:
+        NetlistError: for malformed or unsupported statements (with file:line).
+    """
+    circuit = Circuit(title=netlist.title, file=netlist.file)
+    statements = list(_outside_control_blocks(netlist.statements))
+    for statement in statements:
+        if statement.keyword in commands.OPTION_KEYWORDS:
+            circuit.options.update(commands.read_options(StatementReader(statement)))
+    off_resistance = 1.0 / circuit.options.get("gmin", 1.0 / DEFAULT_OFF_RESISTANCE)
+    for statement in statements:
+        if statement.keyword == ".model":
+            reader = StatementReader(statement)
+            name, model = read_model(reader, off_resistance)
+            if name in circuit.models:
+                raise reader.error(f".model {name} is defined twice",
+                                   hint=f"the first is at {circuit.model_locations[name]}")
+            circuit.models[name] = model
+            circuit.model_locations[name] = statement.location
+    voltage_sources = {s.keyword for s in statements
+                       if not s.is_command and element_letter(s.keyword) == "v"}
+    couplings: list[Statement] = []
+    for statement in statements:
+        if statement.keyword == ".model" or statement.keyword in commands.OPTION_KEYWORDS:
+            continue
+        if statement.is_command:
+            commands.command(circuit, statement)
+        elif element_letter(statement.keyword) == "k":
+            couplings.append(statement)
+        else:
+            circuit.add(_element(statement, circuit.models, voltage_sources), statement.location)
+    _couple(circuit, couplings)
+    _check_unused_models(circuit)
+    _check_initial_conditions(circuit)
+    if not netlist.ended:
+        last = netlist.statements[-1].location.line if netlist.statements else 1
+        warn_at(SourceLocation(netlist.file, last),
+                "the netlist has no .end line; read to the end of the file")
+    return circuit
+
+
+def _outside_control_blocks(statements: list[Statement]) -> Iterator[Statement]:
+    """Statements outside ``.control ... .endc``: ngspice scripts are not run, and one
+    warning per block lists the commands skipped."""
+    opened: SourceLocation | None = None
+    skipped: list[str] = []
+    for statement in statements:
+        if opened is not None:
+            if statement.keyword == ".endc":
+                warn_at(opened, ".control ... .endc block skipped (ngspice scripting is not run "
+                        f"by circuitnsds): {', '.join(skipped) or 'empty'}")
+                opened = None
+            else:
+                skipped.append(statement.keyword)
+            continue
+        if statement.keyword == ".control":
+            opened, skipped = statement.location, []
+            continue
+        yield statement
+    if opened is not None:
+        raise NetlistError(".control block has no .endc", where=opened,
+                           hint="close the block with a .endc line")
+
+
+def _element(statement: Statement, models: dict[str, object], voltage_sources: set[str]) -> Element:
+    letter = element_letter(statement.keyword)
+    reader = StatementReader(statement)
+    if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
+        raise reader.error(f"{statement.keyword}: not an element name",
+                           hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
+    if letter in "rcl":
+        return devices.passive(reader, letter, models)
+    if letter in "vi":
+        return sources.independent_source(reader, letter)
+    if letter in "efgh":
+        return sources.controlled_source(reader, letter, voltage_sources)
+    if letter == "d":
+        return devices.diode(reader, models)
+    if letter in "sw":
+        return devices.switch(reader, letter, models, voltage_sources)
+    if letter == "x":
+        raise reader.error(f"{statement.keyword}: subcircuit instance reached the elaborator "
+                           "unexpanded", hint="read netlists with circuitnsds.read_netlist")
+    if letter in UNSUPPORTED_ELEMENTS:
+        raise reader.error(
+            f"{statement.keyword}: {UNSUPPORTED_ELEMENTS[letter]} ('{letter.upper()}' lines) "
+            "are not supported by the ideal engine",
+            hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
+            "with an S switch driven by its gate signal",
+        )
+    raise reader.error(f"{statement.keyword}: unknown element type '{letter.upper()}'",
+                       hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
+
+
+def _couple(circuit: Circuit, statements: list[Statement]) -> None:
+    """Add the ``K`` couplings, then check that each coupled group's inductance matrix
+    is positive definite (else the magnetic energy could be negative)."""
+    inductors = {e.name: e for e in circuit.elements if isinstance(e, Inductor)}
+    couplings: list[MutualInductance] = []
+    for statement in statements:
+        coupling = devices.mutual_inductance(StatementReader(statement), inductors)
+        for other in couplings:
+            if set(other.inductors) == set(coupling.inductors):
+                raise NetlistError(f"{coupling.name}: {' and '.join(coupling.inductors)} are "
+                                   f"already coupled by {other.name}", where=statement.location)
+        couplings.append(coupling)
+        circuit.add(coupling, statement.location)
+    if not couplings:
+        return
+    import networkx as nx
+    import numpy as np
+
+    graph = nx.Graph()
+    for coupling in couplings:
+        graph.add_edge(*coupling.inductors, element=coupling)
+    for group in nx.connected_components(graph):
+        members = [inductors[name] for name in sorted(group)]
+        related = [c for c in couplings if c.inductors[0] in group]
+        matrix = devices.inductance_matrix(members, related)
+        smallest = float(np.linalg.eigvalsh(matrix / np.max(np.abs(matrix))).min())
+        if smallest <= 1e-12:
+            where = related[-1].location
+            raise NetlistError(
+                f"the inductance matrix of {', '.join(sorted(group))} (coupled by "
+                f"{', '.join(c.name for c in related)}) is not positive definite",
+                where=where,
+                hint="|k| = 1, or couplings that contradict each other, make the magnetic "
+                "energy zero or negative for some currents; use |k| < 1 (e.g. 0.999)",
+            )
+
+
+def _check_unused_models(circuit: Circuit) -> None:
+    used = set()
+    for element in circuit.elements:
+        if isinstance(element, (Diode, Switch)):
+            used.add(element.model.name)
+        elif isinstance(element, Resistor) and element.model is not None:
+            used.add(element.model)
+    for name, model in circuit.models.items():
+        if name not in used:
+            kind = model if isinstance(model, str) else type(model).__name__.removesuffix("Model")
+            warn_at(circuit.model_locations[name], f".model {name} ({kind.upper()}) is not used")
+
+
+def _check_initial_conditions(circuit: Circuit) -> None:
+    for node, (_, location) in circuit.initial_voltages.items():
+        if node != "0" and node not in circuit.nodes:
+            raise NetlistError(f".ic names node {node!r}, which no element connects",
+                               where=location, hint=f"nodes are: {', '.join(circuit.nodes)}")
+

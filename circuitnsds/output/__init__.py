@@ -1,0 +1,1 @@
+"""What results become: Waveforms, measurements, CSV/raw files and figures."""

@@ -1,0 +1,308 @@
+"""The mixed linear complementarity system (MLCS) of a circuit, as plain data.
+
+Modified nodal analysis turns a circuit with ideal devices into
+
+    E y' = A y + B λ + s(t)
+    w    = C y + D λ + e,            0 <= w ⊥ λ >= 0
+
+* ``y`` (length ``n``): node voltages [V] (every node but ground), then branch
+  currents [A] of inductors and voltage sources (``unknowns`` names them:
+  ``v(out)``, ``i(l1)``, ``i(v1)``).
+* ``λ`` (length ``m``): one current [A] per complementarity pair (``pairs``
+  names them: ``d1``; a Zener has ``dz1.forward`` and ``dz1.reverse``).
+* Row ``r`` of the first equation is Kirchhoff's current law at node ``r``
+  (sum of currents *into* the node, capacitor currents on the left) or the
+  branch equation of an inductor (``L i' = v+ - v-``) or voltage source
+  (``0 = v+ - v- - V(t)``).
+* ``s(t) = S @ [f_1(t), ..., f_k(t)]``: the independent sources' time
+  functions ``stimuli`` and their incidence ``S``.
+* ``w`` is the device's distance from its constraint [V]: for a diode
+  ``Ron·i + Vfwd - v``; ``λ`` is the device current [A].
+
+Outputs (``output_names``) are linear in ``y`` and ``λ``:
+``outputs = Y_out @ y + L_out @ λ``.
+
+Ideal switches (``switches``) are not complementarity pairs: each owns one
+row of ``A`` whose entries depend on its state, open or closed (an exogenous
+mode set by its control, see :class:`SwitchRelation`). ``A`` holds every
+switch's *open* row; :meth:`MLCS.system_matrix` gives ``A`` for any states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from circuitnsds.system.stimuli import Stimulus, threshold_crossings
+
+Row = tuple[tuple[int, float], ...]
+"""Sparse row: ``((column, value), ...)``."""
+
+
+@dataclass(frozen=True)
+class SwitchRelation:
+    """One ideal switch as the MLCS sees it.
+
+    Attributes:
+        name: element name (``s1``).
+        row: index of the switch's branch equation, which is also the index of
+            its current unknown ``i(name)`` (flowing from ``n+`` to ``n-`` through it).
+        open_row, closed_row: the entries of ``A[row]`` in each state
+            (``0 = Goff·(v+ - v-) - i`` open, ``0 = v+ - v- - Ron·i`` closed).
+        control: the control quantity as a row over ``y`` (``v(nc+) - v(nc-)`` [V]
+            for ``S``, the current of the controlling source [A] for ``W``).
+        control_stimulus: ``(column of S, sign)`` when the control is exactly a
+            source's time function (a voltage source across the control nodes);
+            such switches change state exactly when the source crosses a threshold.
+        on_threshold: the switch closes when the control exceeds it (``VT + |VH|``).
+        off_threshold: the switch opens when the control falls below it (``VT - |VH|``).
+        initially_on: the ``ON`` flag of the instance (state before the operating point).
+    """
+
+    name: str
+    row: int
+    open_row: Row
+    closed_row: Row
+    control: Row
+    control_stimulus: tuple[int, float] | None
+    on_threshold: float
+    off_threshold: float
+    initially_on: bool = False
+
+    def next_state(self, on: bool, control: float) -> bool:
+        """State after seeing ``control``: hysteresis keeps ``on`` between the thresholds."""
+        if control > self.on_threshold:
+            return True
+        if control < self.off_threshold:
+            return False
+        return on
+
+    def control_value(self, y: np.ndarray) -> float:
+        """The control quantity for MNA unknowns ``y``."""
+        return float(sum(value * y[column] for column, value in self.control))
+
+
+@dataclass
+class MLCS:
+    """Matrices and names of a circuit's complementarity system (see module docstring)."""
+
+    E: sp.csr_matrix
+    A: sp.csr_matrix
+    B: sp.csr_matrix
+    C: sp.csr_matrix
+    D: sp.csr_matrix
+    e: np.ndarray
+    S: sp.csr_matrix
+    stimuli: list[Stimulus]
+    unknowns: list[str]
+    pairs: list[str]
+    pair_devices: list[str]
+    output_names: list[str]
+    Y_out: sp.csr_matrix
+    L_out: sp.csr_matrix
+    nodes: list[str] = field(default_factory=list)
+    switches: list[SwitchRelation] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        """Number of MNA unknowns."""
+        return self.A.shape[0]
+
+    @property
+    def m(self) -> int:
+        """Number of complementarity pairs."""
+        return self.D.shape[0]
+
+    @property
+    def differential_rows(self) -> np.ndarray:
+        """Boolean mask of the rows of ``E y' = ...`` that carry a time derivative."""
+        return np.asarray(abs(self.E).sum(axis=1)).ravel() > 0
+
+    def source(self, t: float) -> np.ndarray:
+        """``s(t)`` [A on node rows, V on source rows]."""
+        if not self.stimuli:
+            return np.zeros(self.n)
+        return self.S @ np.array([stimulus.value(t) for stimulus in self.stimuli])
+
+    def breakpoints(self, stop: float) -> np.ndarray:
+        """Sorted instants in ``(0, stop)`` where a source's slope jumps or a source-driven
+        switch changes state (so that both fall on the time grid)."""
+        points: set[float] = set()
+        for stimulus in self.stimuli:
+            points.update(stimulus.breakpoints(stop))
+        for switch in self.switches:
+            if switch.control_stimulus is not None:
+                column, sign = switch.control_stimulus
+                for level in {switch.on_threshold, switch.off_threshold}:
+                    points.update(threshold_crossings(self.stimuli[column], sign * level, stop))
+        return np.array(sorted(points))
+
+    def system_matrix(self, closed: tuple[bool, ...] = ()) -> sp.csr_matrix:
+        """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere)."""
+        if not any(closed):
+            return self.A
+        matrix = self.A.tolil()
+        for switch, on in zip(self.switches, closed):
+            if on:
+                for column, _ in switch.open_row:
+                    matrix[switch.row, column] = 0.0
+                for column, value in switch.closed_row:
+                    matrix[switch.row, column] = value
+        return matrix.tocsr()
+
+    def outputs(self, y: np.ndarray, current: np.ndarray) -> np.ndarray:
+        """Output signals for states ``y`` and pair currents ``current`` (rows = time points)."""
+        return y @ self.Y_out.T + current @ self.L_out.T
+
+    def save(self, path: str | Path) -> None:
+        """Write every matrix and name to a ``.npz`` file (dense arrays, readable with numpy)."""
+        arrays = {name: getattr(self, name).toarray() for name in ("E", "A", "B", "C", "D", "S")}
+        np.savez(
+            path,
+            **arrays,
+            e=self.e,
+            unknowns=np.array(self.unknowns),
+            pairs=np.array(self.pairs),
+        )
+
+    def __str__(self) -> str:
+        lines = [
+            f"MLCS: n = {self.n} unknowns, m = {self.m} complementarity pairs, "
+            f"{len(self.stimuli)} sources",
+            "  E y' = A y + B λ + s(t);  w = C y + D λ + e;  0 <= w ⊥ λ >= 0",
+            f"  unknowns: {', '.join(self.unknowns)}",
+            f"  pairs:    {', '.join(self.pairs) if self.pairs else '(none)'}",
+            f"  differential rows: {int(self.differential_rows.sum())} of {self.n}",
+        ]
+        if self.switches:
+            lines.append(f"  switches: {', '.join(s.name for s in self.switches)}")
+        return "\n".join(lines)
+
+
+class MLCSBuilder:
+    """Collects the stamps of the elements, then freezes them into an :class:`MLCS`.
+
+    Node indices are fixed when the builder is created; branch currents and
+    complementarity pairs are allocated on demand by the elements that need them.
+    Index ``-1`` is ground: stamps on it are dropped.
+    """
+
+    GROUND = -1
+
+    def __init__(self, nodes: list[str]):
+        self.nodes = list(nodes)
+        self._node_index = {name: k for k, name in enumerate(self.nodes)}
+        self.unknowns = [f"v({name})" for name in self.nodes]
+        self._branch_index: dict[str, int] = {}
+        self.pairs: list[str] = []
+        self.pair_devices: list[str] = []
+        self.e: list[float] = []
+        self.stimuli: list[Stimulus] = []
+        self._triplets: dict[str, list[tuple[int, int, float]]] = {
+            key: [] for key in ("E", "A", "B", "C", "D", "S")
+        }
+        self._outputs: list[tuple[str, list[tuple[int, float]], list[tuple[int, float]]]] = []
+        self._switches: list[tuple[dict, tuple[int, int] | None]] = []
+        self._source_columns: dict[tuple[int, int], int] = {}
+
+    def node(self, name: str) -> int:
+        """Row/column of a node's voltage (``-1`` for ground)."""
+        return self._node_index.get(name, self.GROUND)
+
+    def branch(self, name: str) -> int:
+        """The branch-current unknown named ``name`` (e.g. ``i(l1)``), allocated on first use.
+
+        An element that refers to another's current (``F``, ``H``, ``K``, ``W``)
+        gets the same index as the element that owns it, whichever is stamped first.
+        """
+        if name in self._branch_index:
+            return self._branch_index[name]
+        self.unknowns.append(name)
+        self._branch_index[name] = len(self.unknowns) - 1
+        return self._branch_index[name]
+
+    def voltage_source_stimulus(self, plus: int, minus: int, column: int) -> None:
+        """Record that a voltage source imposes stimulus ``column`` between two nodes."""
+        self._source_columns.setdefault((plus, minus), column)
+
+    def switch(self, relation: dict, control_nodes: tuple[int, int] | None = None) -> None:
+        """Register a switch: the fields of :class:`SwitchRelation` except ``control_stimulus``,
+        which is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them."""
+        self._switches.append((relation, control_nodes))
+
+    def pair(self, name: str, device: str, offset: float) -> int:
+        """Allocate a complementarity pair with constant term ``e = offset`` [V]."""
+        self.pairs.append(name)
+        self.pair_devices.append(device)
+        self.e.append(offset)
+        return len(self.pairs) - 1
+
+    def stimulus(self, function: Stimulus) -> int:
+        """Register a source time function; returns its column in ``S``."""
+        self.stimuli.append(function)
+        return len(self.stimuli) - 1
+
+    def add(self, matrix: str, row: int, col: int, value: float) -> None:
+        """Add ``value`` at ``(row, col)`` of ``matrix`` (one of E A B C D S); ground is skipped."""
+        if row == self.GROUND or col == self.GROUND or value == 0.0:
+            return
+        self._triplets[matrix].append((row, col, value))
+
+    def add_conductance(self, matrix: str, a: int, b: int, value: float) -> None:
+        """Stamp the two-terminal pattern ``+value`` on the diagonal, ``-value`` off it.
+
+        With ``matrix="E"`` and a capacitance this is a capacitor; with
+        ``matrix="A"`` and ``-G`` it is a conductance.
+        """
+        self.add(matrix, a, a, value)
+        self.add(matrix, b, b, value)
+        self.add(matrix, a, b, -value)
+        self.add(matrix, b, a, -value)
+
+    def output(self, name: str, y_terms: list[tuple[int, float]],
+               pair_terms: list[tuple[int, float]] = ()) -> None:
+        """Declare an output signal ``sum(c*y[k]) + sum(c*λ[j])``."""
+        self._outputs.append((name, [t for t in y_terms if t[0] != self.GROUND], list(pair_terms)))
+
+    def build(self) -> MLCS:
+        n, m, k = len(self.unknowns), len(self.pairs), len(self.stimuli)
+        shapes = {"E": (n, n), "A": (n, n), "B": (n, m), "C": (m, n), "D": (m, m), "S": (n, k)}
+
+        def assemble(key: str) -> sp.csr_matrix:
+            entries = self._triplets[key]
+            rows = [r for r, _, _ in entries]
+            cols = [c for _, c, _ in entries]
+            vals = [v for _, _, v in entries]
+            return sp.csr_matrix((vals, (rows, cols)), shape=shapes[key], dtype=float)
+
+        node_outputs = [(u, [(i, 1.0)], []) for i, u in enumerate(self.unknowns[: len(self.nodes)])]
+        outputs = node_outputs + self._outputs
+        y_out = sp.lil_matrix((len(outputs), n))
+        l_out = sp.lil_matrix((len(outputs), m))
+        for row, (_, y_terms, pair_terms) in enumerate(outputs):
+            for col, coefficient in y_terms:
+                y_out[row, col] += coefficient
+            for col, coefficient in pair_terms:
+                l_out[row, col] += coefficient
+        switches = []
+        for relation, control_nodes in self._switches:
+            stimulus = None
+            if control_nodes is not None:
+                plus, minus = control_nodes
+                if (plus, minus) in self._source_columns:
+                    stimulus = (self._source_columns[plus, minus], 1.0)
+                elif (minus, plus) in self._source_columns:
+                    stimulus = (self._source_columns[minus, plus], -1.0)
+            switches.append(SwitchRelation(**relation, control_stimulus=stimulus))
+        return MLCS(
+            E=assemble("E"), A=assemble("A"), B=assemble("B"), C=assemble("C"),
+            D=assemble("D"), e=np.array(self.e, dtype=float), S=assemble("S"),
+            stimuli=list(self.stimuli), unknowns=list(self.unknowns), pairs=list(self.pairs),
+            pair_devices=list(self.pair_devices),
+            output_names=[name for name, _, _ in outputs],
+            Y_out=y_out.tocsr(), L_out=l_out.tocsr(), nodes=list(self.nodes),
+            switches=switches,
+        )
