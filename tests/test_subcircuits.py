@@ -71,10 +71,12 @@ def test_a_flat_netlist_flattens_to_itself():
     assert [s.tokens for s in twice.statements] == [s.tokens for s in once.statements]
 
 
-def test_control_blocks_pass_through_untouched():
+def test_control_blocks_are_kept_out_of_expansion():
+    """An ngspice script is neither substituted nor expanded (its X1 is no instance): the
+    parser sets it aside once, with the commands it holds."""
     netlist = load_netlist_text("t\n.control\nlet x = {1+1}\nX1 a b\n.endc\nR1 a 0 {2}\n")
-    assert [s.tokens for s in netlist.statements] == [
-        (".control",), ("let", "x", "=", "{1+1}"), ("x1", "a", "b"), (".endc",), ("r1", "a", "0", "2.0")]
+    assert [s.tokens for s in netlist.statements] == [("r1", "a", "0", "2.0")]
+    assert [(b.location.line, b.commands) for b in netlist.control_blocks] == [(2, ["let", "x1"])]
 
 
 def test_flattened_netlist_elaborates_and_simulates_like_the_hand_flattened_one():

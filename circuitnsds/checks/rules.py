@@ -45,10 +45,9 @@ import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import fields, is_dataclass
 
-import networkx as nx
 import numpy as np
 
-from circuitnsds.checks.topology import GROUND, is_short
+from circuitnsds.checks.topology import GROUND, LoopFinder, is_short, isolated_groups
 from circuitnsds.circuit.elements import (
     Capacitor,
     Element,
@@ -295,28 +294,22 @@ def _closes(switch: Switch) -> bool:
 
 def _switch_loops(elements: Sequence[Element]) -> Iterable[str]:
     """Loops of voltage sources (0 H inductors) and at least one ``RON = 0`` switch."""
-    graph = nx.Graph()
+    finder = LoopFinder()
     for element in elements:
         if element.topology == "voltage" or is_short(element):
-            a, b = element.nodes[:2]
-            if a != b and not (graph.has_node(a) and graph.has_node(b) and nx.has_path(graph, a, b)):
-                graph.add_edge(a, b, element=element)
+            finder.add(element)
     for element in elements:
-        if not isinstance(element, Switch) or not _closes(element):
+        if not isinstance(element, Switch) or not _closes(element) or len(set(element.nodes[:2])) == 1:
             continue
-        a, b = element.nodes[:2]
-        if a == b:
+        closed = finder.add(element)
+        if closed is None:
             continue
-        if graph.has_node(a) and graph.has_node(b) and nx.has_path(graph, a, b):
-            path = nx.shortest_path(graph, a, b)
-            loop = [graph.edges[u, v]["element"] for u, v in zip(path, path[1:])] + [element]
-            switches = [e.name for e in loop if isinstance(e, Switch)]
-            yield (f"{_where(element)}{', '.join(e.name for e in loop)} form a loop of voltage "
-                   f"sources and switches with RON=0: while {' and '.join(switches)} "
-                   f"{'is' if len(switches) == 1 else 'are'} closed the loop's currents are "
-                   "undefined and the time step has no solution (give the switch model RON > 0)")
-        else:
-            graph.add_edge(a, b, element=element)
+        loop = [e for e, _ in reversed(closed)]
+        switches = [e.name for e in loop if isinstance(e, Switch)]
+        yield (f"{_where(element)}{', '.join(e.name for e in loop)} form a loop of voltage "
+               f"sources and switches with RON=0: while {' and '.join(switches)} "
+               f"{'is' if len(switches) == 1 else 'are'} closed the loop's currents are "
+               "undefined and the time step has no solution (give the switch model RON > 0)")
 
 
 def _switch_cutsets(elements: Sequence[Element], nodes: Sequence[str]) -> Iterable[str]:
@@ -338,20 +331,8 @@ def _cutsets(elements: Sequence[Element], nodes: Sequence[str],
              kinds: set[str]) -> list[tuple[set[str], list[Element]]]:
     """Groups of nodes (without ground) that only elements of ``kinds`` join to the rest,
     with those elements; ``kinds`` holds topologies and ``switch`` for switches."""
-    graph = nx.MultiGraph()
-    graph.add_nodes_from([GROUND, *nodes])
-    for element in elements:
-        kind = "switch" if isinstance(element, Switch) else element.topology
-        if kind not in kinds and len(element.nodes) >= 2:
-            graph.add_edge(*element.nodes[:2])
-    result = []
-    for group in nx.connected_components(graph):
-        if GROUND in group:
-            continue
-        crossing = [e for e in elements if len(e.nodes) >= 2
-                    and (e.nodes[0] in group) != (e.nodes[1] in group)]
-        result.append((set(group), crossing))
-    return result
+    return isolated_groups(elements, nodes, lambda element: (
+        "switch" if isinstance(element, Switch) else element.topology) in kinds)
 
 
 # ---------------------------------------------------------------- start-up (UIC)
@@ -377,21 +358,15 @@ def _initial_voltage(circuit, element: Element) -> float | None:
 def _inconsistent_loops(circuit, elements: Sequence[Element]) -> Iterable[str]:
     """Loops of voltage sources and capacitors (one per capacitor closing a loop) whose
     initial voltages do not sum to zero."""
-    graph = nx.Graph()
+    finder = LoopFinder()
     members = [e for e in elements if e.topology == "voltage" or is_short(e)]
     members += [e for e in elements if isinstance(e, Capacitor) and e.capacitance > 0]
     for element in members:
-        a, b = element.nodes[:2]
-        if a == b:
+        if element.nodes[0] == element.nodes[1]:
             continue
-        if not (graph.has_node(a) and graph.has_node(b) and nx.has_path(graph, a, b)):
-            graph.add_edge(a, b, element=element)
+        loop = finder.add(element)
+        if loop is None:
             continue
-        path = nx.shortest_path(graph, b, a)  # around the loop: a -> (element) -> b -> ... -> a
-        loop = [(element, 1.0)]
-        for u, v in zip(path, path[1:]):
-            edge = graph.edges[u, v]["element"]
-            loop.append((edge, 1.0 if edge.nodes[0] == u else -1.0))
         terms = [(e, _initial_voltage(circuit, e)) for e, _ in loop]
         if any(value is None for _, value in terms):
             continue

@@ -13,7 +13,7 @@ Functions take the element list and return nothing; they raise
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import networkx as nx
 
@@ -28,16 +28,63 @@ def is_short(element: Element) -> bool:
     return element.topology == "inductor" and getattr(element, "inductance", 1.0) == 0.0
 
 
-def _unreachable(elements: Sequence[Element], nodes: Sequence[str],
-                 ignored: set[str] = frozenset()) -> list[str]:
-    """Nodes with no path to ground through elements whose ``topology`` is not ``ignored``."""
+class LoopFinder:
+    """A spanning forest grown one element at a time, telling which element closes a loop.
+
+    ``add(element)`` returns ``None`` when the element joins two parts of the forest (it is
+    added), or the loop it closes: ``[(element, +1.0), (e1, s1), ...]`` where ``s`` is +1 when
+    the loop, walked from ``element``'s second node back to its first, runs through ``e`` from
+    its first node to its second (so ``Σ s·v(e) = 0`` by Kirchhoff's voltage law). An element
+    whose two nodes coincide is a loop on its own.
+    """
+
+    def __init__(self) -> None:
+        self.graph = nx.Graph()
+
+    def connects(self, a: str, b: str) -> bool:
+        """Whether the forest already joins nodes ``a`` and ``b``."""
+        return self.graph.has_node(a) and self.graph.has_node(b) and nx.has_path(self.graph, a, b)
+
+    def add(self, element: Element) -> list[tuple[Element, float]] | None:
+        a, b = element.nodes[:2]
+        if a == b:
+            return [(element, 1.0)]
+        if not self.connects(a, b):
+            self.graph.add_edge(a, b, element=element)
+            return None
+        path = nx.shortest_path(self.graph, b, a)
+        loop = [(element, 1.0)]
+        for u, v in zip(path, path[1:]):
+            edge = self.graph.edges[u, v]["element"]
+            loop.append((edge, 1.0 if edge.nodes[0] == u else -1.0))
+        return loop
+
+
+def isolated_groups(elements: Sequence[Element], nodes: Sequence[str],
+                    ignored: Callable[[Element], bool] = lambda element: False,
+                    ) -> list[tuple[set[str], list[Element]]]:
+    """Groups of nodes that elements other than the ``ignored`` ones do not join to ground,
+    each with the elements that cross from the group to the rest (a cut-set of ignored ones)."""
     graph = nx.MultiGraph()
     graph.add_nodes_from([GROUND, *nodes])
     for element in elements:
-        if element.topology not in ignored and len(element.nodes) >= 2:
+        if not ignored(element) and len(element.nodes) >= 2:
             graph.add_edge(*element.nodes[:2])
-    reachable = nx.node_connected_component(graph, GROUND)
-    return sorted(n for n in nodes if n not in reachable)
+    groups = []
+    for group in nx.connected_components(graph):
+        if GROUND in group:
+            continue
+        crossing = [e for e in elements if len(e.nodes) >= 2
+                    and (e.nodes[0] in group) != (e.nodes[1] in group)]
+        groups.append((set(group), crossing))
+    return groups
+
+
+def _unreachable(elements: Sequence[Element], nodes: Sequence[str],
+                 ignored: set[str] = frozenset()) -> list[str]:
+    """Nodes with no path to ground through elements whose ``topology`` is not ``ignored``."""
+    groups = isolated_groups(elements, nodes, lambda element: element.topology in ignored)
+    return sorted(node for group, _ in groups for node in group)
 
 
 def check_connected(elements: Sequence[Element], nodes: Sequence[str]) -> None:
@@ -55,19 +102,14 @@ def check_connected(elements: Sequence[Element], nodes: Sequence[str]) -> None:
 def check_source_loops(elements: Sequence[Element], operating_point: bool = False) -> None:
     """No loop of voltage sources (and, at the operating point, inductors)."""
     kinds = {"voltage", "inductor"} if operating_point else {"voltage"}
-    graph = nx.Graph()
+    finder = LoopFinder()
     for element in elements:
         if element.topology not in kinds and not is_short(element):
             continue
-        a, b = element.nodes[:2]
-        if a == b:
-            loop = [element]
-        elif graph.has_node(a) and graph.has_node(b) and nx.has_path(graph, a, b):
-            path = nx.shortest_path(graph, a, b)
-            loop = [graph.edges[u, v]["element"] for u, v in zip(path, path[1:])] + [element]
-        else:
-            graph.add_edge(a, b, element=element)
+        closed = finder.add(element)
+        if closed is None:
             continue
+        loop = [e for e, _ in reversed(closed)]
         names = ", ".join(e.describe() for e in loop)
         what = "voltage sources and inductors" if operating_point else "voltage sources"
         raise CircuitError(

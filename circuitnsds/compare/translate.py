@@ -36,7 +36,7 @@ from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
 from circuitnsds.errors import NetlistError
-from circuitnsds.netlist.parser import physical_lines, strip_comment
+from circuitnsds.netlist.parser import logical_lines, physical_lines
 
 #: Diode-model parameters of the idealised (circuitnsds / LTspice) diode that ngspice lacks.
 IDEAL_ONLY_PARAMETERS = frozenset(
@@ -173,45 +173,6 @@ def _read(path: Path, where: str | None) -> str:
                            "file)") from None
 
 
-def _statements(lines: list[str]) -> list[tuple[list[str], str]]:
-    """Group physical lines into ``(physical lines, logical text without comments)``.
-
-    Comment and blank lines form groups of their own with empty logical text, except
-    inside a ``+`` continuation block, where they travel with the statement.
-    """
-    groups: list[tuple[list[str], str]] = []
-    pending: list[str] = []
-    logical: list[str] = []
-    trailing: list[str] = []  # comment lines that may sit inside a continuation
-
-    def flush() -> None:
-        if pending:
-            groups.append((list(pending), " ".join(logical)))
-            pending.clear()
-            logical.clear()
-
-    for raw in lines:
-        stripped = raw.strip()
-        if not stripped or stripped.startswith("*"):
-            trailing.append(raw)
-            continue
-        content = strip_comment(stripped).strip()
-        if stripped.startswith("+") and pending:
-            pending.extend(trailing)
-            trailing.clear()
-            pending.append(raw)
-            logical.append(content[1:] if content.startswith("+") else content)
-            continue
-        flush()
-        groups.extend(([line], "") for line in trailing)
-        trailing.clear()
-        pending.append(raw)
-        logical.append(content)
-    flush()
-    groups.extend(([line], "") for line in trailing)
-    return groups
-
-
 def _translate_lines(
     lines: list[str],
     base: Path,
@@ -224,7 +185,8 @@ def _translate_lines(
 ) -> list[str]:
     out: list[str] = []
     in_control = False
-    for physical, logical in _statements(lines):
+    for line in logical_lines(lines):
+        physical, logical = list(line.physical), line.text
         if not logical:
             if not in_control:
                 out.extend(physical)

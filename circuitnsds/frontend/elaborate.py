@@ -11,8 +11,6 @@ element names may be hierarchical (``x1.d3`` is a diode).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import (
     Diode,
@@ -26,8 +24,9 @@ from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.frontend.cards import commands, devices, sources
 from circuitnsds.frontend.cards.models import read_model
-from circuitnsds.frontend.cards.reader import StatementReader, element_letter, warn_at
+from circuitnsds.frontend.cards.reader import StatementReader, warn_at
 from circuitnsds.netlist import Netlist, Statement
+from circuitnsds.netlist.subcircuits import element_letter
 
 UNSUPPORTED_ELEMENTS = {
     "a": "XSPICE code models", "b": "behavioural sources", "j": "JFETs",
@@ -49,7 +48,10 @@ def elaborate(netlist: Netlist) -> Circuit:
         NetlistError: for malformed or unsupported statements (with file:line).
     """
     circuit = Circuit(title=netlist.title, file=netlist.file)
-    statements = list(_outside_control_blocks(netlist.statements))
+    for block in netlist.control_blocks:
+        warn_at(block.location, ".control ... .endc block skipped (ngspice scripting is not run "
+                f"by circuitnsds): {', '.join(block.commands) or 'empty'}")
+    statements = netlist.statements
     for statement in statements:
         if statement.keyword in commands.OPTION_KEYWORDS:
             circuit.options.update(commands.read_options(StatementReader(statement)))
@@ -83,29 +85,6 @@ def elaborate(netlist: Netlist) -> Circuit:
         warn_at(SourceLocation(netlist.file, last),
                 "the netlist has no .end line; read to the end of the file")
     return circuit
-
-
-def _outside_control_blocks(statements: list[Statement]) -> Iterator[Statement]:
-    """Statements outside ``.control ... .endc``: ngspice scripts are not run, and one
-    warning per block lists the commands skipped."""
-    opened: SourceLocation | None = None
-    skipped: list[str] = []
-    for statement in statements:
-        if opened is not None:
-            if statement.keyword == ".endc":
-                warn_at(opened, ".control ... .endc block skipped (ngspice scripting is not run "
-                        f"by circuitnsds): {', '.join(skipped) or 'empty'}")
-                opened = None
-            else:
-                skipped.append(statement.keyword)
-            continue
-        if statement.keyword == ".control":
-            opened, skipped = statement.location, []
-            continue
-        yield statement
-    if opened is not None:
-        raise NetlistError(".control block has no .endc", where=opened,
-                           hint="close the block with a .endc line")
 
 
 def _element(statement: Statement, models: dict[str, object], voltage_sources: set[str]) -> Element:

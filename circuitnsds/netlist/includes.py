@@ -18,11 +18,11 @@ section) that includes itself, directly or not, is an error naming the chain.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from circuitnsds.errors import NetlistError
-from circuitnsds.netlist.parser import Netlist, Statement, parse_netlist, read_source_text
+from circuitnsds.netlist.parser import ControlBlock, Netlist, Statement, parse_netlist, read_source_text
 
 INCLUDE_COMMANDS = frozenset({".include", ".inc"})
 
@@ -67,6 +67,9 @@ def _next_section_end(statements: list[Statement], start: int) -> int | None:
 
 
 class _Expander:
+    def __init__(self) -> None:
+        self.control_blocks: list[ControlBlock] = []
+
     def expand(self, statements: list[Statement], directory: Path, stack: list[_Open]) -> list[Statement]:
         """``statements`` with every include replaced by what it names (recursively)."""
         result: list[Statement] = []
@@ -124,7 +127,9 @@ class _Expander:
                                where=statement.location, hint="remove the include that closes the cycle")
         what = "library" if keyword == ".lib" else "included file"
         text = read_source_text(path, where=statement.location, what=what)
-        statements = parse_netlist(text, file=shown, has_title=False).statements
+        included = parse_netlist(text, file=shown, has_title=False)
+        self.control_blocks.extend(included.control_blocks)
+        statements = included.statements
         if section is not None:
             statements = _section(statements, section, statement, shown)
         return self.expand(statements, path.parent, [*stack, opened])
@@ -170,5 +175,7 @@ def expand_includes(netlist: Netlist, directory: str | Path | None = None) -> Ne
     if directory is None:
         directory = top_file.parent if is_file else Path.cwd()
     stack = [_Open((top_file.resolve(), None), netlist.file)] if is_file else []
-    statements = _Expander().expand(netlist.statements, Path(directory), stack)
-    return Netlist(title=netlist.title, statements=statements, file=netlist.file, ended=netlist.ended)
+    expander = _Expander()
+    statements = expander.expand(netlist.statements, Path(directory), stack)
+    return replace(netlist, statements=statements,
+                   control_blocks=netlist.control_blocks + expander.control_blocks)

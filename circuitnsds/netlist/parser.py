@@ -60,20 +60,37 @@ class Statement:
 
 
 @dataclass
+class ControlBlock:
+    """An ngspice ``.control ... .endc`` script: circuitnsds does not run it, the front end
+    says so once per block.
+
+    Attributes:
+        location: the ``.control`` line.
+        commands: the first word of each line of the script.
+    """
+
+    location: SourceLocation
+    commands: list[str] = field(default_factory=list)
+
+
+@dataclass
 class Netlist:
     """A netlist file as statements, in order.
 
     Attributes:
         title: the first line.
-        statements: every statement up to ``.end`` (the ``.end`` itself excluded).
+        statements: every statement up to ``.end`` (the ``.end`` itself excluded), outside
+            ``.control`` blocks.
         file: the file name, or ``<text>`` for a string.
         ended: whether a ``.end`` line was found.
+        control_blocks: the ``.control ... .endc`` scripts left out of ``statements``.
     """
 
     title: str
     statements: list[Statement] = field(default_factory=list)
     file: str = "<text>"
     ended: bool = False
+    control_blocks: list[ControlBlock] = field(default_factory=list)
 
 
 def strip_comment(line: str) -> str:
@@ -151,6 +168,66 @@ def physical_lines(text: str) -> list[str]:
     return lines[:-1] if lines and lines[-1] == "" else lines
 
 
+@dataclass(frozen=True)
+class LogicalLine:
+    """Physical lines grouped into one statement (or one comment/blank line).
+
+    Attributes:
+        number: 1-based line number of the first physical line.
+        physical: the physical lines as written; comment and blank lines inside a ``+``
+            continuation block travel with the statement.
+        text: the statement's content, comments removed and continuations joined with a
+            blank; empty for a comment or blank line. It starts with ``+`` only for a
+            continuation line with nothing to continue.
+    """
+
+    number: int
+    physical: tuple[str, ...]
+    text: str
+
+
+def logical_lines(lines: list[str], first_number: int = 1) -> list[LogicalLine]:
+    """Group physical lines into statements, as ngspice does (see the module docstring)."""
+    groups: list[LogicalLine] = []
+    pending: list[str] = []
+    content_parts: list[str] = []
+    trailing: list[str] = []  # comment lines that may sit inside a continuation block
+    start = trailing_start = first_number
+
+    def flush() -> None:
+        if pending:
+            groups.append(LogicalLine(start, tuple(pending), " ".join(content_parts).strip()))
+            pending.clear()
+            content_parts.clear()
+
+    def flush_trailing() -> None:
+        groups.extend(LogicalLine(trailing_start + k, (line,), "") for k, line in enumerate(trailing))
+        trailing.clear()
+
+    for number, raw in enumerate(lines, start=first_number):
+        stripped = raw.strip()
+        content = "" if stripped.startswith("*") else strip_comment(stripped).strip()
+        if not content:
+            if not trailing:
+                trailing_start = number
+            trailing.append(raw)
+            continue
+        if content.startswith("+") and pending:
+            pending.extend(trailing)
+            trailing.clear()
+            pending.append(raw)
+            content_parts.append(content[1:].strip())
+            continue
+        flush()
+        flush_trailing()
+        start = number
+        pending.append(raw)
+        content_parts.append(content)
+    flush()
+    flush_trailing()
+    return groups
+
+
 def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Netlist:
     """Parse netlist text.
 
@@ -169,53 +246,41 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
         raise NetlistError("the netlist is empty", where=file,
                            hint="the first line of a netlist is its title, then elements and .tran")
     netlist = Netlist(title=lines[0].strip() if has_title else "", file=file)
-    pending: list[str] = []
-    pending_line = 0
-    in_control = False
-
-    def flush() -> None:
-        nonlocal in_control
-        if not pending:
-            return
-        joined = " ".join(pending).strip()
-        keyword = joined.split(None, 1)[0].lower()
-        in_control = (in_control or keyword == ".control") and keyword != ".endc"
-        try:
-            tokens = tokenize(joined, strict=not in_control and keyword != ".title")
-        except _TokenError as exc:
-            raise NetlistError(f"cannot read {joined!r}: {exc}", where=SourceLocation(file, pending_line),
-                               hint="expressions are written {a*2} or 'a*2', paths \"my file.lib\"") from None
-        if not tokens or tokens[0] in {"(", ")", "="}:
-            raise NetlistError(f"cannot read {joined!r}: a statement starts with "
-                               "an element name or a dot command",
-                               where=SourceLocation(file, pending_line))
-        netlist.statements.append(Statement(tokens, SourceLocation(file, pending_line), joined))
-        pending.clear()
-
     first = 2 if has_title else 1
-    for number, raw in enumerate(lines[first - 1:], start=first):
-        stripped = raw.strip()
-        if not stripped or stripped.startswith("*"):
+    in_control: SourceLocation | None = None
+    for line in logical_lines(lines[first - 1:], first):
+        if not line.text:
             continue
-        content = strip_comment(stripped).strip()
-        if stripped.startswith("+"):
-            if not pending:
-                raise NetlistError(
-                    "continuation line '+' has no statement to continue",
-                    where=SourceLocation(file, number),
-                    hint="a '+' line must follow an element or command line",
-                )
-            pending.append(content[1:].strip() if content.startswith("+") else content)
-            continue
-        if not content:
-            continue
-        flush()
-        if content.split(None, 1)[0].lower() == ".end":
+        location = SourceLocation(file, line.number)
+        if line.text.startswith("+"):
+            raise NetlistError("continuation line '+' has no statement to continue", where=location,
+                               hint="a '+' line must follow an element or command line")
+        keyword = line.text.split(None, 1)[0].lower()
+        if keyword == ".end":
             netlist.ended = True
             break
-        pending.append(content)
-        pending_line = number
-    flush()
+        if in_control is not None:  # an ngspice script: kept out of the statements
+            if keyword == ".endc":
+                in_control = None
+            else:
+                netlist.control_blocks[-1].commands.append(keyword)
+            continue
+        if keyword == ".control":
+            in_control = location
+            netlist.control_blocks.append(ControlBlock(location))
+            continue
+        try:
+            tokens = tokenize(line.text, strict=keyword != ".title")
+        except _TokenError as exc:
+            raise NetlistError(f"cannot read {line.text!r}: {exc}", where=location,
+                               hint="expressions are written {a*2} or 'a*2', paths \"my file.lib\"") from None
+        if not tokens or tokens[0] in {"(", ")", "="}:
+            raise NetlistError(f"cannot read {line.text!r}: a statement starts with "
+                               "an element name or a dot command", where=location)
+        netlist.statements.append(Statement(tokens, location, line.text))
+    if in_control is not None:
+        raise NetlistError(".control block has no .endc", where=in_control,
+                           hint="close the block with a .endc line")
     return netlist
 
 

@@ -24,7 +24,7 @@ definition) and its ``text`` ends with ``[in x1.x2]``, so messages are precise.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from circuitnsds.errors import NetlistError
 from circuitnsds.netlist.params import (
@@ -110,25 +110,12 @@ class _Structure:
     params: list[Definition] = field(default_factory=list)
 
 
-def _outside_control(statements: list[Statement]) -> Iterator[tuple[Statement, bool]]:
-    """Each statement with whether it lies in an ngspice ``.control ... .endc`` script."""
-    inside = False
-    for statement in statements:
-        if statement.keyword == ".control":
-            inside = True
-        yield statement, inside
-        if statement.keyword == ".endc":
-            inside = False
-
-
 def _structure(statements: list[Statement]) -> _Structure:
     structure = _Structure()
     stack: list[SubcircuitDefinition] = []
-    for statement, in_control in _outside_control(statements):
+    for statement in statements:
         keyword = statement.keyword
-        if in_control:
-            (stack[-1].body if stack else structure.body).append(statement)
-        elif keyword == ".subckt":
+        if keyword == ".subckt":
             definition = _header(statement, stack[-1] if stack else None)
             siblings = stack[-1].children if stack else structure.definitions
             if definition.name in siblings:
@@ -251,11 +238,9 @@ class _Flattener:
         self.statements: list[Statement] = []
 
     def expand(self, body: list[Statement], context: _Context) -> None:
-        for statement, in_control in _outside_control(body):
+        for statement in body:
             keyword = statement.keyword
-            if in_control:
-                self.statements.append(statement)
-            elif keyword == ".param":
+            if keyword == ".param":
                 continue
             elif not statement.is_command and element_letter(keyword) == "x":
                 self.instance(statement, context)
@@ -408,5 +393,4 @@ def flatten(netlist: Netlist) -> Netlist:
     flattener = _Flattener(structure)
     top = _Context(None, "", scope, {}, frozenset(structure.global_nodes))
     flattener.expand(structure.body, top)
-    return Netlist(title=netlist.title, statements=flattener.statements, file=netlist.file,
-                   ended=netlist.ended)
+    return replace(netlist, statements=flattener.statements)

@@ -22,11 +22,6 @@ def node_name(token: str) -> str:
     return "0" if token in GROUND_NAMES else token
 
 
-def element_letter(name: str) -> str:
-    """Type letter of an element name; a flattened name ``x1.d3`` is a ``d``."""
-    return name.rsplit(".", 1)[-1][:1]
-
-
 def token_column(statement: Statement, index: int) -> int | None:
     """1-based column of ``statement.tokens[index]`` in ``statement.text``, or ``None`` when
     the text does not show it (a token produced by parameter substitution)."""
