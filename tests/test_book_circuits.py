@@ -1,4 +1,4 @@
-"""Qualitative facts of the seed book's circuits (Acary & Brogliato ch. 1)."""
+"""Qualitative facts of the circuits of Acary & Brogliato, ch. 1 (the book of docs/theory.md)."""
 
 import numpy as np
 

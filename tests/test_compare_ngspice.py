@@ -93,7 +93,7 @@ SETTINGS = {
     # shows in the capacitor voltages.
     "cockcroft_walton": {"trend": "voltages"},
 }
-# ngspice 39 cannot run these at any N of GRID (DESIGN.md §1): see test_bridge_failure_is_reported.
+# ngspice 39 cannot run these at any N of GRID (docs/compare.md): see test_bridge_failure_is_reported.
 NGSPICE_FAILS = {"bridge_rectifier"}
 
 

@@ -2,7 +2,7 @@
 
 * Operating point (SPICE default): capacitors open, inductors shorted, ideal
   devices as complementarity pairs, sources at ``t = 0``, ``.ic`` nodes held at
-  their values. This is one MLCP (seed 000 §1.1.7, equilibrium points).
+  their values. This is one MLCP (Acary & Brogliato, §1.1.7, equilibrium points).
 * UIC: capacitor voltages from ``ic=`` (else the difference of the ``.ic``
   node voltages, unset nodes at 0 V), inductor currents from ``ic=`` (else 0).
   Algebraic unknowns are left at 0 (the first implicit-Euler step settles them).

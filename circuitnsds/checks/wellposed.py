@@ -23,7 +23,7 @@ inductors as ``L/h``, the ``Ron`` of each device on its diagonal). The classical
 
 **Computing M accurately.** Where a node reaches the rest only through blocked
 devices, ``K`` is nearly singular (its only path is ``Roff``, 1e12 Ω by default) and
-``K⁻¹`` loses most digits (DESIGN.md §2). As the solver does, the analysis then
+``K⁻¹`` loses most digits (docs/solvers.md). As the solver does, the analysis then
 exchanges the roles of ``λ_i`` and ``w_i`` for a set ``α0`` of pairs that ties those
 nodes (a *principal pivot transform*, computed from the well-conditioned bordered
 matrix ``[[K, -B_α0], [C_α0, D_α0α0]]``). A principal pivot transform keeps P-matrices

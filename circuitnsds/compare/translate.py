@@ -1,6 +1,6 @@
 """A circuitnsds netlist rewritten for ngspice (text level, everything else verbatim).
 
-The same file is meant to run in both simulators (DESIGN.md §3), but a few things
+The same file is meant to run in both simulators (docs/compare.md), but a few things
 in it are for circuitnsds only or get in the way of a batch comparison:
 
 * diode-model parameters of the idealised diode (``Vfwd Ron Roff Vrev Rrev`` and

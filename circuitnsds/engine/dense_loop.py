@@ -1,4 +1,4 @@
-"""The stepping loop for steps whose mode is already known (DESIGN.md §2, "mode reuse").
+"""The stepping loop for steps whose mode is already known (docs/method.md, "mode reuse").
 
 While the active set of the complementarity pairs, the switch states and the
 step size stay the same, one θ-method step is an affine map

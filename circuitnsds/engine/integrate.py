@@ -1,4 +1,4 @@
-"""θ-method time stepping of an MLCS with one MLCP per step (DESIGN.md §2).
+"""θ-method time stepping of an MLCS with one MLCP per step (docs/method.md).
 
 For the step ``t_k -> t_{k+1}`` of length ``h``, with ``Θ = diag(θ on rows with
 a time derivative, 1 on algebraic rows)`` and ``A`` for the step's switch states,

@@ -1,6 +1,6 @@
 """Mixed LCP solver for fixed matrices and changing right-hand sides.
 
-Problem (the seed book's eq. (1.66))::
+Problem (Acary & Brogliato, *Numerical Methods for Nonsmooth Dynamical Systems*, eq. 1.66)::
 
     A u + C z + a = 0,      w = D u + B z + b,      0 <= z ⊥ w >= 0,   u free,
 

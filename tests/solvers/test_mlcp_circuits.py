@@ -1,6 +1,6 @@
 """MLCPs stamped by hand from small diode circuits, with a singular or nearly singular A.
 
-Conventions (DESIGN.md §2): diode current i from anode to cathode, v = v(anode) - v(cathode).
+Conventions (docs/theory.md): diode current i from anode to cathode, v = v(anode) - v(cathode).
 Ideal diode: 0 <= i ⊥ -v >= 0; piecewise-linear: 0 <= i ⊥ Ron*i + Vfwd - v >= 0.
 MNA rows: Kirchhoff's current law (sum of currents leaving the node = 0) and the
 source constraints. u = node voltages and source currents, z = diode currents,

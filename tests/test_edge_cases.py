@@ -1,4 +1,6 @@
-"""Regressions for defects found in review: each once gave a wrong answer or a traceback."""
+"""Edge cases across the pipeline: extreme Ron/h ratios, UIC start-up, TSTART, bad lines,
+unwritable outputs, denormal sources, odd names and line ends. Each once gave a wrong answer
+or a traceback."""
 
 import numpy as np
 import pytest
