@@ -202,18 +202,22 @@ def test_malformed_controlled_sources_name_the_line(line, words):
 
 
 @pytest.mark.parametrize(
-    "line",
+    ("line", "expected"),
     [
-        "E1 f 0 value={v(in)*2}",
-        "G1 f 0 cur={v(in)*1m}",
-        "E1 f 0 vol='v(in)*2'",
-        "E1 f 0 table {v(in)} = (0,0) (1,2)",
+        ("E1 f 0 value={v(in)*2}", 2.0),           # v(in) = 1 V
+        ("G1 0 f cur={v(in)*1m}", 1.0),            # 1 mA into f, through Rf = 1k
+        ("E1 f 0 vol='v(in)*2'", 2.0),
+        ("E1 f 0 table {v(in)} = (0,0) (2,4)", 2.0),
     ],
 )
-def test_behavioural_controlled_sources_are_reported_as_unsupported(line):
-    # ngspice's behavioural forms name circuit quantities (v(in)) inside the expression;
-    # the message must say that behavioural sources are not supported, not that v() is
-    # an unknown function.
+def test_behavioural_forms_of_e_and_g(line, expected):
+    # ngspice's behavioural forms name circuit quantities (v(in)) inside the expression
+    op = circuit_from(f"V1 in 0 1\nR1 in 0 1k\n{line}\nRf f 0 1k").operating_point()
+    assert op["v(f)"] == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("line", ["E1 f 0 poly(1) in 0 0 2", "E1 f 0 laplace {v(in)} = {1/(1+s)}"])
+def test_polynomial_and_laplace_sources_are_reported_as_unsupported(line):
     with pytest.raises(circuitnsds.NetlistError) as info:
         circuit_from(f"V1 in 0 1\nR1 in 0 1k\n{line}\nRf f 0 1k")
     message = str(info.value).lower()
@@ -224,11 +228,9 @@ def test_behavioural_controlled_sources_are_reported_as_unsupported(line):
 @pytest.mark.parametrize(
     ("line", "what"),
     [
-        ("B1 f 0 V=v(in)*2", "behavioural"),
         ("Q1 f in 0 qmod", "bipolar"),
         ("M1 f in 0 0 nmos", "mosfet"),
         ("J1 f in 0 jmod", "jfet"),
-        ("A1 in f amod", "xspice"),
     ],
 )
 def test_unsupported_elements_say_so_with_the_line(line, what):

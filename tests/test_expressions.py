@@ -340,4 +340,6 @@ def test_parameter_errors_name_the_line_and_the_text(body, message):
 def test_unused_commands_and_run_time_expressions_are_not_evaluated():
     netlist = load_netlist_text("t\n.meas tran x find v(a) when v(b)='vdd/2'\nR1 a 0 1\n"
                                 "B1 a 0 v={time*2}\nE1 a 0 value={v(b)*2}\nG1 a 0 cur='i(v1)'\n")
-    assert [s.tokens[-1] for s in netlist.statements] == ["'vdd/2'", "1", "{time*2}", "{v(b)*2}", "'i(v1)'"]
+    # behavioural expressions are read (parameters substituted, names renamed) and written back
+    assert [s.tokens[-1] for s in netlist.statements] == ["'vdd/2'", "1", "{(time*2.0)}",
+                                                         "{(v(b)*2.0)}", "{i(v1)}"]

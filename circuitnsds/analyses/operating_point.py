@@ -5,6 +5,7 @@
   their values. This is one MLCP (Acary & Brogliato, §1.1.7, equilibrium points).
 * UIC: capacitor voltages from ``ic=`` (else the difference of the ``.ic``
   node voltages, unset nodes at 0 V), inductor currents from ``ic=`` (else 0).
+  An XSPICE integrator's output starts at its ``out_ic``.
   Algebraic unknowns are left at 0 (the first implicit-Euler step settles them).
 """
 
@@ -18,7 +19,7 @@ import scipy.sparse as sp
 
 from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import Capacitor, Inductor
+from circuitnsds.circuit.elements import Capacitor, Inductor, Integrator
 from circuitnsds.errors import NetlistWarning, SimulationError
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -160,6 +161,13 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
             k = mlcs.unknowns.index(f"i({element.name})")
             y[k] = element.initial_current
             charge[k] = element.inductance * element.initial_current
+    for element in circuit.elements:
+        if isinstance(element, Integrator):  # its state row starts at out_ic
+            k = mlcs.unknowns.index(f"i({element.name})")
+            charge[k] = element.initial_output
+            plus, minus = element.nodes[:2]
+            if minus == "0" and plus != "0" and plus not in known:
+                y[_index(circuit, plus)] = element.initial_output
     switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
     return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
                         switches=switches)

@@ -13,28 +13,30 @@ from __future__ import annotations
 
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import (
+    BehaviouralSource,
     Diode,
     Element,
     Inductor,
+    Integrator,
     MutualInductance,
     Resistor,
     Switch,
 )
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import commands, devices, sources
+from circuitnsds.frontend.cards import behavioural, commands, devices, sources, xspice
 from circuitnsds.frontend.cards.models import read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
 from circuitnsds.netlist import Netlist, Statement
 from circuitnsds.netlist.subcircuits import element_letter
 
 UNSUPPORTED_ELEMENTS = {
-    "a": "XSPICE code models", "b": "behavioural sources", "j": "JFETs",
+    "j": "JFETs",
     "m": "MOSFETs", "o": "lossy transmission lines", "p": "coupled transmission lines",
     "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
     "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
 }
-SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, D, S, W and X (subcircuit instances)"
+SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, A and X (subcircuit instances)"
 
 
 def elaborate(netlist: Netlist) -> Circuit:
@@ -97,12 +99,16 @@ def _element(statement: Statement, models: dict[str, object], voltage_sources: s
         return devices.passive(reader, letter, models)
     if letter in "vi":
         return sources.independent_source(reader, letter)
+    if letter == "b" or (letter in "eg" and statement.tokens[3:4] in {("value",), ("table",)}):
+        return behavioural.behavioural_source(reader, letter, voltage_sources)
     if letter in "efgh":
         return sources.controlled_source(reader, letter, voltage_sources)
     if letter == "d":
         return devices.diode(reader, models)
     if letter in "sw":
         return devices.switch(reader, letter, models, voltage_sources)
+    if letter == "a":
+        return xspice.analog_block(reader, models)
     if letter == "x":
         raise reader.error(f"{statement.keyword}: subcircuit instance reached the elaborator "
                            "unexpanded", hint="read netlists with circuitnsds.read_netlist")
@@ -159,7 +165,7 @@ def _check_unused_models(circuit: Circuit) -> None:
     for element in circuit.elements:
         if isinstance(element, (Diode, Switch)):
             used.add(element.model.name)
-        elif isinstance(element, Resistor) and element.model is not None:
+        elif isinstance(element, (Resistor, BehaviouralSource, Integrator)) and element.model:
             used.add(element.model)
     for name, model in circuit.models.items():
         if name not in used:

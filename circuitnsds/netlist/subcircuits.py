@@ -27,6 +27,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.errors import NetlistError
+from circuitnsds.netlist.behavioural import flat_tokens
+from circuitnsds.netlist.expressions import ExpressionError
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
     Definition,
@@ -59,6 +61,32 @@ def _behavioural(statement: Statement) -> bool:
     letter = element_letter(statement.keyword)
     return letter == "b" or (letter in {"e", "f", "g", "h"}
                              and not _BEHAVIOURAL_KEYWORDS.isdisjoint(statement.tokens))
+
+
+def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, ...] | None:
+    """A behavioural line's tokens with its expression's parameters substituted and its
+    nodes and elements renamed (:func:`circuitnsds.netlist.behavioural.flat_tokens`)."""
+    try:
+        return flat_tokens(element_letter(statement.keyword), statement.text, node=context.node,
+                           element=context.element, lookup=context.scope.lookup)
+    except ExpressionError as exc:
+        where = f" (in instance {context.path})" if context.path else ""
+        raise NetlistError(f"{statement.keyword}: {exc}{where}", where=statement.location,
+                           hint=f"in: {statement.text}") from None
+
+
+def _rename_code_model(tokens: list[str], context: _Context) -> None:
+    """An XSPICE ``A`` line: every port node renamed (``%v``/``%vd`` markers, brackets and
+    parentheses kept), the model (last token) renamed when local."""
+    tokens[0] = context.prefixed(tokens[0])
+    for index in range(1, len(tokens) - 1):
+        token = tokens[index]
+        core = token.strip("[]")
+        if core and not core.startswith("%") and core not in _PUNCTUATION:
+            start = token.index(core)
+            tokens[index] = token[:start] + context.node(core) + token[start + len(core):]
+    if len(tokens) > 1:
+        tokens[-1] = context.model(tokens[-1])
 
 
 MAX_DEPTH = 100
@@ -250,6 +278,11 @@ class _Flattener:
     def flat_statement(self, statement: Statement, context: _Context) -> Statement:
         keyword = statement.keyword
         behavioural = _behavioural(statement)
+        flat = _behavioural_tokens(statement, context) if behavioural else None
+        if flat is not None:
+            text = statement.text if context.definition is None else \
+                f"{statement.text}   [in {context.path}]"
+            return Statement((context.prefixed(flat[0]), *flat[1:]), statement.location, text)
         if (statement.is_command and keyword not in SUBSTITUTED_COMMANDS) or behavioural:
             tokens = list(statement.tokens)
         else:
@@ -269,6 +302,9 @@ class _Flattener:
     @staticmethod
     def rename_element(tokens: list[str], context: _Context, behavioural: bool = False) -> None:
         """Rename an element line's name, nodes, local models and named elements in place."""
+        if element_letter(tokens[0]) == "a":
+            _rename_code_model(tokens, context)
+            return
         nodes, controls = _LAYOUT.get(element_letter(tokens[0]), (0, ()))
         if behavioural:  # only the output nodes are known (the elaborator refuses the rest)
             nodes, controls = 2, ()

@@ -1,6 +1,7 @@
 """Circuit elements. Each class knows its terminals and stamps itself into an MLCS."""
 
 from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
 from circuitnsds.circuit.elements.controlled import (
     CurrentControlledCurrentSource,
     CurrentControlledVoltageSource,
@@ -14,6 +15,7 @@ from circuitnsds.circuit.elements.sources import CurrentSource, VoltageSource
 from circuitnsds.circuit.elements.switch import Switch, SwitchModel
 
 __all__ = [
+    "Affine", "BehaviouralSource", "Integrator", "MinMax",
     "Capacitor", "CurrentControlledCurrentSource", "CurrentControlledVoltageSource",
     "CurrentSource", "Diode", "DiodeModel", "Element", "Inductor", "MutualInductance",
     "Resistor", "Switch", "SwitchModel", "VoltageControlledCurrentSource",

@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.frontend.cards.reader import StatementReader
+from circuitnsds.frontend.cards.xspice import ANALOG_BLOCKS, read_xspice_model
 
 # Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
 SHOCKLEY_PARAMETERS = {
@@ -74,6 +75,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
                                hint=f"write .model NAME {kind.upper()}(param=value ...) with every "
                                "parameter inside the parentheses")
         reader.tokens = reader.tokens[:-1]
+    if kind in ANALOG_BLOCKS:
+        return name, read_xspice_model(reader, name, kind)
     if kind not in MODEL_KINDS:
         return name, kind
     params: dict[str, float] = {}

@@ -33,10 +33,12 @@ def controlled_source(reader: StatementReader, letter: str, voltage_sources: set
     """
     name = reader.name
     if any(token in BEHAVIOURAL_KEYWORDS for token in reader.tokens[1:]):
-        raise reader.error(f"{name}: behavioural and polynomial controlled sources "
-                           "(VALUE=, POLY, TABLE, LAPLACE) are not supported",
+        raise reader.error(f"{name}: this form of controlled source (POLY, LAPLACE, FREQ, or "
+                           "VALUE/TABLE on F and H) is not supported",
                            hint=f"write a linear source: {letter.upper()}name n+ n- "
-                           + ("nc+ nc- GAIN" if letter in "eg" else "VNAME GAIN"))
+                           + ("nc+ nc- GAIN" if letter in "eg" else "VNAME GAIN")
+                           + ", or an E/G with VALUE={affine expression} or TABLE {expr} = "
+                           "(x1, y1) (x2, y2) ..., or a B source")
     if letter in "eg":
         nodes = reader.nodes(4)
         gain = reader.value("gain" if letter == "e" else "transconductance")

@@ -1,0 +1,168 @@
+"""Behavioural sources whose value is affine in the unknowns, or a min/max of affine values,
+and the integrator block.
+
+A value is an :class:`Affine` combination of node voltages, branch currents of voltage
+sources and *auxiliary* unknowns; each auxiliary is ``max(a, b)`` or ``min(a, b)`` of two
+affine values, written exactly as one complementarity pair (no smoothing):
+
+* ``x = max(a, b)``:  ``x = b + λ``,  ``0 <= λ ⊥ x - a >= 0``
+  (``λ = max(0, a - b)``: where ``a > b`` the pair is active and ``x = a``);
+* ``x = min(a, b)``:  ``x = b - λ``,  ``0 <= λ ⊥ a - x >= 0``.
+
+So a limiter ``limit(u, lo, hi) = min(max(u, lo), hi)`` is two pairs (like a Zener: its
+output is held at a rail while the pair of that rail is active), ``abs(u) = max(u, -u)``
+and ``uramp(u) = max(u, 0)`` one pair each, and a piecewise-linear table a sum of clamped
+ramps. Each auxiliary is an MNA unknown with its algebraic row
+``0 = b - x ± λ``; ``λ`` has the unit of ``x`` (volts or amperes), and the step solves for
+``μ = h·λ`` like every pair (Acary & Brogliato, §1.1.6.1). The relations hold at every
+step, not after the fact.
+
+Sign conventions (SPICE): a voltage output imposes ``v(n+) - v(n-) = value`` and its
+current ``i(name)`` flows into ``n+`` through the source (as ``V``); a current output
+drives ``value`` [A] from ``n+`` through the source to ``n-`` (as ``I``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from circuitnsds.circuit.elements.base import Element
+from circuitnsds.system.mlcs import MLCSBuilder
+from circuitnsds.system.stimuli import Dc
+
+
+@dataclass(frozen=True)
+class Affine:
+    """``Σ c·v(node) + Σ c·i(source) + Σ c·x_k + constant``.
+
+    Attributes:
+        voltages: ``(node, coefficient)``: node voltages [V] (ground is ``0``).
+        currents: ``(voltage source, coefficient)``: branch currents [A].
+        auxiliaries: ``(k, coefficient)``: the element's auxiliary unknown ``k``.
+        constant: the constant term.
+    """
+
+    voltages: tuple[tuple[str, float], ...] = ()
+    currents: tuple[tuple[str, float], ...] = ()
+    auxiliaries: tuple[tuple[int, float], ...] = ()
+    constant: float = 0.0
+
+    @property
+    def is_constant(self) -> bool:
+        return not (self.voltages or self.currents or self.auxiliaries)
+
+    def columns(self, builder: MLCSBuilder, auxiliary: list[int]) -> list[tuple[int, float]]:
+        """``(column of y, coefficient)`` of the non-constant terms."""
+        terms = [(builder.node(node), c) for node, c in self.voltages]
+        terms += [(builder.branch(f"i({source})"), c) for source, c in self.currents]
+        terms += [(auxiliary[k], c) for k, c in self.auxiliaries]
+        return [(column, c) for column, c in terms if column != builder.GROUND]
+
+
+@dataclass(frozen=True)
+class MinMax:
+    """Auxiliary unknown ``x = max(a, b)`` (``kind="max"``) or ``min(a, b)``; see module docstring."""
+
+    kind: str
+    a: Affine
+    b: Affine
+
+
+def _stamp_row(builder: MLCSBuilder, row: int, value: Affine, auxiliary: list[int],
+               sign: float) -> None:
+    """Add ``sign·value`` to row ``row`` of ``0 = A y + B λ + s``."""
+    for column, c in value.columns(builder, auxiliary):
+        builder.add("A", row, column, sign * c)
+    if value.constant:
+        builder.add("S", row, builder.stimulus(Dc(value.constant)), sign)
+
+
+def _stamp_pair_row(builder: MLCSBuilder, pair: int, value: Affine, auxiliary: list[int],
+                    sign: float) -> None:
+    """Add ``sign·value`` to ``w[pair] = C y + e``."""
+    for column, c in value.columns(builder, auxiliary):
+        builder.add("C", pair, column, sign * c)
+    builder.e[pair] += sign * value.constant
+
+
+def stamp_auxiliaries(builder: MLCSBuilder, name: str, auxiliaries: tuple[MinMax, ...]) -> list[int]:
+    """Allocate and stamp the auxiliary unknowns ``x_k`` of element ``name``; their columns."""
+    columns = [builder.branch(f"x({name}.{k})") for k in range(len(auxiliaries))]
+    for k, (auxiliary, x) in enumerate(zip(auxiliaries, columns)):
+        sign = 1.0 if auxiliary.kind == "max" else -1.0
+        # 0 = b - x + sign·λ ;  w = sign·(x - a)
+        _stamp_row(builder, x, auxiliary.b, columns, 1.0)
+        builder.add("A", x, x, -1.0)
+        pair = builder.pair(f"{name}.{auxiliary.kind}{k}", name, 0.0)
+        builder.add("B", x, pair, sign)
+        builder.add("C", pair, x, sign)
+        _stamp_pair_row(builder, pair, auxiliary.a, columns, -sign)
+    return columns
+
+
+@dataclass(frozen=True)
+class BehaviouralSource(Element):
+    """A voltage (``output="v"``) or current (``output="i"``) source of value ``value``.
+
+    ``nodes`` are ``(n+, n-, control nodes...)``; the control nodes are listed so that the
+    circuit knows them (they carry no current through this element).
+    ``expression`` is the text as read, for messages; ``model`` the ``.model`` of an XSPICE
+    block, if it is one.
+    """
+
+    output: str = "v"
+    value: Affine = Affine()
+    auxiliaries: tuple[MinMax, ...] = ()
+    expression: str = ""
+    model: str | None = None
+
+    @property
+    def topology(self) -> str:  # type: ignore[override]
+        return "voltage" if self.output == "v" else "current"
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        plus, minus = (builder.node(n) for n in self.nodes[:2])
+        auxiliary = stamp_auxiliaries(builder, self.name, self.auxiliaries)
+        if self.output == "v":
+            k = builder.branch(f"i({self.name})")
+            builder.add("A", plus, k, -1.0)
+            builder.add("A", minus, k, 1.0)
+            builder.add("A", k, plus, 1.0)
+            builder.add("A", k, minus, -1.0)
+            _stamp_row(builder, k, self.value, auxiliary, -1.0)
+            builder.output(f"i({self.name})", [(k, 1.0)])
+            return
+        # the current as an unknown of its own, so that i(name) includes the constant term
+        k = builder.branch(f"i({self.name})")
+        _stamp_row(builder, k, self.value, auxiliary, 1.0)
+        builder.add("A", k, k, -1.0)
+        builder.add("A", plus, k, -1.0)
+        builder.add("A", minus, k, 1.0)
+        builder.output(f"i({self.name})", [(k, 1.0)])
+
+
+@dataclass(frozen=True)
+class Integrator(Element):
+    """XSPICE ``int``: ``d/dt (v(n+) - v(n-)) = input`` [V/s], an ideal voltage output.
+
+    ``nodes`` are ``(n+, n-, input nodes...)``; ``input`` is affine (the model's
+    ``gain·(in + in_offset)``). The output's branch row carries the derivative (an MNA
+    state row), so the θ-method integrates it like a capacitor's charge.
+    ``initial_output`` [V] is the model's ``out_ic``, used with UIC.
+    """
+
+    input: Affine = Affine()
+    initial_output: float = 0.0
+    model: str | None = None
+    topology: ClassVar[str] = "voltage"
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        plus, minus = (builder.node(n) for n in self.nodes[:2])
+        k = builder.branch(f"i({self.name})")
+        builder.add("A", plus, k, -1.0)
+        builder.add("A", minus, k, 1.0)
+        builder.add("E", k, plus, 1.0)
+        builder.add("E", k, minus, -1.0)
+        _stamp_row(builder, k, self.input, [], 1.0)
+        builder.output(f"i({self.name})", [(k, 1.0)])

@@ -1,0 +1,275 @@
+"""Behavioural sources: ``B n+ n- V={expr}`` / ``I={expr}``, ``E``/``G`` with ``VALUE={expr}``
+and ``TABLE {expr} = (x, y) ...``.
+
+The expression (read by :mod:`circuitnsds.netlist.behavioural`) is classified into what the
+ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`):
+
+* affine in ``v(x)``, ``v(x, y)``, ``i(vsource)``: a linear controlled source (several
+  terms allowed);
+* ``min``, ``max``, ``abs``, ``uramp`` and ``limit(x, lo, hi) = min(max(x, lo), hi)`` of affine
+  values: one complementarity pair per ``min``/``max`` (no smoothing);
+* ``TABLE`` of one affine argument: the piecewise-linear interpolation, held at the end
+  values outside the table, as a sum of clamped ramps (two pairs per segment).
+
+Anything else is refused with a message naming the term: a product or quotient of two
+unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, comparisons and
+``if``/``u()``/``sgn`` (switching: they need located switching instants, not available yet),
+and ``time`` (write the time function as an independent source and use its ``v()``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax
+from circuitnsds.frontend.cards.reader import StatementReader, node_name
+from circuitnsds.netlist.behavioural import Node, parse, to_text
+from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
+
+REPRESENTABLE = ("the ideal engine represents affine combinations of v(node), v(node1, node2), "
+                 "i(vsource) and constants, and min(), max(), abs(), uramp(), limit(x, lo, hi) of "
+                 "them (exact complementarity pairs), and TABLE of one affine argument")
+SWITCHING = {"u": "the unit step u()", "u2": "u2()", "sgn": "sgn()", "if": "if()",
+             "ternary_fcn": "ternary_fcn()", "floor": "floor()", "ceil": "ceil()",
+             "nint": "nint()", "int": "int()"}
+"""Functions whose value jumps: switching elements (comparators), not representable yet."""
+SWITCHING_HINT = ("it switches, and comparators need located switching instants, which this "
+                  "version does not have: drive an S switch (VT=threshold) from the compared "
+                  "voltage instead")
+
+
+class Unrepresentable(ValueError):
+    """A term the ideal engine cannot represent.
+
+    Attributes:
+        term: the term as text (fully parenthesised).
+        reason: why, in words.
+    """
+
+    def __init__(self, term: str, reason: str):
+        self.term = term
+        self.reason = reason
+        super().__init__(f"cannot represent {term}: {reason}")
+
+
+@dataclass
+class Linear:
+    """An affine value under construction: ``terms[key]·unknown + constant``;
+    keys are ``("v", node)``, ``("i", source)`` or ``("x", k)``."""
+
+    terms: dict[tuple[str, object], float] = field(default_factory=dict)
+    constant: float = 0.0
+
+    @property
+    def is_constant(self) -> bool:
+        return not self.terms
+
+    def scaled(self, factor: float) -> Linear:
+        return Linear({k: c * factor for k, c in self.terms.items()}, self.constant * factor)
+
+    def plus(self, other: Linear, sign: float = 1.0) -> Linear:
+        terms = dict(self.terms)
+        for key, c in other.terms.items():
+            terms[key] = terms.get(key, 0.0) + sign * c
+        return Linear({k: c for k, c in terms.items() if c != 0.0},
+                      self.constant + sign * other.constant)
+
+    def affine(self) -> Affine:
+        return Affine(
+            voltages=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "v"),
+            currents=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "i"),
+            auxiliaries=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "x"),
+            constant=self.constant,
+        )
+
+
+class Classifier:
+    """Turns expression trees into :class:`Linear` values, collecting the ``min``/``max``
+    auxiliaries they need (in ``auxiliaries``)."""
+
+    def __init__(self) -> None:
+        self.auxiliaries: list[MinMax] = []
+
+    def value(self, tree: Node) -> Linear:
+        kind = tree[0]
+        if kind == "num":
+            return Linear(constant=float(tree[1]))
+        if kind == "v":
+            value = self.voltage(tree[1])
+            return value if tree[2] is None else value.plus(self.voltage(tree[2]), -1.0)
+        if kind == "i":
+            return Linear({("i", tree[1]): 1.0})
+        if kind == "name":
+            if tree[1] == "time":
+                raise Unrepresentable("time", "time-dependent terms are not mapped: write the time "
+                                      "function as an independent source (V with PULSE, SIN, PWL) "
+                                      "and use its v()")
+            raise Unrepresentable(tree[1], "a simulator variable the ideal engine does not provide")
+        if kind == "neg":
+            return self.value(tree[1]).scaled(-1.0)
+        if kind == "op":
+            return self.operation(tree)
+        if kind == "call":
+            return self.call(tree)
+        if kind in {"if", "and", "or", "not"}:
+            what = "a conditional (c ? a : b)" if kind == "if" else "a logical operation"
+            raise Unrepresentable(to_text(tree), f"{what}: {SWITCHING_HINT}")
+        raise Unrepresentable(to_text(tree), "unknown construct")
+
+    @staticmethod
+    def voltage(node: str) -> Linear:
+        node = node_name(node)
+        return Linear() if node == "0" else Linear({("v", node): 1.0})
+
+    def operation(self, tree: Node) -> Linear:
+        op, left, right = tree[1], self.value(tree[2]), self.value(tree[3])
+        text = to_text(tree)
+        if op in {"+", "-"}:
+            return left.plus(right, 1.0 if op == "+" else -1.0)
+        if op == "*":
+            if left.is_constant:
+                return right.scaled(left.constant)
+            if right.is_constant:
+                return left.scaled(right.constant)
+            raise Unrepresentable(text, "a product of two unknowns is nonlinear")
+        if op == "/":
+            if not right.is_constant:
+                raise Unrepresentable(text, "division by an unknown is nonlinear")
+            if right.constant == 0:
+                raise Unrepresentable(text, "division by zero")
+            return left.scaled(1.0 / right.constant)
+        if op == "^":
+            if left.is_constant and right.is_constant:
+                return Linear(constant=self.number(text, math.pow, left.constant, right.constant))
+            if right.is_constant and right.constant == 1.0:
+                return left
+            raise Unrepresentable(text, "a power of an unknown is nonlinear")
+        raise Unrepresentable(text, f"the comparison {op!r}: {SWITCHING_HINT}")
+
+    def call(self, tree: Node) -> Linear:
+        name, text = tree[1], to_text(tree)
+        if name in SWITCHING:
+            raise Unrepresentable(text, f"{SWITCHING[name]}: {SWITCHING_HINT}")
+        args = [self.value(a) for a in tree[2]]
+        if name in {"min", "max"} and len(args) >= 2:
+            result = args[0]
+            for other in args[1:]:
+                result = self.minmax(name, result, other)
+            return result
+        if name == "limit" and len(args) == 3:
+            return self.minmax("min", self.minmax("max", args[0], args[1]), args[2])
+        if name == "abs" and len(args) == 1:
+            return self.minmax("max", args[0], args[0].scaled(-1.0))
+        if name == "uramp" and len(args) == 1:
+            return self.minmax("max", args[0], Linear())
+        if all(a.is_constant for a in args) and name in FUNCTIONS:
+            function, least, most, _ = FUNCTIONS[name]
+            if len(args) < least or (most is not None and len(args) > most):
+                raise Unrepresentable(text, f"{name}() takes {least} argument(s)")
+            return Linear(constant=self.number(text, function, *(a.constant for a in args)))
+        if name in FUNCTIONS:
+            raise Unrepresentable(text, f"{name}() of an unknown is nonlinear")
+        raise Unrepresentable(text, f"unknown function {name}()")
+
+    def minmax(self, kind: str, a: Linear, b: Linear) -> Linear:
+        """``max(a, b)`` or ``min(a, b)``: a constant when both are, else a new auxiliary."""
+        if a.is_constant and b.is_constant:
+            return Linear(constant=(max if kind == "max" else min)(a.constant, b.constant))
+        self.auxiliaries.append(MinMax(kind, a.affine(), b.affine()))
+        return Linear({("x", len(self.auxiliaries) - 1): 1.0})
+
+    @staticmethod
+    def number(text: str, function, *args: float) -> float:
+        try:
+            value = float(function(*args))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            raise Unrepresentable(text, "undefined for these constant arguments") from None
+        if not math.isfinite(value):
+            raise Unrepresentable(text, "not a finite number")
+        return value
+
+    def table(self, argument: Linear, points: list[tuple[float, float]]) -> Linear:
+        """The piecewise-linear interpolation of ``points`` at ``argument``, held at the first
+        and last values outside: ``y_1 + Σ_k s_k·(limit(u, x_k, x_k+1) - x_k)``."""
+        result = Linear(constant=points[0][1])
+        for (x0, y0), (x1, y1) in zip(points, points[1:]):
+            if y1 == y0:
+                continue
+            clamped = self.minmax("min", self.minmax("max", argument, Linear(constant=x0)),
+                                  Linear(constant=x1))
+            slope = (y1 - y0) / (x1 - x0)
+            result = result.plus(clamped.plus(Linear(constant=x0), -1.0).scaled(slope))
+        return result
+
+
+def classify(text: str) -> tuple[Linear, list[MinMax]]:
+    """The value of expression ``text`` and the auxiliaries it needs.
+
+    Raises:
+        ExpressionError: the text is not an expression.
+        Unrepresentable: a term the ideal engine cannot represent.
+    """
+    classifier = Classifier()
+    value = classifier.value(parse(text))
+    return value, classifier.auxiliaries
+
+
+def behavioural_source(reader: StatementReader, letter: str,
+                       voltage_sources: set[str]) -> BehaviouralSource:
+    """A ``B`` line, or an ``E``/``G`` line with ``VALUE=`` or ``TABLE`` (tokens as
+    :func:`circuitnsds.netlist.behavioural.flat_tokens` writes them)."""
+    name = reader.name
+    nodes = reader.nodes(2)
+    key = reader.next("V=, I=, VALUE= or TABLE")
+    classifier = Classifier()
+    try:
+        if key == "table":
+            expression = reader.next("table expression")[1:-1]
+            reader.next("=")
+            value = _table(reader, classifier, expression)
+        else:
+            reader.next("=")
+            expression = reader.next("expression")[1:-1]
+            value = classifier.value(parse(expression))
+    except Unrepresentable as exc:
+        raise reader.error(f"{name}: cannot represent the term {exc.term} of {expression}: "
+                           f"{exc.reason}", hint=REPRESENTABLE) from None
+    except ExpressionError as exc:
+        raise reader.error(f"{name}: {exc}") from None
+    output = key if letter == "b" else ("v" if letter == "e" else "i")
+    controls = _controls(value, classifier.auxiliaries)
+    for source in controls[1]:
+        if source not in voltage_sources:
+            raise reader.error(f"{name}: i({source}): {source!r} is not a voltage source of this "
+                               "circuit", hint="i() senses the current of a V source; add a 0 V "
+                               "source in series with the branch to sense")
+    if "limit(" in expression.replace(" ", ""):
+        reader.warn(f"{name}: limit(x, lo, hi) is read as the clamp min(max(x, lo), hi) "
+                    "(LTspice's meaning); ngspice's B source does not clamp with it: for a netlist "
+                    "that means the same in both, write min(max(x, lo), hi)")
+    return BehaviouralSource(name, (*nodes, *controls[0]), reader.location, output=output,
+                             value=value.affine(), auxiliaries=tuple(classifier.auxiliaries),
+                             expression=expression)
+
+
+def _table(reader: StatementReader, classifier: Classifier, expression: str) -> Linear:
+    numbers = [reader.value("table value") for _ in range(len(reader.tokens) - reader.position)]
+    if len(numbers) < 2 or len(numbers) % 2:
+        raise reader.error(f"{reader.name}: TABLE needs (x, y) pairs, got {len(numbers)} numbers",
+                           hint="write TABLE {expr} = (x1, y1) (x2, y2) ...")
+    points = list(zip(numbers[0::2], numbers[1::2]))
+    if any(b[0] <= a[0] for a, b in zip(points, points[1:])):
+        raise reader.error(f"{reader.name}: TABLE x values must increase",
+                           hint="list the points in order of increasing input")
+    return classifier.table(classifier.value(parse(expression)), points)
+
+
+def _controls(value: Linear, auxiliaries: list[MinMax]) -> tuple[list[str], list[str]]:
+    """Nodes and voltage sources the value reads (in order of first use)."""
+    nodes: dict[str, None] = {}
+    sources: dict[str, None] = {}
+    for affine in [value.affine()] + [x for aux in auxiliaries for x in (aux.a, aux.b)]:
+        nodes.update((n, None) for n, _ in affine.voltages)
+        sources.update((s, None) for s, _ in affine.currents)
+    return list(nodes), list(sources)

@@ -1,0 +1,261 @@
+"""XSPICE analog blocks in ngspice's syntax: ``A name in out MODEL`` with
+``.model MODEL gain|summer|limit|int(...)``.
+
+Ports: a node (``in``), ``%v(in)``, ``%vd(in+ in-)`` (a differential voltage), and for
+``summer`` a vector ``[in1 %vd(a b) ...]``. Inputs draw no current; an output is an ideal
+voltage source (to ground, or between the two nodes of ``%vd``). Parameters and defaults
+are those of ngspice's code models (``src/xspice/icm/analog/*/ifspec.ifs``):
+
+* ``gain``: ``out = gain·(in + in_offset) + out_offset`` (defaults 1, 0, 0);
+* ``summer``: ``out = out_gain·Σ in_gain[k]·(in[k] + in_offset[k]) + out_offset``;
+* ``limit``: ``out = clamp(gain·(in + in_offset), out_lower_limit, out_upper_limit)``: the
+  ideal clamp, two complementarity pairs; ngspice rounds the corners over ``limit_range``
+  (1 µV by default), which the ideal clamp replaces (a warning when it is given);
+* ``int``: ``d out/dt = gain·(in + in_offset)``, ``out(0) = out_ic`` under UIC (an MNA
+  state row); its output limits are refused (ngspice's limited integrator is not modelled).
+
+Other code models (digital gates, latches, bridges, ``hyst``, ``s_xfer``, ...) are refused
+with a message naming the model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
+from circuitnsds.errors import SourceLocation
+from circuitnsds.frontend.cards.reader import StatementReader, node_name
+from circuitnsds.values import parse_value
+
+ANALOG_BLOCKS = {
+    "gain": {"in_offset": 0.0, "gain": 1.0, "out_offset": 0.0},
+    "summer": {"in_offset": (), "in_gain": (), "out_gain": 1.0, "out_offset": 0.0},
+    "limit": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
+              "limit_range": 1e-6, "fraction": False},
+    "int": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
+            "limit_range": 1e-6, "out_ic": 0.0},
+}
+"""Supported code models: parameter -> ngspice default (``None``: no default)."""
+
+REFUSED_MODELS = {
+    "d_and", "d_nand", "d_or", "d_nor", "d_xor", "d_xnor", "d_inverter", "d_buffer", "d_dff",
+    "d_jkff", "d_tff", "d_srff", "d_dlatch", "d_srlatch", "d_open_c", "d_open_e", "d_pullup",
+    "d_pulldown", "d_fsm", "d_state", "d_ram", "d_source", "d_osc", "d_tristate", "d_pwm",
+    "d_lut", "d_genlut", "adc_bridge", "dac_bridge", "d_to_real", "real_to_v", "hyst", "slew",
+    "s_xfer", "mult", "divide", "d_dt", "cmeter", "lmeter", "climit", "pwl", "ilimit", "aswitch",
+    "zener", "file_source", "sine", "square", "triangle", "oneshot", "core", "multi_input_pwl",
+    "table2d", "table3d", "filesource", "pswitch", "sidiode", "delay", "astate", "seegen",
+}
+"""XSPICE code models recognised as such in ``.model`` cards (so that their use is refused
+with the model's name rather than reported as an unknown model type)."""
+
+
+@dataclass(frozen=True)
+class XspiceModel:
+    """``.model NAME KIND(...)`` of an analog block: ``params`` holds what the card gives
+    (numbers, tuples for vectors, booleans)."""
+
+    name: str
+    kind: str
+    params: dict = field(default_factory=dict)
+    location: SourceLocation | None = None
+
+    def get(self, key: str):
+        return self.params.get(key, ANALOG_BLOCKS[self.kind][key])
+
+
+def read_xspice_model(reader: StatementReader, name: str, kind: str) -> XspiceModel:
+    """The parameters of an analog block's ``.model`` card (reader after the ``(``)."""
+    tokens = _split_brackets(list(reader.tokens[reader.position:]))
+    known = ANALOG_BLOCKS[kind]
+    params: dict = {}
+    position = 0
+    while position < len(tokens):
+        key = tokens[position]
+        if position + 2 > len(tokens) or tokens[position + 1] != "=":
+            raise reader.error(f".model {name}: expected '{key}=value'")
+        position += 2
+        if position < len(tokens) and tokens[position] == "[":
+            end = tokens.index("]", position) if "]" in tokens[position:] else -1
+            if end == -1:
+                raise reader.error(f".model {name}: '[' of {key} is not closed")
+            text = tokens[position + 1:end]
+            position = end + 1
+            value: object = tuple(_number(reader, name, key, t) for t in text)
+        else:
+            text = tokens[position] if position < len(tokens) else ""
+            position += 1
+            value = (text in {"true", "1"}) if key == "fraction" else _number(reader, name, key, text)
+        if key not in known:
+            raise reader.error(f".model {name} {kind}: unknown parameter {key!r}",
+                               hint=f"{kind} takes {', '.join(known)}")
+        if key in params:
+            raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        params[key] = value
+    return XspiceModel(name, kind, params, reader.location)
+
+
+def _number(reader: StatementReader, name: str, key: str, text: str) -> float:
+    try:
+        return parse_value(text)
+    except ValueError:
+        raise reader.error(f".model {name}: {key}={text!r} is not a number") from None
+
+
+def _split_brackets(tokens: list[str]) -> list[str]:
+    """Tokens with ``[`` and ``]`` as tokens of their own (the parser keeps them in words)."""
+    out: list[str] = []
+    for token in tokens:
+        while token.startswith("["):
+            out.append("[")
+            token = token[1:]
+        closing = len(token) - len(token.rstrip("]"))
+        if token[:len(token) - closing]:
+            out.append(token[:len(token) - closing])
+        out.extend("]" * closing)
+    return out
+
+
+Port = tuple[str, str]
+"""A voltage port: ``(plus, minus)`` nodes (``minus`` is ``0`` for a single-ended port)."""
+
+
+class _Ports:
+    """Reads the port list of an ``A`` line."""
+
+    def __init__(self, reader: StatementReader, tokens: list[str]):
+        self.reader = reader
+        self.tokens = tokens
+        self.position = 0
+
+    def port(self) -> Port:
+        token = self.take("a port")
+        if token.startswith("%"):
+            kind = token[1:]
+            if kind not in {"v", "vd"}:
+                raise self.reader.error(f"{self.reader.name}: port type %{kind} is not supported",
+                                        hint="the analog blocks take voltage ports: node, %v(node) "
+                                        "or %vd(node+ node-)")
+            if self.take("'('") != "(":
+                raise self.reader.error(f"{self.reader.name}: expected '(' after %{kind}")
+            nodes = [node_name(self.take("a node"))]
+            if kind == "vd":
+                nodes.append(node_name(self.take("a node")))
+            if self.take("')'") != ")":
+                raise self.reader.error(f"{self.reader.name}: expected ')' after the nodes of %{kind}")
+            return (nodes[0], nodes[1] if kind == "vd" else "0")
+        if token in {"(", ")", "[", "]", "="}:
+            raise self.reader.error(f"{self.reader.name}: unexpected {token!r} in the port list")
+        return (node_name(token), "0")
+
+    def vector(self) -> list[Port]:
+        if self.tokens[self.position:self.position + 1] != ["["]:
+            return [self.port()]
+        self.position += 1
+        ports = []
+        while self.tokens[self.position:self.position + 1] != ["]"]:
+            ports.append(self.port())
+        self.position += 1
+        return ports
+
+    def take(self, what: str) -> str:
+        if self.position >= len(self.tokens):
+            raise self.reader.error(f"{self.reader.name}: missing {what}",
+                                    hint="write A1 in out MODEL (ports: node, %v(node), "
+                                    "%vd(n+ n-), [vector])")
+        self.position += 1
+        return self.tokens[self.position - 1]
+
+
+def _difference(port: Port, scale: float) -> Affine:
+    terms = tuple((n, s * scale) for n, s in ((port[0], 1.0), (port[1], -1.0)) if n != "0")
+    return Affine(voltages=terms)
+
+
+def _sum(*values: Affine, constant: float = 0.0) -> Affine:
+    terms: dict[str, float] = {}
+    for value in values:
+        for node, c in value.voltages:
+            terms[node] = terms.get(node, 0.0) + c
+    return Affine(voltages=tuple((n, c) for n, c in terms.items() if c != 0.0), constant=constant)
+
+
+def analog_block(reader: StatementReader, models: dict[str, object]):
+    """An ``A`` line whose model is one of :data:`ANALOG_BLOCKS`."""
+    name = reader.name
+    tokens = _split_brackets(list(reader.tokens[1:]))
+    if len(tokens) < 3:
+        raise reader.error(f"{name}: expected A{name[1:]} in out MODEL",
+                           hint="write A1 in out MODEL with .model MODEL gain(...)")
+    model_name = tokens[-1]
+    if model_name not in models:
+        raise reader.error(f"{name}: model {model_name!r} is not defined",
+                           hint=f"add .model {model_name} gain(gain=...) (or summer, limit, int)")
+    model = models[model_name]
+    if not isinstance(model, XspiceModel):
+        kind = model if isinstance(model, str) else type(model).__name__
+        what = "an XSPICE digital or mixed-signal" if str(kind).startswith(("d_", "adc", "dac")) \
+            else f"the {kind!s}"
+        raise reader.error(f"{name}: code model {kind!s} ({what} model {model_name!r}) is not "
+                           "supported by the ideal engine",
+                           hint="supported A models: " + ", ".join(ANALOG_BLOCKS))
+    ports = _Ports(reader, tokens[:-1])
+    inputs = ports.vector()
+    output = ports.port()
+    if ports.position != len(ports.tokens):
+        raise reader.error(f"{name}: unexpected {ports.tokens[ports.position]!r} after the ports",
+                           hint="write A1 in out MODEL")
+    if model.kind != "summer" and len(inputs) != 1:
+        raise reader.error(f"{name}: {model.kind} takes one input, not a vector")
+    controls = tuple(dict.fromkeys(n for port in inputs for n in port if n != "0"))
+    outputs = output
+    value, auxiliaries = _block_value(reader, model, inputs)
+    if model.kind == "int":
+        for key in ("out_lower_limit", "out_upper_limit"):
+            if key in model.params:
+                raise reader.error(f"{name}: {key} of the int model {model.name!r} is not "
+                                   "supported (ngspice's limited integrator is not modelled)",
+                                   hint="remove the limits, or clamp the integrator's output with a "
+                                   "limit block or an op-amp integrator with a limiter")
+        return Integrator(name, (*outputs, *controls), reader.location, input=value,
+                          initial_output=model.get("out_ic"), model=model.name)
+    return BehaviouralSource(name, (*outputs, *controls), reader.location, output="v", value=value,
+                             auxiliaries=auxiliaries, expression=f"{model.kind} {model.name}",
+                             model=model.name)
+
+
+def _block_value(reader: StatementReader, model: XspiceModel,
+                 inputs: list[Port]) -> tuple[Affine, tuple[MinMax, ...]]:
+    kind = model.kind
+    if kind == "summer":
+        count = len(inputs)
+        offsets = model.get("in_offset") or (0.0,) * count
+        gains = model.get("in_gain") or (1.0,) * count
+        for key, values in (("in_offset", offsets), ("in_gain", gains)):
+            if len(values) != count:
+                raise reader.error(f"{reader.name}: {key} of {model.name!r} has {len(values)} "
+                                   f"values for {count} inputs")
+        out_gain = model.get("out_gain")
+        terms = [_difference(port, out_gain * g) for port, g in zip(inputs, gains)]
+        constant = out_gain * sum(g * o for g, o in zip(gains, offsets)) + model.get("out_offset")
+        return _sum(*terms, constant=constant), ()
+    gain = model.get("gain")
+    value = _sum(_difference(inputs[0], gain), constant=gain * model.get("in_offset"))
+    if kind == "gain":
+        return _sum(value, constant=value.constant + model.get("out_offset")), ()
+    if kind == "int":
+        return value, ()
+    low, high = model.get("out_lower_limit"), model.get("out_upper_limit")
+    if low is None or high is None:
+        raise reader.error(f"{reader.name}: the limit model {model.name!r} needs out_lower_limit "
+                           "and out_upper_limit")
+    if low > high:
+        raise reader.error(f"{reader.name}: out_lower_limit={low:g} exceeds out_upper_limit={high:g} "
+                           f"in {model.name!r}")
+    if "limit_range" in model.params or "fraction" in model.params:
+        reader.warn(f"{reader.name}: limit_range/fraction of {model.name!r} ignored: the ideal clamp "
+                    "has sharp corners (ngspice rounds them over limit_range)")
+    # out = min(max(value, low), high): auxiliary 0 is the max, auxiliary 1 the min
+    floor = MinMax("max", value, Affine(constant=low))
+    ceiling = MinMax("min", Affine(auxiliaries=((0, 1.0),)), Affine(constant=high))
+    return Affine(auxiliaries=((1, 1.0),)), (floor, ceiling)

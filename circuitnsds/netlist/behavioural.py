@@ -1,0 +1,334 @@
+"""Run-time expressions of behavioural sources (``B1 n+ n- V={...}``, ``E1 n+ n- VALUE={...}``).
+
+Unlike a ``.param`` expression, which :mod:`circuitnsds.netlist.expressions` evaluates to a
+number while reading the netlist, a behavioural expression depends on the circuit's
+unknowns: ``v(node)``, ``v(node1, node2)``, ``i(vsource)`` and ``time``. This module reads
+it into a tree (plain tuples), substitutes the parameters it names, renames its nodes and
+elements when a subcircuit is flattened, and writes it back as text. What the tree *means*
+(affine, a limiter, refused) is decided by :mod:`circuitnsds.frontend.cards.behavioural`.
+
+Grammar (ngspice's operators and precedence, case-insensitive)::
+
+    expression  := disjunction ["?" expression ":" expression]
+    disjunction := conjunction ("||" conjunction)*
+    conjunction := comparison ("&&" comparison)*
+    comparison  := sum (("==" | "!=" | "<" | "<=" | ">" | ">=") sum)*
+    sum         := product (("+" | "-") product)*
+    product     := unary (("*" | "/") unary)*
+    unary       := ("+" | "-" | "!") unary | power
+    power       := atom (("^" | "**") signed)*       # left-associative, as the .param parser
+    signed      := ("+" | "-") signed | atom
+    atom        := NUMBER | PROBE | NAME | NAME "(" expression ("," expression)* ")" | "(" expression ")"
+    PROBE       := "v(" NODE ["," NODE] ")" | "i(" ELEMENT ")"
+
+A probe's arguments are names as written in the netlist (``v(1)``, ``v(x1.mid)``).
+
+Tree nodes: ``("num", value)``, ``("name", name)``, ``("neg", x)``, ``("not", x)``,
+``("op", operator, left, right)``, ``("and" | "or", left, right)``, ``("if", c, a, b)``,
+``("call", name, (arguments...))``, ``("v", node, reference_or_None)``, ``("i", element)``.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+
+from circuitnsds.netlist.expressions import CONSTANTS, ExpressionError
+from circuitnsds.values import parse_value
+
+Node = tuple
+"""An expression tree node (see the module docstring)."""
+
+RESERVED_NAMES = frozenset({"time", "temper", "hertz"})
+"""Names a behavioural expression may use that are not parameters (simulator variables)."""
+
+_TOKEN = re.compile(
+    r"""\s*(?:
+        (?P<probe>(?P<kind>[vi])\s*\(\s*(?P<first>[^\s(),]+)\s*(?:,\s*(?P<second>[^\s(),]+)\s*)?\))
+      | (?P<number>(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?[a-z%]*)
+      | (?P<name>[a-z_][a-z0-9_]*)
+      | (?P<op>\*\*|==|!=|<=|>=|&&|\|\||[-+*/^(),<>!?:])
+    )""",
+    re.VERBOSE,
+)
+
+
+def _tokens(text: str) -> list[tuple]:
+    """``(kind, value, position)`` triples; a probe's value is ``(kind, first, second)``."""
+    tokens: list[tuple] = []
+    position = 0
+    while text[position:].strip():
+        match = _TOKEN.match(text, position)
+        if match is None:
+            start = position + len(text[position:]) - len(text[position:].lstrip())
+            raise ExpressionError(f"unexpected character {text[start]!r} in {text!r}")
+        if match["probe"]:
+            tokens.append(("probe", (match["kind"], match["first"], match["second"]),
+                           match.start("probe")))
+        else:
+            kind = match.lastgroup
+            tokens.append((kind, match[kind], match.start(kind)))
+        position = match.end()
+    tokens.append(("end", "", len(text)))
+    return tokens
+
+
+class _Parser:
+    """One method per grammar rule; builds the tree."""
+
+    def __init__(self, text: str):
+        self.text = text
+        self.tokens = _tokens(text)
+        self.index = 0
+
+    @property
+    def current(self) -> tuple:
+        return self.tokens[self.index]
+
+    def accept(self, *ops: str) -> str | None:
+        kind, token, _ = self.current
+        if kind == "op" and token in ops:
+            self.index += 1
+            return token
+        return None
+
+    def expect(self, op: str) -> None:
+        if self.accept(op) is None:
+            raise self.unexpected(f"expected {op!r}")
+
+    def unexpected(self, expectation: str) -> ExpressionError:
+        kind, token, position = self.current
+        found = "the end" if kind == "end" else repr(token)
+        return ExpressionError(f"syntax error: {expectation}, found {found} after "
+                               f"{self.text[:position].strip()!r} in {self.text!r}")
+
+    def parse(self) -> Node:
+        if self.current[0] == "end":
+            raise ExpressionError("empty expression")
+        tree = self.expression()
+        if self.current[0] != "end":
+            raise self.unexpected("expected an operator")
+        return tree
+
+    def expression(self) -> Node:
+        condition = self.disjunction()
+        if self.accept("?") is None:
+            return condition
+        then = self.expression()
+        self.expect(":")
+        return ("if", condition, then, self.expression())
+
+    def disjunction(self) -> Node:
+        tree = self.conjunction()
+        while self.accept("||") is not None:
+            tree = ("or", tree, self.conjunction())
+        return tree
+
+    def conjunction(self) -> Node:
+        tree = self.comparison()
+        while self.accept("&&") is not None:
+            tree = ("and", tree, self.comparison())
+        return tree
+
+    def comparison(self) -> Node:
+        tree = self.sum()
+        while (op := self.accept("==", "!=", "<", "<=", ">", ">=")) is not None:
+            tree = ("op", op, tree, self.sum())
+        return tree
+
+    def sum(self) -> Node:
+        tree = self.product()
+        while (op := self.accept("+", "-")) is not None:
+            tree = ("op", op, tree, self.product())
+        return tree
+
+    def product(self) -> Node:
+        tree = self.unary()
+        while (op := self.accept("*", "/")) is not None:
+            tree = ("op", op, tree, self.unary())
+        return tree
+
+    def unary(self) -> Node:
+        if (op := self.accept("+", "-", "!")) is not None:
+            operand = self.unary()
+            return {"-": ("neg", operand), "!": ("not", operand)}.get(op, operand)
+        return self.power()
+
+    def power(self) -> Node:
+        tree = self.atom()
+        while self.accept("^", "**") is not None:
+            tree = ("op", "^", tree, self.signed())
+        return tree
+
+    def signed(self) -> Node:
+        if (op := self.accept("+", "-")) is not None:
+            operand = self.signed()
+            return ("neg", operand) if op == "-" else operand
+        return self.atom()
+
+    def atom(self) -> Node:
+        kind, token, _ = self.current
+        if kind == "probe":
+            self.index += 1
+            probe, first, second = token
+            if probe == "i":
+                if second is not None:
+                    raise ExpressionError(f"i({first}, {second}): i() takes one element name "
+                                          f"in {self.text!r}")
+                return ("i", first)
+            return ("v", first, second)
+        if kind == "number":
+            self.index += 1
+            try:
+                return ("num", parse_value(token))
+            except ValueError:
+                raise ExpressionError(f"{token!r} is not a number in {self.text!r}") from None
+        if kind == "name":
+            self.index += 1
+            if self.accept("("):
+                arguments = [self.expression()]
+                while self.accept(","):
+                    arguments.append(self.expression())
+                self.expect(")")
+                return ("call", token, tuple(arguments))
+            return ("name", token)
+        if self.accept("("):
+            tree = self.expression()
+            self.expect(")")
+            return tree
+        raise self.unexpected("expected a number, a name, v(...), i(...) or '('")
+
+
+def parse(text: str) -> Node:
+    """The tree of a behavioural expression (lower-cased first).
+
+    Raises:
+        ExpressionError: a syntax error, an unexpected character or a bad number.
+    """
+    return _Parser(text.lower()).parse()
+
+
+def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,
+              element: Callable[[str], str] = lambda e: e,
+              lookup: Callable[[str], float | None] = lambda name: None) -> Node:
+    """A copy of ``tree`` with probe nodes and elements renamed and parameters replaced by
+    their values (``lookup`` returns ``None`` for a name that is not a parameter).
+
+    Raises:
+        ExpressionError: a name that is neither a parameter, a constant nor a simulator
+            variable (:data:`RESERVED_NAMES`).
+    """
+    def walk(item: Node) -> Node:
+        kind = item[0]
+        if kind == "num":
+            return item
+        if kind == "v":
+            return ("v", node(item[1]), None if item[2] is None else node(item[2]))
+        if kind == "i":
+            return ("i", element(item[1]))
+        if kind == "name":
+            name = item[1]
+            if name in RESERVED_NAMES:
+                return item
+            value = lookup(name)
+            if value is None:
+                value = CONSTANTS.get(name)
+            if value is None:
+                raise ExpressionError(f"undefined parameter {name!r}")
+            return ("num", float(value))
+        if kind == "call":
+            return ("call", item[1], tuple(walk(a) for a in item[2]))
+        if kind == "op":
+            return ("op", item[1], walk(item[2]), walk(item[3]))
+        return (kind, *(walk(a) for a in item[1:]))
+
+    return walk(tree)
+
+
+def to_text(tree: Node) -> str:
+    """The expression written back (fully parenthesised; numbers exact, as ``repr(float)``)."""
+    kind = tree[0]
+    if kind == "num":
+        return repr(float(tree[1]))
+    if kind == "name":
+        return tree[1]
+    if kind == "v":
+        return f"v({tree[1]})" if tree[2] is None else f"v({tree[1]},{tree[2]})"
+    if kind == "i":
+        return f"i({tree[1]})"
+    if kind == "neg":
+        return f"(-{to_text(tree[1])})"
+    if kind == "not":
+        return f"(!{to_text(tree[1])})"
+    if kind == "op":
+        return f"({to_text(tree[2])}{tree[1]}{to_text(tree[3])})"
+    if kind in {"and", "or"}:
+        return f"({to_text(tree[1])}{'&&' if kind == 'and' else '||'}{to_text(tree[2])})"
+    if kind == "if":
+        return f"({to_text(tree[1])}?{to_text(tree[2])}:{to_text(tree[3])})"
+    return f"{tree[1]}({','.join(to_text(a) for a in tree[2])})"
+
+
+_HEAD = re.compile(r"\s*(\S+)\s+(\S+)\s+(\S+)\s*(.*)", re.DOTALL)
+_ASSIGNMENT = re.compile(r"(v|i|value|vol|cur)\s*=\s*(.*)", re.DOTALL)
+_TABLE = re.compile(r"table\s*(\{.*\}|'[^']*'|[^=]+?)\s*=\s*(.*)", re.DOTALL)
+_BEHAVIOURAL_KEYS = {"b": ("v", "i"), "e": ("value", "vol"), "g": ("value", "cur")}
+
+
+def _expression(text: str, statement_text: str) -> str:
+    """The expression of ``text`` (``{...}``, ``'...'`` or bare to the end)."""
+    from circuitnsds.netlist.parser import closing_position
+
+    text = text.strip()
+    if text[:1] in {"{", "'"}:
+        end = closing_position(text, 0)
+        if end == -1:
+            raise ExpressionError(f"{text[0]} is not closed in {statement_text!r}")
+        if text[end + 1:].strip():
+            raise ExpressionError(f"unexpected {text[end + 1:].split()[0]!r} after the expression "
+                                  f"(instance parameters of behavioural sources are not supported)")
+        return text[1:end]
+    return text
+
+
+def flat_tokens(letter: str, text: str, *, node: Callable[[str], str] = lambda n: n,
+                element: Callable[[str], str] = lambda e: e,
+                lookup: Callable[[str], float | None] = lambda name: None) -> tuple[str, ...] | None:
+    """The tokens the elaborator reads for a behavioural line, its names renamed (``node``,
+    ``element``) and its parameters replaced by their values (``lookup``):
+
+    * ``B n+ n- V=expr`` / ``I=expr`` -> ``(name, n+, n-, "v"|"i", "=", "{expr}")``;
+    * ``E|G n+ n- VALUE=expr`` (also ``VOL=`` for E, ``CUR=`` for G) ->
+      ``(name, n+, n-, "value", "=", "{expr}")``;
+    * ``E|G n+ n- TABLE {expr} = (x1, y1) (x2, y2) ...`` ->
+      ``(name, n+, n-, "table", "{expr}", "=", x1, y1, x2, y2, ...)``.
+
+    Returns ``None`` for another form (``POLY``, ``LAPLACE``, ...), which the elaborator refuses.
+
+    Raises:
+        ExpressionError: the expression or the table cannot be read.
+    """
+    from circuitnsds.netlist.expressions import evaluate, strip_delimiters
+
+    head = _HEAD.fullmatch(text.strip())
+    if head is None:
+        return None
+    name, plus, minus, rest = head.groups()
+    name, rest = name.lower(), rest.lower()
+    nodes = (node(plus.lower()), node(minus.lower()))
+    assignment = _ASSIGNMENT.fullmatch(rest.strip())
+    if assignment is not None and assignment[1] in _BEHAVIOURAL_KEYS.get(letter, ()):
+        tree = transform(parse(_expression(assignment[2], text)), node=node, element=element,
+                         lookup=lookup)
+        key = assignment[1] if letter == "b" else "value"
+        return (name, *nodes, key, "=", "{" + to_text(tree) + "}")
+    table = _TABLE.fullmatch(rest.strip()) if letter in "eg" else None
+    if table is None:
+        return None
+    tree = transform(parse(_expression(table[1], text)), node=node, element=element, lookup=lookup)
+    values = []
+    for item in re.split(r"[\s(),]+", table[2]):
+        if item:
+            inner = strip_delimiters(item)
+            values.append(repr(evaluate(inner if inner is not None else item, lookup)))
+    return (name, *nodes, "table", "{" + to_text(tree) + "}", "=", *values)
