@@ -149,11 +149,16 @@ class Integrator(Element):
     ``nodes`` are ``(n+, n-, input nodes...)``; ``input`` is affine (the model's
     ``gain·(in + in_offset)``). The output's branch row carries the derivative (an MNA
     state row), so the θ-method integrates it like a capacitor's charge.
-    ``initial_output`` [V] is the model's ``out_ic``, used with UIC.
+    ``initial_output`` [V] is the model's ``out_ic``, used with UIC. ``lower``/``upper`` [V]
+    (``out_lower_limit``/``out_upper_limit``) bound the state itself, as ngspice's ``int``
+    does (it overwrites its stored integral with the limit): the output is projected onto
+    ``[lower, upper]`` in every step, by two complementarity pairs.
     """
 
     input: Affine = Affine()
     initial_output: float = 0.0
+    lower: float | None = None
+    upper: float | None = None
     model: str | None = None
     topology: ClassVar[str] = "voltage"
 
@@ -165,4 +170,14 @@ class Integrator(Element):
         builder.add("E", k, plus, 1.0)
         builder.add("E", k, minus, -1.0)
         _stamp_row(builder, k, self.input, [], 1.0)
+        # limits: out' = input + λ_lower - λ_upper, 0 <= λ_upper ⊥ upper - out >= 0 and
+        # 0 <= λ_lower ⊥ out - lower >= 0 (the state stops at a limit and leaves it as soon as
+        # the input turns back: no wind-up)
+        for limit, sign, label in ((self.upper, -1.0, "upper"), (self.lower, 1.0, "lower")):
+            if limit is None:
+                continue
+            pair = builder.pair(f"{self.name}.{label}", self.name, -sign * limit)
+            builder.add("B", k, pair, sign)
+            builder.add("C", pair, plus, sign)
+            builder.add("C", pair, minus, -sign)
         builder.output(f"i({self.name})", [(k, 1.0)])

@@ -12,7 +12,10 @@ are those of ngspice's code models (``src/xspice/icm/analog/*/ifspec.ifs``):
   ideal clamp, two complementarity pairs; ngspice rounds the corners over ``limit_range``
   (1 µV by default), which the ideal clamp replaces (a warning when it is given);
 * ``int``: ``d out/dt = gain·(in + in_offset)``, ``out(0) = out_ic`` under UIC (an MNA
-  state row); its output limits are refused (ngspice's limited integrator is not modelled).
+  state row); ``out_lower_limit``/``out_upper_limit`` stop the state itself at a limit, as
+  ngspice's model does, by two complementarity pairs on the state row (limits of magnitude
+  1e10 V or more are no limit). Without UIC the operating point takes the integrator at
+  equilibrium (its input zero); ngspice holds the output at ``out_ic`` there instead.
 
 Other code models (digital gates, latches, bridges, ``hyst``, ``s_xfer``, ...) are refused
 with a message naming the model.
@@ -211,17 +214,28 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
     outputs = output
     value, auxiliaries = _block_value(reader, model, inputs)
     if model.kind == "int":
-        for key in ("out_lower_limit", "out_upper_limit"):
-            if key in model.params:
-                raise reader.error(f"{name}: {key} of the int model {model.name!r} is not "
-                                   "supported (ngspice's limited integrator is not modelled)",
-                                   hint="remove the limits, or clamp the integrator's output with a "
-                                   "limit block or an op-amp integrator with a limiter")
+        low, high = (_finite_limit(model.get(key)) for key in ("out_lower_limit", "out_upper_limit"))
+        if low is not None and high is not None and low >= high:
+            raise reader.error(f"{name}: out_lower_limit={low:g} is not below "
+                               f"out_upper_limit={high:g} in {model.name!r}")
+        if "limit_range" in model.params:
+            reader.warn(f"{name}: limit_range of {model.name!r} ignored: the ideal limits of the "
+                        "integrator have sharp corners")
         return Integrator(name, (*outputs, *controls), reader.location, input=value,
-                          initial_output=model.get("out_ic"), model=model.name)
+                          initial_output=model.get("out_ic"), lower=low, upper=high,
+                          model=model.name)
     return BehaviouralSource(name, (*outputs, *controls), reader.location, output="v", value=value,
                              auxiliaries=auxiliaries, expression=f"{model.kind} {model.name}",
                              model=model.name)
+
+
+NO_LIMIT = 1e10
+"""An integrator limit of this magnitude or more [V] is no limit (ngspice's examples write
+±1e12 because its int model requires both limits)."""
+
+
+def _finite_limit(value: float | None) -> float | None:
+    return None if value is None or abs(value) >= NO_LIMIT else value
 
 
 def _block_value(reader: StatementReader, model: XspiceModel,
