@@ -92,6 +92,11 @@ SETTINGS = {
     # 100 us grid (circuitnsds's own h against h/2 difference in them is 1-3 %); the model
     # shows in the capacitor voltages.
     "cockcroft_walton": {"trend": "voltages"},
+    # Closed loop (tests/test_behavioural.py checks its mean, frequency and duty cycle): the
+    # regulator holds v(out) at 5 V whatever the diode, so the Shockley drop shows in the duty
+    # cycle and the switched waveforms; v(out) and i(l1) over the soft start (1.2 ms, h = 0.1 µs).
+    "buck_voltage_mode": {"trend": ["v(out)", "i(l1)"], "grid": [1.0, 0.1], "stop": 1.2e-3,
+                          "step": 1e-7},
 }
 # ngspice 39 cannot run these at any N of GRID (docs/compare.md): see test_bridge_failure_is_reported.
 NGSPICE_FAILS = {"bridge_rectifier"}
