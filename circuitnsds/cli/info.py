@@ -23,6 +23,8 @@ _KINDS = {
     "CurrentControlledCurrentSource": "controlled sources (F)",
     "VoltageControlledCurrentSource": "controlled sources (G)",
     "CurrentControlledVoltageSource": "controlled sources (H)",
+    "BehaviouralSource": "behavioural sources and analog blocks (B, E/G VALUE/TABLE, A)",
+    "Integrator": "integrators (A int)",
 }
 
 
