@@ -335,3 +335,25 @@ def test_voltage_mode_buck_agrees_with_ngspice():
     figures = _converter_figures(theirs.time, theirs["v(out)"], theirs["v(sw)"], 1.4e-3)
     for name, value, reference in zip(("mean", "frequency", "duty"), figures, (mean, frequency, duty)):
         assert value == pytest.approx(reference, rel=0.01), name
+
+
+@pytest.mark.parametrize(
+    ("lines", "pattern"),
+    [
+        ("B1 o 0 {v(a)}", r"b1: expected V=\{expr\} or I=\{expr\} after the two nodes"),
+        ("B1 o 0 V={k*v(a)}", r"b1: undefined parameter 'k'"),
+        ("B1 o 0 V={v(a) + }", r"b1: syntax error"),
+        ("B1 o 0 V={v(a)} tc1=1", r"instance parameters of behavioural sources are not supported"),
+        ("E1 o 0 TABLE {v(a)} = (1, 0) (0, 1)", r"TABLE x values must increase"),
+        ("E1 o 0 TABLE {v(a)} = (1, 0) (2)", r"TABLE needs \(x, y\) pairs"),
+    ],
+)
+def test_malformed_behavioural_lines_name_the_line(lines, pattern):
+    with pytest.raises(circuitnsds.NetlistError, match=pattern) as info:
+        circuit_from(f"V1 a 0 1\n{lines}\nRo o 0 1k\n.tran 1u 1m")
+    assert "<text>:3:" in str(info.value)
+
+
+def test_unused_block_model_is_reported_with_its_kind():
+    with pytest.warns(UserWarning, match=r"\.model g \(GAIN\) is not used"):
+        circuit_from("V1 a 0 1\nR1 a 0 1k\n.model g gain(gain=2)\n.tran 1u 1m")

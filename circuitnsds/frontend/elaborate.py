@@ -169,7 +169,8 @@ def _check_unused_models(circuit: Circuit) -> None:
             used.add(element.model)
     for name, model in circuit.models.items():
         if name not in used:
-            kind = model if isinstance(model, str) else type(model).__name__.removesuffix("Model")
+            kind = model if isinstance(model, str) else model.kind if isinstance(
+                model, xspice.XspiceModel) else type(model).__name__.removesuffix("Model")
             warn_at(circuit.model_locations[name], f".model {name} ({kind.upper()}) is not used")
 
 

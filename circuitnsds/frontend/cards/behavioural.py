@@ -222,6 +222,10 @@ def behavioural_source(reader: StatementReader, letter: str,
     name = reader.name
     nodes = reader.nodes(2)
     key = reader.next("V=, I=, VALUE= or TABLE")
+    if key not in {"v", "i", "value", "table"} or (key != "table" and reader.peek() != "="):
+        form = "V={expr} or I={expr}" if letter == "b" else "VALUE={expr} or TABLE {expr} = (x, y) ..."
+        raise reader.error(f"{name}: expected {form} after the two nodes",
+                           hint=f"write {name.upper()} n+ n- {form}")
     classifier = Classifier()
     try:
         if key == "table":
