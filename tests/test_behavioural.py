@@ -147,6 +147,9 @@ def test_limited_xspice_integrator_stops_at_its_limits_without_windup():
     expected = np.interp(t, [0, 0.4e-3, 1.005e-3, 1.605e-3, 2.015e-3, 2.615e-3, 3.005e-3,
                              3.605e-3, 4e-3], [0, 0.4, 0.4, -0.2, -0.2, 0.4, 0.4, -0.2, -0.2])
     assert np.abs(out - expected).max() < 6e-3
+    # with 1 ns edges the steps at the edges are 1 ns long: the limits still hold
+    sharp = waves_of(body.replace("10u 10u", "1n 1n"))["v(out)"]
+    assert sharp.max() <= 0.4 + 1e-12 and sharp.min() >= -0.2 - 1e-12
 
 
 # --- refusals name the term ------------------------------------------------------------------

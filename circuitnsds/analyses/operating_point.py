@@ -164,7 +164,7 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
     for element in circuit.elements:
         if isinstance(element, Integrator):  # its state row starts at out_ic
             k = mlcs.unknowns.index(f"i({element.name})")
-            charge[k] = element.initial_output
+            charge[k] = element.initial_charge
             plus, minus = element.nodes[:2]
             if minus == "0" and plus != "0" and plus not in known:
                 y[_index(circuit, plus)] = element.initial_output

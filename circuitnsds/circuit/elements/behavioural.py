@@ -142,6 +142,13 @@ class BehaviouralSource(Element):
         builder.output(f"i({self.name})", [(k, 1.0)])
 
 
+ROW_SCALE = 1e-6
+"""The integrator's state row is multiplied by this [F]: ``c·out' = c·input``, a 1 µF
+capacitor's row, so that its entries have the size of a circuit's node rows (amperes);
+the row ``out' = input`` as it stands weighs like a 1 F capacitor and, on a 1 ns step
+(``1/h = 1e9``), the solver's normwise test accepted a limit violated by 1 µV."""
+
+
 @dataclass(frozen=True)
 class Integrator(Element):
     """XSPICE ``int``: ``d/dt (v(n+) - v(n-)) = input`` [V/s], an ideal voltage output.
@@ -162,14 +169,19 @@ class Integrator(Element):
     model: str | None = None
     topology: ClassVar[str] = "voltage"
 
+    @property
+    def initial_charge(self) -> float:
+        """What the state row carries at ``t = 0`` under UIC: ``ROW_SCALE·out_ic``."""
+        return ROW_SCALE * self.initial_output
+
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes[:2])
         k = builder.branch(f"i({self.name})")
         builder.add("A", plus, k, -1.0)
         builder.add("A", minus, k, 1.0)
-        builder.add("E", k, plus, 1.0)
-        builder.add("E", k, minus, -1.0)
-        _stamp_row(builder, k, self.input, [], 1.0)
+        builder.add("E", k, plus, ROW_SCALE)
+        builder.add("E", k, minus, -ROW_SCALE)
+        _stamp_row(builder, k, self.input, [], ROW_SCALE)
         # limits: out' = input + λ_lower - λ_upper, 0 <= λ_upper ⊥ upper - out >= 0 and
         # 0 <= λ_lower ⊥ out - lower >= 0 (the state stops at a limit and leaves it as soon as
         # the input turns back: no wind-up)
@@ -177,7 +189,7 @@ class Integrator(Element):
             if limit is None:
                 continue
             pair = builder.pair(f"{self.name}.{label}", self.name, -sign * limit)
-            builder.add("B", k, pair, sign)
+            builder.add("B", k, pair, sign * ROW_SCALE)
             builder.add("C", pair, plus, sign)
             builder.add("C", pair, minus, -sign)
         builder.output(f"i({self.name})", [(k, 1.0)])
