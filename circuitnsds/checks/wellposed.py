@@ -59,7 +59,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from circuitnsds.errors import CircuitError
-from circuitnsds.solvers._dense import RCOND_MIN, factorise
+from circuitnsds.solvers.linalg import RCOND_MIN, factorise
 from circuitnsds.system.mlcs import MLCS
 
 EXACT_LIMIT = 12

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from circuitnsds.solvers.mlcp import SIGN_TOL
+from circuitnsds.solvers.linalg import SIGN_TOL
 
 try:  # numba makes the loop ~50x faster; nothing else depends on it
     from numba import njit

@@ -54,8 +54,7 @@ from circuitnsds.engine.sparse_loop import (
 )
 from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
-from circuitnsds.solvers._dense import factorise
-from circuitnsds.solvers._sparse import factorise_sparse
+from circuitnsds.solvers.linalg import factorise, factorise_sparse
 from circuitnsds.system.mlcs import MLCS
 
 SOLVER_CACHE_SIZE = 32

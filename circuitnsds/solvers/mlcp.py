@@ -59,10 +59,10 @@ import scipy.sparse as sp
 from scipy.linalg.blas import ddot as _ddot
 from scipy.linalg.blas import idamax as _idamax
 
-from ._dense import LU, factorise
 from ._inputs import as_mask, as_vector, bordered
 from .enumeration import MAX_ENUM, enumerate_mlcp
 from .lemke import lemke_pivot
+from .linalg import LU, SIGN_TOL, factorise
 from .mode import Mode, ModeCache
 from .newton import fb_newton_mlcp
 from .pivoting import TRIALS, BlockPivoting
@@ -80,8 +80,6 @@ ENUM_FALLBACK_MAX = 10
 #: exceeds this, the labels of the degenerate pairs are flipped one at a time and
 #: the verified answer with the smallest componentwise residual is kept.
 CTOL = 1e-6
-#: Largest relative sign violation (see ``MLCPSolver._signs_hold``) accepted from a guessed mode.
-SIGN_TOL = 1e-7
 #: From this many pairs on, block principal pivoting from the guess (or from no pair
 #: active) runs before Lemke: each trial is one factorisation, where Lemke's pivots cost
 #: O(m²) each and number O(m) (seconds at 1000 pairs).
