@@ -37,8 +37,10 @@ import types
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import lapack
 
-from circuitnsds.solvers.linalg import SIGN_TOL
+from circuitnsds.engine.step_system import ModeBlocks
+from circuitnsds.solvers.linalg import SIGN_TOL, factorise
 
 try:  # numba makes the loop ~50x faster; nothing else depends on it
     from numba import njit
@@ -78,6 +80,27 @@ class ModeMap:
     W: np.ndarray
     e_w: np.ndarray
     active: np.ndarray
+
+
+def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
+    """The :class:`ModeMap` of a mode's step system (``n`` circuit unknowns); ``None`` when
+    its bordered matrix is singular by the MLCP solver's own test (so both agree) or the
+    map is not finite."""
+    lu = factorise(blocks.bordered.toarray())
+    if not lu.ok:
+        return None
+    kstim = blocks.S_next.shape[1]
+    right = np.zeros((blocks.bordered.shape[0], n + 2 * kstim + 1))
+    right[:n, :n] = blocks.carry.toarray()
+    right[:n, n:n + kstim] = blocks.S_next.toarray()
+    right[:n, n + kstim:n + 2 * kstim] = blocks.S_now.toarray()
+    right[n:, -1] = blocks.rhs_pairs
+    # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
+    solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
+    if info != 0 or not np.all(np.isfinite(solution)):
+        return None
+    return ModeMap(P=solution[:, :n], Q1=solution[:, n:n + kstim], Q0=solution[:, n + kstim:n + 2 * kstim],
+                   c=solution[:, -1], W=blocks.W.toarray(), e_w=blocks.e_w, active=blocks.active)
 
 
 class ModeTable:

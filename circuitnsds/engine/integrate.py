@@ -42,19 +42,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg import lapack
 
-from circuitnsds.engine.dense_loop import STOP_LEFT_MODE, ModeMap, ModeTable, run_table
-from circuitnsds.engine.sparse_loop import (
-    CompiledSparseMap,
-    SparseModeMap,
-    compile_sparse_map,
-    run_compiled_sparse,
-)
+from circuitnsds.engine.dense_loop import STOP_LEFT_MODE, ModeMap, ModeTable, dense_mode_map, run_table
+from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
+from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
-from circuitnsds.solvers.linalg import factorise, factorise_sparse
 from circuitnsds.system.mlcs import MLCS
 
 SOLVER_CACHE_SIZE = 32
@@ -138,8 +131,7 @@ def integrate(
             solution (names the time and devices); ``error.trajectory`` then holds the
             points computed before it.
     """
-    if not 0.5 <= theta <= 1.0:
-        raise ValueError(f"theta must lie in [0.5, 1], got {theta}")
+    theta = check_theta(theta)
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
@@ -230,12 +222,10 @@ def integrate(
 
 @dataclass
 class _StepSolver:
-    """The MLCP solver of one step size and switch state, with its Θ diagonal and ``A``."""
+    """The MLCP solver of one step size and switch state, with its step system."""
 
     solver: MLCPSolver
-    weights: np.ndarray
-    A: sp.csr_matrix
-    K: sp.csc_matrix
+    system: StepSystem
 
 
 class _Stepping:
@@ -326,21 +316,18 @@ class _Stepping:
             self.solvers.move_to_end(key)
             return self.solvers[key]
         h = self.grid[k + 1] - self.grid[k]
-        weights = np.where(self.differential, self.theta_of(cls), 1.0)
-        A = self.mlcs.system_matrix(tuple(bool(s) for s in states))
         # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
         # (same solution; the solver's normwise test then weighs currents, not charges,
         # against the voltages, and a wrong-signed current of microamperes is caught)
-        with np.errstate(all="ignore"):
-            K = (self.E / h - sp.diags(weights) @ A).tocsc()
-        if not np.isfinite(K.data).all():
+        system = step_system(self.mlcs, h, states, self.theta_of(cls), E=self.E)
+        if not system.finite:
             raise SimulationError(
                 f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
                 "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
                 time=float(self.grid[k]), hint="check the step (--step, .tran TSTEP) and the "
                 "capacitor and inductor values")
-        solver = MLCPSolver(K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
-        self.solvers[key] = _StepSolver(solver, weights, A.tocsr(), K)
+        solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        self.solvers[key] = _StepSolver(solver, system)
         if len(self.solvers) > SOLVER_CACHE_SIZE:
             self.retired.append(self.solvers.popitem(last=False)[1])
         return self.solvers[key]
@@ -349,12 +336,7 @@ class _Stepping:
                    guess: np.ndarray | None):
         """Solve step ``k`` (of class ``cls``) as an MLCP (see module docstring)."""
         step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        S = self.mlcs.S
-        source_next = S @ self.sources[k + 1]
-        rhs = charge / h + step.weights * source_next
-        if self.theta_of(cls) != 1.0:
-            rhs += (1.0 - step.weights) * (step.A @ y + S @ self.sources[k])
+        rhs = step.system.rhs(charge, y, self.sources[k], self.sources[k + 1])
         if not np.isfinite(rhs).all():
             t1 = self.grid[k + 1]
             raise SimulationError(
@@ -436,59 +418,15 @@ class _Stepping:
         return mode
 
     def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
-        mlcs, n = self.mlcs, self.mlcs.n
-        act = np.flatnonzero(guess)
-        inact = np.flatnonzero(~guess)
-        step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        B, C, D = (mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray())
-        bordered = np.block([[step.K.toarray(), -B[:, act]], [C[act], D[np.ix_(act, act)]]])
-        lu = factorise(bordered)  # the solver's own test of singularity, so both agree
-        if not lu.ok:
-            return None
-        implicit = 1.0 - step.weights
-        S = mlcs.S.toarray()
-        carry = self.E.toarray() / h + implicit[:, None] * step.A.toarray()
-        kstim = S.shape[1]
-        right = np.zeros((n + act.size, n + 2 * kstim + 1))
-        right[:n, :n] = carry
-        right[:n, n:n + kstim] = step.weights[:, None] * S
-        right[:n, n + kstim:n + 2 * kstim] = implicit[:, None] * S
-        right[n:, -1] = -mlcs.e[act]
-        # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
-        solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
-        if info != 0 or not np.all(np.isfinite(solution)):
-            return None
-        P, Q1 = solution[:, :n], solution[:, n:n + kstim]
-        Q0, c = solution[:, n + kstim:n + 2 * kstim], solution[:, -1]
-        W = np.hstack([C[inact], D[np.ix_(inact, act)]])
-        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64))
+        """The dense step map of a mode (``None``: its bordered matrix is singular)."""
+        blocks = mode_blocks(self.mlcs, self._step_solver(k, cls, states).system, guess)
+        return dense_mode_map(blocks, self.mlcs.n)
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:
-        mlcs, n = self.mlcs, self.mlcs.n
-        act = np.flatnonzero(guess)
-        inact = np.flatnonzero(~guess)
-        step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
-        bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
-        # SuperLU with a minimum degree ordering on A + Aᵀ (the same fill as COLAMD on a ladder,
-        # triangular solves ~1.5x faster) and the MLCP solver's test of singularity
-        lu = factorise_sparse(bordered)
-        if not lu.ok:
-            return None
-        implicit = 1.0 - step.weights
-        S = mlcs.S.tocsr()
-        mode = SparseModeMap(
-            lu=lu.factors, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
-            S_next=(sp.diags(step.weights) @ S).tocsr(), S_now=(sp.diags(implicit) @ S).tocsr(),
-            rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
-            e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
-        try:
-            return compile_sparse_map(mode)  # plain arrays, for the compiled loop
-        except ValueError:  # a zero or non-finite pivot: leave such a mode to the MLCP solver
-            return None
+        """The factorised step map of a mode, as the compiled loop's arrays (``None``: singular)."""
+        blocks = mode_blocks(self.mlcs, self._step_solver(k, cls, states).system, guess)
+        return sparse_mode_map(blocks, self.mlcs.n)
 
     def counters(self) -> dict[str, int]:
         totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",
