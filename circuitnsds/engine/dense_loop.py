@@ -26,27 +26,22 @@ the step's class and switch state, when a state-controlled switch must change,
 or at the end. A converter thus runs its thousands of periods in one
 call once both phases' modes are known.
 
-The loop is compiled with numba when it is installed. ``compiled=False`` runs
-the same loop in Python with a numpy step (same arithmetic up to the summation
+The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`);
+``use_compiled=False`` runs the same loop in Python with a numpy step (same arithmetic up to the summation
 order of the products: results agree to rounding, not bit for bit).
 """
 
 from __future__ import annotations
 
-import types
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import lapack
 
+from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 from circuitnsds.engine.step_system import ModeBlocks
 from circuitnsds.solvers.linalg import SIGN_TOL, factorise
-
-try:  # numba makes the loop ~50x faster; nothing else depends on it
-    from numba import njit
-except ImportError:  # pragma: no cover - the Python loop is tested with compiled=False
-    njit = None
-
 
 STOP_LEFT_MODE = 0
 """Step ``k`` leaves its mode: a sign fails (nothing written for it)."""
@@ -103,6 +98,35 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
                    c=solution[:, -1], W=blocks.W.toarray(), e_w=blocks.e_w, active=blocks.active)
 
 
+class TableArrays(NamedTuple):
+    """The arrays of a :class:`ModeTable` as the loop takes them (one argument; see there)."""
+
+    P: np.ndarray
+    Q1: np.ndarray
+    Q0: np.ndarray
+    c: np.ndarray
+    W: np.ndarray
+    e_w: np.ndarray
+    active: np.ndarray
+    rows: np.ndarray
+    nw: np.ndarray
+    mode_class: np.ndarray
+    mode_sched: np.ndarray
+    mode_free: np.ndarray
+    last_used: np.ndarray
+
+
+class FreeSwitches(NamedTuple):
+    """The switches the loop watches (state-controlled ones): ``controls`` ``(s, n)`` dense
+    (the control as a combination of the unknowns), thresholds in the control's unit
+    (V or A) and the current states (closed = true)."""
+
+    controls: np.ndarray
+    on_threshold: np.ndarray
+    off_threshold: np.ndarray
+    switch_on: np.ndarray
+
+
 class ModeTable:
     """The dense step maps of the modes seen so far, padded into arrays indexed by mode.
 
@@ -139,6 +163,10 @@ class ModeTable:
                 array[:self.count] = old[:self.count]
             setattr(self, name, array)
 
+    def arrays(self) -> TableArrays:
+        """The padded arrays, for the loop."""
+        return TableArrays(*(getattr(self, name) for name in TableArrays._fields))
+
     def find(self, key: tuple) -> int | None:
         """Index of the mode ``key`` (``(class, sched, free, active bytes)``), if stored."""
         return self.index.get(key)
@@ -169,7 +197,7 @@ class ModeTable:
         return i
 
 
-def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+def _try_mode_scalar(mode, k, y, F, table, x):
     """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold.
 
     A sign holds when the value is ``>= 0`` or, like the MLCP solver's test of a guessed
@@ -177,8 +205,9 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     that make it up (rounding noise of a pair at zero on both sides: a diode carrying
     -3e-12 A out of terms of amperes in a voltage multiplier).
     """
+    P, Q1, Q0, c, W, e_w = table.P, table.Q1, table.Q0, table.c, table.W, table.e_w
     n = y.shape[1]
-    size = rows[mode]
+    size = table.rows[mode]
     kstim = F.shape[1]
     for r in range(size):
         acc = c[mode, r]
@@ -196,7 +225,7 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
                 magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
             if x[r] < -SIGN_TOL * magnitude:
                 return False
-    for r in range(nw[mode]):
+    for r in range(table.nw[mode]):
         acc = e_w[mode, r]
         magnitude = abs(acc)
         for j in range(size):
@@ -208,10 +237,11 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     return True
 
 
-def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+def _try_mode_numpy(mode, k, y, F, table, x):
     """:func:`_try_mode_scalar` with numpy products (the loop without numba); the magnitudes
     of the terms are computed only for a value that is negative."""
-    n, size, q = y.shape[1], rows[mode], nw[mode]
+    P, Q1, Q0, c, W, e_w = table.P, table.Q1, table.Q0, table.c, table.W, table.e_w
+    n, size, q = y.shape[1], table.rows[mode], table.nw[mode]
     x[:size] = P[mode, :size] @ y[k] + Q1[mode, :size] @ F[k + 1] + Q0[mode, :size] @ F[k] + c[mode, :size]
     if (x[n:size] < 0.0).any():
         magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
@@ -225,9 +255,8 @@ def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     return True
 
 
-def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id,
-                P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free,
-                last_used, count, controls, on_threshold, off_threshold, switch_on, used, x):
+def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id, table, count,
+                free, used, x):
     """Step from ``k0`` (with mode ``mode`` first, ``class0`` the class of step ``k0``) until
     a step leaves its mode or has none stored, a state-controlled switch changes, or ``k_end``.
 
@@ -236,6 +265,9 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     mode of each step, are written; ``z``'s other columns must hold zeros), ``reason`` is
     a ``STOP_*`` code, ``last`` the mode of the last step done (``mode`` if none).
     """
+    active, rows, last_used = table.active, table.rows, table.last_used
+    mode_class, mode_sched, mode_free = table.mode_class, table.mode_sched, table.mode_free
+    controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     ns = controls.shape[0]
     last = mode
@@ -252,7 +284,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
                     mode = i
             if mode < 0:
                 return k, STOP_NO_MODE, last
-        if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+        if not _try_mode(mode, k, y, F, table, x):
             return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
         y[k + 1, :] = x[:n]
         for r in range(n, rows[mode]):
@@ -273,27 +305,20 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     return k, STOP_END, last
 
 
-if njit is not None:
-    _try_mode = njit(cache=True, nogil=True)(_try_mode_scalar)
-    _compiled = njit(cache=True, nogil=True)(_table_loop)
-else:  # pragma: no cover - numba is a dependency
-    _try_mode = _try_mode_numpy
-    _compiled = None
-# the same loop with the numpy step: one copy of the loop's logic, two step kernels
-_python_loop = types.FunctionType(_table_loop.__code__, {**globals(), "_try_mode": _try_mode_numpy},
-                                  "_python_loop")
+_try_mode = jit(_try_mode_scalar, inline=True)
+_compiled = jit(_table_loop)
+# the same loop in Python with the numpy step: one copy of the loop's logic, two step kernels
+_python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
 
 
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
               current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
-              free_id: int, controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
-              switch_on: np.ndarray, used: np.ndarray, use_compiled: bool = True) -> tuple[int, int, int]:
-    """Run the loop of :func:`_table_loop` over ``table`` (compiled if possible)."""
-    loop = _compiled if use_compiled and _compiled is not None else _python_loop
+              free_id: int, free: FreeSwitches, used: np.ndarray, use_compiled: bool = True
+              ) -> tuple[int, int, int]:
+    """Run the loop of :func:`_table_loop` over ``table`` (compiled if numba is installed and
+    ``use_compiled``; else the same loop in Python with a numpy step)."""
+    loop = _compiled if use_compiled and AVAILABLE else _python_loop
     x = np.empty(table.n + table.m)
     k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,
-                           table.P, table.Q1, table.Q0, table.c, table.W, table.e_w, table.active,
-                           table.rows, table.nw, table.mode_class, table.mode_sched, table.mode_free,
-                           table.last_used, table.count, controls, on_threshold,
-                           off_threshold, switch_on, used, x)
+                           table.arrays(), table.count, free, used, x)
     return int(k), int(reason), int(last)

@@ -43,7 +43,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from circuitnsds.engine.dense_loop import STOP_LEFT_MODE, ModeMap, ModeTable, dense_mode_map, run_table
+from circuitnsds.engine.dense_loop import (
+    STOP_LEFT_MODE,
+    FreeSwitches,
+    ModeMap,
+    ModeTable,
+    dense_mode_map,
+    run_table,
+)
 from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
 from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
@@ -265,7 +272,7 @@ class _Stepping:
         self.free_controls = controls
         self.free_on = np.array([mlcs.switches[j].on_threshold for j in free])
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
-        self._no_free = (controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
+        self._no_free = FreeSwitches(controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
         self._free_ids: dict[bytes, int] = {}
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
@@ -300,11 +307,11 @@ class _Stepping:
                                                          float(self.free_controls[row] @ y))
         return states
 
-    def free_switch_arrays(self, states: np.ndarray) -> tuple[np.ndarray, ...]:
+    def free_switch_arrays(self, states: np.ndarray) -> FreeSwitches:
         """Controls, thresholds and current states of the switches the loop must watch."""
         if not self.free.size:
             return self._no_free
-        return self.free_controls, self.free_on, self.free_off, states[self.free]
+        return FreeSwitches(self.free_controls, self.free_on, self.free_off, states[self.free])
 
     def free_id(self, states: np.ndarray) -> int:
         """A small integer naming the states of the state-controlled switches."""
@@ -371,7 +378,7 @@ class _Stepping:
         if self.dense:
             done, reason, last = run_table(self.table, mode, cls, k, k_end, y, current, self.sources,
                                            self.step_class, self.sched_state, self.free_id(states),
-                                           *free, used, use_compiled=compiled)
+                                           free, used, use_compiled=compiled)
             active[k + 1:done + 1] = self.table.mask[used[k + 1:done + 1]]
             if done > k:
                 guess = self.table.mask[last].copy()

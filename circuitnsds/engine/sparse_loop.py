@@ -39,18 +39,16 @@ pivots. ``use_compiled=False`` (or no numba) runs the same scalar loop in Python
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
 from circuitnsds.engine.dense_loop import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH
+from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 from circuitnsds.engine.step_system import ModeBlocks
 from circuitnsds.solvers.linalg import factorise_sparse
 
-try:  # numba is optional here as in circuitnsds.engine.dense_loop: without it the loop runs in Python
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency; the fallback is tested uncompiled
-    njit = None
 
 @dataclass
 class SparseModeMap:
@@ -72,9 +70,9 @@ class SparseModeMap:
     n: int
 
 
-@dataclass
-class CompiledSparseMap:
-    """A :class:`SparseModeMap` as plain numpy arrays.
+class CompiledSparseMap(NamedTuple):
+    """A :class:`SparseModeMap` as plain numpy arrays (a named tuple: the loop takes it as one
+    argument).
 
     Every matrix is CSR: ``<name>_indptr`` (int64, rows + 1), ``<name>_indices``
     (int64 column indices, sorted within a row) and ``<name>_data`` (float64).
@@ -228,23 +226,34 @@ def _solve_factors(c, x, L_indptr, L_indices, L_data, U_indptr, U_indices, U_dat
         x[i] = c[perm_c[i]]
 
 
-def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
-                     carry_indptr, carry_indices, carry_data,
-                     S_next_indptr, S_next_indices, S_next_data,
-                     S_now_indptr, S_now_indices, S_now_data,
-                     W_indptr, W_indices, W_data,
-                     L_indptr, L_indices, L_data,
-                     U_indptr, U_indices, U_data, U_diag_inverse,
-                     perm_r, perm_c, rhs_pairs, e_w, active,
-                     controls_indptr, controls_indices, controls_data,
-                     on_threshold, off_threshold, switch_on):
-    """Step the factorised mode from ``k0``; returns ``(k, reason)`` as described in
+class SparseControls(NamedTuple):
+    """The state-controlled switches for the sparse loop: their controls as a CSR triple
+    ``(switches, n)``, thresholds (V or A) and current states (closed = true)."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    on_threshold: np.ndarray
+    off_threshold: np.ndarray
+    switch_on: np.ndarray
+
+
+def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule, cmap, free):
+    """Step the factorised mode ``cmap`` (a :class:`CompiledSparseMap`) from ``k0``, watching
+    the switches ``free`` (:class:`SparseControls`); returns ``(k, reason)`` as described in
     :func:`run_compiled_sparse` (``k`` the first grid point not computed).
 
-    The matrices are CSR triples (see :class:`CompiledSparseMap`), the free switches'
-    ``controls`` too. Writes ``y[k0+1 .. k]`` and the active columns of
-    ``current[k0+1 .. k]``; nothing for a step that leaves the mode.
+    Writes ``y[k0+1 .. k]`` and the active columns of ``current[k0+1 .. k]``; nothing for a
+    step that leaves the mode.
     """
+    carry_indptr, carry_indices, carry_data = cmap.carry_indptr, cmap.carry_indices, cmap.carry_data
+    S_next_indptr, S_next_indices, S_next_data = cmap.S_next_indptr, cmap.S_next_indices, cmap.S_next_data
+    S_now_indptr, S_now_indices, S_now_data = cmap.S_now_indptr, cmap.S_now_indices, cmap.S_now_data
+    W_indptr, W_indices, W_data = cmap.W_indptr, cmap.W_indices, cmap.W_data
+    perm_r, rhs_pairs, e_w, active = cmap.perm_r, cmap.rhs_pairs, cmap.e_w, cmap.active
+    U_diag_inverse = cmap.U_diag_inverse
+    controls_indptr, controls_indices, controls_data = free.indptr, free.indices, free.data
+    on_threshold, off_threshold, switch_on = free.on_threshold, free.off_threshold, free.switch_on
     n = y.shape[1]
     size = U_diag_inverse.shape[0]
     pairs = size - n
@@ -270,8 +279,8 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
             c[perm_r[i]] = a + b + d
         for r in range(pairs):
             c[perm_r[n + r]] = rhs_pairs[r]
-        _solve_factors(c, x, L_indptr, L_indices, L_data, U_indptr, U_indices, U_data, U_diag_inverse,
-                       perm_c)
+        _solve_factors(c, x, cmap.L_indptr, cmap.L_indices, cmap.L_data, cmap.U_indptr, cmap.U_indices,
+                       cmap.U_data, U_diag_inverse, cmap.perm_c)
         for r in range(n, size):
             if x[r] < 0.0:
                 return k, STOP_LEFT_MODE
@@ -298,27 +307,14 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
     return k, STOP_END
 
 
-if njit is not None:
-    _solve_factors = njit(cache=True, nogil=True)(_solve_factors)
-    _compiled = njit(cache=True, nogil=True)(_run_sparse_loop)
-else:  # pragma: no cover
-    _compiled = None
+_solve_factors = jit(_solve_factors)
+_compiled = jit(_run_sparse_loop)
+_python_loop = python_version(_run_sparse_loop)  # Python all through, triangular solves included
 
 
 def compiled() -> bool:
     """Whether :func:`run_compiled_sparse` runs compiled (numba installed)."""
-    return _compiled is not None
-
-
-def _map_arguments(cmap: CompiledSparseMap) -> tuple[np.ndarray, ...]:
-    """The map's arrays in the order :func:`_run_sparse_loop` takes them."""
-    return (cmap.carry_indptr, cmap.carry_indices, cmap.carry_data,
-            cmap.S_next_indptr, cmap.S_next_indices, cmap.S_next_data,
-            cmap.S_now_indptr, cmap.S_now_indices, cmap.S_now_data,
-            cmap.W_indptr, cmap.W_indices, cmap.W_data,
-            cmap.L_indptr, cmap.L_indices, cmap.L_data,
-            cmap.U_indptr, cmap.U_indices, cmap.U_data, cmap.U_diag_inverse,
-            cmap.perm_r, cmap.perm_c, cmap.rhs_pairs, cmap.e_w, cmap.active)
+    return AVAILABLE
 
 
 def solve_compiled(cmap: CompiledSparseMap, rhs: np.ndarray) -> np.ndarray:
@@ -336,6 +332,7 @@ def solve_compiled(cmap: CompiledSparseMap, rhs: np.ndarray) -> np.ndarray:
 
 
 _NO_CONTROLS = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
+"""The CSR triple of no controls."""
 
 
 def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
@@ -369,8 +366,8 @@ def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndar
         csr = (controls_csr.indptr.astype(np.int64), controls_csr.indices.astype(np.int64), controls_csr.data)
     else:  # no state-controlled switch (the usual case): no scipy call on every entry
         csr = _NO_CONTROLS
-    loop = _compiled if use_compiled and _compiled is not None else _run_sparse_loop
-    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, *_map_arguments(cmap),
-                     *csr, np.asarray(on_threshold, dtype=np.float64),
-                     np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))
+    loop = _compiled if use_compiled and AVAILABLE else _python_loop
+    free = SparseControls(*csr, np.asarray(on_threshold, dtype=np.float64),
+                          np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))
+    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, cmap, free)
     return int(k), int(reason)
