@@ -9,7 +9,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.integrate import STEPPINGS, integrate
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
@@ -26,6 +26,7 @@ def run_transient(
     uic: bool | None,
     tol: float,
     progress: Callable[[float, float], None] | None,
+    stepping: str = "compiled",
 ) -> Waveforms:
     """See :meth:`Circuit.transient`."""
     tran = circuit.tran
@@ -44,6 +45,10 @@ def run_transient(
     if not 0.5 <= theta <= 1.0:
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
+    if stepping not in STEPPINGS:
+        raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
+                           where=circuit.file, hint="\"compiled\" (default), \"numpy\" (the same loops "
+                           "in Python) or \"mlcp\" (one complementarity problem per step)")
     if not 0 <= start < stop:
         raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
 
@@ -59,7 +64,8 @@ def run_transient(
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
-                               state.switches, theta=theta, tol=tol, progress=progress)
+                               state.switches, theta=theta, tol=tol, progress=progress,
+                               stepping=stepping)
     except SimulationError as exc:
         _diagnose(exc, circuit, mlcs, grid, theta)
         if getattr(exc, "trajectory", None) is not None:

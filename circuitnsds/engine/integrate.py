@@ -68,6 +68,8 @@ Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped 
 dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
 100: 10.3 / 2.95. The dense table also changes modes without leaving the compiled
 loop, which is what converters (small ``n``, many switchings) need."""
+STEPPINGS = ("compiled", "numpy", "mlcp")
+"""The stepping strategies of :func:`integrate` (its ``stepping`` argument)."""
 CHUNK = 100_000
 """Longest run of mapped steps between progress reports."""
 
@@ -114,7 +116,7 @@ def integrate(
     theta: float = 1.0,
     tol: float = 1e-9,
     progress: Callable[[float, float], None] | None = None,
-    compiled: bool = True,
+    stepping: str = "compiled",
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -130,8 +132,11 @@ def integrate(
         tol: complementarity tolerance handed to the solver.
         progress: ``callback(t, t_end)``, called about twice a second (so never
             for runs shorter than half a second), and once at the end if it was called.
-        compiled: use the compiled mode loops when numba is installed (``False``:
-            the same loops in Python, for comparison).
+        stepping: how steps whose mode is known are taken (one of :data:`STEPPINGS`):
+            ``"compiled"`` by the mode loops compiled with numba (the default; the same
+            loops in Python when numba is missing), ``"numpy"`` by the same loops in
+            Python, ``"mlcp"`` by no loop: every step is solved as an MLCP. One scheme
+            all three: the results agree to rounding.
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -139,6 +144,9 @@ def integrate(
             points computed before it.
     """
     theta = check_theta(theta)
+    if stepping not in STEPPINGS:
+        raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {stepping!r}")
+    compiled, mapped = stepping == "compiled", stepping != "mlcp"
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
@@ -178,7 +186,7 @@ def integrate(
             # time the switches were in this state (the other phase of a converter)
             guess = last_active.get(states[k + 1].tobytes(), guess)
         cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
-        if k > 0 and guess is not None and k != left_mode_at:
+        if k > 0 and guess is not None and k != left_mode_at and mapped:
             done, reason, guess = stepping.run_mapped(k, min(count - 1, k + CHUNK), cls, states[k + 1],
                                                       guess, y, current, active, used, compiled)
             # step `done` left the mode the loop continued with (same class and switch state
