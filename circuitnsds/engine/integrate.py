@@ -140,8 +140,8 @@ def integrate(
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
-            solution (names the time and devices); ``error.trajectory`` then holds the
-            points computed before it.
+            solution (names the time and devices); its ``trajectory`` field then holds the
+            points computed before it, ``step_interval`` and ``switch_states`` the failing step.
     """
     theta = check_theta(theta)
     if stepping not in STEPPINGS:
@@ -462,11 +462,11 @@ def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
     if not np.isfinite(values).all():
         row, column = np.argwhere(~np.isfinite(values))[0]
         rows = mlcs.S.tocsc()[:, column].indices
-        owner = ", ".join(mlcs.unknowns[r].replace("v(", "node ").replace("i(", "source ").rstrip(")")
-                          for r in rows) or "a source"
+        owners = tuple(mlcs.unknowns[r] for r in rows)
         raise SimulationError(
-            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s ({owner}: "
-            f"{mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s", time=float(grid[row]),
+            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s "
+            f"({', '.join(owners) or 'a source'}: {mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s",
+            time=float(grid[row]), unknowns=owners,
             hint="check the source's parameters (a zero time constant or period, an overflow)")
     return values
 
@@ -505,8 +505,9 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
     """The error of a step whose MLCP has no (verified) solution.
 
     Carries the time, the devices of the active set tried first (those conducting in the
-    previous step), the solver's best residual and, as ``step_interval`` and
-    ``switch_states``, what the caller needs to diagnose the step (:mod:`circuitnsds.checks.wellposed`).
+    previous step), the solver's best residual, the step's ``step_interval`` and
+    ``switch_states``: what the caller needs to diagnose the step and to advise
+    (:mod:`circuitnsds.checks.wellposed`, :mod:`circuitnsds.analyses.transient`).
     """
     conducting = [] if guess is None else [mlcs.pair_devices[j] for j in np.flatnonzero(guess)]
     conducting = list(dict.fromkeys(conducting))
@@ -518,16 +519,12 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
         details.append(f"closed switches: {', '.join(closed) or 'none'}")
     if residual is not None and np.isfinite(residual):
         details.append(f"best residual {residual:.2g}")
-    error = SimulationError(
+    return SimulationError(
         f"the time step from t = {t0:.6g} s to {t1:.6g} s {verdict} with ideal devices "
         f"({'; '.join(details)})",
         where=f"t = {t1:.6g} s", time=float(t1), devices=tuple(conducting), residual=residual,
-        hint=f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
-        "Zener) that no current can pass in either state, e.g. in series with a current source",
-    )
-    error.step_interval = (float(t0), float(t1))
-    error.switch_states = None if states is None else np.array(states, dtype=bool)
-    return error
+        step_interval=(float(t0), float(t1)),
+        switch_states=None if states is None else np.array(states, dtype=bool))
 
 
 def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
@@ -545,8 +542,8 @@ def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> Simulati
 def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
              residual: np.ndarray, active: np.ndarray, states: np.ndarray,
              stats: dict) -> SimulationError:
-    """Attach to ``error`` the trajectory up to grid point ``k`` (the last good one) as
-    ``error.trajectory``, so that the caller can still write it."""
+    """``error`` with its ``trajectory`` field set to the trajectory up to grid point ``k``
+    (the last good one), so that the caller can still write it."""
     end = k + 1
     impulse = np.zeros((end, current.shape[1]))
     impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]
