@@ -10,6 +10,7 @@ from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import STEPPINGS, integrate
+from circuitnsds.engine.step_system import theta_in_range
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
@@ -42,7 +43,7 @@ def run_transient(
     if step <= 0 or stop <= 0:
         raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
                            where=circuit.file)
-    if not 0.5 <= theta <= 1.0:
+    if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     if stepping not in STEPPINGS:

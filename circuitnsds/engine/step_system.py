@@ -26,15 +26,27 @@ import scipy.sparse as sp
 
 from circuitnsds.system.mlcs import MLCS
 
-__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
+__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta", "theta_in_range",
+           "THETA_RANGE", "THETA_HINT"]
+
+THETA_RANGE = (0.5, 1.0)
+"""The θ the θ-method accepts: 1 is implicit Euler, 0.5 the trapezoidal rule (A-stable
+for θ >= 0.5)."""
+THETA_HINT = "1 is implicit Euler, 0.5 the trapezoidal rule"
+"""What to tell a user whose θ is out of range."""
+
+
+def theta_in_range(theta: float) -> bool:
+    """Whether ``theta`` lies in :data:`THETA_RANGE` (the one test of θ's range; callers that
+    know where the value came from word their own error)."""
+    return THETA_RANGE[0] <= theta <= THETA_RANGE[1]
 
 
 def check_theta(theta: float) -> float:
-    """``theta`` as a float if it lies in [0.5, 1] (the θ-method's stable range); else
-    :class:`ValueError` (callers that know where the value came from word their own error)."""
+    """``theta`` as a float if :func:`theta_in_range`, else :class:`ValueError`."""
     theta = float(theta)
-    if not 0.5 <= theta <= 1.0:
-        raise ValueError(f"theta must lie in [0.5, 1], got {theta:g}")
+    if not theta_in_range(theta):
+        raise ValueError(f"theta must lie in [{THETA_RANGE[0]:g}, {THETA_RANGE[1]:g}], got {theta:g}")
     return theta
 
 
