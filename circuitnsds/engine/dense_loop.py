@@ -197,7 +197,7 @@ class ModeTable:
         return i
 
 
-def _try_mode_scalar(mode, k, y, F, table, x):
+def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold.
 
     A sign holds when the value is ``>= 0`` or, like the MLCP solver's test of a guessed
@@ -205,9 +205,8 @@ def _try_mode_scalar(mode, k, y, F, table, x):
     that make it up (rounding noise of a pair at zero on both sides: a diode carrying
     -3e-12 A out of terms of amperes in a voltage multiplier).
     """
-    P, Q1, Q0, c, W, e_w = table.P, table.Q1, table.Q0, table.c, table.W, table.e_w
     n = y.shape[1]
-    size = table.rows[mode]
+    size = rows[mode]
     kstim = F.shape[1]
     for r in range(size):
         acc = c[mode, r]
@@ -225,7 +224,7 @@ def _try_mode_scalar(mode, k, y, F, table, x):
                 magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
             if x[r] < -SIGN_TOL * magnitude:
                 return False
-    for r in range(table.nw[mode]):
+    for r in range(nw[mode]):
         acc = e_w[mode, r]
         magnitude = abs(acc)
         for j in range(size):
@@ -237,11 +236,10 @@ def _try_mode_scalar(mode, k, y, F, table, x):
     return True
 
 
-def _try_mode_numpy(mode, k, y, F, table, x):
+def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     """:func:`_try_mode_scalar` with numpy products (the loop without numba); the magnitudes
     of the terms are computed only for a value that is negative."""
-    P, Q1, Q0, c, W, e_w = table.P, table.Q1, table.Q0, table.c, table.W, table.e_w
-    n, size, q = y.shape[1], table.rows[mode], table.nw[mode]
+    n, size, q = y.shape[1], rows[mode], nw[mode]
     x[:size] = P[mode, :size] @ y[k] + Q1[mode, :size] @ F[k + 1] + Q0[mode, :size] @ F[k] + c[mode, :size]
     if (x[n:size] < 0.0).any():
         magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
@@ -257,16 +255,19 @@ def _try_mode_numpy(mode, k, y, F, table, x):
 
 def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id, table, count,
                 free, used, x):
-    """Step from ``k0`` (with mode ``mode`` first, ``class0`` the class of step ``k0``) until
-    a step leaves its mode or has none stored, a state-controlled switch changes, or ``k_end``.
+    """Step from ``k0`` over the modes of ``table`` (the fields of :class:`TableArrays`), watching
+    the switches ``free`` (the fields of :class:`FreeSwitches`), with mode ``mode`` first
+    (``class0`` the class of step ``k0``), until a step leaves its mode or has none stored,
+    a state-controlled switch changes, or ``k_end``.
 
     Returns ``(k, reason, last)``: steps ``k0 .. k-1`` are done (``y[k0+1 .. k]``, the
     active columns of ``z[k0+1 .. k]``, the pair currents, and ``used[k0+1 .. k]``, the
     mode of each step, are written; ``z``'s other columns must hold zeros), ``reason`` is
     a ``STOP_*`` code, ``last`` the mode of the last step done (``mode`` if none).
     """
-    active, rows, last_used = table.active, table.rows, table.last_used
-    mode_class, mode_sched, mode_free = table.mode_class, table.mode_sched, table.mode_free
+    # plain tuples in the order of TableArrays and FreeSwitches (named tuples would be typed
+    # by numba's slow path at every call, ~0.1 ms)
+    P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free, last_used = table
     controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     ns = controls.shape[0]
@@ -284,7 +285,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
                     mode = i
             if mode < 0:
                 return k, STOP_NO_MODE, last
-        if not _try_mode(mode, k, y, F, table, x):
+        if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
             return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
         y[k + 1, :] = x[:n]
         for r in range(n, rows[mode]):
@@ -305,7 +306,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     return k, STOP_END, last
 
 
-_try_mode = jit(_try_mode_scalar, inline=True)
+_try_mode = jit(_try_mode_scalar)
 _compiled = jit(_table_loop)
 # the same loop in Python with the numpy step: one copy of the loop's logic, two step kernels
 _python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
@@ -320,5 +321,5 @@ def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: 
     loop = _compiled if use_compiled and AVAILABLE else _python_loop
     x = np.empty(table.n + table.m)
     k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,
-                           table.arrays(), table.count, free, used, x)
+                           tuple(table.arrays()), table.count, tuple(free), used, x)
     return int(k), int(reason), int(last)

@@ -434,13 +434,13 @@ class _Stepping:
 
     def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
         """The dense step map of a mode (``None``: its bordered matrix is singular)."""
-        blocks = mode_blocks(self.mlcs, self._step_solver(k, cls, states).system, guess)
+        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
         return dense_mode_map(blocks, self.mlcs.n)
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:
         """The factorised step map of a mode, as the compiled loop's arrays (``None``: singular)."""
-        blocks = mode_blocks(self.mlcs, self._step_solver(k, cls, states).system, guess)
+        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
         return sparse_mode_map(blocks, self.mlcs.n)
 
     def counters(self) -> dict[str, int]:

@@ -24,14 +24,12 @@ AVAILABLE = njit is not None
 """Whether numba is installed (the loops run compiled)."""
 
 
-def jit(function: Callable, inline: bool = False) -> Callable:
+def jit(function: Callable) -> Callable:
     """``function`` compiled by numba (``cache=True, nogil=True``), or itself without numba.
 
-    ``inline``: inlined into its compiled callers (numba ``inline="always"``): a helper called
-    once per step with a structured argument, which would otherwise be copied at each call."""
-    if not AVAILABLE:
-        return function
-    return njit(cache=True, nogil=True, inline="always" if inline else "never")(function)
+    Structured arguments are passed as plain tuples (``tuple(named)``) and unpacked by
+    position inside: numba types a named tuple argument by its slow path at every call."""
+    return njit(cache=True, nogil=True)(function) if AVAILABLE else function
 
 
 def python_version(function: Callable, **replacements: Callable) -> Callable:

@@ -239,21 +239,20 @@ class SparseControls(NamedTuple):
 
 
 def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule, cmap, free):
-    """Step the factorised mode ``cmap`` (a :class:`CompiledSparseMap`) from ``k0``, watching
-    the switches ``free`` (:class:`SparseControls`); returns ``(k, reason)`` as described in
-    :func:`run_compiled_sparse` (``k`` the first grid point not computed).
+    """Step the factorised mode ``cmap`` (the fields of a :class:`CompiledSparseMap`) from
+    ``k0``, watching the switches ``free`` (the fields of :class:`SparseControls`); returns
+    ``(k, reason)`` as described in :func:`run_compiled_sparse` (``k`` the first grid point not computed).
 
     Writes ``y[k0+1 .. k]`` and the active columns of ``current[k0+1 .. k]``; nothing for a
     step that leaves the mode.
     """
-    carry_indptr, carry_indices, carry_data = cmap.carry_indptr, cmap.carry_indices, cmap.carry_data
-    S_next_indptr, S_next_indices, S_next_data = cmap.S_next_indptr, cmap.S_next_indices, cmap.S_next_data
-    S_now_indptr, S_now_indices, S_now_data = cmap.S_now_indptr, cmap.S_now_indices, cmap.S_now_data
-    W_indptr, W_indices, W_data = cmap.W_indptr, cmap.W_indices, cmap.W_data
-    perm_r, rhs_pairs, e_w, active = cmap.perm_r, cmap.rhs_pairs, cmap.e_w, cmap.active
-    U_diag_inverse = cmap.U_diag_inverse
-    controls_indptr, controls_indices, controls_data = free.indptr, free.indices, free.data
-    on_threshold, off_threshold, switch_on = free.on_threshold, free.off_threshold, free.switch_on
+    # plain tuples in the order of CompiledSparseMap and SparseControls (named tuples would be
+    # typed by numba's slow path at every call, ~0.1 ms)
+    (carry_indptr, carry_indices, carry_data, S_next_indptr, S_next_indices, S_next_data,
+     S_now_indptr, S_now_indices, S_now_data, W_indptr, W_indices, W_data,
+     L_indptr, L_indices, L_data, U_indptr, U_indices, U_data, U_diag, U_diag_inverse,
+     perm_r, perm_c, rhs_pairs, e_w, active, _) = cmap
+    controls_indptr, controls_indices, controls_data, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     size = U_diag_inverse.shape[0]
     pairs = size - n
@@ -279,8 +278,8 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule, cmap, free)
             c[perm_r[i]] = a + b + d
         for r in range(pairs):
             c[perm_r[n + r]] = rhs_pairs[r]
-        _solve_factors(c, x, cmap.L_indptr, cmap.L_indices, cmap.L_data, cmap.U_indptr, cmap.U_indices,
-                       cmap.U_data, U_diag_inverse, cmap.perm_c)
+        _solve_factors(c, x, L_indptr, L_indices, L_data, U_indptr, U_indices, U_data, U_diag_inverse,
+                       perm_c)
         for r in range(n, size):
             if x[r] < 0.0:
                 return k, STOP_LEFT_MODE
@@ -369,5 +368,5 @@ def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndar
     loop = _compiled if use_compiled and AVAILABLE else _python_loop
     free = SparseControls(*csr, np.asarray(on_threshold, dtype=np.float64),
                           np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))
-    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, cmap, free)
+    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, tuple(cmap), tuple(free))
     return int(k), int(reason)

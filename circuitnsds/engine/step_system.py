@@ -20,6 +20,7 @@ the well-posedness report examines (:mod:`circuitnsds.checks.wellposed`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -59,7 +60,10 @@ class StepSystem:
         weights: the diagonal of ``Θ``, shape ``(n,)``.
         A: ``A(states)`` (CSR); K: ``E/h - ΘA`` (CSC; may hold inf when ``E/h`` overflows,
             see :attr:`finite`).
-        E, S: the MLCS's ``E`` and ``S`` (CSR).
+        E, S: the MLCS's ``E`` and ``S`` (CSR); B (CSC), C, D (CSR) and e: its pair blocks.
+
+    The right-hand side's parts (:attr:`carry`, :attr:`source_next`, :attr:`source_now`) are
+    computed on first use and kept: every mode of the step shares them.
     """
 
     h: float
@@ -69,6 +73,10 @@ class StepSystem:
     K: sp.csc_matrix
     E: sp.csr_matrix
     S: sp.csr_matrix
+    B: sp.csc_matrix
+    C: sp.csr_matrix
+    D: sp.csr_matrix
+    e: np.ndarray
 
     @property
     def finite(self) -> bool:
@@ -83,14 +91,17 @@ class StepSystem:
             r += (1.0 - self.weights) * (self.A @ y + self.S @ f_now)
         return r
 
+    @cached_property
     def carry(self) -> sp.csr_matrix:
         """``E/h + (I - Θ)A``: the part of ``r`` multiplying ``y_k``."""
         return (self.E / self.h + sp.diags(1.0 - self.weights) @ self.A).tocsr()
 
+    @cached_property
     def source_next(self) -> sp.csr_matrix:
         """``ΘS``: the part of ``r`` multiplying ``f_{k+1}``."""
         return (sp.diags(self.weights) @ self.S).tocsr()
 
+    @cached_property
     def source_now(self) -> sp.csr_matrix:
         """``(I - Θ)S``: the part of ``r`` multiplying ``f_k``."""
         return (sp.diags(1.0 - self.weights) @ self.S).tocsr()
@@ -105,7 +116,8 @@ def step_system(mlcs: MLCS, h: float, states: tuple[bool, ...] | np.ndarray = ()
     A = mlcs.system_matrix(tuple(bool(s) for s in states))
     with np.errstate(all="ignore"):
         K = (E / h - sp.diags(weights) @ A).tocsc()
-    return StepSystem(float(h), float(theta), weights, A.tocsr(), K, E, mlcs.S.tocsr())
+    return StepSystem(float(h), float(theta), weights, A.tocsr(), K, E, mlcs.S.tocsr(), mlcs.B.tocsc(),
+                      mlcs.C.tocsr(), mlcs.D.tocsr(), mlcs.e)
 
 
 @dataclass(frozen=True)
@@ -127,13 +139,13 @@ class ModeBlocks:
     inactive: np.ndarray
 
 
-def mode_blocks(mlcs: MLCS, system: StepSystem, active: np.ndarray) -> ModeBlocks:
+def mode_blocks(system: StepSystem, active: np.ndarray) -> ModeBlocks:
     """The :class:`ModeBlocks` of the mode with active pairs ``active`` (a boolean mask)."""
     act = np.flatnonzero(active)
     inact = np.flatnonzero(~np.asarray(active, dtype=bool))
-    B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
+    B, C, D, e = system.B, system.C, system.D, system.e
     bordered = sp.bmat([[system.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
     return ModeBlocks(
-        bordered=bordered, carry=system.carry(), S_next=system.source_next(), S_now=system.source_now(),
-        rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
-        e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64))
+        bordered=bordered, carry=system.carry, S_next=system.source_next, S_now=system.source_now,
+        rhs_pairs=-e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
+        e_w=e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64))
