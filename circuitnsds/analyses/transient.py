@@ -10,10 +10,10 @@ from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import STEPPINGS, integrate
-from circuitnsds.engine.step_system import theta_in_range
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
+from circuitnsds.theta import theta_in_range
 
 
 def run_transient(

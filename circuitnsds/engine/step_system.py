@@ -26,22 +26,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from circuitnsds.system.mlcs import MLCS
+from circuitnsds.theta import THETA_RANGE, theta_in_range
 
-__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta", "theta_in_range",
-           "THETA_RANGE", "THETA_HINT"]
-
-THETA_RANGE = (0.5, 1.0)
-"""The θ the θ-method accepts: 1 is implicit Euler, 0.5 the trapezoidal rule (A-stable
-for θ >= 0.5)."""
-THETA_HINT = "1 is implicit Euler, 0.5 the trapezoidal rule"
-"""What to tell a user whose θ is out of range."""
-
-
-def theta_in_range(theta: float) -> bool:
-    """Whether ``theta`` lies in :data:`THETA_RANGE` (the one test of θ's range; callers that
-    know where the value came from word their own error)."""
-    return THETA_RANGE[0] <= theta <= THETA_RANGE[1]
-
+__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
 
 def check_theta(theta: float) -> float:
     """``theta`` as a float if :func:`theta_in_range`, else :class:`ValueError`."""

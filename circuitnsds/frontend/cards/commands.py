@@ -6,9 +6,9 @@ from __future__ import annotations
 import re
 
 from circuitnsds.circuit.circuit import Circuit, TranSpec
-from circuitnsds.engine.step_system import THETA_HINT, theta_in_range
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
+from circuitnsds.theta import THETA_HINT, theta_in_range
 from circuitnsds.units import format_si
 
 IGNORED_COMMANDS = {
