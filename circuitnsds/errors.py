@@ -130,25 +130,37 @@ class SimulationError(CircuitnsdsError):
     """A time step (or the operating point) has no solution, the solver failed, or a value
     became NaN or infinite.
 
-    Args:
+    Args (each also an attribute of the same name):
         message, where, hint: as for :class:`CircuitnsdsError`.
         time: the instant [s] at which the run stopped (end of the failing step).
         devices: the devices in the active set guessed for the failing step (the
             conducting diodes), or the devices concerned.
         residual: the best scaled complementarity residual the solver reached.
-
-    Attributes:
-        partial: the :class:`~circuitnsds.Waveforms` up to the last good step when the
-            failure happened during a transient (set by the transient, else ``None``).
+        unknowns: names of the MNA unknowns concerned (``v(node)``, ``i(branch)``), e.g.
+            the rows a non-finite source drives; the analysis words them for the reader.
+        step_interval: ``(t0, t1)`` [s] of a step whose complementarity problem has no
+            (verified) solution, else ``None``.
+        switch_states: the switch states (closed = true, one per ``MLCS.switches``) of
+            that step, else ``None``.
+        trajectory: the engine's :class:`~circuitnsds.engine.integrate.Trajectory` up to
+            the last good grid point, when the failure happened while integrating.
+        partial: the :class:`~circuitnsds.Waveforms` made of ``trajectory`` (set by the
+            transient analysis), else ``None``.
     """
 
     def __init__(self, message: str, *, where: object | None = None, hint: str | None = None,
                  time: float | None = None, devices: tuple[str, ...] = (),
-                 residual: float | None = None):
+                 residual: float | None = None, unknowns: tuple[str, ...] = (),
+                 step_interval: tuple[float, float] | None = None, switch_states=None,
+                 trajectory=None, partial=None):
         self.time = time
         self.devices = tuple(devices)
         self.residual = residual
-        self.partial = None
+        self.unknowns = tuple(unknowns)
+        self.step_interval = step_interval
+        self.switch_states = switch_states
+        self.trajectory = trajectory
+        self.partial = partial
         super().__init__(message, where=where, hint=hint)
 
 

@@ -56,3 +56,16 @@ def test_signals_are_computed_when_read_and_behave_as_a_dict():
     assert "twice" in waves and waves.names[-1] == "twice"
     del signals["twice"]
     assert "twice" not in waves
+
+
+def test_stepping_option_is_checked():
+    """``stepping`` names one of the three paths; anything else is a clear error, not a default."""
+    circuit = circuitnsds.read_netlist("half-wave rectifier\nV1 a 0 SIN(0 1 1k)\nD1 a b dd\nR1 b 0 1k\n"
+                                       "C1 b 0 1u\n.model dd D(Ron=1)\n.tran 10u 3m\n.end\n")
+    paths = {path: circuit.transient(stepping=path) for path in ("compiled", "numpy", "mlcp")}
+    assert paths["compiled"].stats["mapped_steps"] > 0.5 * paths["compiled"].stats["steps"]
+    assert paths["mlcp"].stats["mapped_steps"] == 0
+    for path in ("numpy", "mlcp"):  # one scheme: the same numbers to rounding
+        np.testing.assert_allclose(paths[path]["v(b)"], paths["compiled"]["v(b)"], rtol=0, atol=1e-9)
+    with pytest.raises(circuitnsds.CircuitError, match="stepping"):
+        circuit.transient(stepping="fast")

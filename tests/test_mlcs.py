@@ -32,6 +32,8 @@ def test_diode_and_zener_pairs():
                 ".model mz D(BV=5 Rrev=2)").mlcs()
     assert mlcs.pairs == ["d1", "dz.forward", "dz.reverse"]
     assert mlcs.pair_devices == ["d1", "dz", "dz"]
+    # the reverse pair's current flows cathode -> anode: it counts negative in the device's current
+    np.testing.assert_array_equal(mlcs.pair_signs, [1.0, 1.0, -1.0])
     np.testing.assert_array_equal(mlcs.e, [0.7, 0.0, 5.0])
     np.testing.assert_array_equal(mlcs.D.toarray(), np.diag([0.1, 0.0, 2.0]))
     # w = C y + ...: diode w = -(va - vb); Zener forward w = -vb; reverse w = +vb

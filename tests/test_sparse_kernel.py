@@ -319,13 +319,8 @@ def test_schedule_change_only_counts_after_k0():
 def test_python_fallback_loop(scenario):
     """The same scalar loop uncompiled (what runs without numba) agrees too."""
 
-    def python_loop(cmap: CompiledSparseMap, k0, k_end, y, current, F, step_class, schedule, controls,
-                    on_threshold, off_threshold, switch_on):
-        csr = sp.csr_matrix(controls)
-        return sparse_kernel._run_sparse_loop(
-            k0, k_end, y, current, F, step_class, schedule, *sparse_kernel._map_arguments(cmap),
-            csr.indptr.astype(np.int64), csr.indices.astype(np.int64), csr.data, on_threshold,
-            off_threshold, switch_on)
+    def python_loop(cmap: CompiledSparseMap, *rest):
+        return run_compiled_sparse(cmap, *rest, use_compiled=False)
 
     case = build_case(21, scenario, n=10, a=2, inactive=3, steps=60, pivot=True)
     reference, result, (y_ref, cur_ref), (y, cur) = run_both(case, loop=python_loop)

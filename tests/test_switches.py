@@ -7,13 +7,11 @@ switches exactly at the threshold crossing, which is a grid point; a switch cont
 anything else takes the state its control had at the start of each step.
 """
 
-import functools
 
 import numpy as np
 import pytest
 
 import circuitnsds
-import circuitnsds.analyses.transient
 import circuitnsds.engine.integrate
 from tests.conftest import NETLISTS, circuit_from
 
@@ -273,18 +271,11 @@ S1 x 0 x 0 sw
 
 
 def _run_paths(circuit, monkeypatch, stop, theta=1.0):
-    results = {"compiled": circuit.transient(stop=stop, theta=theta)}
-    numpy_loop = functools.partial(circuitnsds.engine.integrate.integrate, compiled=False)
-    with monkeypatch.context() as patch:
-        patch.setattr(circuitnsds.analyses.transient, "integrate", numpy_loop)
-        results["numpy"] = circuit.transient(stop=stop, theta=theta)
+    results = {path: circuit.transient(stop=stop, theta=theta, stepping=path)
+               for path in ("compiled", "numpy", "mlcp")}
     with monkeypatch.context() as patch:  # no dense step maps
         patch.setattr(circuitnsds.engine.integrate, "DENSE_MAP_LIMIT", 0)
         results["no dense map"] = circuit.transient(stop=stop, theta=theta)
-    with monkeypatch.context() as patch:  # no step maps at all: one MLCP per step
-        patch.setattr(circuitnsds.engine.integrate._Stepping, "dense_mode", lambda *args: None)
-        patch.setattr(circuitnsds.engine.integrate._Stepping, "sparse_mode", lambda *args: None)
-        results["mlcp"] = circuit.transient(stop=stop, theta=theta)
     return results
 
 

@@ -9,10 +9,11 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.integrate import STEPPINGS, integrate
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
+from circuitnsds.theta import theta_in_range
 
 
 def run_transient(
@@ -26,6 +27,7 @@ def run_transient(
     uic: bool | None,
     tol: float,
     progress: Callable[[float, float], None] | None,
+    stepping: str = "compiled",
 ) -> Waveforms:
     """See :meth:`Circuit.transient`."""
     tran = circuit.tran
@@ -41,9 +43,13 @@ def run_transient(
     if step <= 0 or stop <= 0:
         raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
                            where=circuit.file)
-    if not 0.5 <= theta <= 1.0:
+    if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
+    if stepping not in STEPPINGS:
+        raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
+                           where=circuit.file, hint="\"compiled\" (default), \"numpy\" (the same loops "
+                           "in Python) or \"mlcp\" (one complementarity problem per step)")
     if not 0 <= start < stop:
         raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
 
@@ -59,10 +65,12 @@ def run_transient(
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
-                               state.switches, theta=theta, tol=tol, progress=progress)
+                               state.switches, theta=theta, tol=tol, progress=progress,
+                               stepping=stepping)
     except SimulationError as exc:
+        _word(exc)
         _diagnose(exc, circuit, mlcs, grid, theta)
-        if getattr(exc, "trajectory", None) is not None:
+        if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
     return _waveforms(circuit, mlcs, trajectory, start, stop)
@@ -72,21 +80,34 @@ HUGE = 1e100
 """A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""
 
 
+def _reader_name(unknown: str) -> str:
+    """``v(a)`` -> ``node a``, ``i(v1)`` -> ``source v1``: an MNA unknown as the reader knows it."""
+    return unknown.replace("v(", "node ").replace("i(", "source ").rstrip(")")
+
+
+def _word(error: SimulationError) -> None:
+    """Name the unknowns an engine error refers to (``error.unknowns``) as the reader knows them."""
+    for unknown in error.unknowns:
+        error.message = error.message.replace(unknown, _reader_name(unknown))
+
+
 def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:
-    """Replace the hint of a failed step by the well-posedness analysis of that step's LCP."""
+    """The hint of a failed step: the well-posedness analysis of that step's LCP."""
     from circuitnsds.checks.wellposed import analyse, forced_currents
 
-    interval = getattr(error, "step_interval", None)
+    interval = error.step_interval
     if interval is None:
         return
+    error.hint = (f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
+                  "Zener) that no current can pass in either state, e.g. in series with a current source")
     t0, t1 = interval
-    trajectory = getattr(error, "trajectory", None)
+    trajectory = error.trajectory
     if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
         error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: the "
                       "circuit is unstable (a negative resistance, or controlled sources with a loop "
                       "gain above 1); the waveforms before that instant are kept")
         return
-    states = getattr(error, "switch_states", None)
+    states = error.switch_states
     try:
         analysis = analyse(mlcs, t1 - t0, None if states is None else tuple(states),
                            1.0 if t0 == grid[0] else theta)
@@ -118,8 +139,7 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) ->
         return values
 
     impulses: dict[str, np.ndarray] = {}
-    for j, (pair, device) in enumerate(zip(mlcs.pairs, mlcs.pair_devices)):
-        sign = -1.0 if pair.endswith(".reverse") else 1.0
+    for j, (device, sign) in enumerate(zip(mlcs.pair_devices, mlcs.pair_signs)):
         impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[first:, j]
     stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
     return Waveforms(time=trajectory.time[first:], signals=LazySignals(mlcs.output_names, signal),

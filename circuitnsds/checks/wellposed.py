@@ -58,8 +58,10 @@ import networkx as nx
 import numpy as np
 import scipy.linalg as sla
 
+from circuitnsds.engine.step_system import step_system
 from circuitnsds.errors import CircuitError
-from circuitnsds.solvers._dense import RCOND_MIN, factorise
+from circuitnsds.solvers.linalg import RCOND_MIN, factorise
+from circuitnsds.solvers.pivot_transform import PivotTransform, completion_mask
 from circuitnsds.system.mlcs import MLCS
 
 EXACT_LIMIT = 12
@@ -194,48 +196,11 @@ def _blame(pairs: tuple[str, ...], minor: float | None) -> str:
             "controlled source or negative element) acts on them")
 
 
-def _completion(K: np.ndarray, B: np.ndarray, C: np.ndarray) -> np.ndarray | None:
-    """Pairs whose activation completes the rank of a nearly singular ``K`` (as the solver's
-    start basis: QR with column pivoting on the null-space projections of ``B`` and ``Cᵀ``)."""
-    n, m = K.shape[0], B.shape[1]
-    try:
-        U, s, Vt = sla.svd(K)
-    except (sla.LinAlgError, ValueError):
-        return None
-    if not s.size or s[0] == 0:
-        return None
-    k = max(1, int(np.sum(s <= K_RCOND_GOOD * s[0])))
-    if k > m:
-        return None
-    projections = np.vstack([U[:, n - k:].T @ B, (C @ Vt[n - k:].T).T])
-    _, pivots = sla.qr(projections, pivoting=True, mode="r")
-    mask = np.zeros(m, dtype=bool)
-    mask[pivots[:k]] = True
-    return mask
-
-
-def _pivoted(KK: np.ndarray, n: int, mask: np.ndarray, lu) -> np.ndarray:
-    """The principal pivot transform of ``M`` at ``mask`` from the bordered matrix ``KK``."""
-    m = KK.shape[0] - n
-    aidx, bidx = np.flatnonzero(mask), np.flatnonzero(~mask)
-    sel = np.concatenate([np.arange(n), n + aidx])
-    R = np.zeros((sel.size, m))
-    R[:, bidx] = -KK[np.ix_(sel, n + bidx)]
-    R[n + np.arange(aidx.size), aidx] = 1.0
-    G = lu.solve(R)
-    M = np.empty((m, m))
-    M[aidx] = G[n:]
-    M[bidx] = KK[np.ix_(n + bidx, sel)] @ G
-    M[np.ix_(bidx, bidx)] += KK[np.ix_(n + bidx, n + bidx)]
-    return M
-
-
 def step_matrices(mlcs: MLCS, step: float, states: tuple[bool, ...] = (), theta: float = 1.0
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Dense ``K = E/h - ΘA(states)``, ``B``, ``C``, ``D`` of one step, as the integrator builds them."""
-    weights = np.where(mlcs.differential_rows, theta, 1.0)
-    A = mlcs.system_matrix(tuple(bool(s) for s in states)).toarray()
-    K = mlcs.E.toarray() / step - weights[:, None] * A
+    """Dense ``K = E/h - ΘA(states)``, ``B``, ``C``, ``D`` of one step: the integrator's step
+    system (:func:`circuitnsds.engine.step_system.step_system`)."""
+    K = step_system(mlcs, step, states, theta).K.toarray()
     return K, mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray()
 
 
@@ -268,7 +233,7 @@ def analyse(mlcs: MLCS, step: float, states: tuple[bool, ...] | None = None,
     empty = np.zeros(m, dtype=bool)
     candidates: list[np.ndarray] = []
     if factorise(K).rcond < K_RCOND_GOOD and m:
-        completion = _completion(K, B, C)
+        completion = completion_mask(KK, n, K_RCOND_GOOD)  # the solver's start basis
         if completion is not None:
             candidates.append(completion)
     candidates.append(empty)
@@ -291,7 +256,7 @@ def analyse(mlcs: MLCS, step: float, states: tuple[bool, ...] | None = None,
         return report
     mask, lu = chosen
     report.pivot = tuple(p for p, on in zip(mlcs.pairs, mask) if on)
-    report.M = _pivoted(KK, n, mask, lu)
+    report.M = PivotTransform(KK, n, mask, lu).M
     reference = float(np.prod(np.sign(np.diag(lu.lu)))) * _permutation_sign(lu.piv) if lu.size else 1.0
     _test(report, mlcs, KK, report.M, mask, reference)
     return report

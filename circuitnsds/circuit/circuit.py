@@ -162,6 +162,7 @@ class Circuit:
         uic: bool | None = None,
         tol: float = 1e-9,
         progress: Callable[[float, float], None] | None = None,
+        stepping: str = "compiled",
     ):
         """Run a transient analysis with ideal devices; returns :class:`~circuitnsds.Waveforms`.
 
@@ -178,6 +179,12 @@ class Circuit:
                 (default: ``.tran``'s UIC flag).
             tol: complementarity tolerance of every step (scaled residual).
             progress: ``callback(t, stop)`` called now and then during the run.
+            stepping: how the steps whose mode (conducting devices, switch states, step
+                size) is already known are taken: ``"compiled"`` (default) by the mode
+                loops compiled with numba, ``"numpy"`` by the same loops run in Python,
+                ``"mlcp"`` not at all: every step is solved as a complementarity problem.
+                The three compute the same scheme (results agree to rounding); the
+                others are for checking and timing the compiled path.
 
         Raises:
             CircuitError: the circuit or the analysis settings are ill-posed.
@@ -190,7 +197,8 @@ class Circuit:
             theta = self.options.get("theta", 1.0)
         with self._strictness():
             return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
-                                 theta=theta, uic=uic, tol=tol, progress=progress)
+                                 theta=theta, uic=uic, tol=tol, progress=progress,
+                                 stepping=stepping)
 
     def operating_point(self) -> dict[str, float]:
         """DC operating point with ideal devices: every output signal's value [V or A]."""

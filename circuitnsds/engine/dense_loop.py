@@ -26,25 +26,22 @@ the step's class and switch state, when a state-controlled switch must change,
 or at the end. A converter thus runs its thousands of periods in one
 call once both phases' modes are known.
 
-The loop is compiled with numba when it is installed. ``compiled=False`` runs
-the same loop in Python with a numpy step (same arithmetic up to the summation
+The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`);
+``use_compiled=False`` runs the same loop in Python with a numpy step (same arithmetic up to the summation
 order of the products: results agree to rounding, not bit for bit).
 """
 
 from __future__ import annotations
 
-import types
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from scipy.linalg import lapack
 
-from circuitnsds.solvers.mlcp import SIGN_TOL
-
-try:  # numba makes the loop ~50x faster; nothing else depends on it
-    from numba import njit
-except ImportError:  # pragma: no cover - the Python loop is tested with compiled=False
-    njit = None
-
+from circuitnsds.engine.jit import AVAILABLE, jit, python_version
+from circuitnsds.engine.step_system import ModeBlocks
+from circuitnsds.solvers.linalg import SIGN_TOL, factorise
 
 STOP_LEFT_MODE = 0
 """Step ``k`` leaves its mode: a sign fails (nothing written for it)."""
@@ -78,6 +75,56 @@ class ModeMap:
     W: np.ndarray
     e_w: np.ndarray
     active: np.ndarray
+
+
+def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
+    """The :class:`ModeMap` of a mode's step system (``n`` circuit unknowns); ``None`` when
+    its bordered matrix is singular by the MLCP solver's own test (so both agree) or the
+    map is not finite."""
+    lu = factorise(blocks.bordered.toarray())
+    if not lu.ok:
+        return None
+    kstim = blocks.S_next.shape[1]
+    right = np.zeros((blocks.bordered.shape[0], n + 2 * kstim + 1))
+    right[:n, :n] = blocks.carry.toarray()
+    right[:n, n:n + kstim] = blocks.S_next.toarray()
+    right[:n, n + kstim:n + 2 * kstim] = blocks.S_now.toarray()
+    right[n:, -1] = blocks.rhs_pairs
+    # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
+    solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
+    if info != 0 or not np.all(np.isfinite(solution)):
+        return None
+    return ModeMap(P=solution[:, :n], Q1=solution[:, n:n + kstim], Q0=solution[:, n + kstim:n + 2 * kstim],
+                   c=solution[:, -1], W=blocks.W.toarray(), e_w=blocks.e_w, active=blocks.active)
+
+
+class TableArrays(NamedTuple):
+    """The arrays of a :class:`ModeTable` as the loop takes them (one argument; see there)."""
+
+    P: np.ndarray
+    Q1: np.ndarray
+    Q0: np.ndarray
+    c: np.ndarray
+    W: np.ndarray
+    e_w: np.ndarray
+    active: np.ndarray
+    rows: np.ndarray
+    nw: np.ndarray
+    mode_class: np.ndarray
+    mode_sched: np.ndarray
+    mode_free: np.ndarray
+    last_used: np.ndarray
+
+
+class FreeSwitches(NamedTuple):
+    """The switches the loop watches (state-controlled ones): ``controls`` ``(s, n)`` dense
+    (the control as a combination of the unknowns), thresholds in the control's unit
+    (V or A) and the current states (closed = true)."""
+
+    controls: np.ndarray
+    on_threshold: np.ndarray
+    off_threshold: np.ndarray
+    switch_on: np.ndarray
 
 
 class ModeTable:
@@ -115,6 +162,10 @@ class ModeTable:
             if old is not None:
                 array[:self.count] = old[:self.count]
             setattr(self, name, array)
+
+    def arrays(self) -> TableArrays:
+        """The padded arrays, for the loop."""
+        return TableArrays(*(getattr(self, name) for name in TableArrays._fields))
 
     def find(self, key: tuple) -> int | None:
         """Index of the mode ``key`` (``(class, sched, free, active bytes)``), if stored."""
@@ -202,17 +253,22 @@ def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     return True
 
 
-def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id,
-                P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free,
-                last_used, count, controls, on_threshold, off_threshold, switch_on, used, x):
-    """Step from ``k0`` (with mode ``mode`` first, ``class0`` the class of step ``k0``) until
-    a step leaves its mode or has none stored, a state-controlled switch changes, or ``k_end``.
+def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id, table, count,
+                free, used, x):
+    """Step from ``k0`` over the modes of ``table`` (the fields of :class:`TableArrays`), watching
+    the switches ``free`` (the fields of :class:`FreeSwitches`), with mode ``mode`` first
+    (``class0`` the class of step ``k0``), until a step leaves its mode or has none stored,
+    a state-controlled switch changes, or ``k_end``.
 
     Returns ``(k, reason, last)``: steps ``k0 .. k-1`` are done (``y[k0+1 .. k]``, the
     active columns of ``z[k0+1 .. k]``, the pair currents, and ``used[k0+1 .. k]``, the
     mode of each step, are written; ``z``'s other columns must hold zeros), ``reason`` is
     a ``STOP_*`` code, ``last`` the mode of the last step done (``mode`` if none).
     """
+    # plain tuples in the order of TableArrays and FreeSwitches (named tuples would be typed
+    # by numba's slow path at every call, ~0.1 ms)
+    P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free, last_used = table
+    controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     ns = controls.shape[0]
     last = mode
@@ -250,27 +306,20 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     return k, STOP_END, last
 
 
-if njit is not None:
-    _try_mode = njit(cache=True, nogil=True)(_try_mode_scalar)
-    _compiled = njit(cache=True, nogil=True)(_table_loop)
-else:  # pragma: no cover - numba is a dependency
-    _try_mode = _try_mode_numpy
-    _compiled = None
-# the same loop with the numpy step: one copy of the loop's logic, two step kernels
-_python_loop = types.FunctionType(_table_loop.__code__, {**globals(), "_try_mode": _try_mode_numpy},
-                                  "_python_loop")
+_try_mode = jit(_try_mode_scalar)
+_compiled = jit(_table_loop)
+# the same loop in Python with the numpy step: one copy of the loop's logic, two step kernels
+_python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
 
 
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
               current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
-              free_id: int, controls: np.ndarray, on_threshold: np.ndarray, off_threshold: np.ndarray,
-              switch_on: np.ndarray, used: np.ndarray, use_compiled: bool = True) -> tuple[int, int, int]:
-    """Run the loop of :func:`_table_loop` over ``table`` (compiled if possible)."""
-    loop = _compiled if use_compiled and _compiled is not None else _python_loop
+              free_id: int, free: FreeSwitches, used: np.ndarray, use_compiled: bool = True
+              ) -> tuple[int, int, int]:
+    """Run the loop of :func:`_table_loop` over ``table`` (compiled if numba is installed and
+    ``use_compiled``; else the same loop in Python with a numpy step)."""
+    loop = _compiled if use_compiled and AVAILABLE else _python_loop
     x = np.empty(table.n + table.m)
     k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,
-                           table.P, table.Q1, table.Q0, table.c, table.W, table.e_w, table.active,
-                           table.rows, table.nw, table.mode_class, table.mode_sched, table.mode_free,
-                           table.last_used, table.count, controls, on_threshold,
-                           off_threshold, switch_on, used, x)
+                           tuple(table.arrays()), table.count, tuple(free), used, x)
     return int(k), int(reason), int(last)

@@ -42,20 +42,19 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg import lapack
 
-from circuitnsds.engine.dense_loop import STOP_LEFT_MODE, ModeMap, ModeTable, run_table
-from circuitnsds.engine.sparse_loop import (
-    CompiledSparseMap,
-    SparseModeMap,
-    compile_sparse_map,
-    run_compiled_sparse,
+from circuitnsds.engine.dense_loop import (
+    STOP_LEFT_MODE,
+    FreeSwitches,
+    ModeMap,
+    ModeTable,
+    dense_mode_map,
+    run_table,
 )
+from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
+from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
-from circuitnsds.solvers._dense import factorise
-from circuitnsds.solvers._sparse import factorise_sparse
 from circuitnsds.system.mlcs import MLCS
 
 SOLVER_CACHE_SIZE = 32
@@ -69,6 +68,8 @@ Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped 
 dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
 100: 10.3 / 2.95. The dense table also changes modes without leaving the compiled
 loop, which is what converters (small ``n``, many switchings) need."""
+STEPPINGS = ("compiled", "numpy", "mlcp")
+"""The stepping strategies of :func:`integrate` (its ``stepping`` argument)."""
 CHUNK = 100_000
 """Longest run of mapped steps between progress reports."""
 
@@ -115,7 +116,7 @@ def integrate(
     theta: float = 1.0,
     tol: float = 1e-9,
     progress: Callable[[float, float], None] | None = None,
-    compiled: bool = True,
+    stepping: str = "compiled",
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -131,16 +132,21 @@ def integrate(
         tol: complementarity tolerance handed to the solver.
         progress: ``callback(t, t_end)``, called about twice a second (so never
             for runs shorter than half a second), and once at the end if it was called.
-        compiled: use the compiled mode loops when numba is installed (``False``:
-            the same loops in Python, for comparison).
+        stepping: how steps whose mode is known are taken (one of :data:`STEPPINGS`):
+            ``"compiled"`` by the mode loops compiled with numba (the default; the same
+            loops in Python when numba is missing), ``"numpy"`` by the same loops in
+            Python, ``"mlcp"`` by no loop: every step is solved as an MLCP. One scheme
+            all three: the results agree to rounding.
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
-            solution (names the time and devices); ``error.trajectory`` then holds the
-            points computed before it.
+            solution (names the time and devices); its ``trajectory`` field then holds the
+            points computed before it, ``step_interval`` and ``switch_states`` the failing step.
     """
-    if not 0.5 <= theta <= 1.0:
-        raise ValueError(f"theta must lie in [0.5, 1], got {theta}")
+    theta = check_theta(theta)
+    if stepping not in STEPPINGS:
+        raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {stepping!r}")
+    compiled, mapped = stepping == "compiled", stepping != "mlcp"
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
@@ -180,7 +186,7 @@ def integrate(
             # time the switches were in this state (the other phase of a converter)
             guess = last_active.get(states[k + 1].tobytes(), guess)
         cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
-        if k > 0 and guess is not None and k != left_mode_at:
+        if k > 0 and guess is not None and k != left_mode_at and mapped:
             done, reason, guess = stepping.run_mapped(k, min(count - 1, k + CHUNK), cls, states[k + 1],
                                                       guess, y, current, active, used, compiled)
             # step `done` left the mode the loop continued with (same class and switch state
@@ -231,12 +237,10 @@ def integrate(
 
 @dataclass
 class _StepSolver:
-    """The MLCP solver of one step size and switch state, with its Θ diagonal and ``A``."""
+    """The MLCP solver of one step size and switch state, with its step system."""
 
     solver: MLCPSolver
-    weights: np.ndarray
-    A: sp.csr_matrix
-    K: sp.csc_matrix
+    system: StepSystem
 
 
 class _Stepping:
@@ -276,7 +280,7 @@ class _Stepping:
         self.free_controls = controls
         self.free_on = np.array([mlcs.switches[j].on_threshold for j in free])
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
-        self._no_free = (controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
+        self._no_free = FreeSwitches(controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
         self._free_ids: dict[bytes, int] = {}
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
@@ -311,11 +315,11 @@ class _Stepping:
                                                          float(self.free_controls[row] @ y))
         return states
 
-    def free_switch_arrays(self, states: np.ndarray) -> tuple[np.ndarray, ...]:
+    def free_switch_arrays(self, states: np.ndarray) -> FreeSwitches:
         """Controls, thresholds and current states of the switches the loop must watch."""
         if not self.free.size:
             return self._no_free
-        return self.free_controls, self.free_on, self.free_off, states[self.free]
+        return FreeSwitches(self.free_controls, self.free_on, self.free_off, states[self.free])
 
     def free_id(self, states: np.ndarray) -> int:
         """A small integer naming the states of the state-controlled switches."""
@@ -327,21 +331,18 @@ class _Stepping:
             self.solvers.move_to_end(key)
             return self.solvers[key]
         h = self.grid[k + 1] - self.grid[k]
-        weights = np.where(self.differential, self.theta_of(cls), 1.0)
-        A = self.mlcs.system_matrix(tuple(bool(s) for s in states))
         # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
         # (same solution; the solver's normwise test then weighs currents, not charges,
         # against the voltages, and a wrong-signed current of microamperes is caught)
-        with np.errstate(all="ignore"):
-            K = (self.E / h - sp.diags(weights) @ A).tocsc()
-        if not np.isfinite(K.data).all():
+        system = step_system(self.mlcs, h, states, self.theta_of(cls), E=self.E)
+        if not system.finite:
             raise SimulationError(
                 f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
                 "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
                 time=float(self.grid[k]), hint="check the step (--step, .tran TSTEP) and the "
                 "capacitor and inductor values")
-        solver = MLCPSolver(K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
-        self.solvers[key] = _StepSolver(solver, weights, A.tocsr(), K)
+        solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        self.solvers[key] = _StepSolver(solver, system)
         if len(self.solvers) > SOLVER_CACHE_SIZE:
             self.retired.append(self.solvers.popitem(last=False)[1])
         return self.solvers[key]
@@ -350,12 +351,7 @@ class _Stepping:
                    guess: np.ndarray | None):
         """Solve step ``k`` (of class ``cls``) as an MLCP (see module docstring)."""
         step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        S = self.mlcs.S
-        source_next = S @ self.sources[k + 1]
-        rhs = charge / h + step.weights * source_next
-        if self.theta_of(cls) != 1.0:
-            rhs += (1.0 - step.weights) * (step.A @ y + S @ self.sources[k])
+        rhs = step.system.rhs(charge, y, self.sources[k], self.sources[k + 1])
         if not np.isfinite(rhs).all():
             t1 = self.grid[k + 1]
             raise SimulationError(
@@ -390,7 +386,7 @@ class _Stepping:
         if self.dense:
             done, reason, last = run_table(self.table, mode, cls, k, k_end, y, current, self.sources,
                                            self.step_class, self.sched_state, self.free_id(states),
-                                           *free, used, use_compiled=compiled)
+                                           free, used, use_compiled=compiled)
             active[k + 1:done + 1] = self.table.mask[used[k + 1:done + 1]]
             if done > k:
                 guess = self.table.mask[last].copy()
@@ -437,59 +433,15 @@ class _Stepping:
         return mode
 
     def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
-        mlcs, n = self.mlcs, self.mlcs.n
-        act = np.flatnonzero(guess)
-        inact = np.flatnonzero(~guess)
-        step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        B, C, D = (mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray())
-        bordered = np.block([[step.K.toarray(), -B[:, act]], [C[act], D[np.ix_(act, act)]]])
-        lu = factorise(bordered)  # the solver's own test of singularity, so both agree
-        if not lu.ok:
-            return None
-        implicit = 1.0 - step.weights
-        S = mlcs.S.toarray()
-        carry = self.E.toarray() / h + implicit[:, None] * step.A.toarray()
-        kstim = S.shape[1]
-        right = np.zeros((n + act.size, n + 2 * kstim + 1))
-        right[:n, :n] = carry
-        right[:n, n:n + kstim] = step.weights[:, None] * S
-        right[:n, n + kstim:n + 2 * kstim] = implicit[:, None] * S
-        right[n:, -1] = -mlcs.e[act]
-        # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
-        solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
-        if info != 0 or not np.all(np.isfinite(solution)):
-            return None
-        P, Q1 = solution[:, :n], solution[:, n:n + kstim]
-        Q0, c = solution[:, n + kstim:n + 2 * kstim], solution[:, -1]
-        W = np.hstack([C[inact], D[np.ix_(inact, act)]])
-        return ModeMap(P=P, Q1=Q1, Q0=Q0, c=c, W=W, e_w=mlcs.e[inact].copy(), active=act.astype(np.int64))
+        """The dense step map of a mode (``None``: its bordered matrix is singular)."""
+        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
+        return dense_mode_map(blocks, self.mlcs.n)
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:
-        mlcs, n = self.mlcs, self.mlcs.n
-        act = np.flatnonzero(guess)
-        inact = np.flatnonzero(~guess)
-        step = self._step_solver(k, cls, states)
-        h = self.grid[k + 1] - self.grid[k]
-        B, C, D = mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
-        bordered = sp.bmat([[step.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
-        # SuperLU with a minimum degree ordering on A + Aᵀ (the same fill as COLAMD on a ladder,
-        # triangular solves ~1.5x faster) and the MLCP solver's test of singularity
-        lu = factorise_sparse(bordered)
-        if not lu.ok:
-            return None
-        implicit = 1.0 - step.weights
-        S = mlcs.S.tocsr()
-        mode = SparseModeMap(
-            lu=lu.factors, carry=(self.E / h + sp.diags(implicit) @ step.A).tocsr(),
-            S_next=(sp.diags(step.weights) @ S).tocsr(), S_now=(sp.diags(implicit) @ S).tocsr(),
-            rhs_pairs=-mlcs.e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
-            e_w=mlcs.e[inact].copy(), active=act.astype(np.int64), n=n)
-        try:
-            return compile_sparse_map(mode)  # plain arrays, for the compiled loop
-        except ValueError:  # a zero or non-finite pivot: leave such a mode to the MLCP solver
-            return None
+        """The factorised step map of a mode, as the compiled loop's arrays (``None``: singular)."""
+        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
+        return sparse_mode_map(blocks, self.mlcs.n)
 
     def counters(self) -> dict[str, int]:
         totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",
@@ -510,11 +462,11 @@ def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
     if not np.isfinite(values).all():
         row, column = np.argwhere(~np.isfinite(values))[0]
         rows = mlcs.S.tocsc()[:, column].indices
-        owner = ", ".join(mlcs.unknowns[r].replace("v(", "node ").replace("i(", "source ").rstrip(")")
-                          for r in rows) or "a source"
+        owners = tuple(mlcs.unknowns[r] for r in rows)
         raise SimulationError(
-            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s ({owner}: "
-            f"{mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s", time=float(grid[row]),
+            f"a source function is {values[row, column]} at t = {grid[row]:.6g} s "
+            f"({', '.join(owners) or 'a source'}: {mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s",
+            time=float(grid[row]), unknowns=owners,
             hint="check the source's parameters (a zero time constant or period, an overflow)")
     return values
 
@@ -553,8 +505,9 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
     """The error of a step whose MLCP has no (verified) solution.
 
     Carries the time, the devices of the active set tried first (those conducting in the
-    previous step), the solver's best residual and, as ``step_interval`` and
-    ``switch_states``, what the caller needs to diagnose the step (:mod:`circuitnsds.checks.wellposed`).
+    previous step), the solver's best residual, the step's ``step_interval`` and
+    ``switch_states``: what the caller needs to diagnose the step and to advise
+    (:mod:`circuitnsds.checks.wellposed`, :mod:`circuitnsds.analyses.transient`).
     """
     conducting = [] if guess is None else [mlcs.pair_devices[j] for j in np.flatnonzero(guess)]
     conducting = list(dict.fromkeys(conducting))
@@ -566,16 +519,12 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
         details.append(f"closed switches: {', '.join(closed) or 'none'}")
     if residual is not None and np.isfinite(residual):
         details.append(f"best residual {residual:.2g}")
-    error = SimulationError(
+    return SimulationError(
         f"the time step from t = {t0:.6g} s to {t1:.6g} s {verdict} with ideal devices "
         f"({'; '.join(details)})",
         where=f"t = {t1:.6g} s", time=float(t1), devices=tuple(conducting), residual=residual,
-        hint=f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
-        "Zener) that no current can pass in either state, e.g. in series with a current source",
-    )
-    error.step_interval = (float(t0), float(t1))
-    error.switch_states = None if states is None else np.array(states, dtype=bool)
-    return error
+        step_interval=(float(t0), float(t1)),
+        switch_states=None if states is None else np.array(states, dtype=bool))
 
 
 def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
@@ -593,8 +542,8 @@ def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> Simulati
 def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
              residual: np.ndarray, active: np.ndarray, states: np.ndarray,
              stats: dict) -> SimulationError:
-    """Attach to ``error`` the trajectory up to grid point ``k`` (the last good one) as
-    ``error.trajectory``, so that the caller can still write it."""
+    """``error`` with its ``trajectory`` field set to the trajectory up to grid point ``k``
+    (the last good one), so that the caller can still write it."""
     end = k + 1
     impulse = np.zeros((end, current.shape[1]))
     impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]

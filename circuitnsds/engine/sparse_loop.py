@@ -39,16 +39,16 @@ pivots. ``use_compiled=False`` (or no numba) runs the same scalar loop in Python
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
 from circuitnsds.engine.dense_loop import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH
+from circuitnsds.engine.jit import AVAILABLE, jit, python_version
+from circuitnsds.engine.step_system import ModeBlocks
+from circuitnsds.solvers.linalg import factorise_sparse
 
-try:  # numba is optional here as in circuitnsds.engine.dense_loop: without it the loop runs in Python
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency; the fallback is tested uncompiled
-    njit = None
 
 @dataclass
 class SparseModeMap:
@@ -70,9 +70,9 @@ class SparseModeMap:
     n: int
 
 
-@dataclass
-class CompiledSparseMap:
-    """A :class:`SparseModeMap` as plain numpy arrays.
+class CompiledSparseMap(NamedTuple):
+    """A :class:`SparseModeMap` as plain numpy arrays (a named tuple: the loop takes it as one
+    argument).
 
     Every matrix is CSR: ``<name>_indptr`` (int64, rows + 1), ``<name>_indices``
     (int64 column indices, sorted within a row) and ``<name>_data`` (float64).
@@ -189,6 +189,23 @@ def compile_sparse_map(mode: SparseModeMap) -> CompiledSparseMap:
         rhs_pairs=rhs_pairs, e_w=e_w, active=active, n=n)
 
 
+def sparse_mode_map(blocks: ModeBlocks, n: int) -> CompiledSparseMap | None:
+    """The :class:`CompiledSparseMap` of a mode's step system (``n`` circuit unknowns);
+    ``None`` when its bordered matrix is singular by the MLCP solver's test, or SuperLU
+    leaves a zero or non-finite pivot (such a mode is left to the MLCP solver)."""
+    # SuperLU with a minimum degree ordering on A + Aᵀ (the same fill as COLAMD on a ladder,
+    # triangular solves ~1.5x faster)
+    lu = factorise_sparse(blocks.bordered)
+    if not lu.ok:
+        return None
+    mode = SparseModeMap(lu=lu.factors, carry=blocks.carry, S_next=blocks.S_next, S_now=blocks.S_now,
+                         rhs_pairs=blocks.rhs_pairs, W=blocks.W, e_w=blocks.e_w, active=blocks.active, n=n)
+    try:
+        return compile_sparse_map(mode)
+    except ValueError:
+        return None
+
+
 def _solve_factors(c, x, L_indptr, L_indices, L_data, U_indptr, U_indices, U_data, U_diag_inverse,
                    perm_c):
     """Solve ``L·U·z = c`` in place in ``c`` (already in SuperLU's row order), then
@@ -209,23 +226,33 @@ def _solve_factors(c, x, L_indptr, L_indices, L_data, U_indptr, U_indices, U_dat
         x[i] = c[perm_c[i]]
 
 
-def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
-                     carry_indptr, carry_indices, carry_data,
-                     S_next_indptr, S_next_indices, S_next_data,
-                     S_now_indptr, S_now_indices, S_now_data,
-                     W_indptr, W_indices, W_data,
-                     L_indptr, L_indices, L_data,
-                     U_indptr, U_indices, U_data, U_diag_inverse,
-                     perm_r, perm_c, rhs_pairs, e_w, active,
-                     controls_indptr, controls_indices, controls_data,
-                     on_threshold, off_threshold, switch_on):
-    """Step the factorised mode from ``k0``; returns ``(k, reason)`` as described in
-    :func:`run_compiled_sparse` (``k`` the first grid point not computed).
+class SparseControls(NamedTuple):
+    """The state-controlled switches for the sparse loop: their controls as a CSR triple
+    ``(switches, n)``, thresholds (V or A) and current states (closed = true)."""
 
-    The matrices are CSR triples (see :class:`CompiledSparseMap`), the free switches'
-    ``controls`` too. Writes ``y[k0+1 .. k]`` and the active columns of
-    ``current[k0+1 .. k]``; nothing for a step that leaves the mode.
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    on_threshold: np.ndarray
+    off_threshold: np.ndarray
+    switch_on: np.ndarray
+
+
+def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule, cmap, free):
+    """Step the factorised mode ``cmap`` (the fields of a :class:`CompiledSparseMap`) from
+    ``k0``, watching the switches ``free`` (the fields of :class:`SparseControls`); returns
+    ``(k, reason)`` as described in :func:`run_compiled_sparse` (``k`` the first grid point not computed).
+
+    Writes ``y[k0+1 .. k]`` and the active columns of ``current[k0+1 .. k]``; nothing for a
+    step that leaves the mode.
     """
+    # plain tuples in the order of CompiledSparseMap and SparseControls (named tuples would be
+    # typed by numba's slow path at every call, ~0.1 ms)
+    (carry_indptr, carry_indices, carry_data, S_next_indptr, S_next_indices, S_next_data,
+     S_now_indptr, S_now_indices, S_now_data, W_indptr, W_indices, W_data,
+     L_indptr, L_indices, L_data, U_indptr, U_indices, U_data, U_diag, U_diag_inverse,
+     perm_r, perm_c, rhs_pairs, e_w, active, _) = cmap
+    controls_indptr, controls_indices, controls_data, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     size = U_diag_inverse.shape[0]
     pairs = size - n
@@ -279,27 +306,14 @@ def _run_sparse_loop(k0, k_end, y, current, F, step_class, schedule,
     return k, STOP_END
 
 
-if njit is not None:
-    _solve_factors = njit(cache=True, nogil=True)(_solve_factors)
-    _compiled = njit(cache=True, nogil=True)(_run_sparse_loop)
-else:  # pragma: no cover
-    _compiled = None
+_solve_factors = jit(_solve_factors)
+_compiled = jit(_run_sparse_loop)
+_python_loop = python_version(_run_sparse_loop)  # Python all through, triangular solves included
 
 
 def compiled() -> bool:
     """Whether :func:`run_compiled_sparse` runs compiled (numba installed)."""
-    return _compiled is not None
-
-
-def _map_arguments(cmap: CompiledSparseMap) -> tuple[np.ndarray, ...]:
-    """The map's arrays in the order :func:`_run_sparse_loop` takes them."""
-    return (cmap.carry_indptr, cmap.carry_indices, cmap.carry_data,
-            cmap.S_next_indptr, cmap.S_next_indices, cmap.S_next_data,
-            cmap.S_now_indptr, cmap.S_now_indices, cmap.S_now_data,
-            cmap.W_indptr, cmap.W_indices, cmap.W_data,
-            cmap.L_indptr, cmap.L_indices, cmap.L_data,
-            cmap.U_indptr, cmap.U_indices, cmap.U_data, cmap.U_diag_inverse,
-            cmap.perm_r, cmap.perm_c, cmap.rhs_pairs, cmap.e_w, cmap.active)
+    return AVAILABLE
 
 
 def solve_compiled(cmap: CompiledSparseMap, rhs: np.ndarray) -> np.ndarray:
@@ -317,6 +331,7 @@ def solve_compiled(cmap: CompiledSparseMap, rhs: np.ndarray) -> np.ndarray:
 
 
 _NO_CONTROLS = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
+"""The CSR triple of no controls."""
 
 
 def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndarray, current: np.ndarray,
@@ -350,8 +365,8 @@ def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndar
         csr = (controls_csr.indptr.astype(np.int64), controls_csr.indices.astype(np.int64), controls_csr.data)
     else:  # no state-controlled switch (the usual case): no scipy call on every entry
         csr = _NO_CONTROLS
-    loop = _compiled if use_compiled and _compiled is not None else _run_sparse_loop
-    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, *_map_arguments(cmap),
-                     *csr, np.asarray(on_threshold, dtype=np.float64),
-                     np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))
+    loop = _compiled if use_compiled and AVAILABLE else _python_loop
+    free = SparseControls(*csr, np.asarray(on_threshold, dtype=np.float64),
+                          np.asarray(off_threshold, dtype=np.float64), np.asarray(switch_on, dtype=np.bool_))
+    k, reason = loop(int(k0), int(k_end), y, current, F, step_class, schedule, tuple(cmap), tuple(free))
     return int(k), int(reason)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._dense import factorise
+from .linalg import factorise
 from .residual import kappa_of, mlcp_residual
 from .result import LCPNoSolution, LCPResult
 

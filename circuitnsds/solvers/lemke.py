@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from ._dense import factorise
 from ._scaling import ruiz
+from .linalg import factorise
 from .residual import kappa_of, lcp_residual
 from .result import LCPNoSolution, LCPResult, LCPSolverFailure
 

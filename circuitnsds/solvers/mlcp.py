@@ -54,17 +54,17 @@ from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.linalg.blas import ddot as _ddot
 from scipy.linalg.blas import idamax as _idamax
 
-from ._dense import LU, factorise
 from ._inputs import as_mask, as_vector, bordered
 from .enumeration import MAX_ENUM, enumerate_mlcp
 from .lemke import lemke_pivot
+from .linalg import LU, SIGN_TOL, factorise
 from .mode import Mode, ModeCache
 from .newton import fb_newton_mlcp
+from .pivot_transform import PivotTransform, completion_mask
 from .pivoting import TRIALS, BlockPivoting
 from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual
 from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
@@ -80,8 +80,6 @@ ENUM_FALLBACK_MAX = 10
 #: exceeds this, the labels of the degenerate pairs are flipped one at a time and
 #: the verified answer with the smallest componentwise residual is kept.
 CTOL = 1e-6
-#: Largest relative sign violation (see ``MLCPSolver._signs_hold``) accepted from a guessed mode.
-SIGN_TOL = 1e-7
 #: From this many pairs on, block principal pivoting from the guess (or from no pair
 #: active) runs before Lemke: each trial is one factorisation, where Lemke's pivots cost
 #: O(m²) each and number O(m) (seconds at 1000 pairs).
@@ -93,44 +91,24 @@ _METHODS = ("auto", "lemke", "direct", "enum", "newton")
 _NOISE = 1e3 * np.finfo(float).eps  # relative size treated as rounding noise in M̂, q̂
 
 
-class _StartBasis:
-    """Principal pivot transform of the MLCP at a start basis ``α0``.
+class _StartBasis(PivotTransform):
+    """:class:`~circuitnsds.solvers.pivot_transform.PivotTransform` at a start basis ``α0``,
+    with the rounding noise of the elimination removed from ``M̂`` and ``q̂``."""
 
-    With ``(u, z_α0, w_ᾱ0)`` basic and ``ẑ`` = (``z_i`` for ``i ∉ α0``, ``w_i`` for
-    ``i ∈ α0``) nonbasic, the problem becomes ``LCP(M̂, q̂)`` in ``ẑ`` with
-    ``ŵ`` = (``w_i`` for ``i ∉ α0``, ``z_i`` for ``i ∈ α0``).
-    """
-
-    __slots__ = ("mask", "sel0", "lu", "G", "W", "aidx", "bidx", "Mhat", "n", "m")
+    __slots__ = ("Mhat",)
 
     def __init__(self, K: np.ndarray, n: int, mask: np.ndarray, lu: LU) -> None:
-        m = K.shape[0] - n
-        aidx = np.flatnonzero(mask)
-        bidx = np.flatnonzero(~mask)
-        p = aidx.size
-        sel0 = np.concatenate([np.arange(n), n + aidx])
-        R = np.zeros((n + p, m))
-        R[:, bidx] = -K[np.ix_(sel0, n + bidx)]
-        R[n + np.arange(p), aidx] = 1.0
-        G = lu.solve(R) if n + p else np.zeros((0, m))
-        W = K[np.ix_(n + bidx, sel0)]
-        Mhat = np.empty((m, m))
-        Mhat[aidx] = G[n:]
-        Mhat[bidx] = W @ G
-        Mhat[np.ix_(bidx, bidx)] += K[np.ix_(n + bidx, n + bidx)]
+        super().__init__(K, n, mask, lu)
+        Mhat = self.M
         # entries at rounding level are noise of the elimination; zero them so that
         # Lemke's scaling cannot blow them up into pivot candidates
-        if m:
+        if self.m:
             Mhat[np.abs(Mhat) < _NOISE * float(np.abs(Mhat).max())] = 0.0
-        self.mask, self.sel0, self.lu, self.G, self.W = mask, sel0, lu, G, W
-        self.aidx, self.bidx, self.Mhat, self.n, self.m = aidx, bidx, Mhat, n, m
+        self.Mhat = Mhat
 
     def rhs(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(q̂, r0)`` for ``c = [a; b]`` (``r0`` = basic values at ``ẑ = 0``)."""
-        r0 = self.lu.solve(-c[self.sel0]) if self.sel0.size else np.zeros(0)
-        qhat = np.empty(self.m)
-        qhat[self.aidx] = r0[self.n :]
-        qhat[self.bidx] = self.W @ r0 + c[self.n + self.bidx]
+        qhat, r0 = super().rhs(c)
         # rounding-level negatives (a degenerate pair computed as -1e-16) would
         # otherwise make a feasible problem look infeasible
         big = max(
@@ -138,13 +116,6 @@ class _StartBasis:
         )
         qhat[(qhat < 0.0) & (qhat > -_NOISE * big)] = 0.0
         return qhat, r0
-
-    def recover(self, zhat: np.ndarray, r0: np.ndarray) -> np.ndarray:
-        """``x = [u; z]`` from a point ``ẑ`` of the transformed LCP."""
-        x = np.zeros(self.n + self.m)
-        x[self.sel0] = r0 + self.G @ zhat
-        x[self.n + self.bidx] = zhat[self.bidx]
-        return x
 
 
 def _equilibrate_pair_columns(
@@ -400,24 +371,7 @@ class MLCPSolver:
     # ------------------------------------------------------------ start bases
     def _completion_mask(self) -> np.ndarray | None:
         """Active set that completes the rank of a (nearly) singular ``A``."""
-        n, m, K = self.n, self.m, self._K
-        A, C, D = K[:n, :n], K[:n, n:], K[n:, :n]
-        try:
-            U, s, Vt = sla.svd(A)
-        except (sla.LinAlgError, ValueError):
-            return None
-        smax = float(s[0]) if s.size else 0.0
-        k = int(np.sum(s <= 1e-8 * smax)) if smax > 0 else n
-        k = max(k, 1)
-        if k > m:
-            return None
-        U2 = U[:, n - k :]
-        V2 = Vt[n - k :].T
-        P = np.vstack([U2.T @ C, (D @ V2).T])
-        _, piv = sla.qr(P, pivoting=True, mode="r")
-        mask = np.zeros(m, dtype=bool)
-        mask[piv[:k]] = True
-        return mask
+        return completion_mask(self._K, self.n)
 
     def _make_start(self, mask: np.ndarray) -> _StartBasis | None:
         sel = np.concatenate([np.arange(self.n), self.n + np.flatnonzero(mask)])

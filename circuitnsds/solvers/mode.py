@@ -20,8 +20,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ._dense import LU, factorise
-from ._sparse import SPARSE_MIN, SparseLU, factorise_sparse
+from .linalg import LU, SPARSE_MIN, SparseLU, factorise, factorise_sparse
 
 __all__ = ["Mode", "ModeCache"]
 
@@ -32,8 +31,8 @@ class Mode:
     Attributes:
         mask: boolean mask of the active pairs (do not modify).
         sel: indices into ``x = [u; z]`` of the unknowns of the linear system.
-        lu: :class:`~circuitnsds.solvers._dense.LU` of ``K_α`` (a
-            :class:`~circuitnsds.solvers._sparse.SparseLU` for large sparse ``K``).
+        lu: :class:`~circuitnsds.solvers.linalg.LU` of ``K_α`` (a
+            :class:`~circuitnsds.solvers.linalg.SparseLU` for large sparse ``K``).
     """
 
     __slots__ = ("mask", "sel", "lu")
@@ -62,7 +61,7 @@ class ModeCache:
         stats: dict whose ``cache_hits``, ``cache_misses``, ``factorisations`` and
             ``evictions`` counters are incremented.
         K_sparse: the same ``K`` as a sparse matrix, when the input was sparse: bordered
-            systems of :data:`~circuitnsds.solvers._sparse.SPARSE_MIN` unknowns or more
+            systems of :data:`~circuitnsds.solvers.linalg.SPARSE_MIN` unknowns or more
             are then factorised with SuperLU.
     """
 

@@ -30,8 +30,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ._dense import factorise
 from ._scaling import ruiz
+from .linalg import factorise
 from .residual import kappa_of, mlcp_residual
 from .result import LCPResult, LCPSolverFailure
 

@@ -105,6 +105,15 @@ class MLCS:
     L_out: sp.csr_matrix
     nodes: list[str] = field(default_factory=list)
     switches: list[SwitchRelation] = field(default_factory=list)
+    pair_signs: np.ndarray | None = None
+    """``(m,)``: +1 when the pair's current flows in its device's positive direction (a
+    diode's forward pair), -1 when against it (a Zener's reverse pair); the device's
+    current or impulse is the signed sum over its pairs. Default: all +1."""
+
+    def __post_init__(self) -> None:
+        if self.pair_signs is None:
+            self.pair_signs = np.ones(len(self.pairs))
+        self.pair_signs = np.asarray(self.pair_signs, dtype=float)
 
     @property
     def n(self) -> int:
@@ -199,6 +208,7 @@ class MLCSBuilder:
         self._branch_index: dict[str, int] = {}
         self.pairs: list[str] = []
         self.pair_devices: list[str] = []
+        self.pair_signs: list[float] = []
         self.e: list[float] = []
         self.stimuli: list[Stimulus] = []
         self._triplets: dict[str, list[tuple[int, int, float]]] = {
@@ -233,10 +243,12 @@ class MLCSBuilder:
         which is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them."""
         self._switches.append((relation, control_nodes))
 
-    def pair(self, name: str, device: str, offset: float) -> int:
-        """Allocate a complementarity pair with constant term ``e = offset`` [V]."""
+    def pair(self, name: str, device: str, offset: float, sign: float = 1.0) -> int:
+        """Allocate a complementarity pair of ``device`` with constant term ``e = offset`` [V];
+        ``sign`` -1 when its current flows against the device's positive direction."""
         self.pairs.append(name)
         self.pair_devices.append(device)
+        self.pair_signs.append(float(sign))
         self.e.append(offset)
         return len(self.pairs) - 1
 
@@ -301,7 +313,7 @@ class MLCSBuilder:
             E=assemble("E"), A=assemble("A"), B=assemble("B"), C=assemble("C"),
             D=assemble("D"), e=np.array(self.e, dtype=float), S=assemble("S"),
             stimuli=list(self.stimuli), unknowns=list(self.unknowns), pairs=list(self.pairs),
-            pair_devices=list(self.pair_devices),
+            pair_devices=list(self.pair_devices), pair_signs=np.array(self.pair_signs, dtype=float),
             output_names=[name for name, _, _ in outputs],
             Y_out=y_out.tocsr(), L_out=l_out.tocsr(), nodes=list(self.nodes),
             switches=switches,

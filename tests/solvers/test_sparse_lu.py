@@ -7,8 +7,7 @@ import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from circuitnsds.solvers._dense import factorise
-from circuitnsds.solvers._sparse import factorise_sparse
+from circuitnsds.solvers.linalg import factorise, factorise_sparse
 
 
 def _sparse_matrix(rng: np.random.Generator, size: int, density: float, dominance: float) -> np.ndarray:

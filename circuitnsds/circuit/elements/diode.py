@@ -74,7 +74,7 @@ class Diode(Element):
         self._stamp_pair(builder, forward, anode, cathode, model.on_resistance / self.area)
         current_terms = [(forward, 1.0)]
         if model.kind == "zener":
-            reverse = builder.pair(f"{self.name}.reverse", self.name, model.breakdown_voltage)
+            reverse = builder.pair(f"{self.name}.reverse", self.name, model.breakdown_voltage, sign=-1.0)
             self._stamp_pair(builder, reverse, cathode, anode,
                              model.breakdown_resistance / self.area)
             current_terms.append((reverse, -1.0))

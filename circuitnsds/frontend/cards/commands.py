@@ -8,6 +8,7 @@ import re
 from circuitnsds.circuit.circuit import Circuit, TranSpec
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
+from circuitnsds.theta import THETA_HINT, theta_in_range
 from circuitnsds.units import format_si
 
 IGNORED_COMMANDS = {
@@ -49,9 +50,8 @@ def read_options(reader: StatementReader) -> dict[str, float]:
         if text is None:
             raise reader.error(f".options {key} needs a value", hint=f"{key}: {USED_OPTIONS[key]}")
         value = reader.number(key, text)
-        if key == "theta" and not 0.5 <= value <= 1.0:
-            raise reader.error(f".options theta={value:g} must lie in [0.5, 1]",
-                               hint="1 is implicit Euler, 0.5 the trapezoidal rule")
+        if key == "theta" and not theta_in_range(value):
+            raise reader.error(f".options theta={value:g} must lie in [0.5, 1]", hint=THETA_HINT)
         if key == "gmin" and value <= 0:
             raise reader.error(f".options gmin={value:g} must be positive")
         used[key] = value

@@ -1,0 +1,138 @@
+"""The θ-method step system of an MLCS, built in one place.
+
+For the step ``t_k -> t_{k+1}`` of length ``h`` with switch states ``states``,
+``Θ = diag(θ on rows with a time derivative, 1 on algebraic rows)`` and
+``A = A(states)``, the rows divided by ``h`` (node rows in amperes; the pair
+unknowns are the currents ``λ = μ/h`` [A]) read
+
+    K y_{k+1} - B λ = r,        K = E/h - ΘA,
+    r = E y_k / h + ΘS f_{k+1} + (I - Θ)(A y_k + S f_k)
+    w = C y_{k+1} + D λ + e,    0 <= w ⊥ λ >= 0
+
+(Acary & Brogliato, *Numerical Methods for Nonsmooth Dynamical Systems*, the
+θ-method for linear complementarity systems). This is what the integrator
+solves as an MLCP (:mod:`circuitnsds.engine.integrate`), what the mode maps
+factorise (:func:`mode_blocks`: the bordered matrix of an active set and the
+right-hand side as a linear function of ``y_k``, ``f_{k+1}``, ``f_k``), and what
+the well-posedness report examines (:mod:`circuitnsds.checks.wellposed`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from circuitnsds.system.mlcs import MLCS
+from circuitnsds.theta import THETA_RANGE, theta_in_range
+
+__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
+
+def check_theta(theta: float) -> float:
+    """``theta`` as a float if :func:`theta_in_range`, else :class:`ValueError`."""
+    theta = float(theta)
+    if not theta_in_range(theta):
+        raise ValueError(f"theta must lie in [{THETA_RANGE[0]:g}, {THETA_RANGE[1]:g}], got {theta:g}")
+    return theta
+
+
+@dataclass(frozen=True)
+class StepSystem:
+    """The step system of one step size ``h`` [s], θ and switch state (module docstring).
+
+    Attributes:
+        h: step [s]; theta: θ of the step (1 for implicit Euler).
+        weights: the diagonal of ``Θ``, shape ``(n,)``.
+        A: ``A(states)`` (CSR); K: ``E/h - ΘA`` (CSC; may hold inf when ``E/h`` overflows,
+            see :attr:`finite`).
+        E, S: the MLCS's ``E`` and ``S`` (CSR); B (CSC), C, D (CSR) and e: its pair blocks.
+
+    The right-hand side's parts (:attr:`carry`, :attr:`source_next`, :attr:`source_now`) are
+    computed on first use and kept: every mode of the step shares them.
+    """
+
+    h: float
+    theta: float
+    weights: np.ndarray
+    A: sp.csr_matrix
+    K: sp.csc_matrix
+    E: sp.csr_matrix
+    S: sp.csr_matrix
+    B: sp.csc_matrix
+    C: sp.csr_matrix
+    D: sp.csr_matrix
+    e: np.ndarray
+
+    @property
+    def finite(self) -> bool:
+        """Whether ``K`` is finite (capacitance/h or inductance/h may overflow)."""
+        return bool(np.isfinite(self.K.data).all())
+
+    def rhs(self, charge: np.ndarray, y: np.ndarray, f_now: np.ndarray, f_next: np.ndarray) -> np.ndarray:
+        """``r`` of the module docstring with ``charge = E y_k`` (given separately: initial
+        conditions that ``y_k`` cannot express); units of the rows divided by ``h``."""
+        r = charge / self.h + self.weights * (self.S @ f_next)
+        if self.theta != 1.0:
+            r += (1.0 - self.weights) * (self.A @ y + self.S @ f_now)
+        return r
+
+    @cached_property
+    def carry(self) -> sp.csr_matrix:
+        """``E/h + (I - Θ)A``: the part of ``r`` multiplying ``y_k``."""
+        return (self.E / self.h + sp.diags(1.0 - self.weights) @ self.A).tocsr()
+
+    @cached_property
+    def source_next(self) -> sp.csr_matrix:
+        """``ΘS``: the part of ``r`` multiplying ``f_{k+1}``."""
+        return (sp.diags(self.weights) @ self.S).tocsr()
+
+    @cached_property
+    def source_now(self) -> sp.csr_matrix:
+        """``(I - Θ)S``: the part of ``r`` multiplying ``f_k``."""
+        return (sp.diags(1.0 - self.weights) @ self.S).tocsr()
+
+
+def step_system(mlcs: MLCS, h: float, states: tuple[bool, ...] | np.ndarray = (),
+                theta: float = 1.0, E: sp.csr_matrix | None = None) -> StepSystem:
+    """The :class:`StepSystem` of ``mlcs`` for a step ``h`` [s], switch ``states`` (closed =
+    true, one per ``mlcs.switches``) and ``theta`` (``E``: ``mlcs.E`` as CSR, if at hand)."""
+    E = mlcs.E.tocsr() if E is None else E
+    weights = np.where(mlcs.differential_rows, theta, 1.0)
+    A = mlcs.system_matrix(tuple(bool(s) for s in states))
+    with np.errstate(all="ignore"):
+        K = (E / h - sp.diags(weights) @ A).tocsc()
+    return StepSystem(float(h), float(theta), weights, A.tocsr(), K, E, mlcs.S.tocsr(), mlcs.B.tocsc(),
+                      mlcs.C.tocsr(), mlcs.D.tocsr(), mlcs.e)
+
+
+@dataclass(frozen=True)
+class ModeBlocks:
+    """The step of one mode (active set ``α``) as a linear system, sparse.
+
+    ``bordered · [y_{k+1}; λ_α] = [carry·y_k + S_next·f_{k+1} + S_now·f_k; rhs_pairs]``
+    with ``bordered = [[K, -B_α], [C_α, D_αα]]``; the inactive pairs' ``w = W·x + e_w``.
+    """
+
+    bordered: sp.csc_matrix
+    carry: sp.csr_matrix
+    S_next: sp.csr_matrix
+    S_now: sp.csr_matrix
+    rhs_pairs: np.ndarray
+    W: sp.csr_matrix
+    e_w: np.ndarray
+    active: np.ndarray
+    inactive: np.ndarray
+
+
+def mode_blocks(system: StepSystem, active: np.ndarray) -> ModeBlocks:
+    """The :class:`ModeBlocks` of the mode with active pairs ``active`` (a boolean mask)."""
+    act = np.flatnonzero(active)
+    inact = np.flatnonzero(~np.asarray(active, dtype=bool))
+    B, C, D, e = system.B, system.C, system.D, system.e
+    bordered = sp.bmat([[system.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+    return ModeBlocks(
+        bordered=bordered, carry=system.carry, S_next=system.source_next, S_now=system.source_now,
+        rhs_pairs=-e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
+        e_w=e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64))
