@@ -402,7 +402,8 @@ def test_mode_table_grows_and_starts_afresh_when_full():
     table = ModeTable(n=2, m=1, kstim=1, most=3)
     def mode(value):
         return ModeMap(P=np.full((3, 2), value), Q1=np.zeros((3, 1)), Q0=np.zeros((3, 1)),
-                       c=np.zeros(3), W=np.zeros((0, 3)), e_w=np.zeros(0), active=np.array([0]))
+                       c=np.zeros(3), W=np.zeros((1, 3)), e_w=np.zeros(1), resistance=np.ones(1),
+                       active=np.array([0]))
     keys = [(0, 0, 0, bytes([k])) for k in range(4)]
     indices = [table.add(keys[k], mode(float(k))) for k in range(3)]
     assert indices == [0, 1, 2] and table.count == 3

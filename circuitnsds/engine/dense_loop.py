@@ -64,7 +64,11 @@ class ModeMap:
 
     Attributes:
         P: ``(n + a, n)``; Q1, Q0: ``(n + a, k)``; c: ``(n + a,)``.
-        W: ``(m - a, n + a)`` and e_w ``(m - a,)``: the inactive pairs' ``w``.
+        W: ``(m, n + a)`` and e_w ``(m,)``: ``w = W x + e_w`` of the inactive pairs (the
+            first ``m - a`` rows), then of the active ones (``0`` by construction; their
+            terms are the scale a negative ``λ_α`` is measured against).
+        resistance: ``(a,)``, ``∂w_i/∂λ_i`` of each active pair [Ω]: the shift of ``w_i``
+            per ampere removed from the pair (``inf`` when its current is forced).
         active: indices of the active pairs (``a`` of them).
     """
 
@@ -74,6 +78,7 @@ class ModeMap:
     c: np.ndarray
     W: np.ndarray
     e_w: np.ndarray
+    resistance: np.ndarray
     active: np.ndarray
 
 
@@ -94,8 +99,19 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
     solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
     if info != 0 or not np.all(np.isfinite(solution)):
         return None
+    a = blocks.active.size
+    # ∂λ_i/∂w_i of each active pair: the inverse's diagonal at the pair rows (its reciprocal is
+    # the resistance the pair sees; see _try_mode_scalar)
+    unit = np.zeros((blocks.bordered.shape[0], a))
+    unit[n + np.arange(a), np.arange(a)] = 1.0
+    gain, info = lapack.dgetrs(lu.lu, lu.piv, unit)
+    gain = np.abs(np.diagonal(gain[n:])) if info == 0 else np.zeros(a)
+    with np.errstate(divide="ignore"):
+        resistance = np.where(gain > 0.0, 1.0 / gain, np.inf)
     return ModeMap(P=solution[:, :n], Q1=solution[:, n:n + kstim], Q0=solution[:, n + kstim:n + 2 * kstim],
-                   c=solution[:, -1], W=blocks.W.toarray(), e_w=blocks.e_w, active=blocks.active)
+                   c=solution[:, -1], W=np.vstack([blocks.W.toarray(), blocks.W_active.toarray()]),
+                   e_w=np.concatenate([blocks.e_w, blocks.e_active]), resistance=resistance,
+                   active=blocks.active)
 
 
 class TableArrays(NamedTuple):
@@ -107,6 +123,7 @@ class TableArrays(NamedTuple):
     c: np.ndarray
     W: np.ndarray
     e_w: np.ndarray
+    resistance: np.ndarray
     active: np.ndarray
     rows: np.ndarray
     nw: np.ndarray
@@ -140,7 +157,7 @@ class ModeTable:
     def __init__(self, n: int, m: int, kstim: int, budget: int = TABLE_BYTES, most: int = 256):
         self.n, self.m, self.kstim = n, m, kstim
         width = n + m
-        per_mode = 8 * (width * n + 2 * width * kstim + width + m * width + 3 * m + 8)
+        per_mode = 8 * (width * n + 2 * width * kstim + width + m * width + 4 * m + 8)
         self.capacity = int(max(1, min(most, budget // per_mode)))
         self.count = 0
         self.index: dict[tuple, int] = {}
@@ -152,6 +169,7 @@ class ModeTable:
             "P": np.zeros((size, width, n)), "Q1": np.zeros((size, width, ks)),
             "Q0": np.zeros((size, width, ks)), "c": np.zeros((size, width)),
             "W": np.zeros((size, m, width)), "e_w": np.zeros((size, m)),
+            "resistance": np.zeros((size, m)),
             "active": np.zeros((size, m), dtype=np.int64), "mask": np.zeros((size, m), dtype=bool),
             "rows": np.zeros(size, dtype=np.int64), "nw": np.zeros(size, dtype=np.int64),
             "mode_class": np.zeros(size, dtype=np.int64), "mode_sched": np.zeros(size, dtype=np.int64),
@@ -184,12 +202,13 @@ class ModeTable:
         self.Q1[i, :rows] = mode.Q1
         self.Q0[i, :rows] = mode.Q0
         self.c[i, :rows] = mode.c
-        self.W[i, :mode.W.shape[0], :rows] = mode.W
-        self.e_w[i, :mode.e_w.size] = mode.e_w
+        self.W[i, :, :rows] = mode.W
+        self.e_w[i] = mode.e_w
+        self.resistance[i, :a] = mode.resistance
         self.active[i, :a] = mode.active
         self.mask[i] = False
         self.mask[i, mode.active] = True
-        self.rows[i], self.nw[i] = rows, mode.W.shape[0]
+        self.rows[i], self.nw[i] = rows, self.m - a
         self.mode_class[i], self.mode_sched[i], self.mode_free[i] = key[0], key[1], key[2]
         self.last_used[i] = -1
         self.index[key] = i
@@ -197,17 +216,22 @@ class ModeTable:
         return i
 
 
-def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
     """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold.
 
     A sign holds when the value is ``>= 0`` or, like the MLCP solver's test of a guessed
     mode, negative by less than ``SIGN_TOL`` times the sum of the magnitudes of the terms
     that make it up (rounding noise of a pair at zero on both sides: a diode carrying
-    -3e-12 A out of terms of amperes in a voltage multiplier).
+    -3e-12 A out of terms of amperes in a voltage multiplier). A negative current must
+    moreover be harmless where it acts: removing it shifts the pair's ``w`` by
+    ``|λ_i|·resistance_i``, which must stay within ``SIGN_TOL`` of the magnitude of the
+    terms of that ``w`` (as :func:`circuitnsds.solvers.mlcp.negative_current_harmless`):
+    -6e-10 A is rounding beside amperes, but 160 V on a node held by 1e-12 S.
     """
     n = y.shape[1]
     size = rows[mode]
     kstim = F.shape[1]
+    inactive = nw[mode]
     for r in range(size):
         acc = c[mode, r]
         for j in range(n):
@@ -224,7 +248,13 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
                 magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
             if x[r] < -SIGN_TOL * magnitude:
                 return False
-    for r in range(nw[mode]):
+            row = inactive + r - n
+            scale = abs(e_w[mode, row])
+            for j in range(size):
+                scale += abs(W[mode, row, j] * x[j])
+            if -x[r] * resistance[mode, r - n] > SIGN_TOL * scale:
+                return False
+    for r in range(inactive):
         acc = e_w[mode, r]
         magnitude = abs(acc)
         for j in range(size):
@@ -236,7 +266,7 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     return True
 
 
-def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
     """:func:`_try_mode_scalar` with numpy products (the loop without numba); the magnitudes
     of the terms are computed only for a value that is negative."""
     n, size, q = y.shape[1], rows[mode], nw[mode]
@@ -245,6 +275,11 @@ def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
         magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
                      + np.abs(Q0[mode, n:size]) @ np.abs(F[k]) + np.abs(c[mode, n:size]))
         if (x[n:size] < -SIGN_TOL * magnitude).any():
+            return False
+        a = size - n
+        scale = np.abs(W[mode, q:q + a, :size]) @ np.abs(x[:size]) + np.abs(e_w[mode, q:q + a])
+        shift = np.where(x[n:size] < 0.0, -x[n:size] * resistance[mode, :a], 0.0)
+        if (shift > SIGN_TOL * scale).any():
             return False
     w = W[mode, :q, :size] @ x[:size] + e_w[mode, :q]
     if (w < 0.0).any():
@@ -267,7 +302,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     """
     # plain tuples in the order of TableArrays and FreeSwitches (named tuples would be typed
     # by numba's slow path at every call, ~0.1 ms)
-    P, Q1, Q0, c, W, e_w, active, rows, nw, mode_class, mode_sched, mode_free, last_used = table
+    P, Q1, Q0, c, W, e_w, resistance, active, rows, nw, mode_class, mode_sched, mode_free, last_used = table
     controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     ns = controls.shape[0]
@@ -285,7 +320,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
                     mode = i
             if mode < 0:
                 return k, STOP_NO_MODE, last
-        if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+        if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
             return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
         y[k + 1, :] = x[:n]
         for r in range(n, rows[mode]):

@@ -112,7 +112,8 @@ class ModeBlocks:
     """The step of one mode (active set ``α``) as a linear system, sparse.
 
     ``bordered · [y_{k+1}; λ_α] = [carry·y_k + S_next·f_{k+1} + S_now·f_k; rhs_pairs]``
-    with ``bordered = [[K, -B_α], [C_α, D_αα]]``; the inactive pairs' ``w = W·x + e_w``.
+    with ``bordered = [[K, -B_α], [C_α, D_αα]]``; the inactive pairs' ``w = W·x + e_w``,
+    the active pairs' (zero by construction) ``W_active·x + e_active``.
     """
 
     bordered: sp.csc_matrix
@@ -124,6 +125,8 @@ class ModeBlocks:
     e_w: np.ndarray
     active: np.ndarray
     inactive: np.ndarray
+    W_active: sp.csr_matrix | None = None
+    e_active: np.ndarray | None = None
 
 
 def mode_blocks(system: StepSystem, active: np.ndarray) -> ModeBlocks:
@@ -135,4 +138,5 @@ def mode_blocks(system: StepSystem, active: np.ndarray) -> ModeBlocks:
     return ModeBlocks(
         bordered=bordered, carry=system.carry, S_next=system.source_next, S_now=system.source_now,
         rhs_pairs=-e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
-        e_w=e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64))
+        e_w=e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64),
+        W_active=sp.hstack([C[act], D[act][:, act]]).tocsr(), e_active=e[act].copy())

@@ -69,7 +69,7 @@ from .pivoting import TRIALS, BlockPivoting
 from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual
 from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
 
-__all__ = ["MLCPSolver", "solve_mlcp"]
+__all__ = ["MLCPSolver", "negative_current_harmless", "solve_mlcp"]
 
 #: ``A`` with a reciprocal condition estimate below this is treated as (nearly)
 #: singular and not eliminated directly by the Lemke fallback.
@@ -89,6 +89,32 @@ MAX_FLIPS = 8
 
 _METHODS = ("auto", "lemke", "direct", "enum", "newton")
 _NOISE = 1e3 * np.finfo(float).eps  # relative size treated as rounding noise in M̂, q̂
+
+
+def negative_current_harmless(lu: Any, sel: np.ndarray, n: int, z: np.ndarray,
+                              mask: np.ndarray, w_scale: np.ndarray) -> bool:
+    """Whether the negative ``z_i`` of the active pairs are too small to matter where they act.
+
+    Removing a wrong-signed ``z_i`` (turning pair ``i`` off) moves that pair's ``w_i``
+    by ``z_i / g_i``, where ``g_i = ∂z_i/∂w_i`` is the diagonal entry of the bordered
+    matrix's inverse at the pair (``K_α x = -c + δ e_i`` when ``w_i = δ`` is imposed):
+    ``1 / g_i`` is the resistance the pair sees. The violation is harmless when that
+    shift is within :data:`SIGN_TOL` of the pair's own scale ``w_scale[i]``
+    (``|K_i||x| + |c_i|``). A test against the rows ``z_i`` enters is not enough: a node
+    held only by off-conductances (``1e-12`` S) moves 160 V for ``-1.6e-10`` A, a current
+    that is noise beside the amperes of the node's other terms (the floating AC side of a
+    bridge rectifier). ``lu`` factorises ``K_α`` (rows/columns ``sel`` of ``[u; z]``).
+    """
+    negative = np.flatnonzero(mask & (z < 0.0))
+    if not negative.size:
+        return True
+    where = np.searchsorted(sel, n + negative)
+    unit = np.zeros((sel.size, negative.size))
+    unit[where, np.arange(negative.size)] = 1.0
+    gain = np.abs(lu.solve(unit)[where, np.arange(negative.size)])
+    with np.errstate(divide="ignore"):
+        shift = np.where(gain > 0.0, -z[negative] / gain, np.inf)
+    return bool((shift <= SIGN_TOL * w_scale[negative]).all())
 
 
 class _StartBasis(PivotTransform):
@@ -277,7 +303,7 @@ class MLCPSolver:
         res = num / scale if scale > 0.0 else float("inf")
         return x, w, float(res), float(scale)
 
-    def _signs_hold(self, x: np.ndarray, w: np.ndarray, c: np.ndarray) -> bool:
+    def _signs_hold(self, x: np.ndarray, w: np.ndarray, c: np.ndarray, mode: Mode) -> bool:
         """Sign test of a guessed mode against each pair's own row scale.
 
         The normwise residual compares a pair's violation with the largest entry of
@@ -286,6 +312,9 @@ class MLCPSolver:
         against ``s_i = |K_i||x| + |c_i|`` and a negative ``z_i`` against the rows it
         enters, as in :func:`componentwise_residual`; beyond :data:`SIGN_TOL` the
         guess is rejected and the full solver decides.
+
+        A negative ``z_i`` of an active pair must also be harmless where it acts: see
+        :func:`negative_current_harmless`.
         """
         n = self.n
         z = x[n:]
@@ -298,7 +327,9 @@ class MLCPSolver:
         if (w < -SIGN_TOL * safe[n:]).any():
             return False
         entering = (self._absK[:, n:] / safe[:, None]).max(axis=0)
-        return not (z * entering < -SIGN_TOL).any()
+        if (z * entering < -SIGN_TOL).any():
+            return False
+        return negative_current_harmless(mode.lu, mode.sel, n, z, mode.mask, scale[n:])
 
     def _degenerate(
         self, x: np.ndarray, w: np.ndarray, mask: np.ndarray, scale: float
@@ -506,7 +537,7 @@ class MLCPSolver:
             x, w, res, scale = self._try_mode(mode, c)
             if not np.isfinite(res):
                 return None
-            if res <= self.tol and self._signs_hold(x, w, c):
+            if res <= self.tol and self._signs_hold(x, w, c, mode):
                 active = mode.mask.copy()
                 if np.hypot(x[n:] * self._kappa, w).min() <= self.tol * scale:
                     x, w, active, res = self._consistent(x, w, active, res, scale, c)
@@ -517,6 +548,29 @@ class MLCPSolver:
                 return None
             pivoting.update(violated)
         return None
+
+    def _settled(self, result: MLCPResult, c: np.ndarray) -> MLCPResult:
+        """``result`` (verified by the normwise residual) if its active set also passes the
+        sign test of a guessed mode (:meth:`_signs_hold`); otherwise the answer of block
+        principal pivoting started from it, when that finds one.
+
+        Lemke works on the Schur complement, whose entries reach ``1/gmin`` where a node
+        is held only by off-conductances: it can return a pair conducting a wrong-signed
+        current that the normwise residual cannot see but that holds the node 160 V away
+        from where the off-conductances put it (see :func:`negative_current_harmless`).
+        """
+        mask = np.asarray(result.active, dtype=bool)
+        mode = self._cache.get(mask)
+        if not mode.lu.ok:
+            return result
+        x, w, res, _ = self._try_mode(mode, c)
+        if not np.isfinite(res) or self._signs_hold(x, w, c, mode):
+            return result
+        better = self._pivoting(c, mask)
+        if better is None:
+            return result
+        better.method = result.method + "->pivoting"
+        return better
 
     def _fallback(self, c: np.ndarray, prefix: str, start: np.ndarray | None = None) -> MLCPResult:
         if not np.all(np.isfinite(c)):
@@ -533,7 +587,7 @@ class MLCPSolver:
         result, errors = self._lemke_chain(c)
         if result is not None:
             result.method = prefix + "lemke"
-            return result
+            return self._settled(result, c)
         ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
         chain = prefix + "lemke"
         if self.m <= ENUM_FALLBACK_MAX:
@@ -541,7 +595,7 @@ class MLCPSolver:
             result = self._enum(c)
             if result is not None:
                 result.method = chain + "->enum"
-                return result
+                return self._settled(result, c)
             st["failures"] += 1
             if ray is None:
                 ray = LCPNoSolution(
@@ -622,7 +676,7 @@ class MLCPSolver:
             mode = self._cache.get(mask)
             if mode.lu.ok:
                 x, w, res, scale = self._try_mode(mode, c)
-                if res <= self.tol and self._signs_hold(x, w, c):
+                if res <= self.tol and self._signs_hold(x, w, c, mode):
                     self.stats["direct_accepted"] += 1
                     active = mode.mask.copy()
                     if self.m and np.hypot(x[self.n :] * self._kappa, w).min() <= self.tol * scale:
