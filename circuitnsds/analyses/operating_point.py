@@ -105,6 +105,15 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
     try:
         return solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
     except LCPError as exc:
+        undetermined = getattr(exc, "evidence", {}).get("undetermined")
+        if undetermined is not None:
+            names = [mlcs.unknowns[j] for j in undetermined if j < mlcs.n]
+            raise SimulationError(
+                "the DC operating point is not unique: nothing in the circuit determines "
+                f"{', '.join(names[:6]) + (', ...' if len(names) > 6 else '')} (the circuit's "
+                "equations are singular)", where="operating point",
+                hint="look for a controlled source that only repeats its own control (E1 a 0 a 0 1), "
+                "a loop of voltage sources, or a node that nothing holds") from None
         raise SimulationError(
             f"the DC operating point has no solution with ideal devices ({exc})",
             where="operating point",

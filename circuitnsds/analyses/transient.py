@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -11,7 +12,7 @@ from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import STEPPINGS, integrate
 from circuitnsds.engine.timegrid import time_grid
-from circuitnsds.errors import CircuitError, SimulationError
+from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.theta import theta_in_range
 
@@ -62,6 +63,7 @@ def run_transient(
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
     check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
+    _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
@@ -74,6 +76,19 @@ def run_transient(
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
     return _waveforms(circuit, mlcs, trajectory, start, stop)
+
+
+def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
+    """Refuse (or, for diodes with an ``Roff`` of their own, warn about) current sources forced
+    against blocking diodes (:func:`~circuitnsds.checks.wellposed.blocked_currents`)."""
+    from circuitnsds.checks.wellposed import blocked_currents
+
+    for message, where, fatal in blocked_currents(circuit, grid):
+        if fatal:
+            raise CircuitError(message, where=where or circuit.file,
+                               hint="turn the diode round, give the current another path (a "
+                               "resistor), or, if the leakage is meant, give the diode model an Roff")
+        warnings.warn(message, CircuitWarning, stacklevel=3)
 
 
 HUGE = 1e100

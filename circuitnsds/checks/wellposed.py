@@ -356,6 +356,67 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
     return notes
 
 
+def blocked_currents(circuit, times: np.ndarray) -> list[tuple[str, str, bool]]:
+    """Independent current sources forced against diodes, found before simulating.
+
+    A node group joined to the rest only by independent current sources and diodes
+    must pass the sources' net current through the diodes, each of which conducts one
+    way only (a Zener both). When at some instant of ``times`` [s] the net current
+    enters the group and no diode can let it out (or leaves and none can let it in), the
+    ideal step has no solution: the current flows through the diodes' ``Roff`` instead,
+    at ``I·Roff`` volts (``I1 a 0 DC 1m`` with ``D1 a 0``: -1 GV). Groups crossed by a
+    switch (warned about by :mod:`circuitnsds.checks.rules`) or by a controlled source
+    (its current is not known beforehand) are left out.
+
+    Returns ``(message, where, fatal)`` per such group: ``fatal`` unless every diode
+    concerned has an ``Roff`` of its own (then ``I·Roff`` is the model's answer).
+    """
+    from circuitnsds.circuit.elements import CurrentSource, Diode, Switch
+    from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+
+    graph = nx.MultiGraph()
+    graph.add_nodes_from(["0", *circuit.nodes])
+    for element in circuit.elements:
+        if len(element.nodes) < 2 or isinstance(element, (Diode, Switch)):
+            continue
+        if element.topology != "current":
+            graph.add_edge(*element.nodes[:2])
+    found = []
+    for group in nx.connected_components(graph):
+        if "0" in group:
+            continue
+        crossing = [e for e in circuit.elements
+                    if len(e.nodes) >= 2 and (e.nodes[0] in group) != (e.nodes[1] in group)]
+        diodes = [e for e in crossing if isinstance(e, Diode)]
+        sources = [e for e in crossing if e.topology == "current"]
+        if (not diodes or not sources or any(isinstance(e, Switch) for e in crossing)
+                or not all(isinstance(e, CurrentSource) for e in sources)):
+            continue
+        # SPICE's current source pushes its current from its first node to its second
+        with np.errstate(all="ignore"):
+            into = sum((1.0 if e.nodes[1] in group else -1.0) * np.asarray(e.function.sample(times), float)
+                       for e in sources)
+        zener = any(d.model.kind == "zener" for d in diodes)
+        can_leave = zener or any(d.nodes[0] in group for d in diodes)
+        can_enter = zener or any(d.nodes[1] in group for d in diodes)
+        bad = ((into > 0) & (not can_leave)) | ((into < 0) & (not can_enter))
+        if not bad.any():
+            continue
+        k = int(np.argmax(bad))
+        value = float(into[k])
+        ohms = min(d.model.off_resistance / d.area for d in diodes)
+        names = ", ".join(d.name for d in diodes)
+        message = (f"{', '.join(e.name for e in sources)} drive{'s' if len(sources) == 1 else ''} "
+                   f"{abs(value):.3g} A {'into' if value > 0 else 'out of'} node(s) "
+                   f"{', '.join(sorted(group))} at t = {times[k]:.6g} s, but the only other path, "
+                   f"{names}, blocks that direction: the ideal circuit has no solution (the current "
+                   f"would flow through Roff = {ohms:.3g} Ω, about {abs(value) * ohms:.3g} V)")
+        fatal = any(d.model.off_resistance == DEFAULT_OFF_RESISTANCE for d in diodes)
+        where = next((str(e.location) for e in sources if e.location), None)
+        found.append((message, where, fatal))
+    return found
+
+
 def switch_configurations(switches: list, states=None) -> list[tuple[bool, ...]]:
     """The switch states :func:`analyse_circuit` examines (see :meth:`Circuit.well_posedness`)."""
     if states is not None:
@@ -395,5 +456,5 @@ def report_lines(circuit) -> list[str]:
     return lines
 
 
-__all__ = ["WellPosedness", "analyse", "analyse_circuit", "forced_currents", "report_lines",
-           "step_matrices", "RCOND_MIN"]
+__all__ = ["WellPosedness", "analyse", "analyse_circuit", "blocked_currents", "forced_currents",
+           "report_lines", "step_matrices", "RCOND_MIN"]

@@ -18,7 +18,7 @@ import numpy as np
 
 from .linalg import factorise
 from .residual import kappa_of, mlcp_residual
-from .result import LCPNoSolution, LCPResult
+from .result import LCPNoSolution, LCPResult, LCPSolverFailure
 
 __all__ = ["MAX_ENUM", "enumerate_mlcp", "enumerate_lcp"]
 
@@ -26,8 +26,11 @@ __all__ = ["MAX_ENUM", "enumerate_mlcp", "enumerate_lcp"]
 MAX_ENUM = 12
 
 
-def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray) -> np.ndarray | None:
-    """A point of the face of ``mask`` found by an LP, or ``None``."""
+def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray,
+             objective: np.ndarray | None = None, box: np.ndarray | None = None) -> np.ndarray | None:
+    """A point of the face of ``mask`` found by an LP, or ``None``; with ``objective``
+    (weights of ``[u; z_α]``) the point minimising it, ``u`` kept within ``box``
+    (``(n, 2)`` bounds) if given."""
     from scipy.optimize import linprog  # imported on first use: it costs ~0.5 s
 
     m = mask.shape[0]
@@ -41,10 +44,10 @@ def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray) -> np.ndarr
     b_eq = -c[sel]
     A_ub = -K[np.ix_(n + inact, sel)] if inact.size else None
     b_ub = c[n + inact] if inact.size else None
-    bounds = [(None, None)] * n + [(0.0, None)] * idx.size
+    bounds = ([(None, None)] * n if box is None else [tuple(b) for b in box]) + [(0.0, None)] * idx.size
     try:
         out = linprog(
-            np.zeros(nv),
+            np.zeros(nv) if objective is None else objective,
             A_ub=A_ub,
             b_ub=b_ub,
             A_eq=A_eq,
@@ -60,6 +63,30 @@ def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray) -> np.ndarr
     x = np.zeros(n + m)
     x[sel] = out.x
     return x
+
+
+def _varying_free_unknowns(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray,
+                           x: np.ndarray) -> np.ndarray:
+    """Indices of the free unknowns ``u`` that are not the same at every point of the
+    (singular) face of ``mask``: the extremes of a random combination of ``u`` over the face
+    are compared, ``u`` boxed around ``x`` (all of ``u`` when an LP fails).
+
+    Pair unknowns may legitimately vary over a face (two ideal diodes in parallel split a
+    current arbitrarily); a free unknown that varies is a node voltage or current that
+    nothing in the circuit determines, and the LP's point would be an arbitrary answer.
+    """
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    weights = np.zeros(n + int(mask.sum()))
+    weights[:n] = np.random.default_rng(0).uniform(0.5, 1.5, n)
+    size = 1.0 + np.abs(x[:n]).max()
+    box = np.column_stack([x[:n] - 1e3 * size, x[:n] + 1e3 * size])  # bounded, around x
+    low = _face_lp(K, n, c, mask, weights, box)
+    high = _face_lp(K, n, c, mask, -weights, box)
+    if low is None or high is None:  # the LP failed: nothing can be said of the face
+        return np.arange(n)
+    spread = np.abs(low[:n] - high[:n])
+    return np.flatnonzero(spread > 1e-6 * size)
 
 
 def enumerate_mlcp(
@@ -87,6 +114,8 @@ def enumerate_mlcp(
 
     Raises:
         ValueError: more than :data:`MAX_ENUM` pairs and ``force`` is false.
+        LCPSolverFailure: (``reason="undetermined"``) solutions exist only on singular
+            faces along which free unknowns vary: the answer would be arbitrary.
     """
     m = K.shape[0] - n
     if m > MAX_ENUM and not force:
@@ -109,6 +138,7 @@ def enumerate_mlcp(
         res, _ = mlcp_residual(K, n, c, x, kappa)
         if res <= tol:
             return x, mask, tried, res
+    undetermined: list[np.ndarray] = []
     if use_lp:
         for mask in singular:
             tried += 1
@@ -117,7 +147,16 @@ def enumerate_mlcp(
                 continue
             res, _ = mlcp_residual(K, n, c, x, kappa)
             if res <= tol:
-                return x, mask, tried, res
+                varying = _varying_free_unknowns(K, n, c, mask, x)
+                if not varying.size:
+                    return x, mask, tried, res
+                undetermined.append(varying)
+    if undetermined:
+        raise LCPSolverFailure(
+            "the equations are singular: the solutions leave some unknowns undetermined "
+            "(any value would do), so none is returned",
+            method="enum", size={"n": n, "m": m}, pivots=tried, residual=float("inf"),
+            reason="undetermined", undetermined=undetermined[0])
     return None
 
 

@@ -1,0 +1,75 @@
+"""Circuits whose ideal answer does not exist or is not unique must not get one silently
+(issue 20: items 2, 3 and 9)."""
+
+
+import numpy as np
+import pytest
+
+from circuitnsds.cli.main import main
+from circuitnsds.errors import CircuitError, CircuitWarning
+from tests.conftest import circuit_from
+
+# --- item 2: a current source forced against a blocking diode ---------------------------------
+
+def test_current_source_against_a_diode_is_refused_before_simulating(tmp_path, capsys):
+    netlist = tmp_path / "forced.cir"
+    netlist.write_text("forced\nI1 a 0 DC 1m\nD1 a 0 dx\n.model dx D\n.tran 1u 10u\n.end\n")
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "forced.cir:2" in err and "i1" in err and "d1" in err and "node(s) a" in err
+    assert not (tmp_path / "out.csv").exists()          # no -1 GV waveform
+
+
+def test_current_source_along_a_diode_runs():
+    # the same source with the diode turned round: it conducts the 1 mA, v(a) = 0 (ideal)
+    waves = circuit_from("I1 a 0 DC 1m\nD1 0 a dx\n.model dx D\n.tran 1u 10u").transient()
+    np.testing.assert_allclose(waves["i(d1)"][1:], 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(waves["v(a)"][1:], 0.0, atol=1e-9)
+
+
+def test_alternating_current_source_is_refused_at_its_first_wrong_half_cycle():
+    circuit = circuit_from("I1 0 a SIN(0 1m 50)\nD1 a 0 dx\n.model dx D\n.tran 100u 40m")
+    with pytest.raises(CircuitError, match=r"i1 drives \S+ A out of node\(s\) a at t = 0\.010"):
+        circuit.transient()
+
+
+def test_an_explicit_roff_makes_the_leakage_the_answer_with_a_warning():
+    circuit = circuit_from("I1 a 0 DC 1m\nD1 a 0 dx\n.model dx D(Roff=1k)\n.tran 1u 10u")
+    with pytest.warns(CircuitWarning, match="Roff = 1e\\+03"):
+        waves = circuit.transient()
+    np.testing.assert_allclose(waves["v(a)"][1:], -1.0, rtol=1e-9)  # -1 mA · 1 kΩ
+
+
+# --- item 3: a singular step system is an error, not an arbitrary point --------------------
+
+SINGULAR = "V1 in 0 1\nE1 a 0 a 0 1\nR1 a in 1k\n.tran 1u 10u"   # v(a) = 1·v(a): anything
+
+
+@pytest.mark.parametrize("uic", [False, True])
+def test_undetermined_node_voltage_is_an_error(uic):
+    from circuitnsds.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"v\(a\)") as caught:
+        circuit_from(SINGULAR).transient(uic=uic)
+    assert "v(in)" not in str(caught.value).split("hint")[0]   # v(in) = 1 V is determined
+    partial = caught.value.partial
+    assert partial is None or partial.time.size <= 1              # nothing after t = 0
+
+
+def test_enumeration_refuses_a_face_along_which_free_unknowns_vary():
+    from circuitnsds.solvers import LCPSolverFailure
+    from circuitnsds.solvers.enumeration import enumerate_mlcp
+    # u0 + u1 = 1, no pairs: a line of solutions
+    K = np.array([[1.0, 1.0], [1.0, 1.0]])
+    with pytest.raises(LCPSolverFailure) as caught:
+        enumerate_mlcp(K, 2, np.array([-1.0, -1.0]))
+    assert caught.value.reason == "undetermined"
+    assert list(caught.value.undetermined) == [0, 1]
+
+
+def test_enumeration_still_accepts_pairs_that_split_a_current():
+    from circuitnsds.solvers.enumeration import enumerate_mlcp
+    # node u fed 1 A, two ideal diodes from u to ground: u = 0, z1 + z2 = 1, split arbitrary
+    K = np.array([[0.0, 1.0, 1.0], [-1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    x, active, _, _ = enumerate_mlcp(K, 1, np.array([-1.0, 0.0, 0.0]))
+    assert x[0] == pytest.approx(0.0, abs=1e-9) and x[1] + x[2] == pytest.approx(1.0)
+    assert x[1] >= -1e-12 and x[2] >= -1e-12
