@@ -159,6 +159,10 @@ def _run(args: argparse.Namespace) -> int:
         args.signals = ",".join(circuit.saved_signals)
     for expression in args.measure:  # syntax errors before a long run, not after it
         parse_measurement(expression)
+    if args.plot:  # an unknown figure format before a long run, not after it
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
     if args.show:
         from circuitnsds.output.plot import check_display
 

@@ -62,6 +62,23 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None, str]] = {
 """Function name -> (implementation, least and most arguments, meaning)."""
 
 
+MAX_DEPTH = 100
+"""Deepest nesting of parentheses and function calls in one expression (the parser recurses
+once per level; ngspice's own parser also has a limit)."""
+
+EXCERPT = 60
+"""Longest piece of an expression quoted in a message [characters]."""
+
+
+def excerpt(text: str, limit: int = EXCERPT) -> str:
+    """``text`` quoted for a message: its start and end when longer than ``limit`` characters,
+    with the number of characters left out, escaped (``repr``: no control characters)."""
+    if len(text) <= limit:
+        return repr(text)
+    half = limit // 2
+    return f"{text[:half]!r} ... {text[-half:]!r} ({len(text)} characters)"
+
+
 class ExpressionError(ValueError):
     """An expression cannot be evaluated; the message says why (the caller adds file:line)."""
 
@@ -75,7 +92,7 @@ class UndefinedNameError(ExpressionError):
 
     def __init__(self, name: str, text: str):
         self.name = name
-        super().__init__(f"undefined parameter {name!r} in {text!r}")
+        super().__init__(f"undefined parameter {name!r} in {excerpt(text)}")
 
 
 _TOKEN = re.compile(
@@ -100,7 +117,7 @@ def _tokens(text: str) -> list[tuple[str, str, int]]:
         match = _TOKEN.match(text, position)
         if match is None or match.end() == position:
             start = position + len(text[position:]) - len(text[position:].lstrip())
-            raise ExpressionError(f"unexpected character {text[start]!r} in {text!r}")
+            raise ExpressionError(f"unexpected character {text[start]!r} in {excerpt(text)}")
         kind = match.lastgroup or "op"
         tokens.append((kind, match[kind], match.start(kind)))
         position = match.end()
@@ -110,7 +127,7 @@ def _tokens(text: str) -> list[tuple[str, str, int]]:
 
 def _finite(value: float, what: str, text: str) -> float:
     if not math.isfinite(value):
-        raise ExpressionError(f"{what} is not a finite number (overflow) in {text!r}")
+        raise ExpressionError(f"{what} is not a finite number (overflow) in {excerpt(text)}")
     return value
 
 
@@ -122,6 +139,7 @@ class _Parser:
         self.lookup = lookup
         self.tokens = _tokens(text)
         self.index = 0
+        self.depth = 0
 
     @property
     def current(self) -> tuple[str, str, int]:
@@ -142,7 +160,7 @@ class _Parser:
         kind, token, position = self.current
         found = "the end" if kind == "end" else repr(token)
         return ExpressionError(f"syntax error: {expectation}, found {found} after "
-                               f"{self.text[:position].strip()!r} in {self.text!r}")
+                               f"{excerpt(self.text[:position].strip())} in {excerpt(self.text)}")
 
     def parse(self) -> float:
         if self.current[0] == "end":
@@ -166,16 +184,23 @@ class _Parser:
             if op == "*":
                 value = _finite(value * right, "a product", self.text)
             elif right == 0:
-                raise ExpressionError(f"division by zero in {self.text!r}")
+                raise ExpressionError(f"division by zero in {excerpt(self.text)}")
             else:
                 value = _finite(value / right, "a quotient", self.text)
         return value
 
+    def signs(self) -> float:
+        """The product of the leading ``+``/``-`` signs (a loop: any number of them)."""
+        sign = 1.0
+        while (op := self.accept("+", "-")) is not None:
+            if op == "-":
+                sign = -sign
+        return sign
+
     def unary(self) -> float:
-        if (op := self.accept("+", "-")) is not None:
-            value = self.unary()
-            return -value if op == "-" else value
-        return self.power()
+        sign = self.signs()
+        value = self.power()
+        return -value if sign < 0 else value
 
     def power(self) -> float:
         value = self.atom()
@@ -185,10 +210,20 @@ class _Parser:
 
     def signed(self) -> float:
         """An exponent: an atom with any number of signs (``2^-1``)."""
-        if (op := self.accept("+", "-")) is not None:
-            value = self.signed()
-            return -value if op == "-" else value
-        return self.atom()
+        sign = self.signs()
+        value = self.atom()
+        return -value if sign < 0 else value
+
+    def nested(self, parse: Callable[[], float]) -> float:
+        """``parse()`` one level deeper in parentheses or function calls (at most :data:`MAX_DEPTH`)."""
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise ExpressionError(f"parentheses or function calls nested more than {MAX_DEPTH} "
+                                  f"levels deep in {excerpt(self.text)}")
+        try:
+            return parse()
+        finally:
+            self.depth -= 1
 
     def atom(self) -> float:
         kind, token, _ = self.current
@@ -197,13 +232,13 @@ class _Parser:
             try:
                 return parse_value(token)
             except ValueError:
-                raise ExpressionError(f"{token!r} is not a number in {self.text!r}") from None
+                raise ExpressionError(f"{token!r} is not a number in {excerpt(self.text)}") from None
         if kind == "name":
             self.index += 1
             if self.accept("("):
-                return self.call(token)
+                return self.nested(lambda: self.call(token))
             if token in FUNCTIONS:
-                raise ExpressionError(f"{token} is a function: write {token}(...) in {self.text!r}")
+                raise ExpressionError(f"{token} is a function: write {token}(...) in {excerpt(self.text)}")
             value = self.lookup(token)
             if value is None:
                 value = CONSTANTS.get(token)
@@ -211,14 +246,14 @@ class _Parser:
                 raise UndefinedNameError(token, self.text)
             return value
         if self.accept("("):
-            value = self.sum()
+            value = self.nested(self.sum)
             self.expect(")")
             return value
         raise self.unexpected("expected a number, a name or '('")
 
     def call(self, name: str) -> float:
         if name not in FUNCTIONS:
-            raise ExpressionError(f"unknown function {name}() in {self.text!r}; known: "
+            raise ExpressionError(f"unknown function {name}() in {excerpt(self.text)}; known: "
                                   + ", ".join(sorted(FUNCTIONS)))
         function, least, most, _ = FUNCTIONS[name]
         args = [self.sum()]
@@ -228,28 +263,28 @@ class _Parser:
         if len(args) < least or (most is not None and len(args) > most):
             expected = f"{least}" if least == most else f"at least {least}"
             raise ExpressionError(f"{name}() takes {expected} argument{'s' * (expected != '1')}, "
-                                  f"got {len(args)} in {self.text!r}")
+                                  f"got {len(args)} in {excerpt(self.text)}")
         arguments = ", ".join(f"{a:g}" for a in args)
         try:
             result = float(function(*args))
         except (ValueError, ZeroDivisionError):
             raise ExpressionError(f"{name}({arguments}) is undefined (domain error) "
-                                  f"in {self.text!r}") from None
+                                  f"in {excerpt(self.text)}") from None
         except OverflowError:
-            raise ExpressionError(f"{name}({arguments}) overflows in {self.text!r}") from None
+            raise ExpressionError(f"{name}({arguments}) overflows in {excerpt(self.text)}") from None
         return _finite(result, f"{name}({arguments})", self.text)
 
 
 def _power(base: float, exponent: float, text: str) -> float:
     if base == 0 and exponent < 0:
-        raise ExpressionError(f"division by zero: 0^{exponent:g} in {text!r}")
+        raise ExpressionError(f"division by zero: 0^{exponent:g} in {excerpt(text)}")
     try:
         result = math.pow(base, exponent)
     except ValueError:
         raise ExpressionError(f"{base:g}^{exponent:g} is undefined (a negative base needs an integer "
-                              f"exponent) in {text!r}") from None
+                              f"exponent) in {excerpt(text)}") from None
     except OverflowError:
-        raise ExpressionError(f"{base:g}^{exponent:g} overflows in {text!r}") from None
+        raise ExpressionError(f"{base:g}^{exponent:g} overflows in {excerpt(text)}") from None
     return _finite(result, f"{base:g}^{exponent:g}", text)
 
 

@@ -115,6 +115,11 @@ class Definition:
     text: str
 
 
+MAX_CHAIN = 50
+"""Longest chain of parameters evaluated on demand (each used before its definition): the
+evaluation recurses once per link."""
+
+
 class Scope:
     """The parameters visible at one level of the hierarchy.
 
@@ -172,12 +177,24 @@ class Scope:
             raise NetlistError(f"parameters refer to each other in a cycle: {' -> '.join(chain)}",
                                where=definition.location,
                                hint=f"({places}); a parameter cannot depend on itself")
+        if len(self._evaluating) >= MAX_CHAIN:
+            first = self._evaluating[0]
+            raise NetlistError(
+                f"parameter {first!r} depends on a chain of more than {MAX_CHAIN} parameters "
+                f"defined after it ({first} -> {self._evaluating[1]} -> ... -> {name})",
+                where=self.definitions[first].location,
+                hint="define parameters before the ones that use them (then each is evaluated "
+                "once, in order)")
         self._evaluating.append(name)
         try:
             value = evaluate(definition.expression, self.lookup)
         except ExpressionError as exc:
             raise _error(exc, f"parameter {name!r}", definition.location, definition.text,
                          self.label) from None
+        except RecursionError:
+            raise NetlistError(f"parameter {name!r}: the expression and the parameters it uses are "
+                               "nested too deeply to evaluate", where=definition.location,
+                               hint="split it into several .param lines") from None
         finally:
             self._evaluating.pop()
         self.definitions.pop(name)
@@ -200,6 +217,10 @@ class Scope:
             return evaluate(expression, self.lookup)
         except ExpressionError as exc:
             raise _error(exc, what, statement.location, statement.text, self.label) from None
+        except RecursionError:
+            raise NetlistError(f"{what}: the expression and the parameters it uses are nested too "
+                               "deeply to evaluate", where=statement.location,
+                               hint="split it into several .param lines") from None
 
     def substitute(self, statement: Statement) -> tuple[str, ...]:
         """The statement's tokens with every ``{expr}`` / ``'expr'`` replaced by its value.

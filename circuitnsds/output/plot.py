@@ -10,6 +10,7 @@ clearly when there is no display to open it on.
 
 from __future__ import annotations
 
+import io
 import os
 import sys
 from collections.abc import Sequence
@@ -31,7 +32,8 @@ _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
 
 class PlotError(CircuitnsdsError):
-    """A figure cannot be shown (no display, no interactive matplotlib backend)."""
+    """A figure cannot be written (unknown format) or shown (no display, no interactive
+    matplotlib backend)."""
 
 
 def default_signals(waves: Waveforms) -> list[str]:
@@ -99,11 +101,37 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
     """
     from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
 
+    file_format = plot_format(path)
     chosen = default_signals(waves) if names is None else list(names)
     figure = Figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
                     layout="constrained")
     draw(figure, waves, chosen)
-    figure.savefig(path, dpi=dpi)
+    # rendered in memory, then written here: matplotlib's own writers can swallow a failed
+    # write (ENOSPC on /dev/full reported success); closing our file raises it
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format=file_format, dpi=dpi)
+    with open(path, "wb") as handle:
+        handle.write(buffer.getvalue())
+
+
+def plot_format(path: str | Path) -> str:
+    """The figure format of ``path``, from its extension.
+
+    Raises:
+        PlotError: the extension names no format matplotlib writes (``x.xyz``); a name
+            without extension is a PNG.
+    """
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    supported = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if not suffix:
+        return "png"  # as matplotlib does for a name without extension
+    if suffix not in supported:
+        raise PlotError(f"cannot plot to {path}: '.{suffix}' is not a figure format",
+                        hint="use one of " + ", ".join(f".{k}" for k in sorted(supported))
+                        + " (.png usually)")
+    return suffix
 
 
 def check_display() -> None:
