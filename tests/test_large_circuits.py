@@ -71,3 +71,30 @@ def test_ladder_operating_point_by_pivoting_matches_lemke(monkeypatch, sections)
     expected = np.linalg.solve(G, rhs)
     got = np.array([pivoted[f"v(n{k})"] for k in range(1, sections + 1)])
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+
+
+def test_large_problems_stay_sparse_and_agree_with_the_dense_solver(monkeypatch):
+    """Above DENSE_LIMIT unknowns + pairs the MLCP solver never builds a dense K (a 50,000-node
+    circuit would need 20 GB per copy): pivoting with sparse LUs, no Lemke beyond
+    SPARSE_LEMKE_MAX pairs. Lowered here so that a small ladder takes that path."""
+    text = ladder(120, 1e-3)
+    dense = circuitnsds.read_netlist(text)
+    reference_op, reference = dense.operating_point(), dense.transient()
+    built = []
+    original = circuitnsds.solvers.mlcp.MLCPSolver.__init__
+
+    def recording(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        built.append(self)
+
+    monkeypatch.setattr(circuitnsds.solvers.mlcp, "DENSE_LIMIT", 100)
+    monkeypatch.setattr(circuitnsds.solvers.mlcp, "SPARSE_LEMKE_MAX", 10)
+    monkeypatch.setattr(circuitnsds.solvers.mlcp.MLCPSolver, "__init__", recording)
+    sparse = circuitnsds.read_netlist(text)
+    op, waves = sparse.operating_point(), sparse.transient()
+    assert built and all(solver.sparse_only and not isinstance(solver._K, np.ndarray) for solver in built)
+    assert all(solver.stats["lemke_fallbacks"] == 0 for solver in built)
+    for name in ("v(n1)", "v(n60)", "v(n120)", "i(d1)", "i(d120)"):
+        assert op[name] == pytest.approx(reference_op[name], rel=1e-9, abs=1e-12)
+        scale = np.abs(reference[name]).max()
+        np.testing.assert_allclose(waves[name], reference[name], rtol=0, atol=1e-9 * scale, err_msg=name)

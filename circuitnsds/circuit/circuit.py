@@ -58,18 +58,35 @@ class Circuit:
     strict: bool = False
     reported: set[str] = field(default_factory=set, repr=False, compare=False)
 
+    def _index(self) -> tuple[dict[str, Element], set[str]]:
+        """Elements by name and the set of nodes, kept in step with :attr:`elements` and
+        :attr:`nodes` (rebuilt when those lists were changed directly): reading a netlist
+        of ``N`` elements costs O(N), not O(N²)."""
+        index = self.__dict__.get("_by_name")
+        node_set = self.__dict__.get("_node_set")
+        if index is None or len(index) != len(self.elements) or len(node_set) != len(self.nodes):
+            index = {}
+            for element in self.elements:
+                index.setdefault(element.name, element)
+            node_set = set(self.nodes)
+            self.__dict__["_by_name"], self.__dict__["_node_set"] = index, node_set
+        return index, node_set
+
     def add(self, element: Element, location: SourceLocation | None = None) -> None:
         """Append an element; its nodes join the node list."""
-        for existing in self.elements:
-            if existing.name == element.name:
-                first = f" (first at {existing.location})" if existing.location else ""
-                raise NetlistError(f"element {element.name} is defined twice{first}",
-                                   where=location or element.name,
-                                   hint="element names must be unique")
+        index, node_set = self._index()
+        existing = index.get(element.name)
+        if existing is not None:
+            first = f" (first at {existing.location})" if existing.location else ""
+            raise NetlistError(f"element {element.name} is defined twice{first}",
+                               where=location or element.name,
+                               hint="element names must be unique")
         self.elements.append(element)
+        index[element.name] = element
         for node in element.nodes:
-            if node != "0" and node not in self.nodes:
+            if node != "0" and node not in node_set:
                 self.nodes.append(node)
+                node_set.add(node)
 
     def set_tran(self, tran: TranSpec, location: SourceLocation | None = None) -> None:
         if self.tran is not None:
@@ -79,10 +96,10 @@ class Circuit:
 
     def element(self, name: str) -> Element:
         """The element called ``name`` (case-insensitive)."""
-        for element in self.elements:
-            if element.name == name.lower():
-                return element
-        raise KeyError(name)
+        element = self._index()[0].get(name.lower())
+        if element is None:
+            raise KeyError(name)
+        return element
 
     def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
         """Stamp every element into the circuit's MLCS.

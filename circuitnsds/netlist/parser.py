@@ -118,6 +118,10 @@ def closing_position(text: str, start: int) -> int:
     return -1
 
 
+_PLAIN = re.compile(r"[^{}'\"(),=]*")
+"""A line without braces, quotes, parentheses, commas or ``=``: its tokens are its words."""
+
+
 def tokenize(text: str, strict: bool = True) -> tuple[str, ...]:
     """Split a logical line into lower-cased tokens.
 
@@ -133,6 +137,8 @@ def tokenize(text: str, strict: bool = True) -> tuple[str, ...]:
     Raises:
         ValueError: for an unclosed brace or quote (only when ``strict``).
     """
+    if _PLAIN.fullmatch(text):  # the common line: words and blanks only
+        return tuple(text.lower().split())
     tokens: list[str] = []
     position, length = 0, len(text)
     while position < length:

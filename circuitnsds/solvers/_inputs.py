@@ -64,8 +64,13 @@ def as_mask(guess: Any, m: int) -> np.ndarray:
     return mask
 
 
-def bordered(A: Any, C: Any, D: Any, B: Any) -> tuple[np.ndarray, Any, int, int, bool]:
+def bordered(A: Any, C: Any, D: Any, B: Any,
+             dense_limit: int | None = None) -> tuple[np.ndarray | None, Any, int, int, bool]:
     """Check block shapes and build ``K = [[A, C], [D, B]]``.
+
+    Args:
+        dense_limit: with sparse input of more than this many rows, no dense copy is made
+            (``K_dense`` is ``None``): 50,000 unknowns would take 20 GB.
 
     Returns:
         ``(K_dense, K_sparse_or_None, n, m, input_was_sparse)``.
@@ -110,7 +115,10 @@ def bordered(A: Any, C: Any, D: Any, B: Any) -> tuple[np.ndarray, Any, int, int,
             if n + m > 0
             else None
         )
-        K = as_dense(Ks, (n + m, n + m), "K") if Ks is not None else np.zeros((0, 0))
+        if Ks is not None and dense_limit is not None and n + m > dense_limit:
+            K = None
+        else:
+            K = as_dense(Ks, (n + m, n + m), "K") if Ks is not None else np.zeros((0, 0))
     else:
         K = np.empty((n + m, n + m))
         K[:n, :n] = Ad

@@ -61,12 +61,12 @@ from scipy.linalg.blas import idamax as _idamax
 from ._inputs import as_mask, as_vector, bordered
 from .enumeration import MAX_ENUM, enumerate_mlcp
 from .lemke import lemke_pivot
-from .linalg import LU, SIGN_TOL, factorise
+from .linalg import LU, SIGN_TOL, factorise, factorise_sparse
 from .mode import Mode, ModeCache
 from .newton import fb_newton_mlcp
 from .pivot_transform import PivotTransform, completion_mask
 from .pivoting import TRIALS, BlockPivoting
-from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual
+from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual, scaled_column_max
 from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
 
 __all__ = ["MLCPSolver", "negative_current_harmless", "solve_mlcp"]
@@ -86,6 +86,13 @@ CTOL = 1e-6
 PIVOTING_MIN_PAIRS = 50
 #: At most this many degenerate pairs are tried by that search.
 MAX_FLIPS = 8
+#: Sparse problems with more unknowns and pairs than this are never made dense: every
+#: factorisation is sparse, Lemke runs only up to :data:`SPARSE_LEMKE_MAX` pairs (its tableau
+#: is ``m × m``), the enumeration and the rank completion of a singular ``A`` (an SVD) not at
+#: all. A dense ``K`` of 50,000 unknowns would take 20 GB.
+DENSE_LIMIT = 2000
+#: Largest number of pairs Lemke is given in a problem kept sparse.
+SPARSE_LEMKE_MAX = 500
 
 _METHODS = ("auto", "lemke", "direct", "enum", "newton")
 _NOISE = 1e3 * np.finfo(float).eps  # relative size treated as rounding noise in M̂, q̂
@@ -157,11 +164,14 @@ def _equilibrate_pair_columns(
     """
     if K.shape[1] == n:
         return K, Ks, None
-    scale = np.maximum(1.0, np.abs(K[:, n:]).max(axis=0))
+    if isinstance(K, np.ndarray):
+        scale = np.maximum(1.0, np.abs(K[:, n:]).max(axis=0))
+    else:
+        scale = np.maximum(1.0, np.asarray(abs(K[:, n:]).max(axis=0).todense()).ravel())
     if np.all(scale == 1.0):
         return K, Ks, None
     factors = np.concatenate([np.ones(n), 1.0 / scale])
-    K = K * factors
+    K = K * factors if isinstance(K, np.ndarray) else (K @ sp.diags(factors)).tocsr()
     if Ks is not None:
         Ks = (Ks @ sp.diags(factors)).tocsr()
     return K, Ks, scale
@@ -200,7 +210,11 @@ class MLCPSolver:
         tol: float = 1e-9,
         max_pivots: int | None = None,
     ) -> None:
-        K, Ks, n, m, _ = bordered(A, C, D, B)
+        K, Ks, n, m, _ = bordered(A, C, D, B, dense_limit=DENSE_LIMIT)
+        #: a large sparse problem is kept sparse (see DENSE_LIMIT): ``_K`` is then CSR
+        self.sparse_only = K is None
+        if K is None:
+            K = Ks.tocsr()
         K, Ks, self._z_scale = _equilibrate_pair_columns(K, Ks, n)
         self.n, self.m = n, m
         self.tol = float(tol)
@@ -230,7 +244,7 @@ class MLCPSolver:
             ),
             0,
         )
-        self._cache = ModeCache(K, n, cache_size, self.stats, Ks)
+        self._cache = ModeCache(None if self.sparse_only else K, n, cache_size, self.stats, Ks)
         self._starts: dict[bytes, _StartBasis | None] = {}
         self._start_order: list[np.ndarray] | None = None
         self._rcond_a: float | None = None
@@ -321,12 +335,12 @@ class MLCPSolver:
         if not (w < 0.0).any() and not (z < 0.0).any():
             return True
         if self._absK is None:
-            self._absK = np.abs(self._K)
+            self._absK = abs(self._K)
         scale = self._absK @ np.abs(x) + np.abs(c)
         safe = np.where(scale > 0.0, scale, 1.0)
         if (w < -SIGN_TOL * safe[n:]).any():
             return False
-        entering = (self._absK[:, n:] / safe[:, None]).max(axis=0)
+        entering = scaled_column_max(self._absK, n, safe)
         if (z * entering < -SIGN_TOL).any():
             return False
         return negative_current_harmless(mode.lu, mode.sel, n, z, mode.mask, scale[n:])
@@ -358,7 +372,7 @@ class MLCPSolver:
         if deg.size == 0:
             return x, w, mask, res
         if self._absK is None:
-            self._absK = np.abs(self._K)
+            self._absK = abs(self._K)
         absK, n = self._absK, self.n
 
         def rho(xv: np.ndarray, wv: np.ndarray) -> float:
@@ -396,17 +410,28 @@ class MLCPSolver:
     def rcond_a(self) -> float:
         """Reciprocal condition estimate of ``A`` (1.0 when ``n == 0``)."""
         if self._rcond_a is None:
-            self._rcond_a = factorise(self._K[: self.n, : self.n]).rcond if self.n else 1.0
+            if not self.n:
+                self._rcond_a = 1.0
+            elif self.sparse_only:
+                self._rcond_a = factorise_sparse(self._K[: self.n, : self.n]).rcond
+            else:
+                self._rcond_a = factorise(self._K[: self.n, : self.n]).rcond
         return self._rcond_a
 
     # ------------------------------------------------------------ start bases
     def _completion_mask(self) -> np.ndarray | None:
-        """Active set that completes the rank of a (nearly) singular ``A``."""
+        """Active set that completes the rank of a (nearly) singular ``A`` (dense problems
+        only: it takes an SVD of ``A``)."""
+        if self.sparse_only:
+            return None
         return completion_mask(self._K, self.n)
 
     def _make_start(self, mask: np.ndarray) -> _StartBasis | None:
         sel = np.concatenate([np.arange(self.n), self.n + np.flatnonzero(mask)])
-        lu = factorise(self._K[np.ix_(sel, sel)])
+        if self.sparse_only:
+            lu = factorise_sparse(self._K[sel][:, sel])
+        else:
+            lu = factorise(self._K[np.ix_(sel, sel)])
         if not lu.ok:
             return None
         self.stats["start_bases"] += 1
@@ -527,7 +552,8 @@ class MLCPSolver:
         accepted only as a guessed mode's is (residual and signs). ``None`` when it fails."""
         n = self.n
         pivoting = BlockPivoting(start)
-        for trial in range(1, TRIALS + 1):
+        # a conducting front crossing a ladder of m diodes moves tens of pairs per trial
+        for trial in range(1, max(TRIALS, self.m // 20) + 1):
             mode = self._cache.get(pivoting.mask)
             if not mode.lu.ok:
                 if trial == 1 and start.any():  # a singular guess: start from no pair active
@@ -577,20 +603,23 @@ class MLCPSolver:
             raise ValueError("a or b contains NaN or inf")
         st = self.stats
         st["fallbacks"] += 1
-        if self.m >= PIVOTING_MIN_PAIRS:
+        if self.m >= PIVOTING_MIN_PAIRS or (self.sparse_only and self.m):
             result = self._pivoting(c, np.zeros(self.m, dtype=bool) if start is None else start)
             if result is not None:
                 result.method = prefix + result.method
                 return result
             prefix += "pivoting->"
-        st["lemke_fallbacks"] += 1
-        result, errors = self._lemke_chain(c)
-        if result is not None:
-            result.method = prefix + "lemke"
-            return self._settled(result, c)
+        errors: list[LCPError] = []
+        chain = prefix.removesuffix("->")
+        if not (self.sparse_only and self.m > SPARSE_LEMKE_MAX):
+            st["lemke_fallbacks"] += 1
+            result, errors = self._lemke_chain(c)
+            if result is not None:
+                result.method = prefix + "lemke"
+                return self._settled(result, c)
+            chain = prefix + "lemke"
         ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
-        chain = prefix + "lemke"
-        if self.m <= ENUM_FALLBACK_MAX:
+        if self.m <= ENUM_FALLBACK_MAX and not self.sparse_only:
             st["enum_fallbacks"] += 1
             result = self._enum(c)
             if result is not None:
@@ -616,7 +645,7 @@ class MLCPSolver:
             ray.evidence["confirmed_by_enumeration"] = True
             raise ray
         st["newton_fallbacks"] += 1
-        chain += "->newton"
+        chain = f"{chain}->newton" if chain else "newton"
         try:
             result = self._newton(c)
         except LCPSolverFailure as err:

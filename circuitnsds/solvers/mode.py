@@ -55,7 +55,8 @@ class ModeCache:
     """LRU cache of :class:`Mode` objects for a fixed bordered matrix ``K``.
 
     Args:
-        K: dense ``[[A, C], [D, B]]``.
+        K: dense ``[[A, C], [D, B]]``; ``None`` for a large sparse problem (``K_sparse``
+            then gives every factorisation).
         n: number of free unknowns.
         size: maximum number of cached modes (>= 1).
         stats: dict whose ``cache_hits``, ``cache_misses``, ``factorisations`` and
@@ -93,7 +94,7 @@ class ModeCache:
 
     def _insert(self, key: bytes, mask: np.ndarray) -> Mode:
         sel = np.concatenate([self._free, self._n + np.flatnonzero(mask)])
-        if self._Ks is not None and sel.size >= SPARSE_MIN:
+        if self._Ks is not None and (sel.size >= SPARSE_MIN or self._K is None):
             lu = factorise_sparse(self._Ks[sel][:, sel])
         else:
             lu = factorise(self._K[np.ix_(sel, sel)])

@@ -27,6 +27,14 @@ from .linalg import LU
 __all__ = ["PivotTransform", "completion_mask"]
 
 
+def _block(K, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``K[rows][:, columns]`` as a dense array, for a dense or a scipy.sparse ``K`` (a large
+    problem is never made dense whole; these blocks are ``(n + p) × m`` at most)."""
+    if isinstance(K, np.ndarray):
+        return K[np.ix_(rows, columns)]
+    return K[rows][:, columns].toarray()
+
+
 class PivotTransform:
     """Principal pivot transform of the MLCP with bordered matrix ``K`` at ``mask`` (``α0``).
 
@@ -48,14 +56,14 @@ class PivotTransform:
         p = aidx.size
         sel0 = np.concatenate([np.arange(n), n + aidx])
         R = np.zeros((n + p, m))
-        R[:, bidx] = -K[np.ix_(sel0, n + bidx)]
+        R[:, bidx] = -_block(K, sel0, n + bidx)
         R[n + np.arange(p), aidx] = 1.0
         G = lu.solve(R) if n + p else np.zeros((0, m))
-        W = K[np.ix_(n + bidx, sel0)]
+        W = _block(K, n + bidx, sel0)
         M = np.empty((m, m))
         M[aidx] = G[n:]
         M[bidx] = W @ G
-        M[np.ix_(bidx, bidx)] += K[np.ix_(n + bidx, n + bidx)]
+        M[np.ix_(bidx, bidx)] += _block(K, n + bidx, n + bidx)
         self.mask, self.sel0, self.lu, self.G, self.W = mask, sel0, lu, G, W
         self.aidx, self.bidx, self.M, self.n, self.m = aidx, bidx, M, n, m
 

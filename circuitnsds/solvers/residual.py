@@ -20,9 +20,13 @@ solve give values near machine epsilon. A result is accepted when
 
 from __future__ import annotations
 
-import numpy as np
+from typing import Any
 
-__all__ = ["mlcp_residual", "lcp_residual", "kappa_of", "evaluate", "componentwise_residual"]
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["mlcp_residual", "lcp_residual", "kappa_of", "evaluate", "componentwise_residual",
+           "scaled_column_max"]
 
 
 def kappa_of(K: np.ndarray) -> float:
@@ -101,11 +105,20 @@ def componentwise_residual(
     w = r[n:]
     if z.size == 0:
         return eq
-    colmax = (absK[:, n:] / safe[:, None]).max(axis=0)
+    colmax = scaled_column_max(absK, n, safe)
     zt = z * colmax
     wt = w / safe[n:]
     comp = float(np.abs(np.minimum(zt, wt)).max())
     return max(eq, comp)
+
+
+def scaled_column_max(absK: Any, n: int, safe: np.ndarray) -> np.ndarray:
+    """``max_j |K_ji| / safe_j`` for each pair column ``i`` (columns ``n:``), for a dense or
+    sparse ``|K|``: the relative weight of a pair unknown in the rows it enters."""
+    if isinstance(absK, np.ndarray):
+        return (absK[:, n:] / safe[:, None]).max(axis=0)
+    scaled = sp.diags(1.0 / safe) @ sp.csc_matrix(absK)[:, n:]
+    return np.asarray(scaled.max(axis=0).todense()).ravel()
 
 
 def lcp_residual(
