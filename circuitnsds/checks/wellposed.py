@@ -371,22 +371,14 @@ def blocked_currents(circuit, times: np.ndarray) -> list[tuple[str, str, bool]]:
     Returns ``(message, where, fatal)`` per such group: ``fatal`` unless every diode
     concerned has an ``Roff`` of its own (then ``I·Roff`` is the model's answer).
     """
+    from circuitnsds.checks.topology import isolated_groups
     from circuitnsds.circuit.elements import CurrentSource, Diode, Switch
     from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 
-    graph = nx.MultiGraph()
-    graph.add_nodes_from(["0", *circuit.nodes])
-    for element in circuit.elements:
-        if len(element.nodes) < 2 or isinstance(element, (Diode, Switch)):
-            continue
-        if element.topology != "current":
-            graph.add_edge(*element.nodes[:2])
     found = []
-    for group in nx.connected_components(graph):
-        if "0" in group:
-            continue
-        crossing = [e for e in circuit.elements
-                    if len(e.nodes) >= 2 and (e.nodes[0] in group) != (e.nodes[1] in group)]
+    groups = isolated_groups(circuit.elements, circuit.nodes,
+                             lambda e: isinstance(e, (Diode, Switch)) or e.topology == "current")
+    for group, crossing in groups:
         diodes = [e for e in crossing if isinstance(e, Diode)]
         sources = [e for e in crossing if e.topology == "current"]
         if (not diodes or not sources or any(isinstance(e, Switch) for e in crossing)
