@@ -102,14 +102,52 @@ LINE_SHOWN = 400
 quoted whole) are cut in the middle."""
 
 
+def for_terminal(text: str) -> str:
+    """``text`` (an error or warning message) escaped and clipped as every error message is."""
+    return _clip_lines(text)
+
+
 def _clip_lines(text: str) -> str:
-    """``text`` with every line longer than :data:`LINE_SHOWN` cut in the middle."""
-    lines = text.split("\n")
-    for k, line in enumerate(lines):
-        if len(line) > LINE_SHOWN:
-            head, tail = LINE_SHOWN - 100, 60
-            lines[k] = f"{line[:head]} ...[{len(line) - head - tail} characters]... {line[-tail:]}"
-    return "\n".join(lines)
+    """``text`` made safe and short for a terminal: control characters (a netlist's escape
+    sequences) written as escapes, and every line longer than :data:`LINE_SHOWN` shortened by
+    :func:`_clip_line`."""
+    return "\n".join(_clip_line(_printable(line)) for line in text.split("\n"))
+
+
+def _printable(line: str) -> str:
+    """``line`` with every non-printable character (ESC, CR, ...) as its Python escape."""
+    if line.isprintable():
+        return line
+    return "".join(c if c.isprintable() or c == "\t" else repr(c)[1:-1] for c in line)
+
+
+def _clip_line(line: str) -> str:
+    """``line`` cut to about :data:`LINE_SHOWN` characters, clause by clause.
+
+    The clauses (separated by ``"; "``) keep their order, their beginning and their end;
+    the longest ones (a quoted netlist line, a list of thousands of devices) are cut in
+    the middle first, so that a short clause that says what to do is never dropped.
+    """
+    if len(line) <= LINE_SHOWN:
+        return line
+    parts = line.split("; ")
+    budget = LINE_SHOWN - 2 * (len(parts) - 1)
+    lengths = sorted(len(part) for part in parts)
+    cap, used = lengths[-1], 0
+    for k, length in enumerate(lengths):  # the largest cap with sum(min(len, cap)) <= budget
+        rest = len(lengths) - k
+        if used + length * rest > budget:
+            cap = max((budget - used) // rest, 60)
+            break
+        used += length
+    clipped = []
+    for part in parts:
+        if len(part) > cap:
+            head = max(cap - 50, 20)
+            tail = 20
+            part = f"{part[:head]} ...[{len(part) - head - tail} characters]... {part[-tail:]}"
+        clipped.append(part)
+    return "; ".join(clipped)
 
 
 def _excerpt(text: str, column: int | None) -> str:

@@ -43,6 +43,9 @@ def parse_value(token: str) -> float:
         value = float(Decimal(match["mantissa"]) * Decimal(_SCALES[scale.lower()]))
     if not math.isfinite(value):
         raise ValueError(f"{token!r} is too large for a double")
+    if value == 0.0 and Decimal(match["mantissa"]) != 0:
+        raise ValueError(f"{token!r} is too small for a double (it would be 0; the smallest "
+                         "positive one is about 5e-324, ordinary ones start at 2.2e-308)")
     return value
 
 

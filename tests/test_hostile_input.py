@@ -64,3 +64,85 @@ def test_a_figure_that_cannot_be_written_is_an_error(tmp_path, capsys):
     status, err = _run(tmp_path, capsys, (NETLISTS / "diode_clamp.cir").read_text(),
                        "--plot", "/dev/full")
     assert status == 1 and "No space left on device" in err
+
+
+# --- item 6: bounded resources -------------------------------------------------------------------
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="/dev/zero is a Unix device")
+@pytest.mark.parametrize("how", ["run", "include"])
+def test_dev_zero_is_refused_at_once(tmp_path, capsys, how):
+    if how == "run":
+        status = main(["run", "/dev/zero", "-o", str(tmp_path / "out.csv"), "-q"])
+        err = capsys.readouterr().err
+    else:
+        status, err = _run(tmp_path, capsys, "inc\n.include /dev/zero\n.end\n")
+    assert status == 1 and "binary file" in err and "not found" not in err
+
+
+def test_an_endless_text_source_is_read_only_up_to_the_limit(tmp_path, monkeypatch):
+    from circuitnsds.netlist import parser
+    monkeypatch.setattr(parser, "MAX_SOURCE_BYTES", 1000)
+    path = tmp_path / "big.cir"
+    path.write_text("title\n" + "R1 a 0 1k\n" * 200)
+    with pytest.raises(NetlistError, match="larger than"):
+        parser.read_source_text(path)
+
+
+def test_subcircuit_fan_out_is_refused_before_expanding():
+    lines = [".subckt l0 a b", "R1 a b 1k", ".ends"]
+    for k in range(1, 31):          # 2^30 resistors from 95 lines
+        lines += [f".subckt l{k} a b", f"X1 a m l{k - 1}", f"X2 m b l{k - 1}", ".ends"]
+    with pytest.raises(NetlistError, match="would make 1,073,741,824 more statements"):
+        circuit_from("\n".join(lines + ["X0 in 0 l30", "V1 in 0 1"]))
+    small = circuit_from("\n".join(lines[:3 + 4 * 4] + ["X0 in 0 l4", "V1 in 0 1"]))
+    assert sum(e.name.endswith("r1") for e in small.elements) == 16   # 2^4, as written
+
+
+def test_a_run_whose_results_cannot_fit_in_memory_is_refused_before_starting(monkeypatch):
+    import circuitnsds.analyses.transient as transient
+    from circuitnsds.errors import CircuitError
+    monkeypatch.setattr(transient, "available_memory", lambda: 100 * 2**20)   # 100 MiB
+    circuit = circuit_from("V1 a 0 1\n" + "\n".join(f"R{k} a n{k} 1k\nC{k} n{k} 0 1n" for k in range(100))
+                           + "\n.tran 1n 1m")
+    # 1,000,001 points × (102 unknowns + 1 source value + 4 per-point numbers) × 8 bytes = 0.797 GiB
+    with pytest.raises(CircuitError, match=r"would take 0\.797 GiB \(1,000,001 time points × 102"):
+        circuit.transient()
+
+
+def test_reading_is_linear_in_the_number_of_elements():
+    """Circuit.add once scanned every element (16k elements: 13.7 s). Counted, not timed:
+    the element lookups a read makes do not grow with the circuit."""
+    from circuitnsds.circuit.circuit import Circuit
+    from circuitnsds.circuit.elements import Resistor
+    circuit = Circuit()
+    for k in range(20000):
+        circuit.add(Resistor(f"r{k}", (f"n{k}", f"n{k + 1}"), resistance=1.0))
+    assert len(circuit.nodes) == 20001 and circuit.element("R19999").nodes == ("n19999", "n20000")
+    with pytest.raises(NetlistError, match="defined twice"):
+        circuit.add(Resistor("r5", ("a", "b"), resistance=1.0))
+    circuit.elements.append(Resistor("extra", ("x", "0"), resistance=1.0))   # changed directly
+    assert circuit.element("extra").nodes == ("x", "0")
+
+
+# --- item 8: messages ------------------------------------------------------------------------------
+
+def test_terminal_escapes_in_a_netlist_are_not_echoed_raw(tmp_path, capsys):
+    status, err = _run(tmp_path, capsys, "esc\nR1 a 0 \x1b[31mred\x1b[0m\nV1 a 0 1\n.end\n")
+    assert status == 1 and "\x1b" not in err and "\\x1b[31mred" in err
+
+
+def test_a_long_message_keeps_every_clause():
+    from circuitnsds.errors import CircuitError
+    devices = ", ".join(f"d{k}" for k in range(3000))
+    text = str(CircuitError("step failed", hint=f"devices: {devices}; look for a diode in series "
+                                                  "with a current source"))
+    assert len(text) < 500 and text.endswith("look for a diode in series with a current source")
+    assert "devices: d0, d1" in text and "d2999" in text
+
+
+def test_a_value_too_small_for_a_double_says_so(tmp_path, capsys):
+    status, err = _run(tmp_path, capsys, "t\nR1 a 0 1e-400\nV1 a 0 1\n.tran 1u 1m\n.end\n")
+    assert status == 1 and "'1e-400' is too small" in err
+    with pytest.raises(SystemExit):
+        main(["run", str(NETLISTS / "diode_clamp.cir"), "--step", "1e-400"])
+    assert "too small for a double" in capsys.readouterr().err

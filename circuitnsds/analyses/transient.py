@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Callable
 
@@ -10,7 +11,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.engine.integrate import STEPPINGS, integrate
+from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
@@ -63,6 +64,7 @@ def run_transient(
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
     check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
+    _check_memory(circuit, mlcs, grid)
     _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     try:
@@ -76,6 +78,44 @@ def run_transient(
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
     return _waveforms(circuit, mlcs, trajectory, start, stop)
+
+
+MEMORY_SHARE = 0.8
+"""A run may plan to use at most this share of the memory available when it starts."""
+
+
+def available_memory() -> int | None:
+    """Memory the system can give this process now [bytes] (Linux's ``MemAvailable``, else the
+    free physical pages), or ``None`` when unknown."""
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray) -> None:
+    """Refuse, before starting, a run whose results cannot fit in memory (a 1,000-node ladder
+    over 5e6 steps needs 37 GiB): the estimate of the arrays every grid point fills, against
+    :data:`MEMORY_SHARE` of the memory available."""
+    from circuitnsds.units import format_si
+
+    needed = trajectory_bytes(mlcs, grid.size)
+    available = available_memory()
+    if available is None or needed <= MEMORY_SHARE * available:
+        return
+    raise CircuitError(
+        f"the results would take {needed / 2**30:.3g} GiB ({grid.size:,} time points × "
+        f"{mlcs.n} unknowns and {mlcs.m} pairs), more than the {available / 2**30:.3g} GiB of memory "
+        "available", where=circuit.file,
+        hint=f"a longer step (now {format_si(float(np.diff(grid).max()), 's')}), a shorter .tran, "
+        "or a smaller circuit")
 
 
 def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:

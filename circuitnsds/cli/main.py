@@ -20,7 +20,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from circuitnsds.cli.progress import ProgressBar
-from circuitnsds.errors import CircuitnsdsError, NetlistWarning, SimulationError, as_error
+from circuitnsds.errors import CircuitnsdsError, NetlistWarning, SimulationError, as_error, for_terminal
 from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
@@ -37,7 +37,9 @@ class OutputError(CircuitnsdsError):
 def _seconds(text: str) -> float:
     try:
         return parse_value(text)
-    except ValueError:
+    except ValueError as exc:
+        if "not a number" not in str(exc):  # too large, or so small it would be 0
+            raise argparse.ArgumentTypeError(str(exc)) from None
         raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 1u, 10ms, 2e-3)") from None
 
 
@@ -137,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
     for warning in caught:
-        print(f"circuitnsds: warning: {warning.message}", file=sys.stderr)
+        print(f"circuitnsds: warning: {for_terminal(str(warning.message))}", file=sys.stderr)
 
 
 @contextmanager

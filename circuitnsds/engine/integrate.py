@@ -74,6 +74,15 @@ CHUNK = 100_000
 """Longest run of mapped steps between progress reports."""
 
 
+def trajectory_bytes(mlcs: MLCS, points: int) -> int:
+    """Memory [bytes] :func:`integrate` allocates for ``points`` grid points: the unknowns,
+    pair currents, impulses, active sets, switch states and source values of every point
+    (what :class:`Trajectory` keeps, plus the per-point work arrays)."""
+    per_point = (8 * mlcs.n + 17 * mlcs.m + len(mlcs.switches) + 8 * len(mlcs.stimuli)
+                 + 8 * 4)  # time, residual, mode index, step class
+    return int(points) * per_point
+
+
 @dataclass
 class Trajectory:
     """Raw result of :func:`integrate` (one row per grid point).

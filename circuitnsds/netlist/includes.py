@@ -112,7 +112,7 @@ class _Expander:
         keyword = statement.keyword
         path = directory / name
         shown = os.path.normpath(str(path))
-        if not path.is_file():
+        if not path.exists() or path.is_dir():  # a device or pipe is read (bounded) and judged
             problem = "is a directory" if path.is_dir() else "not found"
             raise NetlistError(f"{keyword}: file {name!r} {problem} (looked for {shown})",
                                where=statement.location,

@@ -290,6 +290,14 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
     return netlist
 
 
+MAX_SOURCE_BYTES = 256 * 2**20
+"""Largest netlist or included file read [bytes]: reading stops there (``/dev/zero`` or a
+runaway file would otherwise fill the memory)."""
+
+READ_CHUNK = 2**16
+"""First read [bytes]: a binary file (a NUL byte) is refused before reading more."""
+
+
 def read_source_text(path: str | Path, where: object | None = None, what: str = "netlist") -> str:
     """The text of a netlist or library file (UTF-8; ASCII is UTF-8).
 
@@ -299,12 +307,16 @@ def read_source_text(path: str | Path, where: object | None = None, what: str = 
         what: what the file is, for messages (``netlist``, ``included file``).
 
     Raises:
-        NetlistError: the file is missing or unreadable, binary, or not UTF-8 text.
+        NetlistError: the file is missing or unreadable, binary, larger than
+            :data:`MAX_SOURCE_BYTES`, or not UTF-8 text.
     """
     path = Path(path)
     where = str(path) if where is None else where
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as handle:
+            data = handle.read(READ_CHUNK)
+            if b"\0" not in data and len(data) == READ_CHUNK:
+                data += handle.read(MAX_SOURCE_BYTES + 1 - READ_CHUNK)
     except FileNotFoundError:
         raise NetlistError(f"cannot read the {what} {str(path)!r}: no such file", where=where,
                            hint="check the name and its case; relative paths start from the "
@@ -320,6 +332,12 @@ def read_source_text(path: str | Path, where: object | None = None, what: str = 
     if b"\0" in data:
         raise NetlistError(f"the {what} {str(path)!r} is a binary file, not netlist text", where=where,
                            hint="a netlist is plain text; check that the right file is named")
+    if len(data) > MAX_SOURCE_BYTES:
+        kind = "" if path.is_file() else " (not a regular file: a device or a pipe)"
+        raise NetlistError(f"the {what} {str(path)!r}{kind} is larger than "
+                           f"{MAX_SOURCE_BYTES // 2**20} MiB: not read", where=where,
+                           hint="a netlist of a million elements takes about 30 MiB; check that the "
+                           "right file is named")
     data = data.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte-order mark is not text
     try:
         return data.decode("utf-8")

@@ -92,6 +92,11 @@ def _rename_code_model(tokens: list[str], context: _Context) -> None:
 MAX_DEPTH = 100
 """Deepest subcircuit nesting accepted (a guard; recursion is detected before)."""
 
+MAX_STATEMENTS = 1_000_000
+"""Most statements the expansion of subcircuits may produce: each instance copies its
+subcircuit, so 30 levels of two instances each would make 2^30 elements from a few lines
+(a flat netlist of a million elements takes about 1 GB once read)."""
+
 
 def element_letter(name: str) -> str:
     """The type letter of an element: the first letter of its last dotted component
@@ -264,6 +269,28 @@ class _Flattener:
     def __init__(self, structure: _Structure):
         self.structure = structure
         self.statements: list[Statement] = []
+        self._sizes: dict[int, int] = {}
+
+    def size(self, definition: SubcircuitDefinition) -> int:
+        """How many statements one instance of ``definition`` expands to (its subcircuit
+        instances counted through; an unknown or recursive one counts 0, the expansion
+        reports it)."""
+        key = id(definition)
+        if key in self._sizes:
+            return self._sizes[key]
+        self._sizes[key] = 0  # a recursive definition (refused by instance()) ends here
+        total = 0
+        for statement in definition.body:
+            if statement.keyword == ".param":
+                continue
+            if not statement.is_command and element_letter(statement.keyword) == "x":
+                words = tokenize(split_parameters(statement.text)[0], strict=False)
+                child = self.find_from(words[-1], definition) if len(words) >= 2 else None
+                total += self.size(child) if child is not None else 0
+            else:
+                total += 1
+        self._sizes[key] = total
+        return total
 
     def expand(self, body: list[Statement], context: _Context) -> None:
         for statement in body:
@@ -321,7 +348,10 @@ class _Flattener:
                 tokens[index] = context.model(tokens[index])
 
     def find(self, name: str, context: _Context) -> SubcircuitDefinition | None:
-        definition = context.definition
+        return self.find_from(name, context.definition)
+
+    def find_from(self, name: str, definition: SubcircuitDefinition | None) -> SubcircuitDefinition | None:
+        """The subcircuit ``name`` as seen from inside ``definition`` (``None``: the top level)."""
         while definition is not None:
             if name in definition.children:
                 return definition.children[name]
@@ -366,6 +396,15 @@ class _Flattener:
                 f"({' '.join(definition.ports) or 'none'}), the instance gives {len(nodes)} nodes "
                 f"({' '.join(nodes) or 'none'})", where=statement.location,
                 hint=f".subckt {subcircuit} is at {definition.statement.location}; {hint}")
+        size = self.size(definition)
+        if len(self.statements) + size > MAX_STATEMENTS:
+            raise NetlistError(
+                f"{name}: expanding subcircuit {subcircuit!r} would make {size:,} more statements "
+                f"({len(self.statements):,} already), beyond the limit of {MAX_STATEMENTS:,}",
+                where=statement.location,
+                hint="each instance copies every element of its subcircuit, so nested instances "
+                "multiply: check the nesting (a subcircuit instantiating two of the level below, "
+                "30 levels deep, is 2^30 elements)")
         path = context.prefixed(name)
         scope = Scope(parent=context.scope, label=path)
         for parameter, value in self.overrides(statement, assignments, definition, context).items():

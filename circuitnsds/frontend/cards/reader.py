@@ -87,6 +87,7 @@ class StatementReader:
             return parse_value(token)
         except ValueError as exc:
             problem = ("is too large (beyond 1.8e308)" if "too large" in str(exc)
+                       else "is too small (below 5e-324, it would be 0)" if "too small" in str(exc)
                        else "is not a number")
             raise self.error(f"{self.name}: {what} {token!r} {problem}",
                              hint="numbers look like 10, 4.7k, 10uF, 1e-3") from None
@@ -95,8 +96,9 @@ class StatementReader:
         """The value of parameter ``key`` written as ``text``."""
         try:
             return parse_value(text)
-        except ValueError:
-            raise self.error(f"{self.name}: {key}={text!r} is not a number") from None
+        except ValueError as exc:
+            problem = "is not a number" if "not a number" in str(exc) else str(exc).split(" is ", 1)[-1]
+            raise self.error(f"{self.name}: {key}={text!r} is {problem.removeprefix('is ')}") from None
 
     def nodes(self, count: int) -> tuple[str, ...]:
         return tuple(node_name(self.next(f"node {k + 1} of {count}")) for k in range(count))
