@@ -138,11 +138,9 @@ def test_coupling_order_and_netlist_position_do_not_matter():
         ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 1.5", 6, ["k1", "1.5"]),
         ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 -1.01", 6, ["k1", "-1.01"]),
         ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 0", 6, ["k1"]),
-        ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 1", 6, ["positive definite", "l1", "l2"]),
-        ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 -1", 6, ["positive definite"]),
         # three couplings, each fine alone, jointly not PD: 1 - 2·0.6 < 0
         ("L1 a 0 1m\nL2 b 0 1m\nL3 c 0 1m\nR1 a b 1\nR2 b c 1\nR3 c 0 1\n"
-         "K1 L1 L2 -0.6\nK2 L2 L3 -0.6\nK3 L1 L3 -0.6", 10, ["positive definite", "l1, l2, l3"]),
+         "K1 L1 L2 -0.6\nK2 L2 L3 -0.6\nK3 L1 L3 -0.6", 10, ["positive semidefinite", "l1, l2, l3"]),
         ("L1 a 0 1m\nR1 a 0 1\nK1 L1 L9 0.5", 4, ["l9", "not an inductor"]),
         ("L1 a 0 1m\nR1 a 0 1\nR2 a 0 1\nK1 L1 R2 0.5", 5, ["r2", "not an inductor"]),
         ("L1 a 0 1m\nL2 b 0 1m\nR1 a b 1\nR2 b 0 1\nK1 L1 L2 0.5\nK2 L2 L1 0.3", 7,
@@ -166,3 +164,14 @@ def test_three_winding_transformer_that_is_positive_definite_is_accepted():
             "K1 L1 L2 0.45\nK2 L2 L3 0.45\nK3 L1 L3 0.45")
     circuit = circuit_from(body)
     assert sum(1 for e in circuit.elements if e.name.startswith("k")) == 3
+
+
+@pytest.mark.parametrize("k", [1.0, -1.0])
+def test_perfect_coupling_is_an_ideal_transformer(k):
+    """|k| = 1 is accepted, as ngspice accepts it (issue 20, item 9): with L2 = 4·L1 the
+    secondary voltage is exactly k·sqrt(L2/L1) = 2k times the primary's, at every instant,
+    whatever the load (v2 = M di1/dt + L2 di2/dt = k·sqrt(L2/L1)·v1 when M² = L1·L2)."""
+    waves = circuit_from(f"V1 a 0 SIN(0 1 1k)\nR1 a b 1\nL1 b 0 1m\nL2 c 0 4m\nR2 c 0 100\n"
+                         f"K1 L1 L2 {k}\n.tran 10u 2m").transient()
+    np.testing.assert_allclose(waves["v(c)"], 2 * k * waves["v(b)"], rtol=0, atol=1e-9)
+    assert np.abs(waves["v(c)"]).max() > 0.5

@@ -125,7 +125,9 @@ def _element(statement: Statement, models: dict[str, object], voltage_sources: s
 
 def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     """Add the ``K`` couplings, then check that each coupled group's inductance matrix
-    is positive definite (else the magnetic energy could be negative)."""
+    is positive semidefinite (else the magnetic energy could be negative). A zero
+    eigenvalue is perfect coupling (``|k| = 1``, an ideal transformer with its magnetising
+    inductance), which ngspice accepts too."""
     inductors = {e.name: e for e in circuit.elements if isinstance(e, Inductor)}
     couplings: list[MutualInductance] = []
     for statement in statements:
@@ -149,14 +151,14 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
         related = [c for c in couplings if c.inductors[0] in group]
         matrix = devices.inductance_matrix(members, related)
         smallest = float(np.linalg.eigvalsh(matrix / np.max(np.abs(matrix))).min())
-        if smallest <= 1e-12:
+        if smallest < -1e-12:
             where = related[-1].location
             raise NetlistError(
                 f"the inductance matrix of {', '.join(sorted(group))} (coupled by "
-                f"{', '.join(c.name for c in related)}) is not positive definite",
+                f"{', '.join(c.name for c in related)}) is not positive semidefinite",
                 where=where,
-                hint="|k| = 1, or couplings that contradict each other, make the magnetic "
-                "energy zero or negative for some currents; use |k| < 1 (e.g. 0.999)",
+                hint="the couplings contradict each other (e.g. k12 = k23 = 1 with k13 = -1): the "
+                "magnetic energy would be negative for some currents; check their values and signs",
             )
 
 
