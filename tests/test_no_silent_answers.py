@@ -1,6 +1,7 @@
 """Circuits whose ideal answer does not exist or is not unique must not get one silently
 (issue 20: items 2, 3 and 9)."""
 
+import warnings
 
 import numpy as np
 import pytest
@@ -73,3 +74,16 @@ def test_enumeration_still_accepts_pairs_that_split_a_current():
     x, active, _, _ = enumerate_mlcp(K, 1, np.array([-1.0, 0.0, 0.0]))
     assert x[0] == pytest.approx(0.0, abs=1e-9) and x[1] + x[2] == pytest.approx(1.0)
     assert x[1] >= -1e-12 and x[2] >= -1e-12
+
+
+# --- item 9: what the ideal model leaves open is said ----------------------------------------
+
+def test_ideal_diodes_in_parallel_are_warned_about_at_run():
+    body = "V1 a 0 SIN(0 5 50)\nR1 a b 1k\nD1 b 0 dd\nD2 b 0 dd\n.model dd D\n.tran 100u 20m"
+    with pytest.warns(CircuitWarning, match="d1, d2 are ideal .* in parallel from b to 0"):
+        waves = circuit_from(body).transient()
+    total = waves["i(d1)"] + waves["i(d2)"]                      # the sum is determined
+    np.testing.assert_allclose(total, np.maximum(waves["v(a)"], 0) / 1e3, atol=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                           # with Ron they share: no warning
+        circuit_from(body.replace(".model dd D", ".model dd D(Ron=1)")).transient()

@@ -28,6 +28,8 @@ Warnings (:class:`~circuitnsds.errors.CircuitWarning`; ``--strict`` makes them e
   the loop's currents are undefined and the step has no unique solution;
 * a group of nodes reached only through current sources and switches: while the
   switches are open, the source current can flow only through their ``ROFF``;
+* diodes with ``Ron = 0`` in parallel in the same direction (or Zener breakdown branches
+  with ``Rrev = 0``): how they share a current is not determined;
 * at start-up under UIC (:func:`check_initial_conditions`): a loop of voltage sources and
   capacitors whose initial voltages do not add up to zero, or a cutset of current
   sources and inductors whose initial currents do not; the state then jumps at ``t = 0``
@@ -88,6 +90,33 @@ def check_circuit(circuit) -> None:
         _warn(circuit, message)
     for message in _switch_cutsets(elements, circuit.nodes):
         _warn(circuit, message)
+    for message in _parallel_ideal_diodes(elements):
+        _warn(circuit, message)
+
+
+def _parallel_ideal_diodes(elements: Sequence[Element]) -> Iterable[str]:
+    """Diodes without on-resistance side by side, in the same direction: while they conduct
+    nothing decides how they share the current (the step's solution is not unique; the
+    solver returns one split, arbitrary). Same for the breakdown branches of Zeners."""
+    from circuitnsds.circuit.elements import Diode
+
+    branches: dict[tuple[str, str, float], list[Element]] = {}
+    for element in elements:
+        if not isinstance(element, Diode) or element.nodes[0] == element.nodes[1]:
+            continue
+        model = element.model
+        anode, cathode = element.nodes[:2]
+        if model.on_resistance == 0:
+            branches.setdefault((anode, cathode, model.forward_drop), []).append(element)
+        if model.kind == "zener" and model.breakdown_resistance == 0:
+            branches.setdefault((cathode, anode, model.breakdown_voltage), []).append(element)
+    for (a, b, _), group in branches.items():
+        if len(group) > 1:
+            names = ", ".join(e.name for e in group)
+            yield (f"{_where(group[1])}{names} are ideal (Ron = 0) and in parallel from {a} to {b}: "
+                   "while they conduct, how they share the current is not determined (the results "
+                   "show one arbitrary split; their sum is right); give the model Ron > 0 to share "
+                   "it by resistance, or keep one diode")
 
 
 def check_initial_conditions(circuit, elements: Sequence[Element], uic: bool) -> None:
