@@ -7,7 +7,11 @@ Run from the repository root::
 Each case takes a netlist of ``netlists/`` (or an empty or binary file), applies one
 to three random mutations (:func:`mutate`: deleted tokens and lines, swapped letters,
 garbage bytes, huge numbers, NaN/inf literals, truncation, duplicated lines, very long
-lines and tokens, stray parentheses/braces/quotes), writes it to a file and runs
+lines and tokens, stray parentheses/braces/quotes; deep nesting: parentheses, function
+calls and unary signs hundreds to twenty thousand deep, chains of ``.param`` dependencies
+written in order or backwards, subcircuits instantiating several of the level below up to
+101 levels deep; extreme values: numbers at the edges of the doubles and of physics,
+``.options gmin`` from 0 to 1e300), writes it to a file and runs
 :func:`run_case`: ``read_netlist`` → ``circuit.mlcs()`` → a ten-step transient, and
 for every ``--cli-every``-th case also ``circuitnsds info`` in-process.
 
@@ -59,6 +63,57 @@ STRAY = ["(", ")", "=", "{", "}", "'", '"', "+", ",", ".end", ".ends", ".subckt 
          "*", ";", "$", "\\", "\t", "\r", "\x0c", "\u00b5", "\u2212", "\ufeff"]
 
 
+EXTREME = ["1e-15", "1e-300", "1e300", "1e-320", "5e-324", "1.7e308", "1e-30", "1e30", "1e-400",
+           "1e400", "1f", "1t", "1e-12", "1e12", "2.2250738585072014e-308"]
+"""Values at the edges of the doubles and of physics, for any number of the netlist."""
+OPTIONS = [".options gmin=1e300", ".options gmin=1e-300", ".options gmin=0", ".options theta=0.5",
+           ".options theta=1e-300", ".options gmin=1e-15"]
+DEPTHS = (2, 50, 99, 100, 101, 300, 5000)
+"""Nesting depths of the deep-nesting generators (the parser's limit is 100)."""
+
+
+def nested_expression(rng: random.Random) -> str:
+    """An expression nested deeply: parentheses, function calls, unary signs, powers."""
+    depth = rng.choice(DEPTHS)
+    value = rng.choice(["1", "2", "1k", "0.5"])
+    shape = rng.choice(["parens", "calls", "unary", "power", "mixed"])
+    if shape == "parens":
+        text = "(" * depth + value + ")" * depth
+    elif shape == "calls":
+        call = rng.choice(["abs(", "sqrt(", "max(1,", "exp(", "sgn("])
+        text = call * depth + value + ")" * depth
+    elif shape == "unary":
+        text = "".join(rng.choice("+-") for _ in range(rng.choice((1, 2, 1000, 20000, 20001)))) + value
+    elif shape == "power":
+        text = value + "^" + "-" * depth + "1"
+    else:
+        text = "(-" * depth + value + ")" * depth
+    return "{" + text + "}"
+
+
+def param_chain(rng: random.Random) -> tuple[list[bytes], str]:
+    """``.param`` lines of a chain of dependencies (written in order or backwards) and the
+    name of its last parameter."""
+    length = rng.choice((3, 49, 50, 51, 300, 3000))
+    lines = [f".param fz{k}={{fz{k - 1}+1}}".encode() for k in range(1, length)]
+    lines.insert(0, b".param fz0=1")
+    if rng.random() < 0.5:
+        lines.reverse()
+    return lines, f"{{fz{length - 1}}}"
+
+
+def fan_out(rng: random.Random) -> list[bytes]:
+    """Subcircuits each instantiating ``fan`` of the level below, ``depth`` levels: fan^depth
+    resistors from a few lines, tied to ground by ``Rfz``."""
+    depth, fan = rng.choice([(2, 2), (8, 2), (12, 3), (20, 2), (30, 2), (40, 4), (101, 1)])
+    lines = [b".subckt fzl0 a b", b"Rfz a b 1k", b".ends"]
+    for level in range(1, depth + 1):
+        lines.append(f".subckt fzl{level} a b".encode())
+        lines += [f"Xfz{k} a b fzl{level - 1}".encode() for k in range(fan)]
+        lines.append(b".ends")
+    return lines + [f"Xfztop fza 0 fzl{depth}".encode(), b"Rfzt fza 0 1k"]
+
+
 def corpus() -> dict[str, bytes]:
     """The seeds: every bundled netlist (``.cir`` and the ``.lib`` it includes)."""
     return {path.name: path.read_bytes() for path in sorted(NETLISTS.glob("*.cir"))}
@@ -93,7 +148,8 @@ def mutate(data: bytes, rng: random.Random, long_repeats: tuple[int, ...] = LONG
     lengths (in repeats of a unit) of the very long lines and tokens it may insert."""
     kind = rng.choice(["delete_token", "swap_letters", "garbage", "huge", "non_finite",
                        "truncate", "duplicate_line", "delete_line", "long_line", "long_token",
-                       "stray", "case", "swap_lines", "empty", "binary"])
+                       "stray", "case", "swap_lines", "empty", "binary", "deep_nesting",
+                       "param_chain", "fan_out", "extreme", "extreme_option"])
     tokens = _tokens(data)
     if kind == "empty":
         return rng.choice([b"", b"\n", b" ", b"title only\n", b"\n\n.end\n"])
@@ -116,6 +172,15 @@ def mutate(data: bytes, rng: random.Random, long_repeats: tuple[int, ...] = LONG
             value = rng.choice(HUGE if kind == "huge" else NON_FINITE)
             return data[:a] + value.encode() + data[b:]
         return data
+    if kind == "deep_nesting" and tokens:
+        a, b = rng.choice(_numbers(data) or tokens)
+        return data[:a] + nested_expression(rng).encode() + data[b:]
+    if kind == "extreme":
+        spans = _numbers(data)
+        if spans:
+            a, b = rng.choice(spans)
+            return data[:a] + rng.choice(EXTREME).encode() + data[b:]
+        return data
     if kind == "truncate":
         return data[:rng.randrange(len(data) + 1)]
     lines = data.split(b"\n")
@@ -125,6 +190,18 @@ def mutate(data: bytes, rng: random.Random, long_repeats: tuple[int, ...] = LONG
     if kind == "delete_line":
         i = rng.randrange(len(lines))
         return b"\n".join(lines[:i] + lines[i + 1:])
+    if kind == "param_chain":
+        chain, last = param_chain(rng)
+        spans = _numbers(data)
+        if spans:
+            a, b = rng.choice(spans)
+            data = data[:a] + last.encode() + data[b:]
+        lines = data.split(b"\n")
+        return b"\n".join(lines[:1] + chain + lines[1:])
+    if kind == "fan_out":
+        return b"\n".join(lines[:1] + fan_out(rng) + lines[1:])
+    if kind == "extreme_option":
+        return b"\n".join(lines[:1] + [rng.choice(OPTIONS).encode()] + lines[1:])
     if kind == "swap_lines" and len(lines) > 1:
         i, j = rng.randrange(len(lines)), rng.randrange(len(lines))
         lines[i], lines[j] = lines[j], lines[i]

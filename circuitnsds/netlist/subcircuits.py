@@ -92,10 +92,10 @@ def _rename_code_model(tokens: list[str], context: _Context) -> None:
 MAX_DEPTH = 100
 """Deepest subcircuit nesting accepted (a guard; recursion is detected before)."""
 
-MAX_STATEMENTS = 1_000_000
+MAX_STATEMENTS = 250_000
 """Most statements the expansion of subcircuits may produce: each instance copies its
 subcircuit, so 30 levels of two instances each would make 2^30 elements from a few lines
-(a flat netlist of a million elements takes about 1 GB once read)."""
+(250,000 elements take about a minute to read and check, 250 MB)."""
 
 
 def element_letter(name: str) -> str:
