@@ -146,3 +146,27 @@ def test_a_value_too_small_for_a_double_says_so(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["run", str(NETLISTS / "diode_clamp.cir"), "--step", "1e-400"])
     assert "too small for a double" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("body", "named", "innocent"), [
+    ("V1 a 0 1\nR1 a b 1e-15\nC1 b 0 1u\nR2 b 0 1k", "r1 (R = 1e-15 Ω)", "nothing in the circuit determines"),
+    ("V1 a 0 1\nR1 a b 1e-300\nC1 b 0 1u\nD1 b 0 dd\n.model dd D", "r1 (R = 1e-300 Ω)", ".ic"),
+    ("V1 a 0 SIN(0 1 1k)\nR1 a b 1k\nC1 b 0 1u\nD1 b 0 dd\n.model dd D\n.options gmin=1e300",
+     "d1 (Roff = 1e-300 Ω)", "orientation"),
+    ("V1 a 0 SIN(0 1 1k)\nR1 a b 1k\nC1 b 0 1e300\nD1 b 0 dd\n.model dd D\n.tran 1u 10u uic",
+     "c1 (C = 1e+300 F)", "orientation"),
+])
+def test_extreme_values_are_named_not_innocent_nodes(body, named, innocent):
+    from circuitnsds.errors import SimulationError
+    text = body if ".tran" in body else body + "\n.tran 1u 10u"
+    with pytest.raises(SimulationError) as caught:
+        circuit_from(text).transient()
+    message = str(caught.value)
+    assert named in message and "double precision" in message and innocent not in message
+
+
+def test_an_ic_contradicting_a_source_names_the_node():
+    from circuitnsds.errors import SimulationError
+    with pytest.raises(SimulationError, match=r":5: \.ic v\(a\)=2 contradicts the sources, which hold "
+                                              r"a at 1 V"):
+        circuit_from("V1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(a)=2\n.tran 1u 10u").transient()

@@ -11,12 +11,14 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
+from circuitnsds.checks.rules import ill_conditioning
 from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, Inductor, Integrator
@@ -105,6 +107,17 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
     try:
         return solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
     except LCPError as exc:
+        ill = ill_conditioning(circuit.elements, math.inf)  # DC: capacitors open, inductors short
+        if ill is not None:
+            raise SimulationError("the DC operating point cannot be computed: " + ill,
+                                  where="operating point") from None
+        contradicted = _contradicted_ics(circuit, mlcs, states, tol) if held else []
+        if contradicted:
+            raise SimulationError(
+                "the DC operating point has no solution: " + "; ".join(contradicted),
+                where="operating point",
+                hint="remove or correct those .ic values (a node a source drives cannot start "
+                "elsewhere), or add UIC to .tran to start from them anyway") from None
         undetermined = getattr(exc, "evidence", {}).get("undetermined")
         if undetermined is not None:
             names = [mlcs.unknowns[j] for j in undetermined if j < mlcs.n]
@@ -120,6 +133,30 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
             hint="check that .ic values do not contradict the sources driving those nodes, "
             "then the diode orientations and source values; or add UIC to .tran",
         ) from None
+
+
+MAX_IC_TRIALS = 20
+"""At most this many ``.ic`` nodes are tried one by one to find the one a source contradicts."""
+
+
+def _contradicted_ics(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float) -> list[str]:
+    """The ``.ic`` nodes whose value alone makes the operating point impossible: without that
+    node held, it has a solution (the voltage the circuit gives it is quoted)."""
+    from dataclasses import replace
+
+    found = []
+    nodes = [node for node in circuit.initial_voltages if node != "0"][:MAX_IC_TRIALS]
+    for node in nodes:
+        others = {k: v for k, v in circuit.initial_voltages.items() if k != node}
+        try:
+            result = _solve_dc(replace(circuit, initial_voltages=others), mlcs, states, tol)
+        except SimulationError:
+            continue
+        value, location = circuit.initial_voltages[node]
+        actual = float(result.u[circuit.nodes.index(node)])
+        found.append(f"{str(location) + ': ' if location else ''}.ic v({node})={value:g} contradicts the "
+                     f"sources, which hold {node} at {actual:.6g} V")
+    return found
 
 
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:

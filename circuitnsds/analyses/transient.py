@@ -9,7 +9,7 @@ from collections.abc import Callable
 import numpy as np
 
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
@@ -146,6 +146,11 @@ def _word(error: SimulationError) -> None:
         error.message = error.message.replace(unknown, _reader_name(unknown))
 
 
+ANALYSE_LIMIT = 3000
+"""Largest number of unknowns and pairs whose failed step is analysed (the well-posedness
+analysis works on dense matrices)."""
+
+
 def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:
     """The hint of a failed step: the well-posedness analysis of that step's LCP."""
     from circuitnsds.checks.wellposed import analyse, forced_currents
@@ -156,6 +161,10 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
     error.hint = (f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
                   "Zener) that no current can pass in either state, e.g. in series with a current source")
     t0, t1 = interval
+    ill = ill_conditioning(circuit.elements, t1 - t0)
+    if ill is not None:  # the values, not the devices' states, are the trouble
+        error.hint = ill
+        return
     trajectory = error.trajectory
     if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
         error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: the "
@@ -163,6 +172,8 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
                       "gain above 1); the waveforms before that instant are kept")
         return
     states = error.switch_states
+    if mlcs.n + mlcs.m > ANALYSE_LIMIT:  # the analysis is dense: keep the devices' hint
+        return
     try:
         analysis = analyse(mlcs, t1 - t0, None if states is None else tuple(states),
                            1.0 if t0 == grid[0] else theta)

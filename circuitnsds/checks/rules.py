@@ -119,6 +119,55 @@ def _parallel_ideal_diodes(elements: Sequence[Element]) -> Iterable[str]:
                    "it by resistance, or keep one diode")
 
 
+SPREAD = 1e16
+"""Conductances (resistors, ``C/h``, ``h/L``, device ``1/Ron`` and ``1/Roff``) spread over
+more than this factor make a circuit's equations too ill-conditioned for double precision
+(16 digits in all): the smaller ones are rounding noise beside the larger."""
+
+
+def conductance_scales(elements: Sequence[Element], step: float) -> list[tuple[Element, str, float]]:
+    """``(element, what, siemens)`` for every element with a conductance-like stamp: what the
+    step's equations hold for it (``1/R``, ``C/h``, ``h/L``, ``1/Ron``, ``1/Roff``) [S]."""
+    from circuitnsds.circuit.elements import Diode
+
+    scales = []
+    for element in elements:
+        if isinstance(element, Resistor):
+            scales.append((element, f"R = {element.resistance:.3g} Ω", 1.0 / element.resistance))
+        elif isinstance(element, Capacitor) and element.capacitance > 0:
+            scales.append((element, f"C = {element.capacitance:.3g} F", element.capacitance / step))
+        elif isinstance(element, Inductor) and element.inductance > 0:
+            scales.append((element, f"L = {element.inductance:.3g} H", step / element.inductance))
+        elif isinstance(element, (Diode, Switch)):
+            model = element.model
+            scales.append((element, f"Roff = {model.off_resistance:.3g} Ω", 1.0 / model.off_resistance))
+            if model.on_resistance > 0:
+                scales.append((element, f"Ron = {model.on_resistance:.3g} Ω", 1.0 / model.on_resistance))
+    return scales
+
+
+def ill_conditioning(elements: Sequence[Element], step: float) -> str | None:
+    """A sentence naming the values that make the equations ill-conditioned (conductances
+    spread over more than :data:`SPREAD`), or ``None``: the elements within a decade of the
+    largest conductance, and of the smallest unless that is an ``Roff`` (expected to be tiny:
+    the default 1e12 Ω)."""
+    with np.errstate(all="ignore"):
+        scales = [(e, what, g) for e, what, g in conductance_scales(elements, step)
+                  if np.isfinite(g) and g > 0]
+    if len(scales) < 2:
+        return None
+    logs = np.log10([g for _, _, g in scales])
+    high, low = float(logs.max()), float(logs.min())
+    if high - low <= math.log10(SPREAD):
+        return None
+    named = [f"{e.name} ({what})" for (e, what, _), log in zip(scales, logs)
+             if log >= high - 1 or (log <= low + 1 and not what.startswith("Roff"))]
+    at = "" if math.isinf(step) else f" at h = {step:.3g} s"
+    return (f"{', '.join(dict.fromkeys(named[:6]))}: the circuit's conductances{at} span "
+            f"1e{high - low:.0f} (from 1e{low:.0f} to 1e{high:.0f} S), more than double "
+            "precision resolves; change those values")
+
+
 def check_initial_conditions(circuit, elements: Sequence[Element], uic: bool) -> None:
     """Start-up warnings: under UIC, loops of voltage sources and capacitors whose initial
     voltages do not sum to zero, and cutsets of current sources and inductors whose
