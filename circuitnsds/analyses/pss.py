@@ -50,6 +50,11 @@ ILL_CONDITIONED = 1e12
 """Condition number of ``I − Φ`` above which the Newton step is refused."""
 PERIOD_MATCH = 1e-9
 """Relative tolerance when testing that source periods divide the common period."""
+UNDAMPED_HINT = ("look for a capacitor in a cut-set with only sources, capacitors or blocked "
+                 "diodes (its charge never changes), an inductor in a loop of sources only, or an "
+                 "undamped LC; add a resistance (a bleeder across the capacitor, a series "
+                 "resistance in the inductor)")
+"""What to look for when a state is not damped over a period."""
 MOST_PERIODS = 10_000
 """Largest ratio common period / longest source period searched for."""
 
@@ -290,18 +295,18 @@ class _Shooter:
         closest = int(np.argmin(np.abs(1.0 - multipliers))) if size else 0
         condition = np.linalg.cond(matrix) if size else 1.0
         if size and (abs(1.0 - multipliers[closest]) < SINGULAR or not condition < ILL_CONDITIONED):
-            vector = np.abs(vectors[:, closest])
-            names = [self.mlcs.unknowns[maps.state[j]] for j in np.argsort(vector)[::-1][:3]
-                     if vector[j] > 0.1 * vector.max()]
             raise SimulationError(
                 f"I − Φ is singular (Floquet multiplier {multipliers[closest]:.12g}, condition "
-                f"{condition:.3g}): the state along {', '.join(names)} is not damped over a period, "
-                "so no period map settles it (or every value of it is periodic)",
-                where=self.circuit.file,
-                hint="look for a capacitor in a cut-set with only sources or blocked diodes (its charge "
-                "never changes), an inductor in a loop of sources only, or an undamped LC; add a "
-                "resistance (a bleeder across the capacitor, a series resistance in the inductor)")
+                f"{condition:.3g}): the state along {self._along(maps, vectors[:, closest])} is not "
+                "damped over a period, so no Newton step can settle it", where=self.circuit.file,
+                hint=UNDAMPED_HINT)
         return np.linalg.solve(matrix, c)
+
+    def _along(self, maps: StepMaps, vector: np.ndarray) -> str:
+        """The state unknowns that make up most of an eigenvector of ``Φ``."""
+        size = np.abs(vector)
+        return ", ".join(self.mlcs.unknowns[maps.state[j]] for j in np.argsort(size)[::-1][:3]
+                         if size[j] > 0.1 * size.max())
 
     def _transient(self, best, periods: int):
         """Run ``periods`` periods of plain transient from the best state seen."""
@@ -317,13 +322,22 @@ class _Shooter:
         run = maps.trajectory
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
-        if multipliers.size and np.abs(multipliers).max() >= 1.0:
+        if multipliers.size:
             import warnings
 
-            warnings.warn(CircuitWarning(
-                f"{self.circuit.file}: the periodic solution found is not stable (largest Floquet "
-                f"multiplier |λ| = {np.abs(multipliers).max():.6g} >= 1): a transient would not settle "
-                "to it"), stacklevel=3)
+            phi_values, vectors = np.linalg.eig(phi)
+            closest = int(np.argmin(np.abs(1.0 - phi_values)))
+            if abs(1.0 - phi_values[closest]) < SINGULAR:
+                warnings.warn(CircuitWarning(
+                    f"{self.circuit.file}: the periodic solution is not unique: the state along "
+                    f"{self._along(maps, vectors[:, closest])} is not damped (Floquet multiplier 1), "
+                    f"so every value of it repeats and the one shown is the initial state's; "
+                    f"{UNDAMPED_HINT}"), stacklevel=5)
+            elif np.abs(multipliers).max() > 1.0:
+                warnings.warn(CircuitWarning(
+                    f"{self.circuit.file}: the periodic solution found is not stable (largest Floquet "
+                    f"multiplier |λ| = {np.abs(multipliers).max():.6g} > 1): a transient would not "
+                    "settle to it"), stacklevel=5)
         # the first point holds the state given, not the algebraic unknowns at t0: take them from
         # the period's end, which is the same instant of the periodic solution
         run.y[0] = run.y[-1]
