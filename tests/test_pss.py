@@ -103,36 +103,8 @@ def _settled_last_period(circuit, result, step, periods):
 
 CONVERTERS = {
     "boost_ccm": ((NETLISTS / "boost_converter.cir").read_text(), 0.2e-6, 2500),
-    "boost_dcm": ("""Boost in DCM, 100 kHz, D = 0.5, L = 20 uH, R = 50 ohm
-Vin in 0 DC 12
-Vgate gate 0 PULSE(0 5 0 10n 10n 4.99u 10u)
-L1 in sw 20u
-S1 sw 0 gate 0 swmod
-D1 sw out dboost
-C1 out 0 10u
-Rload out 0 50
-.model swmod SW(VT=2.5 VH=0 RON=10m ROFF=1e9)
-.model dboost D(Ron=10m)
-.end
-""", 0.2e-6, 400),
-    "flyback_rcd": ("""Flyback 12 V with RCD clamp, 100 kHz, D = 0.4, leakage from K = 0.98
-Vin in 0 DC 12
-Vgate gate 0 PULSE(0 5 0 10n 10n 3.99u 10u)
-Lp in drain 100u
-Ls 0 sec 25u
-K1 Lp Ls 0.98
-S1 drain 0 gate 0 swmod
-Dc drain clamp dclamp
-Cc clamp in 10n
-Rc clamp in 10k
-Do sec out dout
-Co out 0 47u
-Rload out 0 10
-.model swmod SW(VT=2.5 VH=0 RON=20m ROFF=1e9)
-.model dclamp D(Ron=10m)
-.model dout D(Ron=10m)
-.end
-""", 0.2e-6, 600),
+    "boost_dcm": ((NETLISTS / "boost_dcm.cir").read_text(), 0.2e-6, 400),
+    "flyback_rcd": ((NETLISTS / "flyback_rcd.cir").read_text(), 0.2e-6, 600),
     "bridge": ("""Full-wave bridge 50 Hz, 100 uF, 100 ohm
 Vmains line acn SIN(0 325 50)
 Rsrc line acp 0.5

@@ -27,7 +27,7 @@ from circuitnsds.analyses.transient import _waveforms
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate
-from circuitnsds.engine.step_maps import StepMaps, run_with_maps
+from circuitnsds.engine.step_maps import StepMapper, StepMaps
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import Waveforms
@@ -243,6 +243,7 @@ class _Shooter:
         self.iterations = 0
         self.history: list[float] = []
         self.transient_periods = 0
+        self.mapper = StepMapper(mlcs, grid, tol=1e-9)
 
     def solve(self, y, charge, active, switches, max_iterations: int) -> PSSResult:
         best: tuple[float, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray] | None = None
@@ -252,7 +253,7 @@ class _Shooter:
                 periods = FALLBACK_PERIODS * 2 ** (round_ - 1)
                 y, charge, active, switches = self._transient(best, periods)
             for attempt in range(max_iterations + 1):
-                maps = run_with_maps(self.mlcs, self.grid, y, charge, active, switches)
+                maps = self.mapper.run(y, charge, active, switches)
                 run = maps.trajectory
                 x0, x1 = run.y[0, maps.state], run.y[-1, maps.state]
                 relative = self._relative(run.y[:, maps.state], x1 - x0)

@@ -117,6 +117,7 @@ def integrate(
     tol: float = 1e-9,
     progress: Callable[[float, float], None] | None = None,
     stepping: str = "compiled",
+    cache: dict | None = None,
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -137,6 +138,10 @@ def integrate(
             loops in Python when numba is missing), ``"numpy"`` by the same loops in
             Python, ``"mlcp"`` by no loop: every step is solved as an MLCP. One scheme
             all three: the results agree to rounding.
+        cache: a dict the caller keeps between runs on the same grid (a shooting method
+            runs one period again and again): the step solvers and mode maps built for
+            this grid are kept in it and reused (``stats`` then count since it was made);
+            ``cache["last"]`` is the stepping state of the last run.
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -161,7 +166,7 @@ def integrate(
     states[0] = (switches0 if switches0 is not None
                  else [switch.initially_on for switch in switches])
 
-    stepping = _Stepping(mlcs, grid, theta, tol, states[0])
+    stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0])
     started = wallclock.perf_counter()
     clock = {"last": started, "reported": False}
 
@@ -233,6 +238,18 @@ def integrate(
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
     return Trajectory(grid, y, current, impulse, residual, active, states, stats)
+
+
+def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
+                  initial_states: np.ndarray) -> _Stepping:
+    """The :class:`_Stepping` of this grid and start, from ``cache`` when it holds one."""
+    if cache is None:
+        return _Stepping(mlcs, grid, theta, tol, initial_states)
+    key = (id(mlcs), theta, tol, initial_states.tobytes(), grid.tobytes())
+    if key not in cache:
+        cache[key] = _Stepping(mlcs, grid, theta, tol, initial_states)
+    cache["last"] = cache[key]  # what the caller reads the step maps from
+    return cache[key]
 
 
 @dataclass

@@ -113,6 +113,58 @@ class StepMaps:
         return worst / max(float(np.abs(x).max(initial=0.0)), 1e-300)
 
 
+class StepMapper:
+    """Runs on one grid again and again (a shooting method), keeping the step solvers,
+    the mode loop's table and the step maps of the modes seen between runs."""
+
+    def __init__(self, mlcs: MLCS, grid: np.ndarray, *, theta: float = 1.0, tol: float = 1e-9,
+                 stepping: str = "compiled"):
+        if theta != 1.0:
+            raise ValueError(f"step maps on the state need implicit Euler (theta = 1), got {theta}")
+        self.mlcs, self.grid, self.tol, self.stepping = mlcs, np.asarray(grid, dtype=float), tol, stepping
+        self.state = state_unknowns(mlcs)
+        self.cache: dict = {}
+        self.maps: dict[bytes, ModeMap] = {}
+
+    def run(self, y0: np.ndarray, charge0: np.ndarray | None = None, active0: np.ndarray | None = None,
+            switches0: np.ndarray | None = None) -> StepMaps:
+        """Integrate from ``y0`` (arguments as for :func:`~circuitnsds.engine.integrate.integrate`)
+        and return the run with its step maps."""
+        trajectory = integrate(self.mlcs, self.grid, y0, charge0, None, active0, switches0,
+                               tol=self.tol, stepping=self.stepping, cache=self.cache)
+        stepping = self.cache["last"]
+        classes = stepping.base_class  # θ = 1: a restart step has the map of its size's class
+        index: dict[bytes, int] = {}
+        modes: list[ModeMap] = []
+        keys: list[bytes] = []
+        of_step = np.empty(trajectory.time.size - 1, dtype=np.int64)
+        for k in range(of_step.size):
+            states, active = trajectory.switches[k + 1], trajectory.active[k + 1]
+            key = np.int64(classes[k]).tobytes() + states.tobytes() + active.tobytes()
+            keys.append(key)
+            found = index.get(key)
+            if found is None:
+                mode = self.maps.get(key)
+                if mode is None:
+                    mode = self.maps[key] = self._build(stepping, k, int(classes[k]), states, active)
+                found = index[key] = len(modes)
+                modes.append(mode)
+            of_step[k] = found
+        return StepMaps(trajectory, self.state, modes, of_step, keys, stepping.sources)
+
+    def _build(self, stepping: _Stepping, k: int, cls: int, states: np.ndarray,
+               active: np.ndarray) -> ModeMap:
+        mode = stepping._build_mode(k, cls, states, active)
+        if mode is None:
+            t0, t1 = self.grid[k], self.grid[k + 1]
+            raise SimulationError(
+                f"the step from t = {t0:.6g} s to {t1:.6g} s has a singular step matrix in the "
+                "mode it took, so it has no step map", where=f"t = {t1:.6g} s", time=float(t1),
+                hint="a node is left floating in that mode (every diode at it blocks): add a "
+                "resistor to ground, or a diode off-resistance (Roff)")
+        return mode
+
+
 def run_with_maps(
     mlcs: MLCS,
     grid: np.ndarray,
@@ -123,41 +175,16 @@ def run_with_maps(
     *,
     theta: float = 1.0,
     tol: float = 1e-9,
-    compiled: bool = True,
+    stepping: str = "compiled",
 ) -> StepMaps:
     """Integrate ``mlcs`` over ``grid`` from ``y0`` (arguments as for
-    :func:`~circuitnsds.engine.integrate.integrate`) and return the run with its step maps.
+    :func:`~circuitnsds.engine.integrate.integrate`) and return the run with its step maps
+    (one run; :class:`StepMapper` keeps what it built for the next).
 
     Raises:
         ValueError: ``theta`` is not 1 (see module docstring).
         SimulationError: from the integration, or a visited mode whose step matrix is
             singular (no map: it names the step).
     """
-    if theta != 1.0:
-        raise ValueError(f"step maps on the state need implicit Euler (theta = 1), got {theta}")
-    trajectory = integrate(mlcs, grid, y0, charge0, None, active0, switches0, theta=theta, tol=tol,
-                           compiled=compiled)
-    stepping = _Stepping(mlcs, trajectory.time, theta, tol, trajectory.switches[0])
-    classes = stepping.base_class  # θ = 1: a restart step has the map of its size's class
-    index: dict[bytes, int] = {}
-    modes: list[ModeMap] = []
-    keys: list[bytes] = []
-    of_step = np.empty(trajectory.time.size - 1, dtype=np.int64)
-    for k in range(of_step.size):
-        states, active = trajectory.switches[k + 1], trajectory.active[k + 1]
-        key = np.int64(classes[k]).tobytes() + states.tobytes() + active.tobytes()
-        keys.append(key)
-        found = index.get(key)
-        if found is None:
-            mode = stepping._build_mode(k, int(classes[k]), states, active)
-            if mode is None:
-                t0, t1 = trajectory.time[k], trajectory.time[k + 1]
-                raise SimulationError(
-                    f"the step from t = {t0:.6g} s to {t1:.6g} s has a singular step matrix in the "
-                    "mode it took, so it has no step map", where=f"t = {t1:.6g} s", time=float(t1),
-                    hint="a node is left floating in that mode (every diode at it blocks): add a "
-                    "resistor to ground, or a diode off-resistance (Roff)")
-            found = index[key] = len(modes)
-            modes.append(mode)
-        of_step[k] = found
-    return StepMaps(trajectory, state_unknowns(mlcs), modes, of_step, keys, stepping.sources)
+    return StepMapper(mlcs, grid, theta=theta, tol=tol, stepping=stepping).run(
+        y0, charge0, active0, switches0)
