@@ -80,6 +80,7 @@ class PSSResult:
         history: ``‖P(x) − x‖∞`` relative, at each run of the period.
         maps: the settled period's :class:`~circuitnsds.engine.step_maps.StepMaps`
             (trajectory, mode sequence, step maps): the start of a small-signal analysis.
+        mlcs: the system those maps belong to.
     """
 
     waveforms: Waveforms
@@ -95,6 +96,7 @@ class PSSResult:
     transient_periods: int = 0
     history: list[float] = field(default_factory=list)
     maps: StepMaps | None = field(default=None, repr=False)
+    mlcs: MLCS | None = field(default=None, repr=False)
 
     @property
     def decay_rate(self) -> float:
@@ -350,4 +352,4 @@ class _Shooter:
                          state=run.y[0, maps.state].copy(), iterations=self.iterations,
                          residual=residual, relative_residual=relative, monodromy=phi,
                          multipliers=multipliers, transient_periods=self.transient_periods,
-                         history=list(self.history), maps=maps)
+                         history=list(self.history), maps=maps, mlcs=self.mlcs)

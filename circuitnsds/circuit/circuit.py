@@ -262,6 +262,21 @@ class Circuit:
             return run_pss(self, period, step=step, periods_warmup=periods_warmup, tol=tol,
                            max_iterations=max_iterations, uic=uic)
 
+    def ac(self, input: str, outputs, frequencies, *, around: str = "auto", pss=None):
+        """Small-signal transfer functions from the value of source ``input`` to ``outputs``
+        (signal names as in :meth:`transient`) at ``frequencies`` [Hz]; returns an
+        :class:`~circuitnsds.analyses.ac.ACResult`.
+
+        ``around``: ``"op"`` linearises at the operating point (every source constant:
+        SPICE's ``.ac`` with ideal devices), ``"pss"`` around the periodic steady state (a
+        switching circuit; ``pss``: a :meth:`pss` result to reuse), ``"auto"`` chooses
+        ``"pss"`` when a source varies in time.
+        """
+        from circuitnsds.analyses.ac import run_ac
+
+        with self._strictness():
+            return run_ac(self, input, outputs, frequencies, around=around, pss=pss)
+
     def operating_point(self) -> dict[str, float]:
         """DC operating point with ideal devices: every output signal's value [V or A]."""
         from circuitnsds.analyses.operating_point import operating_point

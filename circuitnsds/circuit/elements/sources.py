@@ -31,7 +31,7 @@ class VoltageSource(Element):
         builder.add("A", minus, k, 1.0)
         builder.add("A", k, plus, 1.0)
         builder.add("A", k, minus, -1.0)
-        column = builder.stimulus(self.function)
+        column = builder.stimulus(self.function, self.name)
         builder.add("S", k, column, -1.0)
         builder.voltage_source_stimulus(plus, minus, column)
         builder.output(f"i({self.name})", [(k, 1.0)])
@@ -46,6 +46,6 @@ class CurrentSource(Element):
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
-        column = builder.stimulus(self.function)
+        column = builder.stimulus(self.function, self.name)
         builder.add("S", plus, column, -1.0)
         builder.add("S", minus, column, 1.0)

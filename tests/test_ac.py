@@ -1,0 +1,122 @@
+"""Small-signal AC (analyses/ac.py, engine/small_signal.py): the linear .ac against closed
+forms and ngspice's .ac; around the periodic steady state, the exact implicit Euler transfer
+function of a circuit that does not switch, and a buck's line-to-output and output impedance
+against the averaged model."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import circuitnsds
+
+NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
+R, L, C = 10.0, 1e-3, 1e-6
+RLC = f"""series RLC, output across C
+V1 in 0 DC 0 AC 1
+R1 in a {R}
+L1 a out {L}
+C1 out 0 {C}
+.ac dec 10 100 1meg
+.end
+"""
+
+
+def read(text: str):
+    with warnings.catch_warnings():  # "AC 1 ignored", ".ac ignored": these netlists are for ngspice too
+        warnings.simplefilter("ignore")
+        return circuitnsds.read_netlist(text)
+
+
+def test_linear_ac_is_the_closed_form():
+    frequencies = np.logspace(2, 6, 13)
+    result = read(RLC).ac("V1", ["v(out)", "i(l1)"], frequencies)
+    s = 2j * np.pi * frequencies
+    expected = 1 / (1 + s * R * C + s * s * L * C)
+    assert result.around == "op"
+    assert np.abs(result.transfer["v(out)"] / expected - 1).max() < 1e-12
+    assert np.abs(result.transfer["i(l1)"] / (s * C * expected) - 1).max() < 1e-12
+    frame = result.to_dataframe()
+    assert list(frame.columns) == ["frequency", "mag(v(out))", "phase(v(out))", "mag(i(l1))",
+                                   "phase(i(l1))"]
+    assert frame["phase(v(out))"].iloc[-1] == pytest.approx(-180, abs=1)  # unwrapped, not +180
+
+
+@pytest.mark.ngspice
+@pytest.mark.parametrize("text, outputs", [
+    (RLC, ["v(out)", "i(l1)"]),
+    # a conducting diode (ngspice: N = 0.01 puts its knee at ~7 mV, RS = 10 ohm its slope;
+    # circuitnsds: Ron = 10 ohm) with a capacitor, and a blocked one in the other branch
+    ("""diode-biased divider
+V1 in 0 DC 5 AC 1
+R1 in a 1k
+D1 a 0 dmod
+C1 a 0 1u
+R2 in b 1k
+D2 0 b dmod
+R3 b 0 2k
+.model dmod D(Is=1e-14 N=0.01 Rs=10 Ron=10)
+.ac dec 10 10 1meg
+.end
+""", ["v(a)", "v(b)"]),
+], ids=["rlc", "diode-biased"])
+def test_linear_ac_agrees_with_ngspice(text, outputs):
+    from circuitnsds.compare.ngspice import run_ngspice_ac
+
+    frequencies, theirs = run_ngspice_ac(text, outputs)
+    ours = read(text).ac("v1", outputs, frequencies)
+    for name in outputs:
+        ratio = ours.transfer[name] / theirs[name]
+        assert np.abs(20 * np.log10(np.abs(ratio))).max() < 0.1, name
+        assert np.abs(np.degrees(np.angle(ratio))).max() < 0.5, name
+
+
+def test_periodic_ac_of_a_linear_circuit_is_the_implicit_euler_transfer_function():
+    # no switching: around the PSS the response is the discretised circuit's, H(s_d) with
+    # s_d = (1 - e^{-jωh})/h, exactly (and H(jω) as ωh -> 0)
+    circuit = read(RLC.replace("DC 0 AC 1", "SIN(0 1 1k)"))
+    steps = 2000
+    h = 1e-3 / steps
+    settled = circuit.pss(step=h)
+    frequencies = np.array([300.0, 1e3, 5e3, 2e4, 2e5])
+    result = circuit.ac("v1", "v(out)", frequencies, pss=settled)
+    assert result.around == "pss"
+    s_d = (1 - np.exp(-2j * np.pi * frequencies * h)) / h
+    expected = 1 / (1 + s_d * R * C + s_d * s_d * L * C)
+    assert np.abs(result.transfer["v(out)"] / expected - 1).max() < 1e-9
+
+
+BUCK = (NETLISTS / "buck_converter.cir").read_text().replace(
+    "Rload out 0 5", "Rload out 0 5\nIinj 0 out DC 0")
+
+
+def test_buck_line_to_output_and_output_impedance_match_the_averaged_model():
+    # averaged CCM buck, D = 0.5, with the mean series resistance r = D·Ron_s + (1-D)·Ron_d:
+    # Gvg = D·Zc/(Zs + Zc), Zout = Zs ∥ Zc, Zs = sL + r, Zc = R ∥ 1/(sC)
+    circuit = read(BUCK)
+    settled = circuit.pss()
+    frequencies = np.array([100.0, 500.0, 1.5e3, 3e3, 1e4])  # up to fs/10
+    line = circuit.ac("vin", "v(out)", frequencies, pss=settled).transfer["v(out)"]
+    impedance = circuit.ac("iinj", "v(out)", frequencies, pss=settled).transfer["v(out)"]
+    s = 2j * np.pi * frequencies
+    duty, load, inductance, capacitance = 0.5, 5.0, 100e-6, 100e-6
+    series = s * inductance + duty * 10e-3 + (1 - duty) * 1e-3
+    shunt = 1 / (1 / load + s * capacitance)
+    for got, expected in ((line, duty * shunt / (series + shunt)),
+                          (impedance, series * shunt / (series + shunt))):
+        ratio = got / expected
+        assert np.abs(20 * np.log10(np.abs(ratio))).max() < 0.5
+        assert np.abs(np.degrees(np.angle(ratio))).max() < 3
+
+
+def test_ac_errors():
+    circuit = read(RLC)
+    with pytest.raises(circuitnsds.CircuitError, match="no independent source called vx"):
+        circuit.ac("vx", "v(out)", [1e3])
+    with pytest.raises(circuitnsds.CircuitError, match="unknown output"):
+        circuit.ac("v1", "v(nowhere)", [1e3])
+    with pytest.raises(circuitnsds.CircuitError, match="vary in time"):
+        read(BUCK).ac("vin", "v(out)", [1e3], around="op")
