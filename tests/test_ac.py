@@ -67,7 +67,8 @@ def test_linear_ac_agrees_with_ngspice(text, outputs):
     from circuitnsds.compare.ngspice import run_ngspice_ac
 
     frequencies, theirs = run_ngspice_ac(text, outputs)
-    ours = read(text).ac("v1", outputs, frequencies)
+    ours = read(text).ac(outputs=outputs)  # the netlist's .ac, driven by V1's AC 1
+    assert np.allclose(ours.frequencies, frequencies, rtol=1e-12)  # .ac's points as ngspice's
     for name in outputs:
         ratio = ours.transfer[name] / theirs[name]
         assert np.abs(20 * np.log10(np.abs(ratio))).max() < 0.1, name
@@ -120,3 +121,41 @@ def test_ac_errors():
         circuit.ac("v1", "v(nowhere)", [1e3])
     with pytest.raises(circuitnsds.CircuitError, match="vary in time"):
         read(BUCK).ac("vin", "v(out)", [1e3], around="op")
+
+
+def test_ac_line_and_source_magnitudes():
+    circuit = read(RLC.replace("AC 1", "AC 2 90").replace(".ac dec 10 100 1meg", ".ac oct 3 1k 8k"))
+    assert circuit.ac_spec.frequencies() == pytest.approx(1e3 * 2 ** (np.arange(10) / 3))
+    driven = circuit.ac(outputs="v(out)")
+    unit = circuit.ac("v1", "v(out)")
+    assert np.allclose(driven.transfer["v(out)"], 2j * unit.transfer["v(out)"], rtol=1e-12)
+    assert read(RLC.replace(".ac dec 10 100 1meg", ".ac lin 5 1k 2k")).ac_spec.frequencies() == \
+        pytest.approx([1000, 1250, 1500, 1750, 2000])
+    for line, message in ((".ac dec 10 100", "three numbers"), (".ac log 10 1 10", "DEC, OCT or LIN"),
+                          (".ac dec 0 1 10", "positive integer"), (".ac dec 10 10 1", "FSTART <= FSTOP")):
+        with pytest.raises(circuitnsds.NetlistError, match=message):
+            read(RLC.replace(".ac dec 10 100 1meg", line))
+    with pytest.raises(circuitnsds.CircuitError, match="no source has an AC magnitude"):
+        read(RLC.replace(" AC 1", "")).ac()
+
+
+def test_cli_ac_writes_the_bode_table(tmp_path):
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "rlc.cir"
+    netlist.write_text(RLC)
+    table = tmp_path / "bode.csv"
+    figure = tmp_path / "bode.png"
+    assert main(["ac", str(netlist), "--output", "v(out)", "-o", str(table), "--plot", str(figure),
+                 "-q"]) == 0
+    lines = table.read_text().splitlines()
+    assert lines[0] == "frequency,mag(v(out)),phase(v(out))"
+    assert len(lines) == 1 + 41  # .ac dec 10 100 1meg
+    frequency, magnitude, phase = map(float, lines[-1].split(","))
+    s = 2j * np.pi * frequency
+    expected = 1 / (1 + s * R * C + s * s * L * C)
+    assert magnitude == pytest.approx(20 * np.log10(abs(expected)), abs=1e-6)
+    assert phase == pytest.approx(np.degrees(np.angle(expected)) - 360 * (np.angle(expected) > 0),
+                                  abs=1e-6)
+    assert figure.stat().st_size > 0
+    assert main(["ac", str(netlist), "--input", "nosuch", "-o", str(table), "-q"]) == 1

@@ -56,10 +56,14 @@ def _constant(function) -> bool:
     return isinstance(function, Dc) or (isinstance(function, Pwl) and len(set(function.values)) == 1)
 
 
-def run_ac(circuit: Circuit, input: str, outputs: list[str] | str, frequencies, *,
-           around: str = "auto", pss=None) -> ACResult:
+def run_ac(circuit: Circuit, input: str | None, outputs, frequencies, *, around: str = "auto",
+           pss=None) -> ACResult:
     """See :meth:`Circuit.ac`."""
-    outputs = [outputs] if isinstance(outputs, str) else list(outputs)
+    if frequencies is None:
+        if circuit.ac_spec is None:
+            raise CircuitError("no frequencies given and no .ac line", where=circuit.file,
+                               hint="add '.ac DEC 20 10 1meg' to the netlist, or give frequencies")
+        frequencies = circuit.ac_spec.frequencies()
     frequencies = np.atleast_1d(np.asarray(frequencies, dtype=float))
     if not (frequencies > 0).all():
         raise CircuitError("AC frequencies must be positive", where=circuit.file)
@@ -79,14 +83,9 @@ def run_ac(circuit: Circuit, input: str, outputs: list[str] | str, frequencies, 
         mlcs = pss.mlcs
     else:
         mlcs = circuit.mlcs()
-    try:
-        column = mlcs.stimulus_column(input)
-    except KeyError:
-        sources = [name.upper() for name in mlcs.stimulus_owners if name]
-        raise CircuitError(f"no independent source called {input}", where=circuit.file,
-                           hint=f"the input is a V or I source of the netlist: {', '.join(sources)}; "
-                           "for an output impedance add a zero current source at the output "
-                           "(Iinj out 0 0)") from None
+    inputs = _inputs(circuit, mlcs, input)
+    outputs = list(mlcs.output_names) if outputs is None else (
+        [outputs] if isinstance(outputs, str) else list(outputs))
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
     unknown = [name for name in outputs if name.lower() not in rows]
     if unknown:
@@ -100,7 +99,7 @@ def run_ac(circuit: Circuit, input: str, outputs: list[str] | str, frequencies, 
 
         state = operating_point(circuit, mlcs)
         try:
-            values = operating_point_response(mlcs, state.switches, state.active, column,
+            values = operating_point_response(mlcs, state.switches, state.active, inputs,
                                               frequencies, Y_out, L_out)
         except (np.linalg.LinAlgError, RuntimeError) as exc:
             raise SimulationError(f"the small-signal system is singular ({exc})", where=circuit.file,
@@ -109,6 +108,31 @@ def run_ac(circuit: Circuit, input: str, outputs: list[str] | str, frequencies, 
     else:
         from circuitnsds.engine.small_signal import periodic_response
 
-        values = periodic_response(pss.maps, column, frequencies, Y_out, L_out)
+        values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
-    return ACResult(frequencies, input.lower(), transfer, around, pss)
+    return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
+
+
+def _inputs(circuit: Circuit, mlcs, input: str | None) -> np.ndarray:
+    """The phasor of every source column: a unit at ``input``, or every source's ``AC``."""
+    phasors = np.zeros(len(mlcs.stimuli), dtype=complex)
+    sources = [name.upper() for name in mlcs.stimulus_owners if name]
+    if input is not None:
+        try:
+            phasors[mlcs.stimulus_column(input)] = 1.0
+        except KeyError:
+            raise CircuitError(f"no independent source called {input}", where=circuit.file,
+                               hint=f"the input is a V or I source of the netlist: {', '.join(sources)}; "
+                               "for an output impedance add a zero current source at the output "
+                               "(Iinj 0 out 0)") from None
+        return phasors
+    for element in circuit.elements:
+        ac = getattr(element, "ac", None)
+        if ac is not None:
+            magnitude, phase = ac
+            phasors[mlcs.stimulus_column(element.name)] = magnitude * np.exp(1j * np.radians(phase))
+    if not phasors.any():
+        raise CircuitError("no source has an AC magnitude and no input is given", where=circuit.file,
+                           hint="write 'AC 1' on the source that drives the circuit (V1 in 0 DC 0 AC 1), "
+                           f"or name the input ({', '.join(sources)})")
+    return phasors

@@ -47,6 +47,26 @@ class PssSpec:
     location: SourceLocation | None = None
 
 
+@dataclass(frozen=True)
+class AcSpec:
+    """``.ac DEC|OCT|LIN N FSTART FSTOP`` (frequencies in Hz)."""
+
+    sweep: str
+    points: int
+    start: float
+    stop: float
+    location: SourceLocation | None = None
+
+    def frequencies(self) -> np.ndarray:
+        """The sweep's frequencies [Hz], as ngspice spaces them (DEC/OCT: N per decade/octave
+        from FSTART while <= FSTOP; LIN: N points from FSTART to FSTOP)."""
+        if self.sweep == "lin":
+            return np.linspace(self.start, self.stop, self.points)
+        base = 10.0 if self.sweep == "dec" else 2.0
+        count = int(np.floor(self.points * np.log(self.stop / self.start) / np.log(base) + 1e-9)) + 1
+        return self.start * base ** (np.arange(count) / self.points)
+
+
 @dataclass
 class Circuit:
     """Elements and settings read from a netlist (or built in Python).
@@ -59,6 +79,7 @@ class Circuit:
             letter of a model the engine does not use).
         tran: the ``.tran`` line, if any.
         pss_spec: the ``.pss`` line, if any.
+        ac_spec: the ``.ac`` line, if any.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
         options: ``.options`` the engine uses (``theta``, ``gmin``).
@@ -75,6 +96,7 @@ class Circuit:
     model_locations: dict[str, SourceLocation] = field(default_factory=dict)
     tran: TranSpec | None = None
     pss_spec: PssSpec | None = None
+    ac_spec: AcSpec | None = None
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
     options: dict[str, float] = field(default_factory=dict)
@@ -262,10 +284,13 @@ class Circuit:
             return run_pss(self, period, step=step, periods_warmup=periods_warmup, tol=tol,
                            max_iterations=max_iterations, uic=uic)
 
-    def ac(self, input: str, outputs, frequencies, *, around: str = "auto", pss=None):
+    def ac(self, input: str | None = None, outputs=None, frequencies=None, *, around: str = "auto",
+           pss=None):
         """Small-signal transfer functions from the value of source ``input`` to ``outputs``
-        (signal names as in :meth:`transient`) at ``frequencies`` [Hz]; returns an
-        :class:`~circuitnsds.analyses.ac.ACResult`.
+        (signal names as in :meth:`transient`; default: every signal) at ``frequencies`` [Hz]
+        (default: the ``.ac`` line's); returns an :class:`~circuitnsds.analyses.ac.ACResult`.
+        Without ``input``, every source with an ``AC`` magnitude drives the circuit at once
+        (SPICE's ``.ac``) and the result is each output's phasor.
 
         ``around``: ``"op"`` linearises at the operating point (every source constant:
         SPICE's ``.ac`` with ideal devices), ``"pss"`` around the periodic steady state (a

@@ -1,5 +1,5 @@
 """The ``circuitnsds`` command: ``run`` a netlist's transient, find its periodic steady state
-(``pss``), or print ``info`` about it.
+(``pss``), its small-signal response (``ac``), or print ``info`` about it.
 
 Errors in the input print one message (file:line, what, hint) on stderr and
 exit with status 1; no traceback. ``--debug`` shows tracebacks.
@@ -72,6 +72,30 @@ def build_parser() -> argparse.ArgumentParser:
     pss.add_argument("--uic", action="store_true",
                      help="start from initial conditions instead of the operating point")
 
+    ac = commands.add_parser("ac", help="small-signal AC (Bode) at the operating point or around "
+                             "the periodic steady state")
+    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    ac.add_argument("--input", metavar="SOURCE",
+                    help="the source whose value is perturbed, as named in the netlist (default: "
+                    "every source with an AC magnitude, as SPICE's .ac)")
+    ac.add_argument("--output", action="append", metavar="SIGNAL",
+                    help="signal to report, e.g. v(out); repeatable (default: every signal)")
+    ac.add_argument("--sweep", choices=("dec", "oct", "lin"), default=None,
+                    help="frequency spacing (default: the .ac line's, else dec)")
+    ac.add_argument("--points", type=int, help="points per decade/octave, or in all for lin "
+                    "(default: the .ac line's, else 20)")
+    ac.add_argument("--fstart", type=_seconds, help="first frequency [Hz] (default: .ac FSTART)")
+    ac.add_argument("--fstop", type=_seconds, help="last frequency [Hz] (default: .ac FSTOP)")
+    ac.add_argument("--around", choices=("auto", "op", "pss"), default="auto",
+                    help="linearise at the operating point or around the periodic steady state "
+                    "(default: pss when a source varies in time)")
+    ac.add_argument("-o", "--csv", type=Path, metavar="CSV",
+                    help="Bode table to write: frequency [Hz], then mag [dB] and phase [deg] per "
+                    "output (default: NETLIST name with _ac.csv)")
+    ac.add_argument("--plot", type=Path, metavar="PNG", help="also write a Bode plot")
+    ac.add_argument("-q", "--quiet", action="store_true", help="no summary on stderr")
+    ac.add_argument("--strict", action="store_true", help=STRICT_HELP)
+
     info = commands.add_parser("info", help="print elements, nodes, MLCS size, breakpoints "
                                "and the circuit checks")
     info.add_argument("netlist", type=Path)
@@ -114,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         strict = getattr(args, "strict", False)
-        if strict and args.command in ("run", "pss"):  # stop at the first warning, before any output
+        if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
             warnings.filterwarnings("error", category=NetlistWarning)
         try:
             if args.command == "compare":
@@ -122,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
 
                 status = run_compare(args)
             else:
-                status = {"run": _run, "pss": _pss, "info": _info}[args.command](args)
+                status = {"run": _run, "pss": _pss, "ac": _ac, "info": _info}[args.command](args)
         except CircuitnsdsError as exc:
             _print_warnings(caught)
             if args.debug:
@@ -214,6 +238,44 @@ def _pss(args: argparse.Namespace) -> int:
                          uic=True if args.uic else None)
     return _finish(args, circuit, result.waveforms,
                    f"{result.summary()}; {time.perf_counter() - started:.3g} s")
+
+
+def _ac(args: argparse.Namespace) -> int:
+    import time
+
+    from circuitnsds import read_netlist
+    from circuitnsds.circuit.circuit import AcSpec
+    from circuitnsds.errors import CircuitError
+    from circuitnsds.output.bode import plot_bode, write_bode_csv
+
+    circuit = read_netlist(args.netlist)
+    spec = circuit.ac_spec
+    start = args.fstart if args.fstart is not None else (spec.start if spec else None)
+    stop = args.fstop if args.fstop is not None else (spec.stop if spec else None)
+    if start is None or stop is None:
+        raise CircuitError("no frequency range: no .ac line and no --fstart/--fstop",
+                           where=str(args.netlist), hint="add --fstart 10 --fstop 1meg, or an .ac line")
+    if not 0 < start <= stop or (args.points is not None and args.points < 1):
+        raise CircuitError(f"need 0 < --fstart <= --fstop and --points >= 1 (got {start:g}, {stop:g})",
+                           where=str(args.netlist))
+    sweep = AcSpec(args.sweep or (spec.sweep if spec else "dec"),
+                   args.points or (spec.points if spec else 20), start, stop)
+    started = time.perf_counter()
+    result = circuit.ac(args.input, args.output, sweep.frequencies(), around=args.around)
+    seconds = time.perf_counter() - started
+    written = [args.csv or Path(args.netlist.stem + "_ac.csv")]
+    with _writing(written[0]):
+        write_bode_csv(result, written[0])
+    if args.plot:
+        with _writing(args.plot):
+            plot_bode(result, args.plot)
+        written.append(args.plot)
+    if not args.quiet:
+        around = "periodic steady state" if result.around == "pss" else "operating point"
+        print(f"circuitnsds: AC of {len(result.transfer)} signal(s) at {result.frequencies.size} "
+              f"frequencies around the {around} in {seconds:.3g} s; wrote "
+              f"{', '.join(map(str, written))}", file=sys.stderr)
+    return 0
 
 
 def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:

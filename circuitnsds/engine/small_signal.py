@@ -38,15 +38,16 @@ from circuitnsds.engine.step_maps import StepMaps
 from circuitnsds.system.mlcs import MLCS
 
 
-def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray, column: int,
+def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray, inputs: np.ndarray,
                              frequencies: np.ndarray, outputs: sp.csr_matrix,
                              output_pairs: sp.csr_matrix) -> np.ndarray:
-    """Transfer functions from source ``column``'s value to each output, shape
+    """Responses of each output to the sources' phasors ``inputs``, shape
     ``(frequencies, outputs)`` (complex).
 
     Args:
         mlcs: the system; states: switch states (closed = true); active: the active pairs.
-        column: the perturbed source's column of ``S``.
+        inputs: complex phasor of every source's value (one per column of ``S``): a unit
+            vector gives the transfer function from that source.
         frequencies: [Hz].
         outputs, output_pairs: output rows on the unknowns ``y`` and on the pair currents
             (``MLCS.Y_out``, ``MLCS.L_out`` rows).
@@ -60,11 +61,12 @@ def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray,
     E, B, C, D = mlcs.E.tocsc(), mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
     n = mlcs.n
     rhs = np.zeros(n + act.size, dtype=complex)
-    rhs[:n] = mlcs.S.tocsc()[:, column].toarray().ravel()
+    rhs[:n] = mlcs.S @ np.asarray(inputs, dtype=complex)
     result = np.empty((len(frequencies), outputs.shape[0]), dtype=complex)
+    static = sp.bmat([[-A, -B[:, act]], [C[act], D[act][:, act]]], format="csc").astype(complex)
+    storage = sp.block_diag([E, sp.csc_matrix((act.size, act.size))], format="csc")
     for row, frequency in enumerate(np.asarray(frequencies, dtype=float)):
-        omega = 2j * np.pi * frequency
-        matrix = sp.bmat([[omega * E - A, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+        matrix = (static + (2j * np.pi * frequency) * storage).tocsc()
         with np.errstate(all="ignore"):
             solution = spla.splu(matrix).solve(rhs)
         if not np.isfinite(solution).all():
@@ -73,13 +75,15 @@ def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray,
     return result
 
 
-def periodic_response(maps: StepMaps, column: int, frequencies: np.ndarray, outputs: sp.csr_matrix,
-                      output_pairs: sp.csr_matrix) -> np.ndarray:
-    """Transfer functions from source ``column``'s value to each output around the periodic
-    steady state whose one-period run is ``maps``, shape ``(frequencies, outputs)``.
+def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
+                      outputs: sp.csr_matrix, output_pairs: sp.csr_matrix) -> np.ndarray:
+    """Responses of each output (their Fourier coefficient at each frequency) to the sources'
+    phasors ``inputs`` around the periodic steady state whose one-period run is ``maps``,
+    shape ``(frequencies, outputs)``.
 
-    ``outputs``/``output_pairs`` as for :func:`operating_point_response`.
+    ``inputs``, ``outputs``, ``output_pairs`` as for :func:`operating_point_response`.
     """
+    inputs = np.asarray(inputs, dtype=complex)
     time = maps.trajectory.time
     period = time[-1] - time[0]
     omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
@@ -94,8 +98,8 @@ def periodic_response(maps: StepMaps, column: int, frequencies: np.ndarray, outp
     for k in range(maps.steps):
         mode = modes[maps.mode_of_step[k]]
         M = mode.P[state][:, state]
-        drive = (np.outer(phase[:, k + 1], mode.Q1[state, column])
-                 + np.outer(phase[:, k], mode.Q0[state, column]))
+        drive = (np.outer(phase[:, k + 1], mode.Q1[state] @ inputs)
+                 + np.outer(phase[:, k], mode.Q0[state] @ inputs))
         forced = forced @ M.T + drive
         phi = M @ phi
     start = np.empty((omega.size, size), dtype=complex)
@@ -109,8 +113,8 @@ def periodic_response(maps: StepMaps, column: int, frequencies: np.ndarray, outp
     x = start
     for k in range(maps.steps):
         mode = modes[maps.mode_of_step[k]]
-        full = (x @ mode.P[:, state].T + np.outer(phase[:, k + 1], mode.Q1[:, column])
-                + np.outer(phase[:, k], mode.Q0[:, column]))  # [y_{k+1}; λ_α], (F, n + a)
+        full = (x @ mode.P[:, state].T + np.outer(phase[:, k + 1], mode.Q1 @ inputs)
+                + np.outer(phase[:, k], mode.Q0 @ inputs))  # [y_{k+1}; λ_α], (F, n + a)
         values = full[:, :n] @ on_y
         if mode.active.size:
             values += full[:, n:] @ on_pairs[mode.active]

@@ -19,9 +19,11 @@ from circuitnsds.system.stimuli import Dc, Stimulus
 
 @dataclass(frozen=True)
 class VoltageSource(Element):
-    """Independent voltage source with time function ``function`` [V]."""
+    """Independent voltage source with time function ``function`` [V] and AC stimulus ``ac``
+    (magnitude [V], phase [deg]) of the small-signal ``.ac``."""
 
     function: Stimulus = Dc(0.0)
+    ac: tuple[float, float] | None = None
     topology: ClassVar[str] = "voltage"
 
     def stamp(self, builder: MLCSBuilder) -> None:
@@ -39,9 +41,11 @@ class VoltageSource(Element):
 
 @dataclass(frozen=True)
 class CurrentSource(Element):
-    """Independent current source with time function ``function`` [A]."""
+    """Independent current source with time function ``function`` [A] and AC stimulus ``ac``
+    (magnitude [A], phase [deg]) of the small-signal ``.ac``."""
 
     function: Stimulus = Dc(0.0)
+    ac: tuple[float, float] | None = None
     topology: ClassVar[str] = "current"
 
     def stamp(self, builder: MLCSBuilder) -> None:

@@ -1,11 +1,11 @@
-"""Dot commands: ``.tran``, ``.pss``, ``.ic``, ``.options``, ``.save``, ``.title``; warnings for
+"""Dot commands: ``.tran``, ``.pss``, ``.ac``, ``.ic``, ``.options``, ``.save``, ``.title``; warnings for
 commands that concern other analyses or output, errors for unsupported ones."""
 
 from __future__ import annotations
 
 import re
 
-from circuitnsds.circuit.circuit import Circuit, PssSpec, TranSpec
+from circuitnsds.circuit.circuit import AcSpec, Circuit, PssSpec, TranSpec
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
 from circuitnsds.theta import THETA_HINT, theta_in_range
@@ -16,7 +16,7 @@ IGNORED_COMMANDS = {
     ".plot": "every signal is written; choose columns with --signals or .save",
     ".probe": "every signal is written; choose columns with --signals or .save",
     ".op": "only .tran is run (its operating point is computed unless UIC)",
-    ".ac": "only .tran is supported", ".dc": "only .tran is supported",
+    ".dc": "only .tran is supported",
     ".noise": "only .tran is supported", ".tf": "only .tran is supported",
     ".sens": "only .tran is supported", ".pz": "only .tran is supported",
     ".disto": "only .tran is supported", ".four": "Fourier analysis is not supported",
@@ -71,6 +71,10 @@ def command(circuit: Circuit, statement: Statement) -> None:
         if circuit.pss_spec is not None:
             raise reader.error("more than one .pss line", hint="keep one .pss GFREQ ... line")
         circuit.pss_spec = _pss(reader)
+    elif keyword == ".ac":
+        if circuit.ac_spec is not None:
+            raise reader.error("more than one .ac line", hint="keep one .ac DEC|OCT|LIN N FSTART FSTOP")
+        circuit.ac_spec = _ac(reader)
     elif keyword == ".ic":
         _initial_conditions(circuit, reader)
     elif keyword == ".save":
@@ -85,7 +89,7 @@ def command(circuit: Circuit, statement: Statement) -> None:
                            "subcircuits with .subckt are supported)")
     else:
         raise reader.error(f"unknown command {keyword}",
-                           hint="supported: .tran, .pss, .ic, .model, .options, .param, .subckt, "
+                           hint="supported: .tran, .pss, .ac, .ic, .model, .options, .param, .subckt, "
                            ".include, .lib, .save, .end")
 
 
@@ -131,6 +135,26 @@ def _tran(reader: StatementReader) -> TranSpec:
         raise reader.error(".tran TMAX must be positive")
     return TranSpec(step=step, stop=stop, start=start, max_step=max_step, uic=uic,
                     location=reader.location)
+
+
+def _ac(reader: StatementReader) -> AcSpec:
+    """``.ac DEC|OCT|LIN N FSTART FSTOP``."""
+    usage = ".ac DEC|OCT|LIN N FSTART FSTOP, e.g. .ac dec 20 10 1meg"
+    sweep = reader.next(".ac sweep type") if not reader.done() else ""
+    if sweep not in ("dec", "oct", "lin"):
+        raise reader.error(f".ac sweep type must be DEC, OCT or LIN, got {sweep.upper() or 'nothing'}",
+                           hint=usage)
+    numbers = []
+    while not reader.done() and len(numbers) < 3:
+        numbers.append(reader.value(".ac field"))
+    if len(numbers) != 3 or not reader.done():
+        raise reader.error(".ac takes a sweep type and three numbers", hint=usage)
+    points, start, stop = numbers
+    if points < 1 or points != int(points):
+        raise reader.error(f".ac N = {points:g} must be a positive integer", hint=usage)
+    if not 0 < start <= stop:
+        raise reader.error(f".ac needs 0 < FSTART <= FSTOP, got {start:g} and {stop:g}", hint=usage)
+    return AcSpec(sweep=sweep, points=int(points), start=start, stop=stop, location=reader.location)
 
 
 PSS_FIELDS = ("GFREQ", "TSTAB", "OSCNOB", "PSSPOINTS", "HARMS", "SCITER", "STEADYCOEFF")

@@ -1,0 +1,39 @@
+"""Bode tables and figures of small-signal results (:class:`~circuitnsds.analyses.ac.ACResult`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def write_bode_csv(result, path: str | Path) -> None:
+    """CSV: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg] per output."""
+    names = list(result.transfer)
+    columns = [result.frequencies]
+    header = ["frequency"]
+    for name in names:
+        columns += [result.magnitude_db(name), result.phase_deg(name)]
+        header += [f"mag({name})", f"phase({name})"]
+    np.savetxt(path, np.column_stack(columns), delimiter=",", header=",".join(header), comments="",
+               fmt="%.10g")
+
+
+def plot_bode(result, path: str | Path, dpi: int = 120) -> None:
+    """Magnitude [dB] and phase [deg] panels against log frequency, one line per output."""
+    from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
+
+    figure = Figure(figsize=(10.0, 6.4), layout="constrained")
+    magnitude, phase = figure.subplots(2, 1, sharex=True)
+    for name in result.transfer:
+        magnitude.semilogx(result.frequencies, result.magnitude_db(name), label=name)
+        phase.semilogx(result.frequencies, result.phase_deg(name), label=name)
+    magnitude.set_ylabel("magnitude [dB]")
+    phase.set_ylabel("phase [deg]")
+    phase.set_xlabel("frequency [Hz]")
+    around = "periodic steady state" if result.around == "pss" else "operating point"
+    magnitude.set_title(f"response to {result.input} around the {around}")
+    for axis in (magnitude, phase):
+        axis.grid(True, which="both", alpha=0.3)
+    magnitude.legend()
+    figure.savefig(path, dpi=dpi)
