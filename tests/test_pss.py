@@ -264,3 +264,19 @@ def test_fallback_periods_when_newton_is_capped():
     assert capped.transient_periods >= 10
     assert capped.relative_residual <= 1e-9
     assert np.abs(capped.state - reference.state).max() <= 1e-8 * np.abs(reference.state).max()
+
+
+def test_autonomous_switching_is_refused_naming_the_switch():
+    # a relaxation oscillator: S1 (hysteresis 3..7 V) discharges C1, which R1 charges
+    text = ("relaxation oscillator\nV1 in 0 DC 10\nR1 in c 1k\nC1 c 0 1u\nS1 c x c 0 sw\nR2 x 0 10\n"
+            ".model sw SW(VT=5 VH=2 RON=1 ROFF=1e9)\n.tran 1u 10m\n.end\n")
+    with pytest.raises(circuitnsds.CircuitError, match=r"S1 are controlled by the circuit.*autonomous"):
+        circuitnsds.read_netlist(text).pss()
+
+
+def test_pss_line_stabilisation_runs_warmup_periods():
+    text = rc_square(0.1e-6).replace(".tran", ".pss 100k 35u 0 100\n.tran")
+    result = circuitnsds.read_netlist(text).pss()
+    assert result.transient_periods == 4  # TSTAB = 35 µs rounded up to whole 10 µs periods
+    assert result.waveforms.time.size == 101
+    assert result.iterations == 1

@@ -175,7 +175,21 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
                            hint="with theta < 1 a step depends on the algebraic unknowns too, so the "
                            "period map is not a map of the state alone; drop .options theta (or "
                            "--theta) for pss, and compare with a transient at theta = 1")
-    found_period, t0 = source_period(circuit) if period is None and spec is None else (None, None)
+    found_period, t0 = None, None
+    if period is None and spec is None:
+        try:
+            found_period, t0 = source_period(circuit)
+        except CircuitError as exc:
+            free = _circuit_controlled_switches(circuit)
+            if free and "no periodic source" in exc.message:
+                raise CircuitError(
+                    f"the circuit has no periodic source; switch(es) {', '.join(free)} are controlled "
+                    "by the circuit: if they switch by themselves (a hysteretic controller, a relaxation "
+                    "oscillator), the period is the circuit's own, and autonomous switching is not "
+                    "supported", where=free[0],
+                    hint="drive the switching from a source (a PULSE or a ramp into a comparator "
+                    "whose control is that source), or run a transient") from None
+            raise
     if period is None:
         period = 1.0 / spec.frequency if spec is not None else found_period
     if t0 is None:
@@ -217,6 +231,15 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
     result = shooter.solve(y, charge, active, switches, max_iterations)
     result.transient_periods += periods_warmup
     return result
+
+
+def _circuit_controlled_switches(circuit: Circuit) -> list[str]:
+    """Names of the switches whose control is not a source's time function."""
+    try:
+        mlcs = circuit.mlcs()
+    except CircuitError:
+        return []
+    return [switch.name.upper() for switch in mlcs.switches if switch.control_stimulus is None]
 
 
 def _periodic_from(circuit: Circuit) -> float:
