@@ -33,7 +33,8 @@ import circuitnsds  # noqa: E402
 TOL = 1e-6
 """Agreement that counts as settled: largest difference over the period / the signal's range."""
 
-CASES = [  # (label, netlist, longest transient in periods, replacements in the netlist text)
+CASES = [  # (label, netlist in netlists/ or benchmarks/netlists/, longest transient in periods,
+    #         replacements in the netlist text)
     ("buck CCM (buck_converter.cir)", "buck_converter.cir", 3000, {}),
     ("boost CCM (boost_converter.cir, Q = 3)", "boost_converter.cir", 3000, {}),
     # the issue's 12 -> 24 V boost of Q = R(1 - D)·sqrt(C/L) = 17: the same with a 34 ohm load
@@ -82,7 +83,8 @@ def main() -> None:
     circuitnsds.read_netlist(ROOT / "netlists" / "buck_converter.cir").pss()  # numba compiles
     rows = []
     for label, name, longest, replacements in cases:
-        text = (ROOT / "netlists" / name).read_text()
+        path = ROOT / "netlists" / name
+        text = (path if path.exists() else ROOT / "benchmarks" / "netlists" / name).read_text()
         for old, new in replacements.items():
             assert old in text, old
             text = text.replace(old, new)
