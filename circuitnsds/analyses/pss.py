@@ -10,9 +10,10 @@ breakpoints), each implicit Euler step in a fixed mode is affine on the state
 complementarity; when the run visits the same mode sequence, ``x_0`` is the periodic
 solution of the discrete system (to rounding) and the residual says so. A changed
 sequence (a diode that now turns off earlier, DCM) gives a new ``Φ`` and one more
-step. When Newton does not settle within ``max_iterations``, some periods of plain
-transient are run from the best state seen and Newton starts again
-(:data:`FALLBACK_ROUNDS` times, the transient doubling each time).
+step. When Newton does not settle within ``max_iterations``, or returns to a mode sequence
+it visited without halving the residual (it cycles between pieces of the piecewise affine
+map), some periods of plain transient are run from the best state seen and Newton starts
+again (:data:`FALLBACK_ROUNDS` times, the transient doubling each time).
 """
 
 from __future__ import annotations
@@ -105,6 +106,9 @@ class PSSResult:
         return math.inf if largest == 0.0 else -math.log(largest) / self.period
 
     def summary(self) -> str:
+        if not self.state_names:
+            return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s; the "
+                    "circuit has no state (no capacitor or inductor), so every period is the same")
         largest = float(np.abs(self.multipliers).max(initial=0.0))
         return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s, "
                 f"{self.iterations} Newton step(s), residual {self.relative_residual:.1e} "
@@ -136,8 +140,9 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
             continue  # a constant written as PWL
         else:
             why = {Pulse: "a PULSE without PER is a single pulse",
-                   Sin: "a SIN needs FREQ and no damping THETA to be periodic"}.get(type(function),
-                                                                                   "it is not periodic")
+                   Sin: "a SIN needs FREQ and no damping THETA to be periodic",
+                   Pwl: "a PWL holds its last value (repeating PWL is not supported)"}.get(
+                       type(function), "it makes one transition")
             raise CircuitError(f"source {name} ({function}) is not periodic: {why}", where=name,
                                hint="a periodic steady state needs periodic sources (PULSE with PER, "
                                "SIN with FREQ) and constants")
@@ -277,6 +282,7 @@ class _Shooter:
             if round_ > 0:
                 periods = FALLBACK_PERIODS * 2 ** (round_ - 1)
                 y, charge, active, switches = self._transient(best, periods)
+            seen: dict[int, float] = {}  # mode sequence -> residual when it was visited
             for attempt in range(max_iterations + 1):
                 maps = self.mapper.run(y, charge, active, switches)
                 run = maps.trajectory
@@ -292,6 +298,13 @@ class _Shooter:
                     failure = (f"Newton did not settle in {max_iterations} steps (relative residual "
                                f"{relative:.2g}, the mode sequence kept changing)")
                     break
+                sequence = hash(b"".join(maps.keys))
+                if sequence in seen and relative >= 0.5 * seen[sequence]:
+                    # back to a mode sequence without progress: Newton cycles between pieces of
+                    # the piecewise affine period map; transient periods break the cycle
+                    failure = f"Newton cycled between mode sequences (relative residual {relative:.2g})"
+                    break
+                seen[sequence] = relative
                 x_new = self._newton(maps, phi, c)
                 self.iterations += 1
                 y = run.y[-1].copy()  # the algebraic unknowns do not enter an implicit Euler step
