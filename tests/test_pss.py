@@ -286,3 +286,14 @@ def test_pss_line_stabilisation_runs_warmup_periods():
     assert result.transient_periods == 4  # TSTAB = 35 µs rounded up to whole 10 µs periods
     assert result.waveforms.time.size == 101
     assert result.iterations == 1
+
+
+def test_newton_cycling_between_mode_sequences_goes_to_the_fallback():
+    # the voltage multiplier's Newton steps cycle (0.077, 1.4, 0.63, 0.077, ...): the cycle is
+    # noticed when a sequence comes back without progress, 10 transient periods break it
+    circuit = circuitnsds.read_netlist(NETLISTS / "cockcroft_walton.cir")
+    result = circuit.pss()
+    assert result.transient_periods == 10
+    assert result.iterations < 10
+    assert result.relative_residual <= 1e-9
+    assert_device_laws(circuit, result.waveforms)
