@@ -306,6 +306,7 @@ class _Stepping:
                       if self.dense else None)
         self.unmappable: set[tuple] = set()
         self.modes: dict[tuple, CompiledSparseMap | None] = {}
+        self.dense_maps: dict[tuple, ModeMap | None] = {}
         self.built = 0
         self.mapped_seconds = 0.0
 
@@ -450,9 +451,15 @@ class _Stepping:
         return mode
 
     def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
-        """The dense step map of a mode (``None``: its bordered matrix is singular)."""
-        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
-        return dense_mode_map(blocks, self.mlcs.n)
+        """The dense step map of a mode (``None``: its bordered matrix is singular), kept for
+        the mode table and the step maps of :mod:`circuitnsds.engine.step_maps` alike."""
+        key = (cls, states.tobytes(), guess.tobytes())
+        if key not in self.dense_maps:
+            if len(self.dense_maps) >= MODE_CACHE_SIZE:
+                self.dense_maps.clear()
+            blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
+            self.dense_maps[key] = dense_mode_map(blocks, self.mlcs.n)
+        return self.dense_maps[key]
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:

@@ -146,7 +146,10 @@ class StepMapper:
             if found is None:
                 mode = self.maps.get(key)
                 if mode is None:
-                    mode = self.maps[key] = self._build(stepping, k, int(classes[k]), states, active)
+                    # the class integrate used (a θ = 1 restart step has its size's map): the
+                    # map built for the mode table is then reused, not built twice
+                    mode = self.maps[key] = self._build(stepping, k, int(stepping.step_class[k]),
+                                                        states, active)
                 found = index[key] = len(modes)
                 modes.append(mode)
             of_step[k] = found
