@@ -318,7 +318,7 @@ class _Shooter:
                     "points: their instants move by whole steps with the state, the period map jumps, "
                     "and an exactly periodic solution may not exist (a duty cycle dithering by one "
                     "step);\n  a smaller step lowers that floor, and a tolerance above the best "
-                    f"residual (tol={2 * best[0]:.2g}) accepts the best period found;\n  if they "
+                    f"residual (tol={2 * best[0]:.2g}, --tol) accepts the best period found;\n  if they "
                     "switch by themselves (a hysteretic controller), the period is not the sources' "
                     "and that is not supported")
         raise SimulationError(f"the periodic steady state was not found: {failure}; best relative "

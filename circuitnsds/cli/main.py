@@ -69,6 +69,11 @@ def build_parser() -> argparse.ArgumentParser:
                      "period/1000)")
     pss.add_argument("--warmup", type=int, default=0, metavar="PERIODS",
                      help="periods of transient before the shooting (default: .pss TSTAB, else 0)")
+    pss.add_argument("--tol", type=float, default=None,
+                     help="relative periodicity tolerance (default: .pss STEADYCOEFF, else 1e-9)")
+    pss.add_argument("--max-iterations", type=int, default=None, metavar="N",
+                     help="Newton steps before a fallback of transient periods (default: .pss "
+                     "SCITER, else 10)")
     pss.add_argument("--uic", action="store_true",
                      help="start from initial conditions instead of the operating point")
 
@@ -234,8 +239,8 @@ def _pss(args: argparse.Namespace) -> int:
 
     circuit = _prepare(args)
     started = time.perf_counter()
-    result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup,
-                         uic=True if args.uic else None)
+    result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup, tol=args.tol,
+                         max_iterations=args.max_iterations, uic=True if args.uic else None)
     return _finish(args, circuit, result.waveforms,
                    f"{result.summary()}; {time.perf_counter() - started:.3g} s")
 
