@@ -185,3 +185,41 @@ def test_buck_line_to_output_matches_a_sine_injection_transient(frequency):
     theirs = 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
     assert abs(np.degrees(np.angle(ours / theirs))) < 2
+
+
+LOOP = """loop: an RC low-pass then an inverting gain -K, closed through an injection source
+Vinj b a DC 0 AC 1
+R1 b c 1k
+C1 c 0 1u
+E1 a 0 c 0 -10
+.ac dec 50 1 100k
+.end
+"""
+
+
+def test_loop_gain_by_injection_and_its_margins():
+    # T = K/(1 + sRC): crossover sqrt(K² − 1)/(2πRC), phase margin 180° − atan(sqrt(K² − 1))
+    from circuitnsds.analyses.ac import margins
+
+    K, RC = 10.0, 1e-3
+    result = read(LOOP).ac("vinj", ["v(a)", "v(b)"])
+    loop = result.loop_gain("v(a)", "v(b)")
+    s = 2j * np.pi * result.frequencies
+    assert np.abs(loop / (K / (1 + s * RC)) - 1).max() < 1e-12
+    crossover, margin = margins(result.frequencies, loop)
+    assert crossover == pytest.approx(np.sqrt(K * K - 1) / (2 * np.pi * RC), rel=1e-3)
+    assert margin == pytest.approx(180 - np.degrees(np.arctan(np.sqrt(K * K - 1))), abs=0.05)
+    assert np.isnan(margins(result.frequencies, loop / 100)[0])  # |T| < 1 throughout
+
+
+def test_cli_loop_gain_prints_crossover_and_margin(tmp_path, capsys):
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "loop.cir"
+    netlist.write_text(LOOP)
+    table = tmp_path / "loop.csv"
+    assert main(["ac", str(netlist), "--input", "vinj", "--loop-gain", "v(a),v(b)", "-o", str(table),
+                 "-q"]) == 0
+    assert "crossover 1583.5" in capsys.readouterr().out  # sqrt(99)/(2π·1 ms) = 1583.57 Hz
+    assert table.read_text().splitlines()[0].endswith("mag(loop),phase(loop)")
+    assert main(["ac", str(netlist), "--loop-gain", "v(a)", "-o", str(table), "-q"]) == 1

@@ -41,6 +41,13 @@ class ACResult:
         """Phase of ``H`` [deg], unwrapped along frequency."""
         return np.degrees(np.unwrap(np.angle(self.transfer[output])))
 
+    def loop_gain(self, returned: str, injected: str) -> np.ndarray:
+        """Loop gain by voltage injection (Middlebrook): with the input a source ``Vinj b a``
+        in series with the loop (``v(b) = v(a) + vinj``, the loop running from ``b`` round to
+        ``a``), ``T = −v(a)/v(b)`` (``returned = "v(a)"``, ``injected = "v(b)"``, both among the
+        outputs). Exact when the source drives a high impedance from a low one."""
+        return -self.transfer[returned.lower()] / self.transfer[injected.lower()]
+
     def to_dataframe(self):
         """A pandas frame: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg]."""
         import pandas as pd
@@ -136,3 +143,21 @@ def _inputs(circuit: Circuit, mlcs, input: str | None) -> np.ndarray:
                            hint="write 'AC 1' on the source that drives the circuit (V1 in 0 DC 0 AC 1), "
                            f"or name the input ({', '.join(sources)})")
     return phasors
+
+
+def margins(frequencies: np.ndarray, loop: np.ndarray) -> tuple[float, float]:
+    """``(crossover [Hz], phase margin [deg])`` of a loop gain ``loop`` sampled at increasing
+    ``frequencies``: the first frequency where ``|T|`` falls through 1 (interpolated in log-log)
+    and ``180° + arg T`` there (``arg T`` unwrapped from the lowest frequency, in (−360°, 0°]
+    at low frequency). ``(nan, nan)`` when ``|T|`` never crosses 1 from above."""
+    magnitude = np.log(np.abs(loop))
+    phase = np.unwrap(np.angle(loop))
+    phase -= 2 * np.pi * np.ceil(phase[0] / (2 * np.pi))  # start in (−360°, 0°]
+    falls = np.flatnonzero((magnitude[:-1] >= 0) & (magnitude[1:] < 0))
+    if not falls.size:
+        return float("nan"), float("nan")
+    k = int(falls[0])
+    fraction = magnitude[k] / (magnitude[k] - magnitude[k + 1])
+    log_f = np.log(frequencies[k]) + fraction * (np.log(frequencies[k + 1]) - np.log(frequencies[k]))
+    at = phase[k] + fraction * (phase[k + 1] - phase[k])
+    return float(np.exp(log_f)), float(180.0 + np.degrees(at))

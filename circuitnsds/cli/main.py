@@ -94,6 +94,10 @@ def build_parser() -> argparse.ArgumentParser:
     ac.add_argument("--around", choices=("auto", "op", "pss"), default="auto",
                     help="linearise at the operating point or around the periodic steady state "
                     "(default: pss when a source varies in time)")
+    ac.add_argument("--loop-gain", metavar="RETURN,INJECTED",
+                    help='loop gain by voltage injection with --input a source in series with the '
+                    'loop, e.g. "v(a),v(b)" for Vinj b a: T = -v(a)/v(b), written as "loop" with its '
+                    "crossover and phase margin")
     ac.add_argument("-o", "--csv", type=Path, metavar="CSV",
                     help="Bode table to write: frequency [Hz], then mag [dB] and phase [deg] per "
                     "output (default: NETLIST name with _ac.csv)")
@@ -248,6 +252,8 @@ def _pss(args: argparse.Namespace) -> int:
 def _ac(args: argparse.Namespace) -> int:
     import time
 
+    import numpy as np
+
     from circuitnsds import read_netlist
     from circuitnsds.circuit.circuit import AcSpec
     from circuitnsds.errors import CircuitError
@@ -265,15 +271,32 @@ def _ac(args: argparse.Namespace) -> int:
                            where=str(args.netlist))
     sweep = AcSpec(args.sweep or (spec.sweep if spec else "dec"),
                    args.points or (spec.points if spec else 20), start, stop)
+    outputs, loop = args.output, None
+    if args.loop_gain:
+        loop = [name.strip().lower() for name in args.loop_gain.split(",")]
+        if len(loop) != 2 or not args.input:
+            raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
+                               "(the injection source)", where="--loop-gain")
+        outputs = list(dict.fromkeys([*(outputs or []), *loop]))
     started = time.perf_counter()
-    result = circuit.ac(args.input, args.output, sweep.frequencies(), around=args.around)
+    result = circuit.ac(args.input, outputs, sweep.frequencies(), around=args.around)
     seconds = time.perf_counter() - started
+    marks = {}
+    if loop:
+        from circuitnsds.analyses.ac import margins
+
+        result.transfer["loop"] = result.loop_gain(*loop)
+        crossover, margin = margins(result.frequencies, result.transfer["loop"])
+        marks["loop"] = (crossover, margin)
+        print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
+              f"{margin:.4g} deg" if np.isfinite(crossover) else
+              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep", flush=True)
     written = [args.csv or Path(args.netlist.stem + "_ac.csv")]
     with _writing(written[0]):
         write_bode_csv(result, written[0])
     if args.plot:
         with _writing(args.plot):
-            plot_bode(result, args.plot)
+            plot_bode(result, args.plot, marks)
         written.append(args.plot)
     if not args.quiet:
         around = "periodic steady state" if result.around == "pss" else "operating point"

@@ -19,8 +19,9 @@ def write_bode_csv(result, path: str | Path) -> None:
                fmt="%.10g")
 
 
-def plot_bode(result, path: str | Path, dpi: int = 120) -> None:
-    """Magnitude [dB] and phase [deg] panels against log frequency, one line per output."""
+def plot_bode(result, path: str | Path, marks: dict | None = None, dpi: int = 120) -> None:
+    """Magnitude [dB] and phase [deg] panels against log frequency, one line per output;
+    ``marks``: output name -> ``(crossover [Hz], phase margin [deg])`` drawn on it."""
     from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
 
     figure = Figure(figsize=(10.0, 6.4), layout="constrained")
@@ -35,5 +36,13 @@ def plot_bode(result, path: str | Path, dpi: int = 120) -> None:
     magnitude.set_title(f"response to {result.input} around the {around}")
     for axis in (magnitude, phase):
         axis.grid(True, which="both", alpha=0.3)
+    for name, (crossover, margin) in (marks or {}).items():
+        if np.isfinite(crossover):
+            for axis in (magnitude, phase):
+                axis.axvline(crossover, color="grey", linestyle="--", linewidth=0.8)
+            magnitude.annotate(f"{name}: crossover {crossover:.4g} Hz", (crossover, 0),
+                               textcoords="offset points", xytext=(4, 4), fontsize=8)
+            phase.annotate(f"phase margin {margin:.3g}°", (crossover, margin - 180),
+                           textcoords="offset points", xytext=(4, 4), fontsize=8)
     magnitude.legend()
     figure.savefig(path, dpi=dpi)
