@@ -13,7 +13,7 @@ from circuitnsds.cli.main import main
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```\s*$", re.MULTILINE | re.DOTALL)
-TESTED_PAGES = ["getting-started.md", "api.md"]
+TESTED_PAGES = ["getting-started.md", "api.md", "pss.md", "ac.md"]
 """Pages whose code blocks are complete programs (other pages show signatures and fragments)."""
 
 

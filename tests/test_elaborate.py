@@ -109,7 +109,6 @@ def test_errors_name_the_line(body, pattern):
     ("body", "pattern"),
     [
         (".options reltol=1e-4 method=gear", r"\.options reltol=1e-4 method=gear ignored"),
-        ("V2 b 0 DC 1 AC 1\nR2 b 0 1", r"v2: AC 1 0 ignored"),
         (".meas tran vmax max v(a)", r"\.meas ignored .*: \.meas tran vmax max v\(a\)"),
         (".print tran v(a)", r"\.print ignored"),
         (".model u D(Ilimit=1)", r"ilimit ignored"),

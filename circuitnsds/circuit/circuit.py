@@ -24,6 +24,49 @@ class TranSpec:
     location: SourceLocation | None = None
 
 
+@dataclass(frozen=True)
+class PssSpec:
+    """``.pss GFREQ [TSTAB [OSCNOB [PSSPOINTS [HARMS [SCITER [STEADYCOEFF]]]]]] [UIC]``
+    (ngspice's field order; see docs/pss.md for what circuitnsds makes of each).
+
+    Attributes:
+        frequency: the fundamental frequency [Hz] (the period is its inverse).
+        stabilisation: transient time [s] run before the shooting starts.
+        points: grid steps per period (``None``: the ``.tran`` step, else 1000).
+        iterations: Newton iterations per round (``None``: the analysis' default).
+        tol: relative tolerance of the periodicity residual (``None``: default).
+        uic: start from initial conditions instead of the operating point.
+    """
+
+    frequency: float
+    stabilisation: float = 0.0
+    points: int | None = None
+    iterations: int | None = None
+    tol: float | None = None
+    uic: bool = False
+    location: SourceLocation | None = None
+
+
+@dataclass(frozen=True)
+class AcSpec:
+    """``.ac DEC|OCT|LIN N FSTART FSTOP`` (frequencies in Hz)."""
+
+    sweep: str
+    points: int
+    start: float
+    stop: float
+    location: SourceLocation | None = None
+
+    def frequencies(self) -> np.ndarray:
+        """The sweep's frequencies [Hz], as ngspice spaces them (DEC/OCT: N per decade/octave
+        from FSTART while <= FSTOP; LIN: N points from FSTART to FSTOP)."""
+        if self.sweep == "lin":
+            return np.linspace(self.start, self.stop, self.points)
+        base = 10.0 if self.sweep == "dec" else 2.0
+        count = int(np.floor(self.points * np.log(self.stop / self.start) / np.log(base) + 1e-9)) + 1
+        return self.start * base ** (np.arange(count) / self.points)
+
+
 @dataclass
 class Circuit:
     """Elements and settings read from a netlist (or built in Python).
@@ -35,6 +78,8 @@ class Circuit:
         models: model name -> :class:`~circuitnsds.circuit.elements.DiodeModel` (or the type
             letter of a model the engine does not use).
         tran: the ``.tran`` line, if any.
+        pss_spec: the ``.pss`` line, if any.
+        ac_spec: the ``.ac`` line, if any.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
         options: ``.options`` the engine uses (``theta``, ``gmin``).
@@ -50,6 +95,8 @@ class Circuit:
     models: dict[str, object] = field(default_factory=dict)
     model_locations: dict[str, SourceLocation] = field(default_factory=dict)
     tran: TranSpec | None = None
+    pss_spec: PssSpec | None = None
+    ac_spec: AcSpec | None = None
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
     options: dict[str, float] = field(default_factory=dict)
@@ -216,6 +263,61 @@ class Circuit:
             return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
                                  theta=theta, uic=uic, tol=tol, progress=progress,
                                  stepping=stepping)
+
+    def pss(
+        self,
+        period: float | None = None,
+        *,
+        step: float | None = None,
+        periods_warmup: int = 0,
+        tol: float | None = None,
+        max_iterations: int | None = None,
+        uic: bool | None = None,
+    ):
+        """Periodic steady state by shooting with the exact monodromy matrix (docs/pss.md);
+        returns a :class:`~circuitnsds.analyses.pss.PSSResult` (one settled period as
+        ``result.waveforms``, Floquet multipliers, residual).
+
+        Args:
+            period: ``T`` [s] (default: ``.pss`` GFREQ's inverse, else the least common
+                period of the PULSE and SIN sources).
+            step: time step [s] (default: ``T / .pss PSSPOINTS``, else ``.tran`` TSTEP, else
+                ``T / 1000``); the grid of one period also holds every source breakpoint.
+            periods_warmup: periods of plain transient before the shooting (default: ``.pss``
+                TSTAB's worth, else 0).
+            tol: relative periodicity tolerance (default ``.pss`` STEADYCOEFF, else 1e-9).
+            max_iterations: Newton steps before a fallback of transient periods (default
+                ``.pss`` SCITER, else 10).
+            uic: start from initial conditions, not the operating point.
+
+        Raises:
+            CircuitError: no period can be found, θ ≠ 1 is asked for, bad settings.
+            SimulationError: a step fails, ``I − Φ`` is singular, or Newton does not settle
+                (the message says which and what to try).
+        """
+        from circuitnsds.analyses.pss import run_pss
+
+        with self._strictness():
+            return run_pss(self, period, step=step, periods_warmup=periods_warmup, tol=tol,
+                           max_iterations=max_iterations, uic=uic)
+
+    def ac(self, input: str | None = None, outputs=None, frequencies=None, *, around: str = "auto",
+           pss=None):
+        """Small-signal transfer functions from the value of source ``input`` to ``outputs``
+        (signal names as in :meth:`transient`; default: every signal) at ``frequencies`` [Hz]
+        (default: the ``.ac`` line's); returns an :class:`~circuitnsds.analyses.ac.ACResult`.
+        Without ``input``, every source with an ``AC`` magnitude drives the circuit at once
+        (SPICE's ``.ac``) and the result is each output's phasor.
+
+        ``around``: ``"op"`` linearises at the operating point (every source constant:
+        SPICE's ``.ac`` with ideal devices), ``"pss"`` around the periodic steady state (a
+        switching circuit; ``pss``: a :meth:`pss` result to reuse), ``"auto"`` chooses
+        ``"pss"`` when a source varies in time.
+        """
+        from circuitnsds.analyses.ac import run_ac
+
+        with self._strictness():
+            return run_ac(self, input, outputs, frequencies, around=around, pss=pss)
 
     def operating_point(self) -> dict[str, float]:
         """DC operating point with ideal devices: every output signal's value [V or A]."""

@@ -1,4 +1,5 @@
-"""The ``circuitnsds`` command: ``run`` a netlist's transient, or print ``info`` about it.
+"""The ``circuitnsds`` command: ``run`` a netlist's transient, find its periodic steady state
+(``pss``), its small-signal response (``ac``), or print ``info`` about it.
 
 Errors in the input print one message (file:line, what, hint) on stderr and
 exit with status 1; no traceback. ``--debug`` shows tracebacks.
@@ -52,31 +53,59 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")
-    run.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
-    run.add_argument("-o", "--output", type=Path,
-                     help="CSV file to write (default: NETLIST name with .csv, in the "
-                     "current directory, unless only -r is given)")
-    run.add_argument("-r", "--raw", type=Path, metavar="RAW",
-                     help="also write a SPICE raw file (binary, as ngspice's write) for ngspice, "
-                     "LTspice's viewer, spicelib")
-    run.add_argument("--ascii", action="store_true", help="write the raw file in ASCII")
-    run.add_argument("--plot", type=Path, metavar="PNG",
-                     help="also write a figure to this PNG (PDF, SVG by the extension)")
-    run.add_argument("--show", action="store_true",
-                     help="open the figure in a window (needs a display)")
-    run.add_argument("--measure", action="append", default=[], metavar="EXPR",
-                     help='measure on the results, e.g. "mean(v(out))", "ripple(v(out), 80m, 100m)", '
-                     '"power(rload, period=20m)", "thd(v(in), 50)"; repeatable; printed as a table')
-    run.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
-                     "(default: all)")
+    _add_output_arguments(run)
     run.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
     run.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
     run.add_argument("--theta", type=float, default=None,
                      help="θ of the θ-method in [0.5, 1] (default: .options theta, else 1: implicit Euler)")
     run.add_argument("--uic", action="store_true",
                      help="start from initial conditions (as .tran ... UIC)")
-    run.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
-    run.add_argument("--strict", action="store_true", help=STRICT_HELP)
+
+    pss = commands.add_parser("pss", help="find the periodic steady state (one settled period), "
+                              "write it as run does")
+    _add_output_arguments(pss)
+    pss.add_argument("--period", type=_seconds,
+                     help="period [s] (default: .pss GFREQ, else the common period of the sources)")
+    pss.add_argument("--step", type=_seconds,
+                     help="time step [s] (default: period/.pss PSSPOINTS, else .tran TSTEP, else "
+                     "period/1000)")
+    pss.add_argument("--warmup", type=int, default=0, metavar="PERIODS",
+                     help="periods of transient before the shooting (default: .pss TSTAB, else 0)")
+    pss.add_argument("--tol", type=float, default=None,
+                     help="relative periodicity tolerance (default: .pss STEADYCOEFF, else 1e-9)")
+    pss.add_argument("--max-iterations", type=int, default=None, metavar="N",
+                     help="Newton steps before a fallback of transient periods (default: .pss "
+                     "SCITER, else 10)")
+    pss.add_argument("--uic", action="store_true",
+                     help="start from initial conditions instead of the operating point")
+
+    ac = commands.add_parser("ac", help="small-signal AC (Bode) at the operating point or around "
+                             "the periodic steady state")
+    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    ac.add_argument("--input", metavar="SOURCE",
+                    help="the source whose value is perturbed, as named in the netlist (default: "
+                    "every source with an AC magnitude, as SPICE's .ac)")
+    ac.add_argument("--output", action="append", metavar="SIGNAL",
+                    help="signal to report, e.g. v(out); repeatable (default: every signal)")
+    ac.add_argument("--sweep", choices=("dec", "oct", "lin"), default=None,
+                    help="frequency spacing (default: the .ac line's, else dec)")
+    ac.add_argument("--points", type=int, help="points per decade/octave, or in all for lin "
+                    "(default: the .ac line's, else 20)")
+    ac.add_argument("--fstart", type=_seconds, help="first frequency [Hz] (default: .ac FSTART)")
+    ac.add_argument("--fstop", type=_seconds, help="last frequency [Hz] (default: .ac FSTOP)")
+    ac.add_argument("--around", choices=("auto", "op", "pss"), default="auto",
+                    help="linearise at the operating point or around the periodic steady state "
+                    "(default: pss when a source varies in time)")
+    ac.add_argument("--loop-gain", metavar="RETURN,INJECTED",
+                    help='loop gain by voltage injection with --input a source in series with the '
+                    'loop, e.g. "v(a),v(b)" for Vinj b a: T = -v(a)/v(b), written as "loop" with its '
+                    "crossover and phase margin")
+    ac.add_argument("-o", "--csv", type=Path, metavar="CSV",
+                    help="Bode table to write: frequency [Hz], then mag [dB] and phase [deg] per "
+                    "output (default: NETLIST name with _ac.csv)")
+    ac.add_argument("--plot", type=Path, metavar="PNG", help="also write a Bode plot")
+    ac.add_argument("-q", "--quiet", action="store_true", help="no summary on stderr")
+    ac.add_argument("--strict", action="store_true", help=STRICT_HELP)
 
     info = commands.add_parser("info", help="print elements, nodes, MLCS size, breakpoints "
                                "and the circuit checks")
@@ -91,12 +120,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_output_arguments(command: argparse.ArgumentParser) -> None:
+    """The arguments ``run`` and ``pss`` share: the netlist, the files written, measurements."""
+    command.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    command.add_argument("-o", "--output", type=Path,
+                         help="CSV file to write (default: NETLIST name with .csv, in the "
+                         "current directory, unless only -r is given)")
+    command.add_argument("-r", "--raw", type=Path, metavar="RAW",
+                         help="also write a SPICE raw file (binary, as ngspice's write) for ngspice, "
+                         "LTspice's viewer, spicelib")
+    command.add_argument("--ascii", action="store_true", help="write the raw file in ASCII")
+    command.add_argument("--plot", type=Path, metavar="PNG",
+                         help="also write a figure to this PNG (PDF, SVG by the extension)")
+    command.add_argument("--show", action="store_true",
+                         help="open the figure in a window (needs a display)")
+    command.add_argument("--measure", action="append", default=[], metavar="EXPR",
+                         help='measure on the results, e.g. "mean(v(out))", "ripple(v(out), 80m, '
+                         '100m)", "power(rload, period=20m)", "thd(v(in), 50)"; repeatable; printed '
+                         "as a table")
+    command.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
+                         "(default: all)")
+    command.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
+    command.add_argument("--strict", action="store_true", help=STRICT_HELP)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         strict = getattr(args, "strict", False)
-        if strict and args.command == "run":  # stop at the first warning, before any output
+        if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
             warnings.filterwarnings("error", category=NetlistWarning)
         try:
             if args.command == "compare":
@@ -104,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
 
                 status = run_compare(args)
             else:
-                status = _run(args) if args.command == "run" else _info(args)
+                status = {"run": _run, "pss": _pss, "ac": _ac, "info": _info}[args.command](args)
         except CircuitnsdsError as exc:
             _print_warnings(caught)
             if args.debug:
@@ -152,7 +205,8 @@ def _writing(path: Path) -> Iterator[None]:
                           hint="check that the folder exists and is writable") from None
 
 
-def _run(args: argparse.Namespace) -> int:
+def _prepare(args: argparse.Namespace):
+    """Read the netlist and check what can be checked before a long run (``run``, ``pss``)."""
     from circuitnsds import read_netlist
     from circuitnsds.output.measure import parse_measurement
 
@@ -169,6 +223,11 @@ def _run(args: argparse.Namespace) -> int:
         from circuitnsds.output.plot import check_display
 
         check_display()
+    return circuit
+
+
+def _run(args: argparse.Namespace) -> int:
+    circuit = _prepare(args)
     progress = ProgressBar(sys.stderr, enabled=False if args.quiet else None)
     try:
         waves = circuit.transient(args.step, args.stop, theta=args.theta,
@@ -179,6 +238,82 @@ def _run(args: argparse.Namespace) -> int:
         raise
     finally:
         progress.close()
+    stats = waves.stats
+    return _finish(args, circuit, waves, f"{stats['steps']} steps in {stats['seconds']:.3g} s "
+                   f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
+                   f"max residual {waves.residual.max():.1e}")
+
+
+def _pss(args: argparse.Namespace) -> int:
+    import time
+
+    circuit = _prepare(args)
+    started = time.perf_counter()
+    result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup, tol=args.tol,
+                         max_iterations=args.max_iterations, uic=True if args.uic else None)
+    return _finish(args, circuit, result.waveforms,
+                   f"{result.summary()}; {time.perf_counter() - started:.3g} s")
+
+
+def _ac(args: argparse.Namespace) -> int:
+    import time
+
+    import numpy as np
+
+    from circuitnsds import read_netlist
+    from circuitnsds.circuit.circuit import AcSpec
+    from circuitnsds.errors import CircuitError
+    from circuitnsds.output.bode import plot_bode, write_bode_csv
+
+    circuit = read_netlist(args.netlist)
+    spec = circuit.ac_spec
+    start = args.fstart if args.fstart is not None else (spec.start if spec else None)
+    stop = args.fstop if args.fstop is not None else (spec.stop if spec else None)
+    if start is None or stop is None:
+        raise CircuitError("no frequency range: no .ac line and no --fstart/--fstop",
+                           where=str(args.netlist), hint="add --fstart 10 --fstop 1meg, or an .ac line")
+    if not 0 < start <= stop or (args.points is not None and args.points < 1):
+        raise CircuitError(f"need 0 < --fstart <= --fstop and --points >= 1 (got {start:g}, {stop:g})",
+                           where=str(args.netlist))
+    sweep = AcSpec(args.sweep or (spec.sweep if spec else "dec"),
+                   args.points or (spec.points if spec else 20), start, stop)
+    outputs, loop = args.output, None
+    if args.loop_gain:
+        loop = [name.strip().lower() for name in args.loop_gain.split(",")]
+        if len(loop) != 2 or not args.input:
+            raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
+                               "(the injection source)", where="--loop-gain")
+        outputs = list(dict.fromkeys([*(outputs or []), *loop]))
+    started = time.perf_counter()
+    result = circuit.ac(args.input, outputs, sweep.frequencies(), around=args.around)
+    seconds = time.perf_counter() - started
+    marks = {}
+    if loop:
+        from circuitnsds.analyses.ac import margins
+
+        result.transfer["loop"] = result.loop_gain(*loop)
+        crossover, margin = margins(result.frequencies, result.transfer["loop"])
+        marks["loop"] = (crossover, margin)
+        print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
+              f"{margin:.4g} deg" if np.isfinite(crossover) else
+              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep", flush=True)
+    written = [args.csv or Path(args.netlist.stem + "_ac.csv")]
+    with _writing(written[0]):
+        write_bode_csv(result, written[0])
+    if args.plot:
+        with _writing(args.plot):
+            plot_bode(result, args.plot, marks)
+        written.append(args.plot)
+    if not args.quiet:
+        around = "periodic steady state" if result.around == "pss" else "operating point"
+        print(f"circuitnsds: AC of {len(result.transfer)} signal(s) at {result.frequencies.size} "
+              f"frequencies around the {around} in {seconds:.3g} s; wrote "
+              f"{', '.join(map(str, written))}", file=sys.stderr)
+    return 0
+
+
+def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
+    """Write the files asked for, print the measurements and the summary, show the figure."""
     names, written = _write_outputs(args, waves)
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
@@ -186,11 +321,7 @@ def _run(args: argparse.Namespace) -> int:
         print(format_table([evaluate(expression, waves, circuit) for expression in args.measure]),
               flush=True)
     if not args.quiet:
-        stats = waves.stats
-        print(f"circuitnsds: {stats['steps']} steps in {stats['seconds']:.3g} s "
-              f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-              f"max residual {waves.residual.max():.1e}; wrote {', '.join(map(str, written))}",
-              file=sys.stderr)
+        print(f"circuitnsds: {summary}; wrote {', '.join(map(str, written))}", file=sys.stderr)
     if args.show:
         from circuitnsds.output.plot import show_waveforms
 

@@ -263,3 +263,35 @@ def _read_plot(engine, plot: str, signals: list[str], title: str) -> tuple[Wavef
         else:
             missing.append(signal)
     return Waveforms(time_points, values, title=title, stats={"points": float(time_points.size)}), missing
+
+
+def run_ngspice_ac(netlist: str, vectors: Iterable[str]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Run the ``.ac`` of an ngspice netlist; returns the frequencies [Hz] and each vector
+    asked for (ngspice names, e.g. ``v(out)``) as complex arrays.
+
+    Raises:
+        NgspiceUnavailable: PySpice or ``libngspice.so`` is missing.
+        RuntimeError: ngspice produced no AC plot (its messages say why) or lacks a vector.
+    """
+    with _lock, quiet_pyspice():
+        engine = _load_engine()
+        engine.lines.clear()
+        try:
+            _call(engine.load_circuit, netlist)
+            before = set(engine.plot_names)
+            _call(engine.run)
+            plots = [name for name in engine.plot_names if name not in before and name.startswith("ac")]
+            if not plots:
+                raise RuntimeError("ngspice ran no .ac: " + "; ".join(_messages(engine.lines)[:6]))
+            found = {name.lower(): np.asarray(vector._data) for name, vector in
+                     engine.plot(None, plots[0]).items()}
+            frequencies = np.real(found["frequency"]).astype(float)
+            result = {}
+            for name in vectors:
+                key = ngspice_vector(name.lower())[0]
+                if key not in found:
+                    raise RuntimeError(f"ngspice's .ac has no vector {key} (it has {', '.join(found)})")
+                result[name.lower()] = found[key].astype(complex)
+        finally:
+            _reset(engine)
+    return frequencies, result

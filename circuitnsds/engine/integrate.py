@@ -126,6 +126,7 @@ def integrate(
     tol: float = 1e-9,
     progress: Callable[[float, float], None] | None = None,
     stepping: str = "compiled",
+    cache: dict | None = None,
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -146,6 +147,10 @@ def integrate(
             loops in Python when numba is missing), ``"numpy"`` by the same loops in
             Python, ``"mlcp"`` by no loop: every step is solved as an MLCP. One scheme
             all three: the results agree to rounding.
+        cache: a dict the caller keeps between runs on the same grid (a shooting method
+            runs one period again and again): the step solvers and mode maps built for
+            this grid are kept in it and reused (``stats`` then count since it was made);
+            ``cache["last"]`` is the stepping state of the last run.
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -170,7 +175,7 @@ def integrate(
     states[0] = (switches0 if switches0 is not None
                  else [switch.initially_on for switch in switches])
 
-    stepping = _Stepping(mlcs, grid, theta, tol, states[0])
+    stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0])
     started = wallclock.perf_counter()
     clock = {"last": started, "reported": False}
 
@@ -244,6 +249,18 @@ def integrate(
     return Trajectory(grid, y, current, impulse, residual, active, states, stats)
 
 
+def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
+                  initial_states: np.ndarray) -> _Stepping:
+    """The :class:`_Stepping` of this grid and start, from ``cache`` when it holds one."""
+    if cache is None:
+        return _Stepping(mlcs, grid, theta, tol, initial_states)
+    key = (id(mlcs), theta, tol, initial_states.tobytes(), grid.tobytes())
+    if key not in cache:
+        cache[key] = _Stepping(mlcs, grid, theta, tol, initial_states)
+    cache["last"] = cache[key]  # what the caller reads the step maps from
+    return cache[key]
+
+
 @dataclass
 class _StepSolver:
     """The MLCP solver of one step size and switch state, with its step system."""
@@ -298,6 +315,7 @@ class _Stepping:
                       if self.dense else None)
         self.unmappable: set[tuple] = set()
         self.modes: dict[tuple, CompiledSparseMap | None] = {}
+        self.dense_maps: dict[tuple, ModeMap | None] = {}
         self.built = 0
         self.mapped_seconds = 0.0
 
@@ -442,9 +460,15 @@ class _Stepping:
         return mode
 
     def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
-        """The dense step map of a mode (``None``: its bordered matrix is singular)."""
-        blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
-        return dense_mode_map(blocks, self.mlcs.n)
+        """The dense step map of a mode (``None``: its bordered matrix is singular), kept for
+        the mode table and the step maps of :mod:`circuitnsds.engine.step_maps` alike."""
+        key = (cls, states.tobytes(), guess.tobytes())
+        if key not in self.dense_maps:
+            if len(self.dense_maps) >= MODE_CACHE_SIZE:
+                self.dense_maps.clear()
+            blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
+            self.dense_maps[key] = dense_mode_map(blocks, self.mlcs.n)
+        return self.dense_maps[key]
 
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:

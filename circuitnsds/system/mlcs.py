@@ -109,11 +109,20 @@ class MLCS:
     """``(m,)``: +1 when the pair's current flows in its device's positive direction (a
     diode's forward pair), -1 when against it (a Zener's reverse pair); the device's
     current or impulse is the signed sum over its pairs. Default: all +1."""
+    stimulus_owners: list[str] = field(default_factory=list)
+    """The element (source) name of each column of ``S`` ("" when unnamed)."""
 
     def __post_init__(self) -> None:
         if self.pair_signs is None:
             self.pair_signs = np.ones(len(self.pairs))
         self.pair_signs = np.asarray(self.pair_signs, dtype=float)
+
+    def stimulus_column(self, owner: str) -> int:
+        """The column of ``S`` (and of ``stimuli``) of the source called ``owner`` (any case)."""
+        try:
+            return self.stimulus_owners.index(owner.lower())
+        except ValueError:
+            raise KeyError(owner) from None
 
     @property
     def n(self) -> int:
@@ -211,6 +220,7 @@ class MLCSBuilder:
         self.pair_signs: list[float] = []
         self.e: list[float] = []
         self.stimuli: list[Stimulus] = []
+        self.stimulus_owners: list[str] = []
         self._triplets: dict[str, list[tuple[int, int, float]]] = {
             key: [] for key in ("E", "A", "B", "C", "D", "S")
         }
@@ -252,9 +262,10 @@ class MLCSBuilder:
         self.e.append(offset)
         return len(self.pairs) - 1
 
-    def stimulus(self, function: Stimulus) -> int:
-        """Register a source time function; returns its column in ``S``."""
+    def stimulus(self, function: Stimulus, owner: str = "") -> int:
+        """Register a source time function (of the element ``owner``); returns its column in ``S``."""
         self.stimuli.append(function)
+        self.stimulus_owners.append(owner.lower())
         return len(self.stimuli) - 1
 
     def add(self, matrix: str, row: int, col: int, value: float) -> None:
@@ -316,5 +327,5 @@ class MLCSBuilder:
             pair_devices=list(self.pair_devices), pair_signs=np.array(self.pair_signs, dtype=float),
             output_names=[name for name, _, _ in outputs],
             Y_out=y_out.tocsr(), L_out=l_out.tocsr(), nodes=list(self.nodes),
-            switches=switches,
+            switches=switches, stimulus_owners=list(self.stimulus_owners),
         )

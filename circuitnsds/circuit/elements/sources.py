@@ -19,9 +19,11 @@ from circuitnsds.system.stimuli import Dc, Stimulus
 
 @dataclass(frozen=True)
 class VoltageSource(Element):
-    """Independent voltage source with time function ``function`` [V]."""
+    """Independent voltage source with time function ``function`` [V] and AC stimulus ``ac``
+    (magnitude [V], phase [deg]) of the small-signal ``.ac``."""
 
     function: Stimulus = Dc(0.0)
+    ac: tuple[float, float] | None = None
     topology: ClassVar[str] = "voltage"
 
     def stamp(self, builder: MLCSBuilder) -> None:
@@ -31,7 +33,7 @@ class VoltageSource(Element):
         builder.add("A", minus, k, 1.0)
         builder.add("A", k, plus, 1.0)
         builder.add("A", k, minus, -1.0)
-        column = builder.stimulus(self.function)
+        column = builder.stimulus(self.function, self.name)
         builder.add("S", k, column, -1.0)
         builder.voltage_source_stimulus(plus, minus, column)
         builder.output(f"i({self.name})", [(k, 1.0)])
@@ -39,13 +41,15 @@ class VoltageSource(Element):
 
 @dataclass(frozen=True)
 class CurrentSource(Element):
-    """Independent current source with time function ``function`` [A]."""
+    """Independent current source with time function ``function`` [A] and AC stimulus ``ac``
+    (magnitude [A], phase [deg]) of the small-signal ``.ac``."""
 
     function: Stimulus = Dc(0.0)
+    ac: tuple[float, float] | None = None
     topology: ClassVar[str] = "current"
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
-        column = builder.stimulus(self.function)
+        column = builder.stimulus(self.function, self.name)
         builder.add("S", plus, column, -1.0)
         builder.add("S", minus, column, 1.0)

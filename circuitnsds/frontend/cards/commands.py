@@ -1,11 +1,11 @@
-"""Dot commands: ``.tran``, ``.ic``, ``.options``, ``.save``, ``.title``; warnings for
+"""Dot commands: ``.tran``, ``.pss``, ``.ac``, ``.ic``, ``.options``, ``.save``, ``.title``; warnings for
 commands that concern other analyses or output, errors for unsupported ones."""
 
 from __future__ import annotations
 
 import re
 
-from circuitnsds.circuit.circuit import Circuit, TranSpec
+from circuitnsds.circuit.circuit import AcSpec, Circuit, PssSpec, TranSpec
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
 from circuitnsds.theta import THETA_HINT, theta_in_range
@@ -16,7 +16,7 @@ IGNORED_COMMANDS = {
     ".plot": "every signal is written; choose columns with --signals or .save",
     ".probe": "every signal is written; choose columns with --signals or .save",
     ".op": "only .tran is run (its operating point is computed unless UIC)",
-    ".ac": "only .tran is supported", ".dc": "only .tran is supported",
+    ".dc": "only .tran is supported",
     ".noise": "only .tran is supported", ".tf": "only .tran is supported",
     ".sens": "only .tran is supported", ".pz": "only .tran is supported",
     ".disto": "only .tran is supported", ".four": "Fourier analysis is not supported",
@@ -67,6 +67,14 @@ def command(circuit: Circuit, statement: Statement) -> None:
     reader = StatementReader(statement)
     if keyword == ".tran":
         circuit.set_tran(_tran(reader), statement.location)
+    elif keyword == ".pss":
+        if circuit.pss_spec is not None:
+            raise reader.error("more than one .pss line", hint="keep one .pss GFREQ ... line")
+        circuit.pss_spec = _pss(reader)
+    elif keyword == ".ac":
+        if circuit.ac_spec is not None:
+            raise reader.error("more than one .ac line", hint="keep one .ac DEC|OCT|LIN N FSTART FSTOP")
+        circuit.ac_spec = _ac(reader)
     elif keyword == ".ic":
         _initial_conditions(circuit, reader)
     elif keyword == ".save":
@@ -81,7 +89,7 @@ def command(circuit: Circuit, statement: Statement) -> None:
                            "subcircuits with .subckt are supported)")
     else:
         raise reader.error(f"unknown command {keyword}",
-                           hint="supported: .tran, .ic, .model, .options, .param, .subckt, "
+                           hint="supported: .tran, .pss, .ac, .ic, .model, .options, .param, .subckt, "
                            ".include, .lib, .save, .end")
 
 
@@ -127,6 +135,80 @@ def _tran(reader: StatementReader) -> TranSpec:
         raise reader.error(".tran TMAX must be positive")
     return TranSpec(step=step, stop=stop, start=start, max_step=max_step, uic=uic,
                     location=reader.location)
+
+
+def _ac(reader: StatementReader) -> AcSpec:
+    """``.ac DEC|OCT|LIN N FSTART FSTOP``."""
+    usage = ".ac DEC|OCT|LIN N FSTART FSTOP, e.g. .ac dec 20 10 1meg"
+    sweep = reader.next(".ac sweep type") if not reader.done() else ""
+    if sweep not in ("dec", "oct", "lin"):
+        raise reader.error(f".ac sweep type must be DEC, OCT or LIN, got {sweep.upper() or 'nothing'}",
+                           hint=usage)
+    numbers = []
+    while not reader.done() and len(numbers) < 3:
+        numbers.append(reader.value(".ac field"))
+    if len(numbers) != 3 or not reader.done():
+        raise reader.error(".ac takes a sweep type and three numbers", hint=usage)
+    points, start, stop = numbers
+    if points < 1 or points != int(points):
+        raise reader.error(f".ac N = {points:g} must be a positive integer", hint=usage)
+    if not 0 < start <= stop:
+        raise reader.error(f".ac needs 0 < FSTART <= FSTOP, got {start:g} and {stop:g}", hint=usage)
+    return AcSpec(sweep=sweep, points=int(points), start=start, stop=stop, location=reader.location)
+
+
+PSS_FIELDS = ("GFREQ", "TSTAB", "OSCNOB", "PSSPOINTS", "HARMS", "SCITER", "STEADYCOEFF")
+"""The fields of ngspice's ``.pss`` line, in order."""
+
+
+def _pss(reader: StatementReader) -> PssSpec:
+    """``.pss GFREQ [TSTAB [OSCNOB [PSSPOINTS [HARMS [SCITER [STEADYCOEFF]]]]]] [UIC]``.
+
+    GFREQ is the period's inverse (ngspice: a guess for an oscillator; here the exact
+    frequency of the sources), TSTAB a transient run before shooting, PSSPOINTS the
+    steps per period, SCITER the Newton iterations, STEADYCOEFF the tolerance. OSCNOB
+    (the oscillation node of an autonomous circuit) and HARMS (harmonics printed) are
+    read and ignored with a warning when given.
+    """
+    usage = ".pss GFREQ [TSTAB [OSCNOB [PSSPOINTS [HARMS [SCITER [STEADYCOEFF]]]]]] [UIC]"
+    fields: list[str | float] = []
+    uic = False
+    while not reader.done():
+        if reader.peek() == "uic":
+            uic = True
+            reader.position += 1
+        elif len(fields) == 2:
+            fields.append(node_name(reader.next("OSCNOB node")))
+        elif len(fields) < len(PSS_FIELDS):
+            fields.append(reader.value(f".pss {PSS_FIELDS[len(fields)]}"))
+        else:
+            raise reader.error(f".pss takes at most {len(PSS_FIELDS)} fields", hint=usage)
+    if not fields:
+        raise reader.error(".pss needs GFREQ, the fundamental frequency [Hz]", hint=usage)
+    frequency = float(fields[0])
+    if not frequency > 0:
+        raise reader.error(f".pss GFREQ = {frequency:g} Hz must be positive", hint=usage)
+    stabilisation = float(fields[1]) if len(fields) > 1 else 0.0
+    if stabilisation < 0:
+        raise reader.error(f".pss TSTAB = {stabilisation:g} s must not be negative", hint=usage)
+    if len(fields) > 2 and fields[2] != "0":
+        reader.warn(f".pss OSCNOB {fields[2]} ignored: the period is set by the sources (an "
+                    "autonomous oscillator's period is not searched for)")
+    counts = {}
+    for index, name in ((3, "PSSPOINTS"), (5, "SCITER")):
+        if len(fields) > index:
+            value = float(fields[index])
+            if value < 1 or value != int(value):
+                raise reader.error(f".pss {name} = {value:g} must be a positive integer", hint=usage)
+            counts[name] = int(value)
+    if len(fields) > 4:
+        reader.warn(".pss HARMS ignored: harmonics are not printed (measure them on the settled "
+                    "period, e.g. --measure \"thd(v(out), FREQ)\")")
+    tol = float(fields[6]) if len(fields) > 6 else None
+    if tol is not None and not tol > 0:
+        raise reader.error(f".pss STEADYCOEFF = {tol:g} must be positive", hint=usage)
+    return PssSpec(frequency=frequency, stabilisation=stabilisation, points=counts.get("PSSPOINTS"),
+                   iterations=counts.get("SCITER"), tol=tol, uic=uic, location=reader.location)
 
 
 def _initial_conditions(circuit: Circuit, reader: StatementReader) -> None:

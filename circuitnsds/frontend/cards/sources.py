@@ -21,9 +21,9 @@ BEHAVIOURAL_KEYWORDS = {"value", "poly", "table", "laplace", "freq", "cur", "vol
 def independent_source(reader: StatementReader, letter: str) -> Element:
     """``V name n+ n- [DC] value [AC ...] [SIN|PULSE|PWL|EXP(...)]`` (and ``I``)."""
     nodes = reader.nodes(2)
-    function = _source_function(reader)
+    function, ac = _source_function(reader)
     cls = VoltageSource if letter == "v" else CurrentSource
-    return cls(reader.name, nodes, reader.location, function=function)
+    return cls(reader.name, nodes, reader.location, function=function, ac=ac)
 
 
 def controlled_source(reader: StatementReader, letter: str, voltage_sources: set[str]) -> Element:
@@ -77,11 +77,13 @@ def _is_number(token: str | None) -> bool:
 FUNCTION_ARITY = {"sin": (2, 6), "pulse": (2, 7), "exp": (2, 6), "pwl": (2, None)}
 
 
-def _source_function(reader: StatementReader) -> Stimulus:
-    """Parse ``[DC] value [AC mag [phase]] [SIN(...)|PULSE(...)|PWL(...)|EXP(...)]``."""
+def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, float] | None]:
+    """Parse ``[DC] value [AC mag [phase]] [SIN(...)|PULSE(...)|PWL(...)|EXP(...)]``: the
+    time function and the AC ``(magnitude, phase [deg])`` (``None`` without ``AC``)."""
     name = reader.name
     dc: float | None = None
     function: Stimulus | None = None
+    ac: tuple[float, float] | None = None
     while not reader.done():
         token = reader.next("source value")
         if token == "dc":
@@ -89,10 +91,11 @@ def _source_function(reader: StatementReader) -> Stimulus:
                 raise reader.error(f"{name}: the DC value is given twice")
             dc = reader.value("DC value")
         elif token == "ac":
+            if ac is not None:
+                raise reader.error(f"{name}: AC is given twice")
             magnitude = reader.value("AC magnitude") if _is_number(reader.peek()) else 1.0
             phase = reader.value("AC phase") if _is_number(reader.peek()) else 0.0
-            reader.warn(f"{name}: AC {magnitude:g} {phase:g} ignored (small-signal .ac "
-                        "analysis only; it has no effect on a transient)")
+            ac = (magnitude, phase)  # the small-signal .ac's stimulus; no effect on a transient
         elif token in FUNCTION_ARITY:
             if function is not None:
                 raise reader.error(f"{name}: more than one transient function")
@@ -106,8 +109,8 @@ def _source_function(reader: StatementReader) -> Stimulus:
             raise reader.error(f"{name}: unexpected {token!r} in a source specification",
                                hint="write V1 n+ n- [DC] VALUE or V1 n+ n- SIN(VO VA FREQ ...)")
     if function is not None:
-        return function
-    return Dc(0.0 if dc is None else dc)
+        return function, ac
+    return Dc(0.0 if dc is None else dc), ac
 
 
 def _function(reader: StatementReader, kind: str) -> Stimulus:

@@ -1,0 +1,163 @@
+"""Small-signal AC: transfer functions from a source's value to output signals, at the
+operating point (a circuit whose sources are constant: SPICE's ``.ac`` with ideal
+devices) or around the periodic steady state (a switching circuit: line-to-output,
+output impedance). The mathematics is in :mod:`circuitnsds.engine.small_signal`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.errors import CircuitError, SimulationError
+from circuitnsds.system.stimuli import Dc, Pwl
+
+
+@dataclass
+class ACResult:
+    """Transfer functions per output.
+
+    Attributes:
+        frequencies: [Hz].
+        input: the perturbed source (its name).
+        transfer: output name -> complex transfer function (units of the output per unit
+            of the source's value: V/V, or Ω for a voltage per current source).
+        around: ``"op"`` (operating point, linear) or ``"pss"`` (periodic steady state).
+        pss: the periodic steady state used (``around == "pss"``).
+    """
+
+    frequencies: np.ndarray
+    input: str
+    transfer: dict[str, np.ndarray]
+    around: str
+    pss: object | None = None
+
+    def magnitude_db(self, output: str) -> np.ndarray:
+        """``20 log10 |H|`` [dB]."""
+        return 20 * np.log10(np.abs(self.transfer[output]))
+
+    def phase_deg(self, output: str) -> np.ndarray:
+        """Phase of ``H`` [deg], unwrapped along frequency."""
+        return np.degrees(np.unwrap(np.angle(self.transfer[output])))
+
+    def loop_gain(self, returned: str, injected: str) -> np.ndarray:
+        """Loop gain by voltage injection (Middlebrook): with the input a source ``Vinj b a``
+        in series with the loop (``v(b) = v(a) + vinj``, the loop running from ``b`` round to
+        ``a``), ``T = −v(a)/v(b)`` (``returned = "v(a)"``, ``injected = "v(b)"``, both among the
+        outputs). Exact when the source drives a high impedance from a low one."""
+        return -self.transfer[returned.lower()] / self.transfer[injected.lower()]
+
+    def to_dataframe(self):
+        """A pandas frame: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg]."""
+        import pandas as pd
+
+        columns = {"frequency": self.frequencies}
+        for name in self.transfer:
+            columns[f"mag({name})"] = self.magnitude_db(name)
+            columns[f"phase({name})"] = self.phase_deg(name)
+        return pd.DataFrame(columns)
+
+
+def _constant(function) -> bool:
+    return isinstance(function, Dc) or (isinstance(function, Pwl) and len(set(function.values)) == 1)
+
+
+def run_ac(circuit: Circuit, input: str | None, outputs, frequencies, *, around: str = "auto",
+           pss=None) -> ACResult:
+    """See :meth:`Circuit.ac`."""
+    if frequencies is None:
+        if circuit.ac_spec is None:
+            raise CircuitError("no frequencies given and no .ac line", where=circuit.file,
+                               hint="add '.ac DEC 20 10 1meg' to the netlist, or give frequencies")
+        frequencies = circuit.ac_spec.frequencies()
+    frequencies = np.atleast_1d(np.asarray(frequencies, dtype=float))
+    if not (frequencies > 0).all():
+        raise CircuitError("AC frequencies must be positive", where=circuit.file)
+    varying = [e.name.upper() for e in circuit.elements
+               if getattr(e, "function", None) is not None and not _constant(e.function)]
+    if around == "auto":
+        around = "pss" if (varying or pss is not None) else "op"
+    if around not in ("op", "pss"):
+        raise ValueError(f"around must be 'auto', 'op' or 'pss', got {around!r}")
+    if around == "op" and varying:
+        raise CircuitError(f"source(s) {', '.join(varying)} vary in time: the circuit has no fixed "
+                           "operating point", where=circuit.file,
+                           hint="use around='pss' (small-signal around the periodic steady state)")
+    if around == "pss":
+        if pss is None:
+            pss = circuit.pss()
+        mlcs = pss.mlcs
+    else:
+        mlcs = circuit.mlcs()
+    inputs = _inputs(circuit, mlcs, input)
+    outputs = list(mlcs.output_names) if outputs is None else (
+        [outputs] if isinstance(outputs, str) else list(outputs))
+    rows = {name: j for j, name in enumerate(mlcs.output_names)}
+    unknown = [name for name in outputs if name.lower() not in rows]
+    if unknown:
+        raise CircuitError(f"unknown output signal(s) {', '.join(unknown)}", where=circuit.file,
+                           hint=f"available: {', '.join(mlcs.output_names)}")
+    picked = [rows[name.lower()] for name in outputs]
+    Y_out, L_out = mlcs.Y_out.tocsr()[picked], mlcs.L_out.tocsr()[picked]
+    if around == "op":
+        from circuitnsds.analyses.operating_point import operating_point
+        from circuitnsds.engine.small_signal import operating_point_response
+
+        state = operating_point(circuit, mlcs)
+        try:
+            values = operating_point_response(mlcs, state.switches, state.active, inputs,
+                                              frequencies, Y_out, L_out)
+        except (np.linalg.LinAlgError, RuntimeError) as exc:
+            raise SimulationError(f"the small-signal system is singular ({exc})", where=circuit.file,
+                                  hint="a node is left floating at the operating point (every diode "
+                                  "at it blocks, no resistor to ground)") from None
+    else:
+        from circuitnsds.engine.small_signal import periodic_response
+
+        values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
+    transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
+    return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
+
+
+def _inputs(circuit: Circuit, mlcs, input: str | None) -> np.ndarray:
+    """The phasor of every source column: a unit at ``input``, or every source's ``AC``."""
+    phasors = np.zeros(len(mlcs.stimuli), dtype=complex)
+    sources = [name.upper() for name in mlcs.stimulus_owners if name]
+    if input is not None:
+        try:
+            phasors[mlcs.stimulus_column(input)] = 1.0
+        except KeyError:
+            raise CircuitError(f"no independent source called {input}", where=circuit.file,
+                               hint=f"the input is a V or I source of the netlist: {', '.join(sources)}; "
+                               "for an output impedance add a zero current source at the output "
+                               "(Iinj 0 out 0)") from None
+        return phasors
+    for element in circuit.elements:
+        ac = getattr(element, "ac", None)
+        if ac is not None:
+            magnitude, phase = ac
+            phasors[mlcs.stimulus_column(element.name)] = magnitude * np.exp(1j * np.radians(phase))
+    if not phasors.any():
+        raise CircuitError("no source has an AC magnitude and no input is given", where=circuit.file,
+                           hint="write 'AC 1' on the source that drives the circuit (V1 in 0 DC 0 AC 1), "
+                           f"or name the input ({', '.join(sources)})")
+    return phasors
+
+
+def margins(frequencies: np.ndarray, loop: np.ndarray) -> tuple[float, float]:
+    """``(crossover [Hz], phase margin [deg])`` of a loop gain ``loop`` sampled at increasing
+    ``frequencies``: the first frequency where ``|T|`` falls through 1 (interpolated in log-log)
+    and ``180° + arg T`` there (``arg T`` unwrapped from the lowest frequency, in (−360°, 0°]
+    at low frequency). ``(nan, nan)`` when ``|T|`` never crosses 1 from above."""
+    magnitude = np.log(np.abs(loop))
+    phase = np.unwrap(np.angle(loop))
+    phase -= 2 * np.pi * np.ceil(phase[0] / (2 * np.pi))  # start in (−360°, 0°]
+    falls = np.flatnonzero((magnitude[:-1] >= 0) & (magnitude[1:] < 0))
+    if not falls.size:
+        return float("nan"), float("nan")
+    k = int(falls[0])
+    fraction = magnitude[k] / (magnitude[k] - magnitude[k + 1])
+    log_f = np.log(frequencies[k]) + fraction * (np.log(frequencies[k + 1]) - np.log(frequencies[k]))
+    at = phase[k] + fraction * (phase[k + 1] - phase[k])
+    return float(np.exp(log_f)), float(180.0 + np.degrees(at))

@@ -1,0 +1,395 @@
+"""Periodic steady state by shooting with the exact monodromy matrix (DESIGN.md §2,
+"Periodic steady state"; docs/pss.md).
+
+On a grid over one period ``T`` (the same in every period, with the sources'
+breakpoints), each implicit Euler step in a fixed mode is affine on the state
+``x`` (capacitor node voltages, inductor currents), so one period from ``x_0`` is
+``P(x_0) = Φ x_0 + c`` for the mode sequence it visits, with ``Φ = M_{N-1} ⋯ M_0``
+(:mod:`circuitnsds.engine.step_maps`). Newton on ``P(x) − x = 0`` solves
+``(I − Φ) x_0 = c`` and runs the period again from the new ``x_0`` with full
+complementarity; when the run visits the same mode sequence, ``x_0`` is the periodic
+solution of the discrete system (to rounding) and the residual says so. A changed
+sequence (a diode that now turns off earlier, DCM) gives a new ``Φ`` and one more
+step. When Newton does not settle within ``max_iterations``, or returns to a mode sequence
+it visited without halving the residual (it cycles between pieces of the piecewise affine
+map), some periods of plain transient are run from the best state seen and Newton starts
+again (:data:`FALLBACK_ROUNDS` times, the transient doubling each time).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from circuitnsds.analyses.operating_point import operating_point, uic_state
+from circuitnsds.analyses.transient import _waveforms
+from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.step_maps import StepMapper, StepMaps
+from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
+from circuitnsds.output.waveforms import Waveforms
+from circuitnsds.system.mlcs import MLCS
+from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
+
+DEFAULT_POINTS = 1000
+"""Steps per period when neither ``step``, ``.pss PSSPOINTS`` nor ``.tran`` TSTEP says."""
+DEFAULT_TOL = 1e-9
+"""Relative periodicity tolerance (see :func:`run_pss`)."""
+DEFAULT_ITERATIONS = 10
+"""Newton iterations per round before the transient fallback."""
+FALLBACK_ROUNDS = 3
+"""Rounds of (transient periods, Newton) after the first Newton round fails."""
+FALLBACK_PERIODS = 10
+"""Transient periods of the first fallback (doubled at each round)."""
+SINGULAR = 1e-10
+"""A Floquet multiplier closer than this to 1 makes ``I − Φ`` singular."""
+ILL_CONDITIONED = 1e12
+"""Condition number of ``I − Φ`` above which the Newton step is refused."""
+PERIOD_MATCH = 1e-9
+"""Relative tolerance when testing that source periods divide the common period."""
+UNDAMPED_HINT = ("look for a capacitor in a cut-set with only sources, capacitors or blocked "
+                 "diodes (its charge never changes), an inductor in a loop of sources only, or an "
+                 "undamped LC; add a resistance (a bleeder across the capacitor, a series "
+                 "resistance in the inductor)")
+"""What to look for when a state is not damped over a period."""
+MOST_PERIODS = 10_000
+"""Largest ratio common period / longest source period searched for."""
+
+
+@dataclass
+class PSSResult:
+    """One settled period of a circuit with periodic sources.
+
+    Attributes:
+        waveforms: the period ``[t0, t0 + period]`` with the transient's signal names.
+        period: ``T`` [s].
+        t0: the period's first instant [s] (where every source has become periodic).
+        state_names: the state unknowns (``v(node)``, ``i(l1)``, ...).
+        state: their values at ``t0`` (= at ``t0 + T``) [V or A].
+        iterations: Newton steps taken (solves of ``(I − Φ) x = c``).
+        residual: ``‖P(x_0) − x_0‖∞`` of the settled period [V or A].
+        relative_residual: the same, each component divided by its scale (see
+            :func:`run_pss`); at most ``tol`` when returned.
+        monodromy: ``Φ`` (state × state), the exact Jacobian of the period map.
+        multipliers: eigenvalues of ``Φ`` (Floquet multipliers), largest modulus first:
+            all ``|λ| < 1`` for a stable periodic solution; ``-ln|λ| / T`` is a decay rate [1/s].
+        transient_periods: periods of plain transient run (warm-up and fallbacks).
+        history: ``‖P(x) − x‖∞`` relative, at each run of the period.
+        maps: the settled period's :class:`~circuitnsds.engine.step_maps.StepMaps`
+            (trajectory, mode sequence, step maps): the start of a small-signal analysis.
+        mlcs: the system those maps belong to.
+    """
+
+    waveforms: Waveforms
+    period: float
+    t0: float
+    state_names: list[str]
+    state: np.ndarray
+    iterations: int
+    residual: float
+    relative_residual: float
+    monodromy: np.ndarray
+    multipliers: np.ndarray
+    transient_periods: int = 0
+    history: list[float] = field(default_factory=list)
+    maps: StepMaps | None = field(default=None, repr=False)
+    mlcs: MLCS | None = field(default=None, repr=False)
+
+    @property
+    def decay_rate(self) -> float:
+        """Slowest decay of a disturbance [1/s]: ``-ln(max |λ|) / T`` (``inf`` when Φ = 0)."""
+        largest = float(np.abs(self.multipliers).max(initial=0.0))
+        return math.inf if largest == 0.0 else -math.log(largest) / self.period
+
+    def summary(self) -> str:
+        if not self.state_names:
+            return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s; the "
+                    "circuit has no state (no capacitor or inductor), so every period is the same")
+        largest = float(np.abs(self.multipliers).max(initial=0.0))
+        return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s, "
+                f"{self.iterations} Newton step(s), residual {self.relative_residual:.1e} "
+                f"(relative), largest Floquet multiplier |λ| = {largest:.6g}")
+
+
+def source_period(circuit: Circuit) -> tuple[float, float]:
+    """The least common period of the circuit's periodic sources and the instant from which
+    every source is periodic (the largest delay) [s].
+
+    Raises:
+        CircuitError: a time-varying source is not periodic (PWL, EXP, a damped SIN, a PULSE
+            without period), no source is periodic, or their periods have no common multiple.
+    """
+    periods: list[tuple[float, str]] = []
+    start = 0.0
+    for element in circuit.elements:
+        function = getattr(element, "function", None)
+        if function is None or isinstance(function, Dc):
+            continue
+        name = element.name.upper()
+        if isinstance(function, Pulse) and function.period:
+            periods.append((function.period, name))
+            start = max(start, function.delay)
+        elif isinstance(function, Sin) and function.frequency and not function.damping:
+            periods.append((1.0 / function.frequency, name))
+            start = max(start, function.delay)
+        elif isinstance(function, Pwl) and len(set(function.values)) == 1:
+            continue  # a constant written as PWL
+        else:
+            why = {Pulse: "a PULSE without PER is a single pulse",
+                   Sin: "a SIN needs FREQ and no damping THETA to be periodic",
+                   Pwl: "a PWL holds its last value (repeating PWL is not supported)"}.get(
+                       type(function), "it makes one transition")
+            raise CircuitError(f"source {name} ({function}) is not periodic: {why}", where=name,
+                               hint="a periodic steady state needs periodic sources (PULSE with PER, "
+                               "SIN with FREQ) and constants")
+    if not periods:
+        raise CircuitError("the circuit has no periodic source, so it has no period", where=circuit.file,
+                           hint="give the period (pss(period=...), --period, or .pss GFREQ); a circuit "
+                           "that oscillates by itself is not supported")
+    longest, owner = max(periods)
+    for multiple in range(1, MOST_PERIODS + 1):
+        candidate = multiple * longest
+        if all(abs(candidate / p - round(candidate / p)) <= PERIOD_MATCH * candidate / p
+               for p, _ in periods):
+            return candidate, start
+    listed = ", ".join(f"{name}: {p:.6g} s" for p, name in periods)
+    raise CircuitError(f"the sources' periods have no common multiple up to {MOST_PERIODS} × "
+                       f"{longest:.6g} s ({listed})", where=owner,
+                       hint="give the period yourself (pss(period=...), --period), or make the periods "
+                       "commensurate")
+
+
+def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None = None,
+            periods_warmup: int = 0, tol: float | None = None, max_iterations: int | None = None,
+            theta: float | None = None, uic: bool | None = None) -> PSSResult:
+    """See :meth:`Circuit.pss`.
+
+    Convergence: for each state unknown ``i`` with scale ``s_i`` (its largest magnitude over
+    the period, at least ``1e-9`` of the largest scale of its unit), ``|P(x_0)_i − x_{0,i}|
+    <= tol · s_i``.
+    """
+    spec = circuit.pss_spec
+    theta = circuit.options.get("theta", 1.0) if theta is None else theta
+    if theta != 1.0:
+        raise CircuitError(f"the periodic steady state uses implicit Euler (theta = 1), not theta = "
+                           f"{theta:g}", where=circuit.file,
+                           hint="with theta < 1 a step depends on the algebraic unknowns too, so the "
+                           "period map is not a map of the state alone; drop .options theta (or "
+                           "--theta) for pss, and compare with a transient at theta = 1")
+    found_period, t0 = None, None
+    if period is None and spec is None:
+        try:
+            found_period, t0 = source_period(circuit)
+        except CircuitError as exc:
+            free = _circuit_controlled_switches(circuit)
+            if free and "no periodic source" in exc.message:
+                raise CircuitError(
+                    f"the circuit has no periodic source; switch(es) {', '.join(free)} are controlled "
+                    "by the circuit: if they switch by themselves (a hysteretic controller, a relaxation "
+                    "oscillator), the period is the circuit's own, and autonomous switching is not "
+                    "supported", where=free[0],
+                    hint="drive the switching from a source (a PULSE or a ramp into a comparator "
+                    "whose control is that source), or run a transient") from None
+            raise
+    if period is None:
+        period = 1.0 / spec.frequency if spec is not None else found_period
+    if t0 is None:
+        t0 = _periodic_from(circuit)
+    if not period > 0:
+        raise CircuitError(f"the period must be positive, got {period:g} s", where=circuit.file)
+    tran = circuit.tran
+    if step is None:
+        if spec is not None and spec.points:
+            step = period / spec.points
+        elif tran is not None:
+            step = min(tran.step, tran.max_step) if tran.max_step else tran.step
+        else:
+            step = period / DEFAULT_POINTS
+    if not 0 < step <= period:
+        raise CircuitError(f"the step ({step:g} s) must lie in (0, period = {period:g} s]",
+                           where=circuit.file)
+    tol = tol if tol is not None else (spec.tol if spec is not None and spec.tol else DEFAULT_TOL)
+    max_iterations = max_iterations or (spec.iterations if spec is not None and spec.iterations
+                                        else DEFAULT_ITERATIONS)
+    if spec is not None and spec.stabilisation and periods_warmup == 0:
+        periods_warmup = math.ceil(spec.stabilisation / period - 1e-9)
+    uic = uic if uic is not None else ((spec.uic if spec is not None else False)
+                                       or (tran.uic if tran is not None else False))
+    # the sources' analysis-dependent defaults (PULSE TR = TSTEP, ...) as the transient has them
+    resolve_step = tran.step if tran is not None else step
+    resolve_stop = tran.stop if tran is not None else t0 + (periods_warmup + 1) * period
+    mlcs = circuit.mlcs(resolve_step, resolve_stop)
+    grid = _period_grid(mlcs, step, t0, period)
+
+    check_initial_conditions(circuit, circuit._resolved(resolve_step, resolve_stop), uic)
+    initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
+    start_time = t0 + periods_warmup * period
+    y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
+    if start_time > 0:  # into the periodic regime (and the warm-up periods)
+        run = integrate(mlcs, _whole_grid(mlcs, step, start_time), y, charge, None, active, switches)
+        y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
+    shooter = _Shooter(circuit, mlcs, grid, period, tol)
+    result = shooter.solve(y, charge, active, switches, max_iterations)
+    result.transient_periods += periods_warmup
+    return result
+
+
+def _circuit_controlled_switches(circuit: Circuit) -> list[str]:
+    """Names of the switches whose control is not a source's time function."""
+    try:
+        mlcs = circuit.mlcs()
+    except CircuitError:
+        return []
+    return [switch.name.upper() for switch in mlcs.switches if switch.control_stimulus is None]
+
+
+def _periodic_from(circuit: Circuit) -> float:
+    """The largest delay of a PULSE or SIN source [s] (0 without)."""
+    delays = [getattr(element.function, "delay", 0.0) for element in circuit.elements
+              if isinstance(getattr(element, "function", None), (Pulse, Sin))]
+    return max(delays, default=0.0)
+
+
+def _period_grid(mlcs: MLCS, step: float, t0: float, period: float) -> np.ndarray:
+    """The grid of one period ``[t0, t0 + T]``: regular steps from ``t0`` plus every breakpoint."""
+    points = mlcs.breakpoints(t0 + period)
+    local = points[(points > t0) & (points < t0 + period)] - t0
+    return t0 + time_grid(step, period, local)
+
+
+def _whole_grid(mlcs: MLCS, step: float, stop: float) -> np.ndarray:
+    return time_grid(step, stop, mlcs.breakpoints(stop))
+
+
+class _Shooter:
+    """Newton on the period map with the exact monodromy matrix, with transient fallbacks."""
+
+    def __init__(self, circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, tol: float):
+        self.circuit, self.mlcs, self.grid, self.period, self.tol = circuit, mlcs, grid, period, tol
+        self.iterations = 0
+        self.history: list[float] = []
+        self.transient_periods = 0
+        self.mapper = StepMapper(mlcs, grid, tol=1e-9)
+
+    def solve(self, y, charge, active, switches, max_iterations: int) -> PSSResult:
+        best: tuple[float, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray] | None = None
+        failure = ""
+        for round_ in range(FALLBACK_ROUNDS + 1):
+            if round_ > 0:
+                periods = FALLBACK_PERIODS * 2 ** (round_ - 1)
+                y, charge, active, switches = self._transient(best, periods)
+            seen: dict[int, float] = {}  # mode sequence -> residual when it was visited
+            for attempt in range(max_iterations + 1):
+                maps = self.mapper.run(y, charge, active, switches)
+                run = maps.trajectory
+                x0, x1 = run.y[0, maps.state], run.y[-1, maps.state]
+                relative = self._relative(run.y[:, maps.state], x1 - x0)
+                self.history.append(relative)
+                if best is None or relative < best[0]:
+                    best = (relative, run.y[0].copy(), charge, run.active[0].copy(), run.switches[0].copy())
+                phi, c = maps.composition()
+                if relative <= self.tol:
+                    return self._result(maps, phi, float(np.abs(x1 - x0).max(initial=0.0)), relative)
+                if attempt == max_iterations:
+                    failure = (f"Newton did not settle in {max_iterations} steps (relative residual "
+                               f"{relative:.2g}, the mode sequence kept changing)")
+                    break
+                sequence = hash(b"".join(maps.keys))
+                if sequence in seen and relative >= 0.5 * seen[sequence]:
+                    # back to a mode sequence without progress: Newton cycles between pieces of
+                    # the piecewise affine period map; transient periods break the cycle
+                    failure = f"Newton cycled between mode sequences (relative residual {relative:.2g})"
+                    break
+                seen[sequence] = relative
+                x_new = self._newton(maps, phi, c)
+                self.iterations += 1
+                y = run.y[-1].copy()  # the algebraic unknowns do not enter an implicit Euler step
+                y[maps.state] = x_new
+                charge, active, switches = None, run.active[-1], run.switches[-1]
+        free = [switch.name.upper() for switch in self.mlcs.switches if switch.control_stimulus is None]
+        hint = ("try a smaller step (--step), more warm-up periods (periods_warmup, .pss TSTAB), "
+                "or check the period")
+        if free:
+            hint = (f"switch(es) {', '.join(free)} are controlled by the circuit and switch at grid "
+                    "points: their instants move by whole steps with the state, the period map jumps, "
+                    "and an exactly periodic solution may not exist (a duty cycle dithering by one "
+                    "step);\n  a smaller step lowers that floor, and a tolerance above the best "
+                    f"residual (tol={2 * best[0]:.2g}, --tol) accepts the best period found;\n  if they "
+                    "switch by themselves (a hysteretic controller), the period is not the sources' "
+                    "and that is not supported")
+        raise SimulationError(f"the periodic steady state was not found: {failure}; best relative "
+                              f"residual {best[0]:.2g} after {self.transient_periods} transient periods",
+                              where=self.circuit.file, hint=hint)
+
+    def _relative(self, states: np.ndarray, change: np.ndarray) -> float:
+        scale = np.abs(states).max(axis=0)
+        floor = 1e-9 * max(float(scale.max(initial=0.0)), 1e-30)
+        return float(np.abs(change / np.maximum(scale, floor)).max(initial=0.0))
+
+    def _newton(self, maps: StepMaps, phi: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Solve ``(I − Φ) x = c``, or say in words why not."""
+        size = phi.shape[0]
+        matrix = np.eye(size) - phi
+        multipliers, vectors = np.linalg.eig(phi)
+        closest = int(np.argmin(np.abs(1.0 - multipliers))) if size else 0
+        condition = np.linalg.cond(matrix) if size else 1.0
+        if size and (abs(1.0 - multipliers[closest]) < SINGULAR or not condition < ILL_CONDITIONED):
+            raise SimulationError(
+                f"I − Φ is singular (Floquet multiplier {multipliers[closest]:.12g}, condition "
+                f"{condition:.3g}): the state along {self._along(maps, vectors[:, closest])} is not "
+                "damped over a period, so no Newton step can settle it", where=self.circuit.file,
+                hint=UNDAMPED_HINT)
+        return np.linalg.solve(matrix, c)
+
+    def _along(self, maps: StepMaps, vector: np.ndarray) -> str:
+        """The state unknowns that make up most of an eigenvector of ``Φ``."""
+        size = np.abs(vector)
+        return ", ".join(self.mlcs.unknowns[maps.state[j]] for j in np.argsort(size)[::-1][:3]
+                         if size[j] > 0.1 * size.max())
+
+    def _transient(self, best, periods: int):
+        """Run ``periods`` periods of plain transient from the best state seen."""
+        _, y, charge, active, switches = best
+        grid = np.concatenate([self.grid[:-1] + j * self.period for j in range(periods)]
+                              + [[self.grid[-1] + (periods - 1) * self.period]])
+        run = integrate(self.mlcs, grid, y, charge, None, active, switches)
+        self.transient_periods += periods
+        # back to the first period's instants (the sources are periodic)
+        return run.y[-1], None, run.active[-1], run.switches[-1]
+
+    def _result(self, maps: StepMaps, phi: np.ndarray, residual: float, relative: float) -> PSSResult:
+        run = maps.trajectory
+        multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
+        multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
+        if multipliers.size:
+            import warnings
+
+            phi_values, vectors = np.linalg.eig(phi)
+            closest = int(np.argmin(np.abs(1.0 - phi_values)))
+            if abs(1.0 - phi_values[closest]) < SINGULAR:
+                warnings.warn(CircuitWarning(
+                    f"{self.circuit.file}: the periodic solution is not unique: the state along "
+                    f"{self._along(maps, vectors[:, closest])} is not damped (Floquet multiplier 1), "
+                    f"so every value of it repeats and the one shown is the initial state's; "
+                    f"{UNDAMPED_HINT}"), stacklevel=5)
+            elif np.abs(multipliers).max() > 1.0:
+                warnings.warn(CircuitWarning(
+                    f"{self.circuit.file}: the periodic solution found is not stable (largest Floquet "
+                    f"multiplier |λ| = {np.abs(multipliers).max():.6g} > 1): a transient would not "
+                    "settle to it"), stacklevel=5)
+        # the first point holds the state given, not the algebraic unknowns at t0: take them from
+        # the period's end, which is the same instant of the periodic solution
+        run.y[0] = run.y[-1]
+        run.current[0] = run.current[-1]
+        waves = _waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1])
+        waves.stats.update(analysis="pss", iterations=self.iterations)
+        names = [self.mlcs.unknowns[j] for j in maps.state]
+        return PSSResult(waveforms=waves, period=self.period, t0=float(run.time[0]), state_names=names,
+                         state=run.y[0, maps.state].copy(), iterations=self.iterations,
+                         residual=residual, relative_residual=relative, monodromy=phi,
+                         multipliers=multipliers, transient_periods=self.transient_periods,
+                         history=list(self.history), maps=maps, mlcs=self.mlcs)

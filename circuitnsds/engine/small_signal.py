@@ -1,0 +1,123 @@
+"""Small-signal responses of an MLCS (DESIGN.md §2, "Small-signal AC around the periodic
+steady state").
+
+Two cases, both linear in a source's value perturbed by ``Re(û e^{jωt})`` (``û = 1``: the
+results are transfer functions per unit of the source's value, V/V, A/V, V/A, ...):
+
+* :func:`operating_point_response`: the circuit at an operating point with every pair
+  in a fixed state (active pairs keep ``w_α = 0``, the others ``λ = 0``) and the switches
+  in theirs is linear time-invariant; with ``E y' = A y + B λ + S f`` the phasors solve
+
+      [[jωE − A, −B_α], [C_α, D_αα]] [Y; Λ_α] = [S_u; 0]
+
+  (``S_u`` the source's column): SPICE's ``.ac`` for ideal devices.
+
+* :func:`periodic_response`: around a periodic steady state with its mode sequence fixed,
+  each implicit Euler step is ``δx_{k+1} = M_k δx_k + N_k δu`` with
+  ``N_k δu = Q1_k δu_{k+1} + Q0_k δu_k`` (:class:`~circuitnsds.engine.step_maps.StepMaps`).
+  With ``δu_k = e^{jω t_k}`` the steady response is ``δx_k = e^{jω t_k} p_k`` with ``p``
+  periodic, so ``(e^{jωT} I − Φ) δx_0 = Σ_k (M_{N−1} ⋯ M_{k+1}) N_k``. The transfer
+  function to an output is that output's Fourier coefficient at ω over the period,
+  ``(1/T) Σ_k h_k δy_{k+1} e^{−jω t_{k+1}}`` (the right-end samples implicit Euler
+  balances). For a circuit that does not switch this is the implicit Euler discretisation
+  of the first case (it tends to it as ``ωh → 0``); above half the switching frequency the
+  other sidebands ``ω + n·ωs`` of the switched response alias onto ω: physical, not an error.
+
+Switching instants are those of the grid (source-driven switches at their threshold
+crossings): a perturbation that would move an instant (a PWM comparator's control) needs
+the saltation term of located events, which the engine does not have yet.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from circuitnsds.engine.step_maps import StepMaps
+from circuitnsds.system.mlcs import MLCS
+
+
+def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray, inputs: np.ndarray,
+                             frequencies: np.ndarray, outputs: sp.csr_matrix,
+                             output_pairs: sp.csr_matrix) -> np.ndarray:
+    """Responses of each output to the sources' phasors ``inputs``, shape
+    ``(frequencies, outputs)`` (complex).
+
+    Args:
+        mlcs: the system; states: switch states (closed = true); active: the active pairs.
+        inputs: complex phasor of every source's value (one per column of ``S``): a unit
+            vector gives the transfer function from that source.
+        frequencies: [Hz].
+        outputs, output_pairs: output rows on the unknowns ``y`` and on the pair currents
+            (``MLCS.Y_out``, ``MLCS.L_out`` rows).
+
+    Raises:
+        numpy.linalg.LinAlgError: the system is singular at some frequency (a node left
+            floating by blocked diodes at DC, an undamped resonance hit exactly).
+    """
+    act = np.flatnonzero(active)
+    A = mlcs.system_matrix(tuple(bool(s) for s in states)).tocsc()
+    E, B, C, D = mlcs.E.tocsc(), mlcs.B.tocsc(), mlcs.C.tocsr(), mlcs.D.tocsr()
+    n = mlcs.n
+    rhs = np.zeros(n + act.size, dtype=complex)
+    rhs[:n] = mlcs.S @ np.asarray(inputs, dtype=complex)
+    result = np.empty((len(frequencies), outputs.shape[0]), dtype=complex)
+    static = sp.bmat([[-A, -B[:, act]], [C[act], D[act][:, act]]], format="csc").astype(complex)
+    storage = sp.block_diag([E, sp.csc_matrix((act.size, act.size))], format="csc")
+    for row, frequency in enumerate(np.asarray(frequencies, dtype=float)):
+        matrix = (static + (2j * np.pi * frequency) * storage).tocsc()
+        with np.errstate(all="ignore"):
+            solution = spla.splu(matrix).solve(rhs)
+        if not np.isfinite(solution).all():
+            raise np.linalg.LinAlgError(f"the small-signal system is singular at {frequency:g} Hz")
+        result[row] = outputs @ solution[:n] + output_pairs[:, act] @ solution[n:]
+    return result
+
+
+def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
+                      outputs: sp.csr_matrix, output_pairs: sp.csr_matrix) -> np.ndarray:
+    """Responses of each output (their Fourier coefficient at each frequency) to the sources'
+    phasors ``inputs`` around the periodic steady state whose one-period run is ``maps``,
+    shape ``(frequencies, outputs)``.
+
+    ``inputs``, ``outputs``, ``output_pairs`` as for :func:`operating_point_response`.
+    """
+    inputs = np.asarray(inputs, dtype=complex)
+    time = maps.trajectory.time
+    period = time[-1] - time[0]
+    omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
+    phase = np.exp(1j * np.outer(omega, time - time[0]))  # e^{jω (t_k − t0)}, (F, N + 1)
+    state = maps.state
+    size = state.size
+    n = maps.trajectory.y.shape[1]
+    modes = maps.modes
+    # one pass: the particular response from δx_0 = 0 and the homogeneous part Φ
+    forced = np.zeros((omega.size, size), dtype=complex)
+    phi = np.eye(size)
+    for k in range(maps.steps):
+        mode = modes[maps.mode_of_step[k]]
+        M = mode.P[state][:, state]
+        drive = (np.outer(phase[:, k + 1], mode.Q1[state] @ inputs)
+                 + np.outer(phase[:, k], mode.Q0[state] @ inputs))
+        forced = forced @ M.T + drive
+        phi = M @ phi
+    start = np.empty((omega.size, size), dtype=complex)
+    ring = np.exp(1j * omega * period)
+    for row in range(omega.size):
+        start[row] = np.linalg.solve(ring[row] * np.eye(size) - phi, forced[row])
+    # second pass: every output's samples, summed into its Fourier coefficient at ω
+    weights = np.diff(time) / period
+    on_y, on_pairs = outputs.toarray().T, output_pairs.toarray().T
+    result = np.zeros((omega.size, outputs.shape[0]), dtype=complex)
+    x = start
+    for k in range(maps.steps):
+        mode = modes[maps.mode_of_step[k]]
+        full = (x @ mode.P[:, state].T + np.outer(phase[:, k + 1], mode.Q1 @ inputs)
+                + np.outer(phase[:, k], mode.Q0 @ inputs))  # [y_{k+1}; λ_α], (F, n + a)
+        values = full[:, :n] @ on_y
+        if mode.active.size:
+            values += full[:, n:] @ on_pairs[mode.active]
+        result += (weights[k] * np.conj(phase[:, k + 1]))[:, None] * values
+        x = full[:, state]
+    return result

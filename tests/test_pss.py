@@ -1,0 +1,309 @@
+"""Periodic steady state (analyses/pss.py, engine/step_maps.py): closed forms, averaged
+converter relations, agreement with the last period of long transients, Floquet multipliers
+against the decay a transient shows, and the errors of circuits without a (unique) period."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.step_maps import run_with_maps
+from circuitnsds.engine.timegrid import time_grid
+from tests.device_checks import assert_device_laws
+
+NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
+# converters for the periodic steady state only: ngspice cannot run the flyback (Timestep too
+# small at the clamp), and the DCM boost's switch node floats in its idle interval, so they
+# are kept out of netlists/ (whose every file is compared with ngspice)
+CONVERTER_NETLISTS = NETLISTS.parent / "benchmarks" / "netlists"
+
+
+def rc_square(h: float, tau_ratio: float = 1.0) -> str:
+    """RC (τ = RC = tau_ratio · T) driven by a 0/1 V square wave of period T = 10 µs whose
+    edges last one step h (so every grid point samples a plateau or a corner)."""
+    period, rc = 10e-6, tau_ratio * 10e-6
+    return (f"RC square wave\nV1 in 0 PULSE(0 1 0 {h:.12g} {h:.12g} {period / 2 - h:.12g} {period})\n"
+            f"R1 in out 1k\nC1 out 0 {rc / 1e3:.12g}\n.tran {h:.12g} 1m\n.end\n")
+
+
+@pytest.mark.parametrize("steps", [20, 100])
+def test_rc_square_wave_is_the_closed_form_of_the_implicit_euler_recursion(steps):
+    # v_{k+1} = g v_k + (1 - g) u_{k+1}, g = 1/(1 + h/RC), u = 1 on the N/2 steps ending in
+    # (0, T/2], 0 on the others: v(0) = g^{N/2} (1 - g^{N/2}) / (1 - g^N), and Φ = g^N.
+    period = 10e-6
+    h = period / steps
+    result = circuitnsds.read_netlist(rc_square(h)).pss()
+    g = 1.0 / (1.0 + h / period)
+    half = steps // 2
+    expected = g**half * (1 - g**half) / (1 - g**steps)
+    out = result.waveforms["v(out)"]
+    assert result.state_names == ["v(out)"]
+    assert out[0] == pytest.approx(expected, rel=1e-12, abs=1e-14)
+    assert out[-1] == pytest.approx(expected, rel=1e-12, abs=1e-14)
+    assert out[half] == pytest.approx(g**half * expected + 1 - g**half, rel=1e-12)
+    assert result.multipliers == pytest.approx([g**steps], rel=1e-12)
+    assert result.iterations == 1  # a linear circuit: one Newton step is exact
+
+
+def test_rc_square_wave_tends_to_the_continuous_steady_state():
+    # as h -> 0: v(0) = e^{-T/2τ} / (1 + e^{-T/2τ}) (τ = T), with a first-order error
+    exact = math.exp(-0.5) / (1 + math.exp(-0.5))
+    errors = []
+    for steps in (200, 400, 800):
+        result = circuitnsds.read_netlist(rc_square(10e-6 / steps)).pss()
+        errors.append(abs(result.waveforms["v(out)"][0] - exact))
+    assert errors[-1] < 2e-4
+    assert errors[0] / errors[1] == pytest.approx(2.0, rel=0.05)
+    assert errors[1] / errors[2] == pytest.approx(2.0, rel=0.05)
+
+
+BUCK = """Buck 24 V, 100 kHz, D = 0.5, with switch, diode and inductor resistances
+Vin in 0 DC 24
+Vgate gate 0 PULSE(0 5 0 10n 10n 4.99u 10u)
+S1 in sw gate 0 swmod
+D1 0 sw dfree
+L1 sw x 100u
+RL x out 50m
+C1 out 0 100u
+Rload out 0 5
+.model swmod SW(VT=2.5 VH=0 RON=40m ROFF=1e9)
+.model dfree D(Ron=20m)
+.tran 0.1u 2m
+.end
+"""
+
+
+def test_buck_average_output_is_d_vin_minus_resistive_drops():
+    # averaged CCM buck (D = 0.5 exactly: the gate is above VT for PW + (TR+TF)/2 = 5 µs):
+    # Vout = D·Vin − I·(D·Ron_s + (1−D)·Ron_d + R_L), I = Vout/R. The discrete steady state
+    # satisfies the per-phase averages exactly; what remains is the correlation of the
+    # resistive drops with the inductor ripple (~Ron·ΔI²/(12 I) ≈ 1e-5 V here).
+    result = circuitnsds.read_netlist(BUCK).pss()
+    duty, vin, load = 0.5, 24.0, 5.0
+    drops = duty * 40e-3 + (1 - duty) * 20e-3 + 50e-3
+    expected = duty * vin / (1 + drops / load)
+    waves = result.waveforms
+    weights = np.diff(waves.time) / result.period  # the grid holds the gate's corners
+
+    def mean(signal):  # implicit Euler balances the steps' end values
+        return float(weights @ waves[signal][1:])
+
+    assert mean("v(out)") == pytest.approx(expected, abs=2e-4)
+    assert mean("i(l1)") == pytest.approx(mean("v(out)") / load, rel=1e-10)  # charge balance on C1
+    assert result.iterations <= 3
+    assert result.relative_residual < 1e-9
+
+
+def _settled_last_period(circuit, result, step, periods):
+    """The transient of ``periods`` periods on the same step; its last period's samples."""
+    waves = circuit.transient(step, periods * result.period)
+    last = waves.time >= waves.time[-1] - result.period * (1 + 1e-9)
+    return waves, last
+
+
+CONVERTERS = {
+    "boost_ccm": ((NETLISTS / "boost_converter.cir").read_text(), 0.2e-6, 2500),
+    "boost_dcm": ((CONVERTER_NETLISTS / "boost_dcm.cir").read_text(), 0.2e-6, 400),
+    "flyback_rcd": ((CONVERTER_NETLISTS / "flyback_rcd.cir").read_text(), 0.2e-6, 600),
+    "bridge": ("""Full-wave bridge 50 Hz, 100 uF, 100 ohm
+Vmains line acn SIN(0 325 50)
+Rsrc line acp 0.5
+D1 acp out drect
+D2 acn out drect
+D3 0 acp drect
+D4 0 acn drect
+C1 out 0 100u
+Rload out 0 100
+.model drect D(Vfwd=0.8 Ron=20m)
+.end
+""", 50e-6, 8),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CONVERTERS))
+def test_pss_is_the_last_period_of_a_settled_transient(name):
+    text, step, periods = CONVERTERS[name]
+    circuit = circuitnsds.read_netlist(text)
+    result = circuit.pss(step=step)
+    assert result.relative_residual <= 1e-9
+    assert result.iterations <= 6
+    assert_device_laws(circuit, result.waveforms)  # every device law holds in the settled period
+    # the transient's distance from the periodic solution after `periods` periods is at most
+    # |λ|^periods times where it started (a bound once the mode sequence is the settled one)
+    largest = float(np.abs(result.multipliers).max())
+    assert largest < 1
+    remaining = largest ** (periods - 10)
+    waves, last = _settled_last_period(circuit, result, step, periods)
+    start = np.array([waves[name_][0] for name_ in result.waveforms.names])
+    for signal in result.waveforms.names:
+        ours, theirs = result.waveforms[signal], waves[signal][last]
+        assert ours.shape == theirs.shape
+        span = np.ptp(ours)
+        if span < 1e-9 * (1 + np.abs(ours).max()):
+            continue
+        tolerance = max(1e-6 * span, 10 * remaining * np.abs(start).max())
+        assert np.abs(ours - theirs).max() <= tolerance, signal
+    assert 10 * remaining * np.abs(start).max() < 1e-3 * np.ptp(result.waveforms["v(out)"])
+
+
+def test_monodromy_is_the_decay_a_transient_shows():
+    # from the periodic state plus a small disturbance δ, the state at the end of period j
+    # is x* + Φ^j δ (same mode sequence); its decay rate is -ln|λ_max| / T
+    text, step, _ = CONVERTERS["boost_ccm"]
+    circuit = circuitnsds.read_netlist(text)
+    result = circuit.pss(step=step)
+    mlcs = circuit.mlcs(circuit.tran.step, circuit.tran.stop)
+    periods = 200
+    grid = time_grid(step, periods * result.period, mlcs.breakpoints(periods * result.period))
+    state = result.maps.state
+    y0 = result.maps.trajectory.y[0].copy()
+    delta = np.zeros(y0.size)
+    delta[state] = 1e-3 * np.abs(result.state)
+    run = integrate(mlcs, grid, y0 + delta, None, None, result.maps.trajectory.active[0],
+                    result.maps.trajectory.switches[0])
+    ends = np.searchsorted(grid, np.arange(periods + 1) * result.period - 1e-15)
+    deviation = run.y[ends][:, state] - result.state
+    predicted = [delta[state]]
+    for _ in range(periods):
+        predicted.append(result.monodromy @ predicted[-1])
+    # (to the rounding of 10⁴ steps and of x* itself, amplified by 1/(1 − |λ|) ≈ 120)
+    assert np.abs(deviation - np.array(predicted)).max() < 1e-7 * np.abs(delta).max()
+    norms = np.linalg.norm(deviation, axis=1)
+    fitted = -np.polyfit(np.arange(100, periods + 1) * result.period, np.log(norms[100:]), 1)[0]
+    assert fitted == pytest.approx(result.decay_rate, rel=0.02)
+
+
+def test_step_maps_reproduce_the_run():
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    mlcs = circuit.mlcs()
+    grid = time_grid(0.1e-6, 30e-6, mlcs.breakpoints(30e-6))
+    from circuitnsds.analyses.operating_point import operating_point
+
+    start = operating_point(circuit, mlcs)
+    maps = run_with_maps(mlcs, grid, start.y, start.charge, start.active, start.switches)
+    assert maps.map_error() < 1e-10
+    phi, c = maps.composition()
+    x = maps.trajectory.y[:, maps.state]
+    assert np.abs(phi @ x[0] + c - x[-1]).max() < 1e-10 * np.abs(x).max()
+    Y, g = maps.full_map(5)  # every unknown from the state
+    assert np.abs(Y[:mlcs.n] @ x[5] + g[:mlcs.n] - maps.trajectory.y[6]).max() < 1e-9
+    with pytest.raises(ValueError, match="theta = 1"):
+        run_with_maps(mlcs, grid, start.y, theta=0.5)
+
+
+def test_period_from_the_sources_and_from_pss_line():
+    text = ("two sources\nV1 a 0 SIN(0 1 50)\nV2 b 0 PULSE(0 1 0 1u 1u 3m {1/150})\nR1 a c 1k\n"
+            "C1 c 0 1u\nR2 b c 1k\n.tran 50u 0.1\n.end\n")
+    result = circuitnsds.read_netlist(text).pss()
+    assert result.period == pytest.approx(0.02, rel=1e-12)  # lcm(20 ms, 6.67 ms)
+    assert result.waveforms.time[-1] - result.waveforms.time[0] == pytest.approx(0.02)
+    text_pss = text.replace(".tran 50u 0.1", ".pss 25 0 0 200")
+    result = circuitnsds.read_netlist(text_pss).pss()
+    assert result.period == pytest.approx(0.04)
+    assert result.waveforms.time.size - 1 >= 200
+
+
+@pytest.mark.parametrize("sources, message", [
+    ("V1 a 0 DC 1", "no periodic source"),
+    ("V1 a 0 PWL(0 0 1m 1)", "V1 .* is not periodic"),
+    ("V1 a 0 SIN(0 1 50 0 10)", "no damping"),
+    ("V1 a 0 SIN(0 1 50)\nV2 b 0 SIN(0 1 70.7106781187)", "no common multiple"),
+])
+def test_no_period_is_refused_in_words(sources, message):
+    text = f"t\n{sources}\nR1 a 0 1k\nR2 b 0 1k\nV9 b 0 0\n.end\n" if "V2" not in sources else \
+        f"t\n{sources}\nR1 a 0 1k\nR2 b 0 1k\n.end\n"
+    with pytest.raises(circuitnsds.CircuitError, match=message):
+        circuitnsds.read_netlist(text).pss()
+
+
+def test_undamped_state_is_diagnosed():
+    # an inductor across a square wave of non-zero mean: its current ramps every period
+    text = "t\nV1 a 0 PULSE(0 1 0 1u 1u 6u 10u)\nL1 a 0 1m\n.tran 0.1u 1m uic\n.end\n"
+    with pytest.raises(circuitnsds.SimulationError, match=r"singular.*i\(l1\) is not damped"):
+        circuitnsds.read_netlist(text).pss()
+    # a capacitor in a cut-set of capacitors: every charge on it is periodic
+    text = "t\nV1 a 0 PULSE(0 1 0 1u 1u 4u 10u)\nC1 a b 1u\nC2 b 0 1u\n.tran 0.1u 1m uic\n.end\n"
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"not unique.*v\(b\)"):
+        circuitnsds.read_netlist(text).pss()
+
+
+def test_theta_below_one_is_refused():
+    with pytest.raises(circuitnsds.CircuitError, match="implicit Euler"):
+        circuitnsds.read_netlist(rc_square(0.1e-6).replace(".end", ".options theta=0.5\n.end")).pss()
+
+
+def test_pss_line_errors():
+    with pytest.raises(circuitnsds.NetlistError, match="GFREQ"):
+        circuitnsds.read_netlist("t\nV1 a 0 SIN(0 1 50)\nR1 a 0 1\n.pss\n.end\n")
+    with pytest.raises(circuitnsds.NetlistError, match="PSSPOINTS"):
+        circuitnsds.read_netlist("t\nV1 a 0 SIN(0 1 50)\nR1 a 0 1\n.pss 50 0 0 2.5\n.end\n")
+    with pytest.warns(circuitnsds.NetlistWarning, match="OSCNOB"):
+        circuitnsds.read_netlist("t\nV1 a 0 SIN(0 1 50)\nR1 a 0 1\n.pss 50 0 a\n.end\n")
+
+
+def test_cli_pss_writes_the_period_and_measures(tmp_path, capsys):
+    from circuitnsds.cli.main import main
+
+    output = tmp_path / "buck.csv"
+    status = main(["pss", str(NETLISTS / "buck_converter.cir"), "-o", str(output), "-q",
+                   "--measure", "mean(v(out))"])
+    assert status == 0
+    lines = output.read_text().splitlines()
+    assert lines[0].startswith("time,")
+    assert float(lines[-1].split(",")[0]) == pytest.approx(10e-6)
+    assert "mean(v(out))" in capsys.readouterr().out
+    assert main(["pss", str(NETLISTS / "bridge_rectifier.cir"), "--period", "0", "-q",
+                 "-o", str(output)]) == 1
+
+
+def test_fallback_periods_when_newton_is_capped():
+    # the DCM boost needs three Newton steps from its operating point; with one allowed per
+    # round, transient periods are run from the best state and Newton starts again
+    circuit = circuitnsds.read_netlist(CONVERTER_NETLISTS / "boost_dcm.cir")
+    reference = circuit.pss()
+    capped = circuit.pss(max_iterations=1)
+    assert capped.transient_periods >= 10
+    assert capped.relative_residual <= 1e-9
+    assert np.abs(capped.state - reference.state).max() <= 1e-8 * np.abs(reference.state).max()
+
+
+def test_autonomous_switching_is_refused_naming_the_switch():
+    # a relaxation oscillator: S1 (hysteresis 3..7 V) discharges C1, which R1 charges
+    text = ("relaxation oscillator\nV1 in 0 DC 10\nR1 in c 1k\nC1 c 0 1u\nS1 c x c 0 sw\nR2 x 0 10\n"
+            ".model sw SW(VT=5 VH=2 RON=1 ROFF=1e9)\n.tran 1u 10m\n.end\n")
+    with pytest.raises(circuitnsds.CircuitError, match=r"S1 are controlled by the circuit.*autonomous"):
+        circuitnsds.read_netlist(text).pss()
+
+
+def test_pss_line_stabilisation_runs_warmup_periods():
+    text = rc_square(0.1e-6).replace(".tran", ".pss 100k 35u 0 100\n.tran")
+    result = circuitnsds.read_netlist(text).pss()
+    assert result.transient_periods == 4  # TSTAB = 35 µs rounded up to whole 10 µs periods
+    assert result.waveforms.time.size == 101
+    assert result.iterations == 1
+
+
+def test_newton_cycling_between_mode_sequences_goes_to_the_fallback():
+    # the voltage multiplier's Newton steps cycle (0.077, 1.4, 0.63, 0.077, ...): the cycle is
+    # noticed when a sequence comes back without progress, 10 transient periods break it
+    circuit = circuitnsds.read_netlist(NETLISTS / "cockcroft_walton.cir")
+    result = circuit.pss()
+    assert result.transient_periods == 10
+    assert result.iterations < 10
+    assert result.relative_residual <= 1e-9
+    assert_device_laws(circuit, result.waveforms)
+
+
+def test_pwm_switch_controlled_by_the_circuit_is_explained_when_no_period_settles():
+    # the voltage-mode buck's S1 compares the error amplifier with the ramp: it switches at
+    # grid points, the duty cycle moves by whole steps and the period map jumps
+    text = (NETLISTS / "buck_voltage_mode.cir").read_text().replace(
+        "Vref ref 0 PWL(0 0 1m 2.5)", "Vref ref 0 DC 2.5")
+    with pytest.raises(circuitnsds.SimulationError, match=r"(?s)S1 are controlled by the circuit.*"
+                       r"grid points.*tol="):
+        circuitnsds.read_netlist(text).pss(step=0.2e-6, max_iterations=1)
