@@ -142,11 +142,12 @@ class Circuit:
         self.tran = tran
 
     def element(self, name: str) -> Element:
-        """The element called ``name`` (case-insensitive)."""
-        element = self._index()[0].get(name.lower())
-        if element is None:
-            raise KeyError(name)
-        return element
+        """The element called ``name`` (case-insensitive). A scan of :attr:`elements`, not the
+        name index of :meth:`add`: a caller may have replaced an element in the list."""
+        for element in self.elements:
+            if element.name == name.lower():
+                return element
+        raise KeyError(name)
 
     def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
         """Stamp every element into the circuit's MLCS.
