@@ -83,17 +83,17 @@ class ModeMap:
 
 
 def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
-    """The :class:`ModeMap` of a mode's step system (``n`` circuit unknowns); ``None`` when
-    its bordered matrix is singular by the MLCP solver's own test (so both agree) or the
-    map is not finite."""
-    lu = factorise(blocks.bordered.toarray())
+    """The :class:`ModeMap` of a mode's step system (``n`` circuit unknowns; ``blocks`` from
+    ``mode_blocks(..., dense=True)``); ``None`` when its bordered matrix is singular by the
+    MLCP solver's own test (so both agree) or the map is not finite."""
+    lu = factorise(blocks.bordered)
     if not lu.ok:
         return None
     kstim = blocks.S_next.shape[1]
     right = np.zeros((blocks.bordered.shape[0], n + 2 * kstim + 1))
-    right[:n, :n] = blocks.carry.toarray()
-    right[:n, n:n + kstim] = blocks.S_next.toarray()
-    right[:n, n + kstim:n + 2 * kstim] = blocks.S_now.toarray()
+    right[:n, :n] = blocks.carry
+    right[:n, n:n + kstim] = blocks.S_next
+    right[:n, n + kstim:n + 2 * kstim] = blocks.S_now
     right[n:, -1] = blocks.rhs_pairs
     # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
     solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
@@ -109,7 +109,7 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
     with np.errstate(divide="ignore"):
         resistance = np.where(gain > 0.0, 1.0 / gain, np.inf)
     return ModeMap(P=solution[:, :n], Q1=solution[:, n:n + kstim], Q0=solution[:, n + kstim:n + 2 * kstim],
-                   c=solution[:, -1], W=np.vstack([blocks.W.toarray(), blocks.W_active.toarray()]),
+                   c=solution[:, -1], W=np.vstack([blocks.W, blocks.W_active]),
                    e_w=np.concatenate([blocks.e_w, blocks.e_active]), resistance=resistance,
                    active=blocks.active)
 

@@ -466,7 +466,7 @@ class _Stepping:
         if key not in self.dense_maps:
             if len(self.dense_maps) >= MODE_CACHE_SIZE:
                 self.dense_maps.clear()
-            blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
+            blocks = mode_blocks(self._step_solver(k, cls, states).system, guess, dense=True)
             self.dense_maps[key] = dense_mode_map(blocks, self.mlcs.n)
         return self.dense_maps[key]
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,7 +29,7 @@ import scipy.sparse as sp
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.theta import THETA_RANGE, theta_in_range
 
-__all__ = ["StepSystem", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
+__all__ = ["StepSystem", "DenseParts", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
 
 def check_theta(theta: float) -> float:
     """``theta`` as a float if :func:`theta_in_range`, else :class:`ValueError`."""
@@ -93,6 +94,30 @@ class StepSystem:
         """``(I - Θ)S``: the part of ``r`` multiplying ``f_k``."""
         return (sp.diags(1.0 - self.weights) @ self.S).tocsr()
 
+    @cached_property
+    def dense(self) -> DenseParts:
+        """``K``, ``B``, ``C``, ``D`` and the right-hand side's parts as numpy arrays, for
+        the dense mode maps of a small system (computed on first use and kept)."""
+        implicit = (1.0 - self.weights)[:, None]
+        S = self.S.toarray()
+        with np.errstate(all="ignore"):
+            # E * (1/h), not E / h: what scipy computes for the sparse E/h (same rounding)
+            carry = self.E.toarray() * (1.0 / self.h) + implicit * self.A.toarray()
+        return DenseParts(self.K.toarray(), self.B.toarray(), self.C.toarray(), self.D.toarray(),
+                          carry, self.weights[:, None] * S, implicit * S)
+
+
+class DenseParts(NamedTuple):
+    """A :class:`StepSystem`'s matrices as numpy arrays (same names and meaning there)."""
+
+    K: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    carry: np.ndarray
+    source_next: np.ndarray
+    source_now: np.ndarray
+
 
 def step_system(mlcs: MLCS, h: float, states: tuple[bool, ...] | np.ndarray = (),
                 theta: float = 1.0, E: sp.csr_matrix | None = None) -> StepSystem:
@@ -109,34 +134,46 @@ def step_system(mlcs: MLCS, h: float, states: tuple[bool, ...] | np.ndarray = ()
 
 @dataclass(frozen=True)
 class ModeBlocks:
-    """The step of one mode (active set ``α``) as a linear system, sparse.
+    """The step of one mode (active set ``α``) as a linear system, sparse (CSC ``bordered``,
+    CSR others) or, from ``mode_blocks(..., dense=True)``, numpy arrays.
 
     ``bordered · [y_{k+1}; λ_α] = [carry·y_k + S_next·f_{k+1} + S_now·f_k; rhs_pairs]``
     with ``bordered = [[K, -B_α], [C_α, D_αα]]``; the inactive pairs' ``w = W·x + e_w``,
     the active pairs' (zero by construction) ``W_active·x + e_active``.
     """
 
-    bordered: sp.csc_matrix
-    carry: sp.csr_matrix
-    S_next: sp.csr_matrix
-    S_now: sp.csr_matrix
+    bordered: sp.csc_matrix | np.ndarray
+    carry: sp.csr_matrix | np.ndarray
+    S_next: sp.csr_matrix | np.ndarray
+    S_now: sp.csr_matrix | np.ndarray
     rhs_pairs: np.ndarray
-    W: sp.csr_matrix
+    W: sp.csr_matrix | np.ndarray
     e_w: np.ndarray
     active: np.ndarray
     inactive: np.ndarray
-    W_active: sp.csr_matrix | None = None
+    W_active: sp.csr_matrix | np.ndarray | None = None
     e_active: np.ndarray | None = None
 
 
-def mode_blocks(system: StepSystem, active: np.ndarray) -> ModeBlocks:
-    """The :class:`ModeBlocks` of the mode with active pairs ``active`` (a boolean mask)."""
+def mode_blocks(system: StepSystem, active: np.ndarray, dense: bool = False) -> ModeBlocks:
+    """The :class:`ModeBlocks` of the mode with active pairs ``active`` (a boolean mask);
+    numpy arrays if ``dense`` (sliced from :attr:`StepSystem.dense`: for a small system,
+    several times faster than slicing and assembling sparse matrices), else sparse."""
     act = np.flatnonzero(active)
     inact = np.flatnonzero(~np.asarray(active, dtype=bool))
-    B, C, D, e = system.B, system.C, system.D, system.e
-    bordered = sp.bmat([[system.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+    e = system.e
+    if dense:
+        K, B, C, D, carry, source_next, source_now = system.dense
+        bordered = np.block([[K, -B[:, act]], [C[act], D[np.ix_(act, act)]]])
+        W = np.hstack([C[inact], D[np.ix_(inact, act)]])
+        W_active = np.hstack([C[act], D[np.ix_(act, act)]])
+    else:
+        B, C, D = system.B, system.C, system.D
+        carry, source_next, source_now = system.carry, system.source_next, system.source_now
+        bordered = sp.bmat([[system.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")
+        W = sp.hstack([C[inact], D[inact][:, act]]).tocsr()
+        W_active = sp.hstack([C[act], D[act][:, act]]).tocsr()
     return ModeBlocks(
-        bordered=bordered, carry=system.carry, S_next=system.source_next, S_now=system.source_now,
-        rhs_pairs=-e[act], W=sp.hstack([C[inact], D[inact][:, act]]).tocsr(),
+        bordered=bordered, carry=carry, S_next=source_next, S_now=source_now, rhs_pairs=-e[act], W=W,
         e_w=e[inact].copy(), active=act.astype(np.int64), inactive=inact.astype(np.int64),
-        W_active=sp.hstack([C[act], D[act][:, act]]).tocsr(), e_active=e[act].copy())
+        W_active=W_active, e_active=e[act].copy())
