@@ -33,7 +33,6 @@ order of the products: results agree to rounding, not bit for bit).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -58,8 +57,7 @@ TABLE_BYTES = 64 * 2**20
 """Memory the padded arrays of a :class:`ModeTable` may take [bytes]."""
 
 
-@dataclass
-class ModeMap:
+class ModeMap(NamedTuple):
     """The affine step map of one mode (see module docstring); dense arrays.
 
     Attributes:
@@ -70,6 +68,9 @@ class ModeMap:
         resistance: ``(a,)``, ``∂w_i/∂λ_i`` of each active pair [Ω]: the shift of ``w_i``
             per ampere removed from the pair (``inf`` when its current is forced).
         active: indices of the active pairs (``a`` of them).
+
+    A :class:`ModeTable` keeps the maps of its modes in the same fields, stacked along a
+    first axis (one row per mode) and padded.
     """
 
     P: np.ndarray
@@ -115,16 +116,10 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
 
 
 class TableArrays(NamedTuple):
-    """The arrays of a :class:`ModeTable` as the loop takes them (one argument; see there)."""
+    """The arrays of a :class:`ModeTable` as the loop takes them (one argument; see there):
+    the stacked maps and, per mode, its sizes, class and switch states, and last use."""
 
-    P: np.ndarray
-    Q1: np.ndarray
-    Q0: np.ndarray
-    c: np.ndarray
-    W: np.ndarray
-    e_w: np.ndarray
-    resistance: np.ndarray
-    active: np.ndarray
+    maps: ModeMap
     rows: np.ndarray
     nw: np.ndarray
     mode_class: np.ndarray
@@ -183,7 +178,8 @@ class ModeTable:
 
     def arrays(self) -> TableArrays:
         """The padded arrays, for the loop."""
-        return TableArrays(*(getattr(self, name) for name in TableArrays._fields))
+        maps = ModeMap(*(getattr(self, name) for name in ModeMap._fields))
+        return TableArrays(maps, *(getattr(self, name) for name in TableArrays._fields[1:]))
 
     def find(self, key: tuple) -> int | None:
         """Index of the mode ``key`` (``(class, sched, free, active bytes)``), if stored."""
@@ -197,18 +193,11 @@ class ModeTable:
         if self.count == self.P.shape[0]:
             self._allocate(min(self.capacity, 2 * self.P.shape[0]))
         i = self.count
-        rows, a = mode.P.shape[0], mode.active.size
-        self.P[i, :rows] = mode.P
-        self.Q1[i, :rows] = mode.Q1
-        self.Q0[i, :rows] = mode.Q0
-        self.c[i, :rows] = mode.c
-        self.W[i, :, :rows] = mode.W
-        self.e_w[i] = mode.e_w
-        self.resistance[i, :a] = mode.resistance
-        self.active[i, :a] = mode.active
+        for name, value in zip(ModeMap._fields, mode, strict=True):
+            getattr(self, name)[(i, *(slice(0, size) for size in value.shape))] = value
         self.mask[i] = False
         self.mask[i, mode.active] = True
-        self.rows[i], self.nw[i] = rows, self.m - a
+        self.rows[i], self.nw[i] = mode.P.shape[0], self.m - mode.active.size
         self.mode_class[i], self.mode_sched[i], self.mode_free[i] = key[0], key[1], key[2]
         self.last_used[i] = -1
         self.index[key] = i
@@ -300,9 +289,10 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     mode of each step, are written; ``z``'s other columns must hold zeros), ``reason`` is
     a ``STOP_*`` code, ``last`` the mode of the last step done (``mode`` if none).
     """
-    # plain tuples in the order of TableArrays and FreeSwitches (named tuples would be typed
-    # by numba's slow path at every call, ~0.1 ms)
-    P, Q1, Q0, c, W, e_w, resistance, active, rows, nw, mode_class, mode_sched, mode_free, last_used = table
+    # plain tuples in the order of TableArrays (its maps: of ModeMap) and FreeSwitches (named
+    # tuples would be typed by numba's slow path at every call, ~0.1 ms)
+    maps, rows, nw, mode_class, mode_sched, mode_free, last_used = table
+    P, Q1, Q0, c, W, e_w, resistance, active = maps
     controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
     ns = controls.shape[0]
@@ -347,6 +337,11 @@ _compiled = jit(_table_loop)
 _python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
 
 
+def _plain(arrays: TableArrays) -> tuple:
+    """``arrays`` as nested plain tuples (what :func:`_table_loop` takes)."""
+    return (tuple(arrays.maps), *arrays[1:])
+
+
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
               current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
               free_id: int, free: FreeSwitches, used: np.ndarray, use_compiled: bool = True
@@ -356,5 +351,5 @@ def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: 
     loop = _compiled if use_compiled and AVAILABLE else _python_loop
     x = np.empty(table.n + table.m)
     k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,
-                           tuple(table.arrays()), table.count, tuple(free), used, x)
+                           _plain(table.arrays()), table.count, tuple(free), used, x)
     return int(k), int(reason), int(last)

@@ -19,14 +19,9 @@ _METHODS = ("auto", "lemke", "direct", "enum", "newton")
 
 
 def _as_lcp(res: MLCPResult) -> LCPResult:
-    return LCPResult(
-        z=res.z,
-        w=res.w,
-        active=res.active,
-        method=res.method,
-        iterations=res.iterations,
-        residual=res.residual,
-    )
+    """The LCP's result from that of the MLCP without free unknowns (``res.u`` is empty)."""
+    return LCPResult(z=res.z, w=res.w, active=res.active, method=res.method, iterations=res.iterations,
+                     residual=res.residual)
 
 
 def solve_lcp(

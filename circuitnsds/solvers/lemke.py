@@ -46,29 +46,26 @@ def _var_name(j: int, n: int) -> str:
     return "z0"
 
 
+def _near_smallest(vals: np.ndarray) -> np.ndarray:
+    """Mask of the entries within the tie tolerance of the smallest of ``vals`` (NaN: 0/0 with
+    denormal data, counted as ``inf`` so that it never wins; all-NaN keeps every entry, and
+    the caller's residual check rejects whatever pivot follows)."""
+    vals = np.nan_to_num(vals, nan=np.inf)
+    best = vals.min()
+    return vals <= best + _TIE * max(1.0, abs(best))
+
+
 def _lex_argmin(rows: np.ndarray, div: np.ndarray, T: np.ndarray, n: int, prefer: int) -> int:
     """Row of the lexicographic minimum of ``[rhs, B^-1]_i / div_i`` over ``rows``."""
-    rhs_col = T.shape[1] - 1
     dv = div[rows]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # NaN (0/0 with denormal data) never wins; all-NaN keeps every row, and the
-        # caller's residual check rejects whatever pivot follows
-        vals = np.nan_to_num(T[rows, rhs_col] / dv, nan=np.inf)
-    best = vals.min()
-    keep = vals <= best + _TIE * max(1.0, abs(best))
-    rows, dv = rows[keep], dv[keep]
-    if rows.size == 1:
-        return int(rows[0])
-    if prefer >= 0 and np.any(rows == prefer):
-        return prefer
-    for j in range(n):
+    for step, j in enumerate([T.shape[1] - 1, *range(n)]):
         with np.errstate(divide="ignore", invalid="ignore"):
-            vals = np.nan_to_num(T[rows, j] / dv, nan=np.inf)
-        best = vals.min()
-        keep = vals <= best + _TIE * max(1.0, abs(best))
+            keep = _near_smallest(T[rows, j] / dv)
         rows, dv = rows[keep], dv[keep]
         if rows.size == 1:
             break
+        if step == 0 and prefer >= 0 and np.any(rows == prefer):
+            return prefer
     return int(rows[0])
 
 
@@ -128,6 +125,10 @@ def lemke_pivot(
     basis = np.arange(n)
     all_rows = np.arange(n)
 
+    def failure(message: str, reason: str, **evidence) -> LCPSolverFailure:
+        return LCPSolverFailure(message, method="lemke", size=size, pivots=pivots, residual=float("inf"),
+                                reason=reason, **evidence)
+
     def unscale_z(vals: np.ndarray) -> np.ndarray:
         return cs * vals * (s_q / s_m)
 
@@ -159,14 +160,7 @@ def lemke_pivot(
         pivots += 1
 
         if pivots % _REINVERT_EVERY == 0 and not reinvert():
-            raise LCPSolverFailure(
-                "Lemke basis became singular",
-                method="lemke",
-                size=size,
-                pivots=pivots,
-                residual=float("inf"),
-                reason="singular basis",
-            )
+            raise failure("Lemke basis became singular", "singular basis")
         rhs = T[:, RHS]
         scale = max(1.0, float(rhs.max()))
         lo = float(rhs.min())
@@ -176,37 +170,16 @@ def lemke_pivot(
             lo = float(rhs.min())
         if lo < 0.0:
             if lo < -_NEG_TOL * scale or not np.isfinite(lo):
-                raise LCPSolverFailure(
-                    "Lemke lost feasibility (numerical trouble: ill-conditioned pivots)",
-                    method="lemke",
-                    size=size,
-                    pivots=pivots,
-                    residual=float("inf"),
-                    reason="negative basic variable",
-                    min_basic=lo * s_q,
-                )
+                raise failure("Lemke lost feasibility (numerical trouble: ill-conditioned pivots)",
+                              "negative basic variable", min_basic=lo * s_q)
             np.maximum(rhs, 0.0, out=rhs)
         if not np.all(np.isfinite(T[r])):
-            raise LCPSolverFailure(
-                "Lemke tableau became non-finite",
-                method="lemke",
-                size=size,
-                pivots=pivots,
-                residual=float("inf"),
-                reason="non-finite tableau",
-            )
+            raise failure("Lemke tableau became non-finite", "non-finite tableau")
         if leaving == Z0:
             break
         entering = leaving + n if leaving < n else leaving - n
         if pivots >= max_pivots:
-            raise LCPSolverFailure(
-                f"Lemke reached the pivot limit ({max_pivots})",
-                method="lemke",
-                size=size,
-                pivots=pivots,
-                residual=float("inf"),
-                reason="pivot limit",
-            )
+            raise failure(f"Lemke reached the pivot limit ({max_pivots})", "pivot limit")
         col = T[:, entering]
         thresh = max(_PIV_ABS, _PIV_REL * float(np.abs(col).max()))
         rows = np.flatnonzero(col > thresh)

@@ -520,17 +520,22 @@ class MLCPSolver:
             return self._result(x, w, active, "lemke", pivots, res), errors
         if not errors:
             errors.append(
-                LCPSolverFailure(
-                    "no usable start basis for Lemke (every tried bordered matrix is singular)",
-                    method="lemke",
-                    size=self.size,
-                    pivots=0,
-                    residual=float("inf"),
-                    reason="singular start basis",
-                    rcond_a=self.rcond_a,
-                )
+                self._failure("no usable start basis for Lemke (every tried bordered matrix is singular)",
+                              "lemke", "singular start basis", rcond_a=self.rcond_a)
             )
         return None, errors
+
+    def _failure(self, message: str, method: str, reason: str, residual: float = float("inf"),
+                 **evidence: Any) -> LCPSolverFailure:
+        """A failure before any pivot (``evidence`` as for :class:`LCPError`)."""
+        return LCPSolverFailure(message, method=method, size=self.size, pivots=0, residual=residual,
+                                reason=reason, **evidence)
+
+    def _no_active_set(self, method: str, prefix: str = "") -> LCPNoSolution:
+        """Exhaustive enumeration found no active set (``prefix`` starts the message)."""
+        return LCPNoSolution(prefix + "no active set solves the MLCP (exhaustive enumeration)",
+                             method=method, size=self.size, pivots=2**self.m, residual=float("inf"),
+                             confirmed_by_enumeration=True)
 
     def _enum(self, c: np.ndarray, force: bool = False) -> MLCPResult | None:
         found = enumerate_mlcp(self._K, self.n, c, tol=self.tol, force=force)
@@ -627,14 +632,7 @@ class MLCPSolver:
                 return self._settled(result, c)
             st["failures"] += 1
             if ray is None:
-                ray = LCPNoSolution(
-                    "no solution: no active set solves the MLCP (exhaustive enumeration)",
-                    method=chain + "->enum",
-                    size=self.size,
-                    pivots=2**self.m,
-                    residual=float("inf"),
-                    confirmed_by_enumeration=True,
-                )
+                ray = self._no_active_set(chain + "->enum", "no solution: ")
             else:
                 ray.method = chain + "->enum"
                 ray.message = (
@@ -730,28 +728,13 @@ class MLCPSolver:
         mode = self._cache.get(mask)
         if not mode.lu.ok:
             self.stats["direct_rejected"] += 1
-            raise LCPSolverFailure(
-                "the bordered matrix of the guessed active set is singular",
-                method="direct",
-                size=self.size,
-                pivots=0,
-                residual=float("inf"),
-                reason="singular mode",
-                rcond=mode.lu.rcond,
-                guess=mask.copy(),
-            )
+            raise self._failure("the bordered matrix of the guessed active set is singular", "direct",
+                                "singular mode", rcond=mode.lu.rcond, guess=mask.copy())
         x, w, res, _ = self._try_mode(mode, c)
         if not res <= self.tol:
             self.stats["direct_rejected"] += 1
-            raise LCPSolverFailure(
-                "the guessed active set is not a solution",
-                method="direct",
-                size=self.size,
-                pivots=0,
-                residual=float(res),
-                reason="guess rejected",
-                guess=mask.copy(),
-            )
+            raise self._failure("the guessed active set is not a solution", "direct", "guess rejected",
+                                residual=float(res), guess=mask.copy())
         self.stats["direct_accepted"] += 1
         return self._result(x, w, mode.mask.copy(), "direct", 0, res)
 
@@ -780,14 +763,7 @@ class MLCPSolver:
         self.stats["calls"] += 1
         result = self._enum(c, force=force)
         if result is None:
-            raise LCPNoSolution(
-                "no active set solves the MLCP (exhaustive enumeration)",
-                method="enum",
-                size=self.size,
-                pivots=2**self.m,
-                residual=float("inf"),
-                confirmed_by_enumeration=True,
-            )
+            raise self._no_active_set("enum")
         return result
 
     def solve_newton(self, a: Any, b: Any) -> MLCPResult:

@@ -32,7 +32,7 @@ __all__ = [
 ]
 
 
-@dataclass(slots=True)
+@dataclass(slots=True, kw_only=True)
 class LCPResult:
     """Solution of ``w = M z + q, 0 <= z ⊥ w >= 0``.
 
@@ -56,28 +56,17 @@ class LCPResult:
     residual: float
 
 
-@dataclass(slots=True)
-class MLCPResult:
-    """Solution of ``A u + C z + a = 0, w = D u + B z + b, 0 <= z ⊥ w >= 0``.
+@dataclass(slots=True, kw_only=True)
+class MLCPResult(LCPResult):
+    """Solution of ``A u + C z + a = 0, w = D u + B z + b, 0 <= z ⊥ w >= 0``: the fields of
+    :class:`LCPResult` over the ``m`` pairs (``w = D u + B z + b`` recomputed from ``u, z``;
+    the residual of :func:`circuitnsds.solvers.residual.mlcp_residual`), and
 
     Attributes:
         u: free unknowns (float64, shape ``(n,)``).
-        z: complementarity unknowns (float64, shape ``(m,)``).
-        w: ``D u + B z + b`` recomputed from ``u, z``.
-        active: boolean mask over the ``m`` pairs (``w_i == 0`` imposed).
-        method: method(s) used, as for :class:`LCPResult`.
-        iterations: pivots / Newton iterations / active sets tried; 0 for a
-            direct (mode reuse) solve.
-        residual: scaled residual (see :func:`circuitnsds.solvers.residual.mlcp_residual`).
     """
 
     u: np.ndarray
-    z: np.ndarray
-    w: np.ndarray
-    active: np.ndarray
-    method: str
-    iterations: int
-    residual: float
 
 
 def _fmt(value: Any) -> str:
