@@ -33,3 +33,17 @@ class Element:
     def describe(self) -> str:
         """Short human description for messages: ``r1 (line 4)``."""
         return f"{self.name} ({self.location})" if self.location else self.name
+
+
+def stamp_voltage_branch(builder: MLCSBuilder, name: str, plus: int, minus: int) -> int:
+    """The branch of a voltage-defined element (``V``, ``E``, ``H``): the unknown ``i(name)``
+    [A] flowing into ``plus`` through the element to ``minus`` (declared as an output), and
+    its row ``0 = v(plus) - v(minus) - ...``, which the caller completes. Returns the
+    unknown's index."""
+    k = builder.branch(f"i({name})")
+    builder.add("A", plus, k, -1.0)
+    builder.add("A", minus, k, 1.0)
+    builder.add("A", k, plus, 1.0)
+    builder.add("A", k, minus, -1.0)
+    builder.output(f"i({name})", [(k, 1.0)])
+    return k

@@ -14,19 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, stamp_voltage_branch
 from circuitnsds.system.mlcs import MLCSBuilder
-
-
-def _stamp_voltage_branch(builder: MLCSBuilder, name: str, plus: int, minus: int) -> int:
-    """Branch unknown ``i(name)`` into ``plus``, and the row ``0 = v+ - v- - ...`` (completed by caller)."""
-    k = builder.branch(f"i({name})")
-    builder.add("A", plus, k, -1.0)
-    builder.add("A", minus, k, 1.0)
-    builder.add("A", k, plus, 1.0)
-    builder.add("A", k, minus, -1.0)
-    builder.output(f"i({name})", [(k, 1.0)])
-    return k
 
 
 @dataclass(frozen=True)
@@ -38,7 +27,7 @@ class VoltageControlledVoltageSource(Element):
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus, cplus, cminus = (builder.node(n) for n in self.nodes)
-        k = _stamp_voltage_branch(builder, self.name, plus, minus)
+        k = stamp_voltage_branch(builder, self.name, plus, minus)
         builder.add("A", k, cplus, -self.gain)
         builder.add("A", k, cminus, self.gain)
 
@@ -61,30 +50,39 @@ class VoltageControlledCurrentSource(Element):
 
 
 @dataclass(frozen=True)
-class CurrentControlledCurrentSource(Element):
-    """``F``: nodes ``(n+, n-)``; ``control`` is the controlling voltage source's name."""
+class _CurrentControlled(Element):
+    """What ``F`` and ``H`` share: nodes ``(n+, n-)``; ``control`` names the voltage source
+    whose current ``i(control)`` [A] controls the element."""
 
     control: str = ""
+
+    def control_branch(self, builder: MLCSBuilder) -> int:
+        """The index of the unknown ``i(control)``."""
+        return builder.branch(f"i({self.control})")
+
+
+@dataclass(frozen=True)
+class CurrentControlledCurrentSource(_CurrentControlled):
+    """``F``: ``gain`` is dimensionless."""
+
     gain: float = 1.0
     topology: ClassVar[str] = "current"
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
-        controlling = builder.branch(f"i({self.control})")
+        controlling = self.control_branch(builder)
         builder.add("A", plus, controlling, -self.gain)
         builder.add("A", minus, controlling, self.gain)
         builder.output(f"i({self.name})", [(controlling, self.gain)])
 
 
 @dataclass(frozen=True)
-class CurrentControlledVoltageSource(Element):
-    """``H``: nodes ``(n+, n-)``; ``control`` names a voltage source; ``transresistance`` in ohms."""
+class CurrentControlledVoltageSource(_CurrentControlled):
+    """``H``: ``transresistance`` in ohms."""
 
-    control: str = ""
     transresistance: float = 1.0
     topology: ClassVar[str] = "voltage"
 
     def stamp(self, builder: MLCSBuilder) -> None:
-        plus, minus = (builder.node(n) for n in self.nodes)
-        k = _stamp_voltage_branch(builder, self.name, plus, minus)
-        builder.add("A", k, builder.branch(f"i({self.control})"), -self.transresistance)
+        k = stamp_voltage_branch(builder, self.name, *(builder.node(n) for n in self.nodes))
+        builder.add("A", k, self.control_branch(builder), -self.transresistance)

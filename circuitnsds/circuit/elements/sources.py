@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, stamp_voltage_branch
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.stimuli import Dc, Stimulus
 
@@ -28,15 +28,10 @@ class VoltageSource(Element):
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
-        k = builder.branch(f"i({self.name})")
-        builder.add("A", plus, k, -1.0)
-        builder.add("A", minus, k, 1.0)
-        builder.add("A", k, plus, 1.0)
-        builder.add("A", k, minus, -1.0)
+        k = stamp_voltage_branch(builder, self.name, plus, minus)
         column = builder.stimulus(self.function, self.name)
         builder.add("S", k, column, -1.0)
         builder.voltage_source_stimulus(plus, minus, column)
-        builder.output(f"i({self.name})", [(k, 1.0)])
 
 
 @dataclass(frozen=True)
