@@ -184,13 +184,27 @@ class SimulationError(CircuitnsdsError):
             the last good grid point, when the failure happened while integrating.
         partial: the :class:`~circuitnsds.Waveforms` made of ``trajectory`` (set by the
             transient analysis), else ``None``.
+        cause: what kind of failure the engine met, one of the ``STEP_*``/``STATE_*``/
+            ``SOURCE_*`` names below (``None``: not said); the analysis words its advice
+            from it, the engine knowing no circuit.
     """
+
+    STEP_NOT_FINITE = "step not finite"
+    """A step's matrix ``E/h - ΘA`` holds inf (capacitance/h or inductance/h overflows)."""
+    STEP_UNSOLVED = "step unsolved"
+    """A step's complementarity problem has no (verified) solution (see ``step_interval``)."""
+    STATE_NOT_FINITE = "state not finite"
+    """The state overflowed or became NaN while integrating."""
+    SOURCE_NOT_FINITE = "source not finite"
+    """A source function's value is NaN or infinite (the sources concerned: ``unknowns``)."""
+    STEP_MAP_SINGULAR = "step map singular"
+    """The mode a step took has a singular step matrix, so the step has no affine map."""
 
     def __init__(self, message: str, *, where: object | None = None, hint: str | None = None,
                  time: float | None = None, devices: tuple[str, ...] = (),
                  residual: float | None = None, unknowns: tuple[str, ...] = (),
                  step_interval: tuple[float, float] | None = None, switch_states=None,
-                 trajectory=None, partial=None):
+                 trajectory=None, partial=None, cause: str | None = None):
         self.time = time
         self.devices = tuple(devices)
         self.residual = residual
@@ -199,6 +213,7 @@ class SimulationError(CircuitnsdsError):
         self.switch_states = switch_states
         self.trajectory = trajectory
         self.partial = partial
+        self.cause = cause
         super().__init__(message, where=where, hint=hint)
 
 

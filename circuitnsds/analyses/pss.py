@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.analyses.transient import _waveforms
+from circuitnsds.analyses.transient import _waveforms, advise
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate
@@ -229,11 +229,15 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
     start_time = t0 + periods_warmup * period
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
-    if start_time > 0:  # into the periodic regime (and the warm-up periods)
-        run = integrate(mlcs, _whole_grid(mlcs, step, start_time), y, charge, None, active, switches)
-        y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
-    shooter = _Shooter(circuit, mlcs, grid, period, tol)
-    result = shooter.solve(y, charge, active, switches, max_iterations)
+    try:
+        if start_time > 0:  # into the periodic regime (and the warm-up periods)
+            run = integrate(mlcs, _whole_grid(mlcs, step, start_time), y, charge, None, active, switches)
+            y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
+        shooter = _Shooter(circuit, mlcs, grid, period, tol)
+        result = shooter.solve(y, charge, active, switches, max_iterations)
+    except SimulationError as exc:
+        advise(exc)
+        raise
     result.transient_periods += periods_warmup
     return result
 

@@ -73,6 +73,7 @@ def run_transient(
                                stepping=stepping)
     except SimulationError as exc:
         _word(exc)
+        advise(exc)
         _diagnose(exc, circuit, mlcs, grid, theta)
         if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
@@ -131,6 +132,28 @@ def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
         warnings.warn(message, CircuitWarning, stacklevel=3)
 
 
+UNSTABLE = ("the circuit is unstable (a negative resistance, or controlled sources with a loop gain "
+            "above 1)")
+"""What a state that overflows says about the circuit."""
+
+ADVICE = {
+    SimulationError.STEP_NOT_FINITE: "check the step (--step, .tran TSTEP) and the capacitor and inductor "
+                                     "values",
+    SimulationError.STATE_NOT_FINITE: f"{UNSTABLE} or a value overflowed; the waveforms before that instant "
+                                      "are kept",
+    SimulationError.SOURCE_NOT_FINITE: "check the source's parameters (a zero time constant or period, an "
+                                       "overflow)",
+    SimulationError.STEP_MAP_SINGULAR: "a node is left floating in that mode (every diode at it blocks): add "
+                                       "a resistor to ground, or a diode off-resistance (Roff)",
+}
+"""The hint of an engine error by its ``cause`` (a failed step's comes from :func:`_diagnose`)."""
+
+
+def advise(error: SimulationError) -> None:
+    """Give an engine error the hint of its ``cause`` (:data:`ADVICE`) unless it has one: what
+    every analysis that runs the engine does with its errors."""
+    error.hint = error.hint or ADVICE.get(error.cause)
+
 HUGE = 1e100
 """A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""
 
@@ -167,9 +190,8 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
         return
     trajectory = error.trajectory
     if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
-        error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: the "
-                      "circuit is unstable (a negative resistance, or controlled sources with a loop "
-                      "gain above 1); the waveforms before that instant are kept")
+        error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: {UNSTABLE}; "
+                      "the waveforms before that instant are kept")
         return
     states = error.switch_states
     if mlcs.n + mlcs.m > ANALYSE_LIMIT:  # the analysis is dense: keep the devices' hint

@@ -366,8 +366,7 @@ class _Stepping:
             raise SimulationError(
                 f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
                 "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
-                time=float(self.grid[k]), hint="check the step (--step, .tran TSTEP) and the "
-                "capacitor and inductor values")
+                time=float(self.grid[k]), cause=SimulationError.STEP_NOT_FINITE)
         solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
         self.solvers[key] = _StepSolver(solver, system)
         if len(self.solvers) > SOLVER_CACHE_SIZE:
@@ -384,8 +383,7 @@ class _Stepping:
             raise SimulationError(
                 f"the state overflows in the step from t = {self.grid[k]:.6g} s to {t1:.6g} s "
                 f"(largest |value| {np.abs(y).max():.3g})", where=f"t = {t1:.6g} s", time=float(t1),
-                hint="the circuit is unstable (a negative resistance, or controlled sources with a "
-                "loop gain above 1) or a value overflowed; the waveforms before that instant are kept")
+                cause=SimulationError.STATE_NOT_FINITE)
         try:
             return step.solver.solve(-rhs, self.mlcs.e, guess=guess)
         except LCPError as exc:
@@ -499,8 +497,7 @@ def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
         raise SimulationError(
             f"a source function is {values[row, column]} at t = {grid[row]:.6g} s "
             f"({', '.join(owners) or 'a source'}: {mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s",
-            time=float(grid[row]), unknowns=owners,
-            hint="check the source's parameters (a zero time constant or period, an overflow)")
+            time=float(grid[row]), unknowns=owners, cause=SimulationError.SOURCE_NOT_FINITE)
     return values
 
 
@@ -545,7 +542,7 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
     conducting = [] if guess is None else [mlcs.pair_devices[j] for j in np.flatnonzero(guess)]
     conducting = list(dict.fromkeys(conducting))
     closed = [] if states is None else [s.name for s, on in zip(mlcs.switches, states) if on]
-    residual = getattr(exc, "residual", None)
+    residual = exc.residual
     verdict = "has no solution" if isinstance(exc, LCPNoSolution) else "could not be solved"
     details = [f"conducting before it: {', '.join(conducting) or 'none'}"]
     if mlcs.switches:
@@ -556,7 +553,7 @@ def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
         f"the time step from t = {t0:.6g} s to {t1:.6g} s {verdict} with ideal devices "
         f"({'; '.join(details)})",
         where=f"t = {t1:.6g} s", time=float(t1), devices=tuple(conducting), residual=residual,
-        step_interval=(float(t0), float(t1)),
+        step_interval=(float(t0), float(t1)), cause=SimulationError.STEP_UNSOLVED,
         switch_states=None if states is None else np.array(states, dtype=bool))
 
 
@@ -566,10 +563,7 @@ def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> Simulati
     names = ", ".join(f"{mlcs.unknowns[j]} = {y[k, j]}" for j in bad[:4])
     return SimulationError(
         f"the state is not finite at t = {grid[k]:.6g} s ({names}{', ...' if bad.size > 4 else ''})",
-        where=f"t = {grid[k]:.6g} s", time=float(grid[k]),
-        hint="the circuit is unstable (a negative resistance, or controlled sources with a loop "
-        "gain above 1) or a value overflowed; the waveforms before that instant are kept",
-    )
+        where=f"t = {grid[k]:.6g} s", time=float(grid[k]), cause=SimulationError.STATE_NOT_FINITE)
 
 
 def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,

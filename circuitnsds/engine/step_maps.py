@@ -163,8 +163,7 @@ class StepMapper:
             raise SimulationError(
                 f"the step from t = {t0:.6g} s to {t1:.6g} s has a singular step matrix in the "
                 "mode it took, so it has no step map", where=f"t = {t1:.6g} s", time=float(t1),
-                hint="a node is left floating in that mode (every diode at it blocks): add a "
-                "resistor to ground, or a diode off-resistance (Roff)")
+                cause=SimulationError.STEP_MAP_SINGULAR)
         return mode
 
 

@@ -81,18 +81,25 @@ def _fmt(value: Any) -> str:
 class LCPError(Exception):
     """Base class of the complementarity solvers' errors.
 
-    Every attribute given as keyword is kept on the instance (``err.pivots``,
-    ``err.residual``, ...) as evidence, and the scalar ones are listed in
-    ``str(err)``.
+    The arguments are kept as the declared attributes below; the further ``evidence``
+    keywords are kept too (in :attr:`evidence` and as attributes of their own name,
+    e.g. ``err.reason``), and the scalar ones are listed in ``str(err)``.
 
     Args:
         message: what happened.
         method: the method that raised.
         size: problem size, e.g. ``{"n": 3, "m": 2}`` or ``{"n": 5}``.
         pivots: pivots / iterations done.
-        residual: best residual reached (``inf`` if none).
+        residual: best scaled residual reached (``inf`` if none, ``None`` if not said).
         **evidence: any further data (ray direction, blocking variable, ...).
     """
+
+    message: str
+    method: str | None
+    size: dict[str, int]
+    pivots: int | None
+    residual: float | None
+    evidence: dict[str, Any]
 
     def __init__(
         self,
