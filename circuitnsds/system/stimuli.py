@@ -25,6 +25,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 
+def _with_defaults(stimulus, defaults: dict[str, float], zero_too: tuple[str, ...] = ()):
+    """``stimulus`` with each field named in ``defaults`` that was omitted (``None``) set to
+    its default, and those in ``zero_too`` also when given as 0 (see the module docstring)."""
+    changes = {name: default for name, default in defaults.items()
+               if getattr(stimulus, name) is None or (name in zero_too and not getattr(stimulus, name))}
+    return replace(stimulus, **changes)
+
+
 @dataclass(frozen=True)
 class Dc:
     """Constant value."""
@@ -60,7 +68,7 @@ class Sin:
     phase_deg: float = 0.0
 
     def resolve(self, tstep: float, tstop: float) -> Sin:
-        return replace(self, frequency=1.0 / tstop) if not self.frequency else self
+        return _with_defaults(self, {"frequency": 1.0 / tstop}, zero_too=("frequency",))
 
     def value(self, t: float) -> float:
         phase = math.radians(self.phase_deg)
@@ -85,7 +93,16 @@ class Sin:
 
 
 @dataclass(frozen=True)
-class Pulse:
+class _TwoLevels:
+    """A waveform between two levels (the ``V1 V2`` of ``PULSE`` and ``EXP``), in the
+    source's unit (V or A)."""
+
+    initial: float
+    pulsed: float
+
+
+@dataclass(frozen=True)
+class Pulse(_TwoLevels):
     """``PULSE(V1 V2 TD TR TF PW PER)``.
 
     Defaults: ``TD = 0``, ``TR = TF = TSTEP``, ``PW = PER = TSTOP`` (also for a
@@ -93,8 +110,6 @@ class Pulse:
     instantaneous jump (the ideal engine handles it exactly).
     """
 
-    initial: float
-    pulsed: float
     delay: float = 0.0
     rise: float | None = None
     fall: float | None = None
@@ -102,13 +117,8 @@ class Pulse:
     period: float | None = None
 
     def resolve(self, tstep: float, tstop: float) -> Pulse:
-        return replace(
-            self,
-            rise=tstep if self.rise is None else self.rise,
-            fall=tstep if self.fall is None else self.fall,
-            width=self.width or tstop,
-            period=self.period or tstop,
-        )
+        return _with_defaults(self, {"rise": tstep, "fall": tstep, "width": tstop, "period": tstop},
+                              zero_too=("width", "period"))
 
     def value(self, t: float) -> float:
         if t <= self.delay:
@@ -211,27 +221,21 @@ class Pwl:
 
 
 @dataclass(frozen=True)
-class Exp:
+class Exp(_TwoLevels):
     """``EXP(V1 V2 TD1 TAU1 TD2 TAU2)``: rise towards V2 from TD1, fall back towards V1 from TD2.
 
     Defaults: ``TD1 = 0``, ``TAU1 = TSTEP``, ``TD2 = TD1 + TSTEP``, ``TAU2 = TSTEP``
     (the time constants also when given as 0).
     """
 
-    initial: float
-    pulsed: float
     rise_delay: float = 0.0
     rise_tau: float | None = None
     fall_delay: float | None = None
     fall_tau: float | None = None
 
     def resolve(self, tstep: float, tstop: float) -> Exp:
-        return replace(
-            self,
-            rise_tau=self.rise_tau or tstep,
-            fall_delay=self.rise_delay + tstep if self.fall_delay is None else self.fall_delay,
-            fall_tau=self.fall_tau or tstep,
-        )
+        defaults = {"rise_tau": tstep, "fall_delay": self.rise_delay + tstep, "fall_tau": tstep}
+        return _with_defaults(self, defaults, zero_too=("rise_tau", "fall_tau"))
 
     def value(self, t: float) -> float:
         span = self.pulsed - self.initial
