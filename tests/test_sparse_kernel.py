@@ -331,3 +331,29 @@ def test_python_fallback_loop(scenario):
 
 def test_numba_compiled():
     assert sparse_kernel.compiled()
+
+
+@pytest.mark.parametrize("netlist, theta", [("bridge_rectifier.cir", 1.0), ("buck_converter.cir", 0.5)])
+def test_dense_mode_blocks_hold_the_numbers_of_the_sparse_ones(netlist, theta):
+    """The dense mode maps slice numpy copies of the step system (a fast path for small
+    circuits); the sparse maps slice the scipy matrices: every block of every mode must be
+    the same numbers, so the two builders cannot drift apart."""
+    import itertools
+
+    import circuitnsds
+    from circuitnsds.engine.step_system import mode_blocks, step_system
+    from tests.conftest import NETLISTS
+
+    circuit = circuitnsds.read_netlist(NETLISTS / netlist)
+    mlcs = circuit.mlcs(1e-6, 1e-3)
+    for states in itertools.product((False, True), repeat=len(mlcs.switches)):
+        system = step_system(mlcs, 1e-6, states, theta)
+        for active in itertools.product((False, True), repeat=min(mlcs.m, 6)):
+            mask = np.zeros(mlcs.m, dtype=bool)
+            mask[:len(active)] = active
+            sparse, dense = mode_blocks(system, mask), mode_blocks(system, mask, dense=True)
+            for name in ("bordered", "carry", "S_next", "S_now", "W"):
+                assert isinstance(getattr(dense, name), np.ndarray)
+                np.testing.assert_array_equal(getattr(dense, name), getattr(sparse, name).toarray())
+            for name in ("rhs_pairs", "e_w", "active", "inactive"):
+                np.testing.assert_array_equal(getattr(dense, name), getattr(sparse, name))
