@@ -43,5 +43,9 @@ def test_round_trip_with_scale_and_unit(mantissa, scale, unit, upper):
         return
     suffix = (scale.upper() if upper else scale) + unit
     text = repr(mantissa) + suffix
+    if mantissa != 0 and mantissa * SCALE_FACTORS[scale] == 0:  # underflows: said, never a silent 0
+        with pytest.raises(ValueError, match="too small"):
+            parse_value(text)
+        return
     assert math.isclose(parse_value(text), mantissa * SCALE_FACTORS[scale], rel_tol=1e-12,
                         abs_tol=1e-300)
