@@ -232,9 +232,15 @@ def test_undamped_state_is_diagnosed():
         circuitnsds.read_netlist(text).pss()
 
 
-def test_theta_below_one_is_refused():
+def test_theta_below_one_is_refused_and_the_netlist_option_warned():
+    from circuitnsds.analyses.pss import run_pss
+
+    text = rc_square(0.1e-6)
     with pytest.raises(circuitnsds.CircuitError, match="implicit Euler"):
-        circuitnsds.read_netlist(rc_square(0.1e-6).replace(".end", ".options theta=0.5\n.end")).pss()
+        run_pss(circuitnsds.read_netlist(text), theta=0.5)
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"theta=0.5 applies to the transient"):
+        result = circuitnsds.read_netlist(text.replace(".end", ".options theta=0.5\n.end")).pss()
+    assert result.iterations == 1
 
 
 def test_pss_line_errors():

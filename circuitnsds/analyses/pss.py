@@ -173,13 +173,18 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
     <= tol · s_i``.
     """
     spec = circuit.pss_spec
-    theta = circuit.options.get("theta", 1.0) if theta is None else theta
-    if theta != 1.0:
+    why = ("with theta < 1 a step depends on the algebraic unknowns too, so the period map is not "
+           "a map of the state alone")
+    if theta is not None and theta != 1.0:
         raise CircuitError(f"the periodic steady state uses implicit Euler (theta = 1), not theta = "
                            f"{theta:g}", where=circuit.file,
-                           hint="with theta < 1 a step depends on the algebraic unknowns too, so the "
-                           "period map is not a map of the state alone; drop .options theta (or "
-                           "--theta) for pss, and compare with a transient at theta = 1")
+                           hint=f"{why}; compare it with a transient at theta = 1")
+    if circuit.options.get("theta", 1.0) != 1.0:
+        import warnings
+
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: .options theta={circuit.options['theta']:g} applies to the transient; "
+            f"the periodic steady state uses implicit Euler (theta = 1): {why}"), stacklevel=3)
     found_period, t0 = None, None
     if period is None and spec is None:
         try:
