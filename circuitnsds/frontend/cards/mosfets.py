@@ -16,12 +16,18 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
   ``BV`` as a Zener breakdown when given; level 1–3: the bulk–drain and bulk–source
   junctions; none when ``IS = 0``) whose ``Vfwd``/``Ron`` are the chord of its Shockley curve
   (:mod:`circuitnsds.frontend.cards.shockley`);
-* linear capacitances when the model gives them: ``Cgs``; ``Cgd = Cgdmax`` (ngspice's
-  Cgd(Vgd) rises to Cgdmax for a conducting device and falls toward Cgdmin as the device
-  blocks: the linear model takes the largest value); ``Cds = Cjo`` (the body junction's
-  zero-bias capacitance, also its largest); level 1–3: ``CGSO·W``, ``CGDO·W``, ``CBD``,
-  ``CBS``; with ``Rg`` in series with the gate when a gate capacitance is present (with
-  no gate capacitance ``Rg`` carries no current and is left out).
+* linear capacitances when the model gives them, the gate–drain one split into its two
+  grounded halves, each at the value it has when its node moves: ngspice's Cgd(Vgd) is
+  Cgdmax while the channel conducts (``Vgd > 0``) and falls toward Cgdmin as the drain
+  rises above the gate. The gate moves (crossing ``Vto``) while the channel conducts, the
+  drain while it blocks, so the input capacitance is ``Ciss = Cgs + Cgdmax`` (gate–source)
+  and the output capacitance ``Coss = Cjo + Cgdmin`` (drain–source; ``Cjo`` is the body
+  junction's zero-bias capacitance, its largest); level 1–3: ``CGSO·W + CGDO·W`` and
+  ``CGDO·W``, ``CBD``, ``CBS``. A capacitance between gate and drain would feed the drain's jump at
+  each switching back into the gate (the Miller effect): a real device then sits in its
+  linear region while the gate charges (the Miller plateau), which an ideal switch does
+  not have, so the switch would chatter. ``Rg`` is in series with the gate when a gate
+  capacitance is present (without one it carries no current and is left out).
 """
 
 from __future__ import annotations
@@ -51,12 +57,12 @@ TEXT_PARAMETERS = {"mfg", "type"}
 FLAGS = {"nchan", "pchan", "vdmosn", "vdmosp"}
 
 VDMOS_USED = {"vto", "vth0", "kp", "theta", "mtriode", "ksubthres", "subshift", "rd", "rs", "rg",
-              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgs"}
+              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgdmin", "cgs"}
 VDMOS_IGNORED = {
     # smooth-model details that do not change a switch's states or its on-resistance
     "phi", "lambda", "tnom", "kf", "af", "rq", "vq", "tcvth", "vtotc", "mu", "bex", "texp0",
     "texp1", "trd1", "trd2", "trg1", "trg2", "trs1", "trs2", "trb1", "trb2", "tksubthres1",
-    "tksubthres2", "ibv", "nbv", "tt", "eg", "xti", "vj", "m", "fc", "cgdmin", "a", "rthjc",
+    "tksubthres2", "ibv", "nbv", "tt", "eg", "xti", "vj", "m", "fc", "a", "rthjc",
     "rthca", "cthj", "vgs_max", "vgd_max", "vds_max", "vgsr_max", "vgdr_max", "pd_max", "id_max",
     "idr_max", "te_max", "rth_ext", "derating",
     # LTspice datasheet annotations (not simulated by LTspice or ngspice)
@@ -205,11 +211,18 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
         inner_gate = f"{name}.gate"
         parts.append(Resistor(f"{name}.rg", (gate, inner_gate), location,
                               resistance=model.get("rg", 0.0) / count))
-    for suffix, value, nodes in (("cgs", gate_caps.get("cgs"), (inner_gate, source)),
-                                 ("cgd", gate_caps.get("cgd"), (inner_gate, drain))):
-        if value:
-            parts.append(Capacitor(f"{name}.{suffix}", nodes, location, capacitance=value * count))
+    miller = gate_caps.get("cgd", 0.0)
+    if gate_caps:
+        parts.append(Capacitor(f"{name}.ciss", (inner_gate, source), location,
+                               capacitance=(gate_caps.get("cgs", 0.0) + miller) * count))
     parts += _body_diodes(model, name, drain, source, bulk, count, off_resistance, location)
+    if model.kind == "vdmos":  # the drain moves while the channel blocks: Cgd is at Cgdmin
+        output = model.params.get("cgdmin", 0.0) + model.params.get("cjo", 0.0)
+    else:
+        output = miller
+    if output > 0:
+        parts.append(Capacitor(f"{name}.coss", (drain, source), location,
+                               capacitance=output * count))
     switch = Mosfet(name, (drain, source, inner_gate), location, model=switch_model,
                     polarity=model.polarity, device=model.kind, on_resistance_rule=rule,
                     parts=tuple(p.name for p in parts))
@@ -260,7 +273,7 @@ def _gate_capacitances(model: MosfetModel, instance: dict[str, float]) -> dict[s
 
 def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: str, count: float,
                  off_resistance: float, location: SourceLocation | None) -> list[Element]:
-    """VDMOS: the body diode and ``Cds = Cjo``; level 1–3: the bulk junctions and ``CBD``/``CBS``."""
+    """VDMOS: the body diode; level 1–3: the bulk junctions and ``CBD``/``CBS``."""
     saturation = model.get("is", 1e-14)
     if saturation <= 0:  # IS=0: the model has no junction diode
         return []
@@ -281,10 +294,7 @@ def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: s
         parts.append(Diode(f"{name}.{suffix}", nodes, location, model=diode_model, area=count))
 
     if model.kind == "vdmos":
-        junction("dbody", drain)
-        if model.params.get("cjo", 0.0) > 0:
-            parts.append(Capacitor(f"{name}.cds", (drain, source), location,
-                                   capacitance=model.params["cjo"] * count))
+        junction("dbody", drain)  # its capacitance Cjo is part of m1.coss
         return parts
     junction("dbd", drain)
     if bulk != source:
