@@ -66,9 +66,12 @@ def test_synchronous_buck_with_vendor_vdmos_models_agrees_with_ngspice():
         a = time_mean(ours.time[mine], ours[signal][mine])
         b = time_mean(theirs.time[ng], theirs[signal][ng])
         assert a == pytest.approx(b, rel=0.01), signal
-    # body-diode conduction of M2 (the switch node below -0.3 V) during each dead time
+    # body-diode conduction of M2 (the switch node below -0.3 V) during each dead time: its
+    # start and end within one step (10 ns) of ngspice's. Measured: 0.6 to 7.3 ns.
     edges = crossings(ours.time[mine], ours["v(sw)"][mine], -0.3)
-    reference = crossings(theirs.time[ng], theirs["v(sw)"][ng], -0.3)
-    assert len(edges) == len(reference) == 40                  # 2 dead times x 10 periods
+    reference = crossings(theirs.time, theirs["v(sw)"], -0.3)
+    assert len(edges) == 40                                    # 2 dead times x 10 periods
+    nearest = reference[np.abs(reference[None, :] - edges[:, None]).argmin(axis=1)]
+    assert np.unique(nearest).size == 40
     step = 10e-9
-    assert np.abs(edges - reference).max() < 2 * step
+    assert np.abs(edges - nearest).max() < step
