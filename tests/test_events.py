@@ -15,6 +15,7 @@ import pytest
 from circuitnsds.engine.events import MAX_EVENTS_PER_STEP, regula_falsi
 from circuitnsds.errors import SimulationError
 from tests.conftest import circuit_from
+from tests.device_checks import assert_device_laws
 
 # --- hysteretic buck: a W switch on the inductor current between two thresholds -------------
 #
@@ -70,6 +71,13 @@ def test_hysteretic_buck_thresholds_are_met_at_the_events():
     assert current[waves.time > period].max() < I_HIGH + 1e-9   # never beyond the band
     assert current[waves.time > period].min() > I_LOW - 1e-9
     assert [e.state for e in waves.events][:4] == [False, True, False, True]
+    # in a step split at a switching the diode carries the inductor current for the part
+    # in which W1 is open: its charge in that step is i(l1)·(that part), not i·h
+    for time, _, closed in waves.events:
+        k = int(np.searchsorted(waves.time, time))
+        part = time - waves.time[k - 1] if closed else waves.time[k] - time
+        assert 0 < part < waves.time[k] - waves.time[k - 1]
+        assert waves.impulse("d1")[k] == pytest.approx(current[k] * part, rel=0.02)
 
 
 # --- voltage-mode PWM: a ramp source against a circuit voltage ---------------------------------
@@ -100,7 +108,8 @@ Rl out 0 3
 
 
 def test_pwm_duty_cycle_from_the_events_matches_the_ramp_crossing():
-    waves = circuit_from(pwm_buck(T / 100, 20 * T)).transient()
+    circuit = circuit_from(pwm_buck(T / 100, 20 * T))
+    waves = circuit.transient()
     opening = waves.switchings("s1", False)
     closing = waves.switchings("s1", True)
     periods = np.arange(20)
@@ -110,6 +119,9 @@ def test_pwm_duty_cycle_from_the_events_matches_the_ramp_crossing():
     duty = (opening[1:] - closing[:opening.size - 1]) / T
     expected = (CONTROL * RISE + T - (RISE + WIDTH + (1 - CONTROL) * FALL)) / T
     np.testing.assert_allclose(duty, expected, rtol=0, atol=1e-4)
+    # at every sample, split steps included, the diode obeys its law (the sample is the
+    # state after the last part of the step, not an average over the parts)
+    assert_device_laws(circuit, waves)
     # the switch node follows: v(sw) = 12 V while closed, -0 V (the diode) while open
     closed = (waves.time > opening[3] - CONTROL * RISE + 1e-7) & (waves.time < opening[3] - 1e-7)
     assert np.all(waves["v(sw)"][closed] > 11)

@@ -105,8 +105,10 @@ class Trajectory:
     Attributes:
         time: grid [s], shape ``(N,)``.
         y: MNA unknowns, shape ``(N, n)``.
-        current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial).
-        impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0).
+        current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial); for a step
+            split at a switching, the current of its last part (the one at that point).
+        impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0), summed
+            over the parts of a split step.
         residual: scaled complementarity residual of each step solved as an MLCP;
             0 for a step taken by the mode map (its signs are checked, see
             :mod:`circuitnsds.engine.dense_loop`).
@@ -212,6 +214,7 @@ def integrate(
     left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
 
     events: list[SwitchEvent] = []
+    split_impulses: dict[int, np.ndarray] = {}  # the charge of each step split at a switching
     restart = False  # a switching located at the end of the previous step
 
     def so_far(last: int) -> list[SwitchEvent]:
@@ -231,7 +234,10 @@ def integrate(
             except SimulationError as exc:
                 raise _stopped(exc, k - 1, grid, y, current, residual, active, states, stats,
                                so_far(k - 1)) from None
-            y[k], current[k], residual[k] = split.result.u, split.current, split.result.residual
+            # the state and pair currents at t_k are those of the last part (so that every
+            # sample obeys the device laws); the step's charge is the sum over its parts
+            y[k], current[k], residual[k] = split.result.u, split.result.z, split.result.residual
+            split_impulses[k] = split.impulse
             active[k] = guess = np.asarray(split.result.active, dtype=bool)
             states[k] = split.states
             events += split.events
@@ -287,6 +293,8 @@ def integrate(
 
     impulse = np.zeros((count, m))
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
+    for row, charge_of_step in split_impulses.items():
+        impulse[row] = charge_of_step
     if current0 is not None:
         current[0] = current0
     stats.update(stepping.counters(), mapped_seconds=stepping.mapped_seconds)
@@ -333,7 +341,7 @@ class _Split:
 
     Attributes:
         result: the MLCP result of the last part (state and active set at the step's end).
-        current: pair currents averaged over the step (total impulse / h) [A].
+        impulse: pair charges of the whole step, summed over its parts [C].
         states: switch states at the end of the step.
         events: the switchings located in the step.
         at_end: the last switching happened at the very end of the step (the next step
@@ -341,7 +349,7 @@ class _Split:
     """
 
     result: object
-    current: np.ndarray
+    impulse: np.ndarray
     states: np.ndarray
     events: list[SwitchEvent]
     at_end: bool
@@ -564,7 +572,7 @@ class _Stepping:
             rows = self.crossings(states, end.u)
             if not rows:
                 impulse += end.z * rest
-                return _Split(end, impulse / h, states, events, False)
+                return _Split(end, impulse, states, events, False)
             if len(events) >= MAX_EVENTS_PER_STEP:
                 name = self.mlcs.switches[self.free[rows[0]]].name
                 raise chattering_error(name, self.grid[k], self.grid[k + 1], len(events))
@@ -576,7 +584,7 @@ class _Stepping:
                 states[j] = not states[j]
                 events.append(SwitchEvent(float(self.grid[k + 1]), self.mlcs.switches[j].name,
                                           bool(states[j])))
-                return _Split(end, impulse / h, states, events, True)
+                return _Split(end, impulse, states, events, True)
             if first > MIN_FRACTION * h:
                 part = self.partial_step(k, start, first, theta, states, charge, y, guess,
                                          end.active)
