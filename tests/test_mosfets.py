@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
+import circuitnsds
 from circuitnsds.cli.info import circuit_report
 from circuitnsds.errors import NetlistError
 from circuitnsds.frontend.cards.shockley import THERMAL_VOLTAGE, piecewise_linear_fit
@@ -194,3 +195,52 @@ def test_info_lists_every_switching_element_with_its_mapping():
 def test_mosfet_errors_name_the_line(body, pattern):
     with pytest.raises(NetlistError, match=pattern):
         quiet(body)
+
+
+# ngspice's examples/vdmos/inv_vdmos.sp (imr/ngspice), verbatim but for the .control block
+# (skipped by circuitnsds) and a .tran line added: a CMOS inverter of two VDMOS with
+# ngspice's default Vto = ±3 V, gates behind Rg = 5 kohm.
+INVERTER = """*****************==== Inverter ====*******************
+*********** VDMOS ****************************
+vdd 1 0 5
+vss 4 0 0
+
+.subckt inv out in vdd vss
+mp1 out in vdd p1
+mn1 out in vss n1
+.ends
+
+xinv 3 2 1 4 inv
+
+Vin 2 0 DC 0 Pulse (0 5 10n 10n 10n 140n 300n)
+
+.model  N1  vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p
+.model  P1  vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p pchan
+.tran 0.1n 300n
+.end
+"""
+
+
+def test_ngspice_vdmos_inverter_switches_when_the_gates_cross_their_thresholds():
+    from scipy.optimize import brentq
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuitnsds.read_netlist(INVERTER).transient()
+    # each gate: the 0 -> 5 V input ramp (10 ns from t = 10 ns) through Rg·Ciss = 5k·1.5p
+    tau, slope = 7.5e-9, 5 / 10e-9
+
+    def gate(t):
+        s = t - 10e-9
+        if s <= 10e-9:
+            return slope * (s - tau * (1 - np.exp(-s / tau)))
+        top = slope * (10e-9 - tau * (1 - np.exp(-10e-9 / tau)))
+        return 5 - (5 - top) * np.exp(-(s - 10e-9) / tau)
+
+    p_opens = brentq(lambda t: gate(t) - 2.0, 10e-9, 40e-9)   # v(s) - v(g) < 3 V
+    n_closes = brentq(lambda t: gate(t) - 3.0, 10e-9, 40e-9)  # v(g) - v(s) > 3 V
+    assert waves.switchings("xinv.mp1", False)[0] == pytest.approx(p_opens, abs=0.1e-9)
+    assert waves.switchings("xinv.mn1", True)[0] == pytest.approx(n_closes, abs=0.1e-9)
+    assert p_opens < n_closes                                   # no shoot-through
+    assert waves["v(3)"][waves.time < 15e-9].min() > 4.99
+    assert np.abs(waves["v(3)"][(waves.time > 30e-9) & (waves.time < 150e-9)]).max() < 1e-3
