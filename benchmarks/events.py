@@ -79,7 +79,7 @@ def sync_buck_table(repeat: int) -> None:
     ng_times = []
     for _ in range(repeat):
         start = time.perf_counter()
-        result = run_ngspice(text, ["v(out)", "i(l1)"], 300e-6)
+        result = run_ngspice(text, ["v(out)", "i(l1)"], 200e-6)
         ng_times.append(time.perf_counter() - start)
     status = "" if result.ok else f"   ({result.status}: {result.message})"
     print(f"{'ngspice':>12} {statistics.median(ng_times):>8.3f}{status}")
