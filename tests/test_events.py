@@ -11,6 +11,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from circuitnsds.engine.events import MAX_EVENTS_PER_STEP, regula_falsi
 from circuitnsds.errors import SimulationError
@@ -172,6 +174,21 @@ def test_regula_falsi_brackets_the_root_of_a_convex_function(root):
     found = regula_falsi(g, 0.0, 1.0, g(0.0), g(1.0), 1e-12)
     assert g(found) >= 0 and found - root < 1e-11
     assert len(calls) < 40
+
+
+@settings(max_examples=200, deadline=None)
+@given(root=st.floats(1e-6, 1 - 1e-6), curvature=st.floats(-8.0, 8.0),
+       scale=st.floats(1e-9, 1e6), rising=st.booleans())
+def test_regula_falsi_ends_on_the_crossed_side_within_the_tolerance(root, curvature, scale,
+                                                                   rising):
+    # g(x) = ±scale·(exp(c·(x - root)) - 1)/c: monotone, convex or concave, root inside
+    def g(x):
+        value = x - root if curvature == 0 else np.expm1(curvature * (x - root)) / curvature
+        return scale * value if rising else -scale * value
+
+    found = regula_falsi(g, 0.0, 1.0, g(0.0), g(1.0), 1e-9)
+    assert np.sign(g(found)) in (0.0, np.sign(g(1.0)))       # the crossing has happened
+    assert -1e-12 <= found - root <= 1e-9 + 1e-12                 # on the far side, within xtol
 
 
 def test_event_location_costs_a_few_solves_per_switching():
