@@ -11,6 +11,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import circuitnsds
 from circuitnsds.cli.info import circuit_report
@@ -103,6 +105,27 @@ def test_vendor_vdmos_lines_map_to_a_switch_and_a_body_diode():
     assert circuit.element("m1.coss").nodes == ("d", "0")
     assert circuit.element("m1.rg").nodes == ("g", "m1.gate")
     assert m1.control_nodes() == ("m1.gate", "0")
+
+
+@settings(max_examples=60, deadline=None)
+@given(order=st.permutations(range(6)), flag=st.sampled_from(["", "nchan", "pchan"]),
+       where=st.integers(0, 6), parenthesised=st.booleans(), case=st.booleans())
+def test_vdmos_card_reads_the_same_in_any_order_and_layout(order, flag, where, parenthesised,
+                                                            case):
+    pairs = ["Vto=2.5", "Kp=12", "Rd=7m", "Rs=3m", "Rb=9m", "mfg=Some_Vendor"]
+    words = [pairs[k] for k in order]
+    if flag:
+        words.insert(where, flag)
+    body = " ".join(words).upper() if case else " ".join(words)
+    card = f".model q VDMOS({body})" if parenthesised else f".model q VDMOS {body}"
+    model = quiet(f"{card}\nV1 d 0 1\nVg g 0 10\nM1 d g 0 q").element("m1")
+    polarity = -1 if flag == "pchan" else 1
+    assert model.polarity == polarity
+    assert model.model.threshold == pytest.approx(polarity * 2.5)
+    drive_overdrive = 10 - polarity * 2.5
+    if drive_overdrive > 0:
+        assert model.model.on_resistance == pytest.approx(
+            vdmos_on_resistance(7e-3, 3e-3, 12, polarity * 2.5))
 
 
 def test_gate_drive_option_sets_the_on_resistance():
