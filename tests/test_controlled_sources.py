@@ -229,7 +229,6 @@ def test_polynomial_and_laplace_sources_are_reported_as_unsupported(line):
     ("line", "what"),
     [
         ("Q1 f in 0 qmod", "bipolar"),
-        ("M1 f in 0 0 nmos", "mosfet"),
         ("J1 f in 0 jmod", "jfet"),
     ],
 )

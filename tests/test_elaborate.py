@@ -80,7 +80,7 @@ def test_ideal_diode_and_shockley_only_model_is_ideal():
         ("D1 a 0 q\nR1 a 0 1\n.model q NPN(bf=100)", r"not a diode"),
         (".func f(x) {x*2}", r"\.func is not supported"),
         ("B1 a 0 v={time}", r"<text>:2: b1: cannot represent the term time"),
-        ("M1 d g s s nmos", r"MOSFETs"),
+        ("M1 d g s s nmos", r"<text>:2: m1: model .nmos. is not defined"),
         ("E1 a 0 value={v(b)*v(a)}\nR1 a 0 1", r"e1: cannot represent the term \(v\(b\)\*v\(a\)\)"),
         ("G1 a 0 poly(1) b 0 0 1\nR1 a 0 1", r"\(POLY, LAPLACE, FREQ, .*\) is not supported"),
         (".bogus 1 2", r"unknown command \.bogus"),

@@ -4,7 +4,7 @@ The switch closes when its control exceeds ``VT + VH`` and opens when it falls b
 ``VT - VH``; in between it keeps its state (initially its ``ON``/``OFF`` flag). A switch
 whose control is a source's time function (a voltage source across its control nodes)
 switches exactly at the threshold crossing, which is a grid point; a switch controlled by
-anything else takes the state its control had at the start of each step.
+anything else switches at the crossing located inside the step (tests/test_events.py).
 """
 
 
@@ -168,17 +168,17 @@ def test_sine_driven_switch_changes_within_half_a_step_of_the_crossing():
     assert np.all(np.abs(changes - crossings) <= h / 2 + 1e-15)
 
 
-# --- state-controlled switches: at most one step late -------------------------------------------
+# --- state-controlled switches: at the located crossing -----------------------------------------
 
 
 def replay_hysteresis(control: np.ndarray, on: float, off: float, initial: bool) -> np.ndarray:
-    """The state of each step from the control at the step's *start* (independent of the code)."""
+    """The state at each grid point from the control there (independent of the code)."""
     states = np.zeros(control.size, dtype=bool)
     state = initial
-    for k in range(1, control.size):
-        if control[k - 1] > on:
+    for k in range(control.size):
+        if control[k] > on:
             state = True
-        elif control[k - 1] < off:
+        elif control[k] < off:
             state = False
         states[k] = state
     return states
@@ -198,19 +198,16 @@ W1 a 0 Vsense wmod
 .tran {h} 2m
 """
     waves = circuit_from(body).transient()
-    t = waves.time
     np.testing.assert_allclose(waves["i(vsense)"], waves["v(in)"] / 1e3, rtol=1e-12, atol=1e-15)
     closed = waves["i(w1)"] > 1e-3
     np.testing.assert_array_equal(closed, replay_hysteresis(waves["i(vsense)"], 6e-3, 4e-3, False))
-    # the switch instant (start of the first step in the new state) is at most one step late
-    start_on = t[np.argmax(closed) - 1]
-    start_off = t[np.flatnonzero(closed)[-1]]
-    assert 0.6e-3 <= start_on <= 0.6e-3 + h
-    assert 1.6e-3 <= start_off <= 1.6e-3 + h
+    # the control is linear in time: the located instants are the analytic ones
+    assert waves.events == [(pytest.approx(0.6e-3, rel=1e-9), "w1", True),
+                            (pytest.approx(1.6e-3, rel=1e-9), "w1", False)]
     np.testing.assert_allclose(waves["i(w1)"][closed], 5 / 101, rtol=1e-12)
 
 
-def test_switch_controlled_by_a_circuit_node_switches_within_one_step():
+def test_switch_controlled_by_a_circuit_node_switches_at_the_crossing():
     # v(c) charges through RC = 1 ms towards 10 V (UIC from 0): crosses VT = 3 V at
     # t* = RC·ln(10/7) = 0.3567 ms. The switch sits in another loop (it does not load c).
     h, rc = 10e-6, 1e-3
@@ -227,12 +224,17 @@ S1 a 0 c 0 sw
     t = waves.time
     closed = waves["i(s1)"] > 1e-3
     np.testing.assert_array_equal(closed, replay_hysteresis(waves["v(c)"], 3.0, 3.0, False))
-    # the simulated v(c) (implicit Euler) crosses 3 V between two grid points ...
+    # the switching lies inside the step in which the simulated v(c) crosses 3 V ...
     k_cross = int(np.argmax(waves["v(c)"] > 3.0))
-    start_on = t[np.argmax(closed) - 1]
-    assert start_on == t[k_cross]  # ... and the switch closes at the next one: within one step
-    # the implicit Euler crossing is within a few steps of the analytic one
-    assert abs(start_on - rc * np.log(10 / 7)) <= 2 * h
+    (event,) = waves.switchings("s1", True)
+    assert t[k_cross - 1] < event <= t[k_cross]
+    # ... where the implicit Euler partial step from t[k-1] reaches 3 V exactly:
+    # v(t_k-1 + τ) = (v_k-1 + τ/RC·10)/(1 + τ/RC)
+    v_before = waves["v(c)"][k_cross - 1]
+    tau = rc * (3.0 - v_before) / (10.0 - 3.0)
+    assert event == pytest.approx(t[k_cross - 1] + tau, rel=1e-9)
+    # and implicit Euler's crossing is within a step of the analytic one
+    assert abs(event - rc * np.log(10 / 7)) <= h
 
 
 def test_relaxation_oscillator_with_hysteresis():

@@ -232,4 +232,5 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) ->
     stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
     return Waveforms(time=trajectory.time[first:], signals=LazySignals(mlcs.output_names, signal),
                      impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
-                     stats=stats)
+                     stats=stats, events=[event for event in trajectory.events
+                                          if event.time >= trajectory.time[first]])

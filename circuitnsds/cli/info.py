@@ -19,6 +19,7 @@ _KINDS = {
     "Resistor": "resistors", "Capacitor": "capacitors", "Inductor": "inductors",
     "MutualInductance": "coupled inductors", "VoltageSource": "voltage sources",
     "CurrentSource": "current sources", "Diode": "diodes", "Switch": "switches",
+    "Mosfet": "MOSFETs (switches)",
     "VoltageControlledVoltageSource": "controlled sources (E)",
     "CurrentControlledCurrentSource": "controlled sources (F)",
     "VoltageControlledCurrentSource": "controlled sources (G)",
@@ -49,12 +50,21 @@ def _model_detail(element) -> str | None:
         return f"model {model.name}: {detail}"
     if hasattr(model, "threshold"):
         unit = "A" if model.current_controlled else "V"
-        control = f"current of {element.control}" if getattr(element, "control", None) \
-            else f"v({element.nodes[2]}) - v({element.nodes[3]})"
-        return (f"model {model.name}: ideal switch on {control}, closes above "
-                f"{model.threshold + abs(model.hysteresis):g} {unit}, opens below "
-                f"{model.threshold - abs(model.hysteresis):g} {unit}, Ron={model.on_resistance:g} Ω, "
-                f"Roff={model.off_resistance:g} Ω")
+        if getattr(element, "control", None):
+            control = f"current of {element.control}"
+        else:
+            control = "v({}) - v({})".format(*element.control_nodes())
+        detail = (f"model {model.name}: ideal switch on {control}, closes above "
+                  f"{model.threshold + abs(model.hysteresis):g} {unit}, opens below "
+                  f"{model.threshold - abs(model.hysteresis):g} {unit}, "
+                  f"Ron={model.on_resistance:.4g} Ω, Roff={model.off_resistance:g} Ω")
+        if hasattr(element, "polarity"):
+            channel = "n" if element.polarity > 0 else "p"
+            detail = (f"{channel}-channel {element.device.upper()} (drain {element.nodes[0]}, "
+                      f"source {element.nodes[1]}, gate {element.gate}) as a {detail}; "
+                      f"Ron = {element.on_resistance_rule}"
+                      + (f"; with {', '.join(element.parts)}" if element.parts else ""))
+        return detail
     return None
 
 

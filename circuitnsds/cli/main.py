@@ -132,6 +132,11 @@ def _add_output_arguments(command: argparse.ArgumentParser) -> None:
     command.add_argument("--ascii", action="store_true", help="write the raw file in ASCII")
     command.add_argument("--plot", type=Path, metavar="PNG",
                          help="also write a figure to this PNG (PDF, SVG by the extension)")
+    command.add_argument("--events", type=Path, metavar="CSV",
+                         help="write every switching (time, element, state) of the S, W and M "
+                         "switches to this CSV file")
+    command.add_argument("--mark-events", action="store_true",
+                         help="draw each switching as a thin vertical line on --plot and --show")
     command.add_argument("--show", action="store_true",
                          help="open the figure in a window (needs a display)")
     command.add_argument("--measure", action="append", default=[], metavar="EXPR",
@@ -325,7 +330,7 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
     if args.show:
         from circuitnsds.output.plot import show_waveforms
 
-        show_waveforms(waves, names)
+        show_waveforms(waves, names, events=args.mark_events)
     return 0
 
 
@@ -374,8 +379,12 @@ def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, l
         from circuitnsds.output.plot import plot_waveforms
 
         with _writing(args.plot):
-            plot_waveforms(waves, args.plot, names)
+            plot_waveforms(waves, args.plot, names, events=args.mark_events)
         written.append(args.plot)
+    if args.events:
+        with _writing(args.events):
+            waves.events_to_csv(args.events)
+        written.append(args.events)
     return names, written
 
 

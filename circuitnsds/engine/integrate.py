@@ -22,8 +22,9 @@ Switch states for a step are decided before it is solved:
   its control nodes) takes the state its control has in the *middle* of the
   step; the threshold crossings of piecewise-linear sources are grid points
   (:meth:`MLCS.breakpoints`), so it switches exactly at the crossing;
-* any other switch takes the state its control had at the *start* of the step
-  (at most one step late).
+* any other switch takes the state its control had at the start of the step; when
+  the step's end shows its control across a threshold, the step is taken again, split
+  at the located crossing (:mod:`circuitnsds.engine.events`, :meth:`_Stepping.split_step`).
 
 Steps whose mode (active pairs, switch states, step class) is already known run
 through :mod:`circuitnsds.engine.dense_loop` (one affine map per step, checked for
@@ -40,6 +41,7 @@ import time as wallclock
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,10 +53,19 @@ from circuitnsds.engine.dense_loop import (
     dense_mode_map,
     run_table,
 )
+from circuitnsds.engine.events import (
+    MAX_EVENTS_PER_STEP,
+    MIN_FRACTION,
+    TIME_TOLERANCE,
+    SwitchEvent,
+    chattering_error,
+    regula_falsi,
+)
 from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
 from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
+from circuitnsds.solvers.linalg import SIGN_TOL
 from circuitnsds.system.mlcs import MLCS
 
 SOLVER_CACHE_SIZE = 32
@@ -70,6 +81,10 @@ dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
 loop, which is what converters (small ``n``, many switchings) need."""
 STEPPINGS = ("compiled", "numpy", "mlcp")
 """The stepping strategies of :func:`integrate` (its ``stepping`` argument)."""
+ENUMERATED_PAIRS = 4
+"""Up to this many pairs, a partial step of event location tries every active set as a
+dense solve before calling the MLCP solver (16 solves of a small system cost less than
+building one solver)."""
 CHUNK = 100_000
 """Longest run of mapped steps between progress reports."""
 
@@ -90,17 +105,23 @@ class Trajectory:
     Attributes:
         time: grid [s], shape ``(N,)``.
         y: MNA unknowns, shape ``(N, n)``.
-        current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial).
-        impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0).
+        current: pair currents ``μ/h`` [A], shape ``(N, m)`` (row 0: initial); for a step
+            split at a switching, the current of its last part (the one at that point).
+        impulse: pair impulses ``μ`` [C] of the step ending at each point (row 0: 0), summed
+            over the parts of a split step.
         residual: scaled complementarity residual of each step solved as an MLCP;
             0 for a step taken by the mode map (its signs are checked, see
             :mod:`circuitnsds.engine.dense_loop`).
         active: active set of each step, shape ``(N, m)``.
         switches: state (closed = true) of each switch during the step ending at
             each point, shape ``(N, number of switches)`` (row 0: the initial state).
+            After a step split at a located switching, the state at its end.
         stats: counters (steps, mapped_steps and the mapped_seconds spent in them,
             mlcp_steps, modes built, factorisations, cache hits, fallbacks (MLCP steps whose
-            guess was wrong), pivoting_solves and lemke_fallbacks among them, seconds).
+            guess was wrong), pivoting_solves and lemke_fallbacks among them, events,
+            event_solves (partial steps solved to locate them), seconds).
+        events: every switching, in time order: located instants of circuit-controlled
+            switches, grid points of source-controlled ones.
     """
 
     time: np.ndarray
@@ -111,6 +132,7 @@ class Trajectory:
     active: np.ndarray
     switches: np.ndarray
     stats: dict[str, float] = field(default_factory=dict)
+    events: list[SwitchEvent] = field(default_factory=list)
 
 
 def integrate(
@@ -191,10 +213,40 @@ def integrate(
     used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
     left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
 
+    events: list[SwitchEvent] = []
+    split_impulses: dict[int, np.ndarray] = {}  # the charge of each step split at a switching
+    restart = False  # a switching located at the end of the previous step
+
+    def so_far(last: int) -> list[SwitchEvent]:
+        """The switchings up to grid point ``last`` (for a run that stops there)."""
+        return sorted([e for e in events if e.time <= grid[last]]
+                      + stepping.scheduled_events(states[:last + 1]))
+
     k = 0
     while k < count - 1:
+        if k > 0 and stepping.crossings(states[k], y[k]):
+            # a circuit-controlled switch's control crossed its threshold during step k - 1:
+            # take that step again, split at the crossing(s)
+            previous = charge0 if k == 1 and charge0 is not None else mlcs.E @ y[k - 1]
+            try:
+                split = stepping.split_step(k - 1, states[k - 1], states[k], previous, y[k - 1],
+                                            active[k])
+            except SimulationError as exc:
+                raise _stopped(exc, k - 1, grid, y, current, residual, active, states, stats,
+                               so_far(k - 1)) from None
+            # the state and pair currents at t_k are those of the last part (so that every
+            # sample obeys the device laws); the step's charge is the sum over its parts
+            y[k], current[k], residual[k] = split.result.u, split.result.z, split.result.residual
+            split_impulses[k] = split.impulse
+            active[k] = guess = np.asarray(split.result.active, dtype=bool)
+            states[k] = split.states
+            events += split.events
+            restart = split.at_end
+            last_active[states[k].tobytes()] = guess
+            charge = mlcs.E @ y[k]
         states[k + 1] = stepping.switch_states(k, states[k], y[k])
-        changed = k > 0 and bool((states[k + 1] != states[k]).any())
+        changed = k > 0 and (restart or bool((states[k + 1] != states[k]).any()))
+        restart = False
         if changed:
             # a switch changed: the pairs most likely take the mode they had the last
             # time the switches were in this state (the other phase of a converter)
@@ -213,7 +265,7 @@ def integrate(
                 if not finite.all():
                     bad = k + 1 + int(np.argmin(finite))
                     raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
-                                   residual, active, states, stats)
+                                   residual, active, states, stats, so_far(bad - 1))
                 states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
                 if stepping.scheduled.size:
                     states[k + 1:done + 1, stepping.scheduled] = stepping.schedule[k:done]
@@ -227,7 +279,8 @@ def integrate(
         try:
             result = stepping.solve_step(k, cls, states[k + 1], charge, y[k], guess)
         except SimulationError as exc:  # keep what was computed: the caller writes it
-            raise _stopped(exc, k, grid, y, current, residual, active, states, stats) from None
+            raise _stopped(exc, k, grid, y, current, residual, active, states, stats,
+                           so_far(k)) from None
         y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
         current[k + 1] = result.z
         residual[k + 1] = result.residual
@@ -240,13 +293,66 @@ def integrate(
 
     impulse = np.zeros((count, m))
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
+    for row, charge_of_step in split_impulses.items():
+        impulse[row] = charge_of_step
     if current0 is not None:
         current[0] = current0
     stats.update(stepping.counters(), mapped_seconds=stepping.mapped_seconds)
+    events = sorted(events + stepping.scheduled_events(states))
+    stats.update(events=len(events), event_solves=stepping.event_solves)
     stats["seconds"] = wallclock.perf_counter() - started
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
-    return Trajectory(grid, y, current, impulse, residual, active, states, stats)
+    return Trajectory(grid, y, current, impulse, residual, active, states, stats, events)
+
+
+class _DenseMode(NamedTuple):
+    """Dense pieces of one mode's bordered step system (:meth:`_Stepping._dense_mode`):
+    the top-left block is ``E/τ − ΘA``, filled in for each partial step length ``τ``."""
+
+    E: np.ndarray
+    A: np.ndarray
+    WA: np.ndarray
+    weights: np.ndarray
+    S: np.ndarray
+    e: np.ndarray
+    bordered: np.ndarray
+    pair_rhs: np.ndarray
+    act: np.ndarray
+    inact: np.ndarray
+    C_in: np.ndarray
+    D_in: np.ndarray
+    absC_in: np.ndarray
+    absD_in: np.ndarray
+
+
+class _Solved(NamedTuple):
+    """A partial step solved in a known mode (the fields of an MLCP result the loop reads)."""
+
+    u: np.ndarray
+    z: np.ndarray
+    active: np.ndarray
+    residual: float
+
+
+@dataclass
+class _Split:
+    """A step taken again in parts at located switchings (:meth:`_Stepping.split_step`).
+
+    Attributes:
+        result: the MLCP result of the last part (state and active set at the step's end).
+        impulse: pair charges of the whole step, summed over its parts [C].
+        states: switch states at the end of the step.
+        events: the switchings located in the step.
+        at_end: the last switching happened at the very end of the step (the next step
+            is the first in the new state).
+    """
+
+    result: object
+    impulse: np.ndarray
+    states: np.ndarray
+    events: list[SwitchEvent]
+    at_end: bool
 
 
 def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
@@ -318,6 +424,8 @@ class _Stepping:
         self.dense_maps: dict[tuple, ModeMap | None] = {}
         self.built = 0
         self.mapped_seconds = 0.0
+        self.event_solves = 0
+        self._dense_cache: dict[tuple, _DenseMode] = {}
 
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
@@ -341,6 +449,189 @@ class _Stepping:
             states[j] = self.mlcs.switches[j].next_state(bool(previous[j]),
                                                          float(self.free_controls[row] @ y))
         return states
+
+    def crossings(self, states: np.ndarray, y: np.ndarray) -> list[int]:
+        """Rows (in :attr:`free`) of the circuit-controlled switches whose control at ``y``
+        calls for a change from ``states``."""
+        if not self.free.size:
+            return []
+        values = self.free_controls @ y
+        on = states[self.free]
+        return [row for row in range(self.free.size)
+                if (values[row] < self.free_off[row] if on[row] else values[row] > self.free_on[row])]
+
+    def source_at(self, t: float) -> np.ndarray:
+        """Every source's value at ``t`` [s] (a partial step ends between grid points)."""
+        return np.array([stimulus.value(t) for stimulus in self.mlcs.stimuli], dtype=float)
+
+    def partial_step(self, k: int, start: float, length: float, theta: float, states: np.ndarray,
+                     charge: np.ndarray, y: np.ndarray, guess: np.ndarray | None,
+                     other: np.ndarray | None = None):
+        """The MLCP step of ``length`` [s] from ``grid[k] + start`` with ``states`` held: first
+        the mode ``guess`` (then ``other``) as one dense bordered solve (small circuits),
+        checked for complementarity; the MLCP solver when both fail."""
+        t0 = self.grid[k] + start
+        self.event_solves += 1
+        f0, f1 = self.source_at(t0), self.source_at(t0 + length)
+        if self.dense:
+            for mode in self._candidate_modes(guess, other):
+                solved = self._mode_solve(length, theta, states, charge, y, f0, f1, mode)
+                if solved is not None:
+                    return solved
+        system = step_system(self.mlcs, length, states, theta, E=self.E)
+        solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        rhs = system.rhs(charge, y, f0, f1)
+        try:
+            return solver.solve(-rhs, self.mlcs.e, guess=guess)
+        except LCPError as exc:
+            raise _step_failure(self.mlcs, t0, t0 + length, exc, guess, states) from None
+
+    def _candidate_modes(self, guess: np.ndarray | None, other: np.ndarray | None):
+        """Active sets to try as dense solves: ``guess``, ``other``, then, with at most
+        :data:`ENUMERATED_PAIRS` pairs, every other one (the first that passes the sign test
+        is the step's solution when it is unique, as for a P-matrix)."""
+        tried: set[bytes] = set()
+        for mode in (guess, other):
+            if mode is not None and mode.tobytes() not in tried:
+                tried.add(mode.tobytes())
+                yield mode
+        m = self.mlcs.m
+        if m <= ENUMERATED_PAIRS:
+            for bits in range(2**m):
+                mode = np.array([(bits >> j) & 1 for j in range(m)], dtype=bool)
+                if mode.tobytes() not in tried:
+                    yield mode
+
+    def _mode_solve(self, length: float, theta: float, states: np.ndarray, charge: np.ndarray,
+                    y: np.ndarray, f0: np.ndarray, f1: np.ndarray, active: np.ndarray
+                    ) -> _Solved | None:
+        """The step of the mode ``active`` as one dense solve of its bordered system
+        (:func:`circuitnsds.engine.step_system.mode_blocks`, densely); ``None`` when the
+        matrix is singular or a sign is wrong (beyond :data:`SIGN_TOL` of the terms)."""
+        mode = self._dense_mode(states, active, theta)
+        n = mode.E.shape[0]
+        rhs = charge / length + mode.weights * (mode.S @ f1)
+        if theta != 1.0:
+            rhs += (1.0 - mode.weights) * (mode.A @ y + mode.S @ f0)
+        matrix = mode.bordered.copy()
+        matrix[:n, :n] = mode.E / length - mode.WA
+        try:
+            x = np.linalg.solve(matrix, np.concatenate([rhs, mode.pair_rhs]))
+        except np.linalg.LinAlgError:
+            return None
+        if not np.isfinite(x).all():
+            return None
+        u, z = x[:n], np.zeros(mode.e.size)
+        z[mode.act] = x[n:]
+        if (z[mode.act] < -SIGN_TOL * (np.abs(z).max(initial=0.0) + 1e-300)).any():
+            return None
+        if mode.inact.size:
+            w = mode.C_in @ u + mode.D_in @ z + mode.e[mode.inact]
+            terms = mode.absC_in @ np.abs(u) + mode.absD_in @ np.abs(z) + np.abs(mode.e[mode.inact])
+            if (w < -SIGN_TOL * terms).any():
+                return None
+        z[mode.act] = np.maximum(z[mode.act], 0.0)
+        return _Solved(u, z, np.asarray(active, dtype=bool).copy(), 0.0)
+
+    def _dense_mode(self, states: np.ndarray, active: np.ndarray, theta: float) -> _DenseMode:
+        """The dense pieces of a mode's bordered step system (cached; small circuits only)."""
+        key = (states.tobytes(), np.asarray(active, dtype=bool).tobytes(), theta)
+        mode = self._dense_cache.get(key)
+        if mode is None:
+            mlcs = self.mlcs
+            E = self.E.toarray()
+            A = mlcs.system_matrix(tuple(bool(s) for s in states)).toarray()
+            B, C, D = mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray()
+            act = np.flatnonzero(active)
+            inact = np.flatnonzero(~np.asarray(active, dtype=bool))
+            n = E.shape[0]
+            weights = np.where(self.differential, theta, 1.0)
+            bordered = np.zeros((n + act.size, n + act.size))
+            bordered[:n, n:] = -B[:, act]
+            bordered[n:, :n] = C[act]
+            bordered[n:, n:] = D[np.ix_(act, act)]
+            mode = _DenseMode(E, A, weights[:, None] * A, weights, mlcs.S.toarray(), mlcs.e,
+                              bordered, -mlcs.e[act], act, inact, C[inact], D[inact],
+                              np.abs(C[inact]), np.abs(D[inact]))
+            self._dense_cache[key] = mode
+        return mode
+
+    def split_step(self, k: int, before: np.ndarray, states: np.ndarray, charge: np.ndarray,
+                   y: np.ndarray, guess: np.ndarray | None) -> _Split:
+        """Step ``k`` again, split where circuit-controlled switches change state
+        (:mod:`circuitnsds.engine.events`). ``before``: the states of step ``k - 1`` (for
+        the step's θ), ``states``: those of step ``k``, ``charge``: ``E y_k``."""
+        h = self.grid[k + 1] - self.grid[k]
+        restart = k == 0 or bool((before != states).any()) or self.step_class[k] >= self.sizes
+        theta = 1.0 if restart else self.theta
+        states = states.copy()
+        start, impulse, events = 0.0, np.zeros(self.mlcs.m), []
+        while True:
+            rest = h - start
+            end = self.partial_step(k, start, rest, theta, states, charge, y, guess)
+            rows = self.crossings(states, end.u)
+            if not rows:
+                impulse += end.z * rest
+                return _Split(end, impulse, states, events, False)
+            if len(events) >= MAX_EVENTS_PER_STEP:
+                name = self.mlcs.switches[self.free[rows[0]]].name
+                raise chattering_error(name, self.grid[k], self.grid[k + 1], len(events))
+            first, row = min(self._crossing_time(k, start, rest, theta, states, charge, y, guess,
+                                                 end, r) for r in rows)
+            j = int(self.free[row])
+            if first >= rest - MIN_FRACTION * h:  # at the end of the step
+                impulse += end.z * rest
+                states[j] = not states[j]
+                events.append(SwitchEvent(float(self.grid[k + 1]), self.mlcs.switches[j].name,
+                                          bool(states[j])))
+                return _Split(end, impulse, states, events, True)
+            if first > MIN_FRACTION * h:
+                part = self.partial_step(k, start, first, theta, states, charge, y, guess,
+                                         end.active)
+                impulse += part.z * first
+                y, guess = part.u, np.asarray(part.active, dtype=bool)
+                charge = self.E @ y
+                start += first
+            states[j] = not states[j]
+            events.append(SwitchEvent(float(self.grid[k] + start), self.mlcs.switches[j].name,
+                                      bool(states[j])))
+            theta = 1.0  # the rest starts in a new switch state: implicit Euler (a restart)
+
+    def _crossing_time(self, k, start, rest, theta, states, charge, y, guess, end, row
+                       ) -> tuple[float, int]:
+        """``(τ, row)``: when in ``[0, rest]`` the control of free switch ``row`` crosses the
+        threshold it is heading for, the others held in ``states``."""
+        j = int(self.free[row])
+        closing = not states[j]
+        threshold = self.free_on[row] if closing else self.free_off[row]
+        control = self.free_controls[row]
+        g1 = float(control @ end.u) - threshold
+
+        def g(tau: float) -> float:
+            return float(control @ self.partial_step(k, start, tau, theta, states, charge, y,
+                                                     guess, end.active).u) - threshold
+
+        def crossed(value: float) -> bool:
+            return value > 0 if closing else value < 0
+
+        h = self.grid[k + 1] - self.grid[k]
+        shortest = MIN_FRACTION * h
+        if crossed(float(control @ y) - threshold) or shortest >= rest:
+            return 0.0, row  # already across at the start (the control jumped)
+        g0 = g(shortest)
+        if crossed(g0):  # across within the shortest partial step: at the start
+            return 0.0, row
+        return regula_falsi(g, shortest, rest, g0, g1, TIME_TOLERANCE * h), row
+
+    def scheduled_events(self, states: np.ndarray) -> list[SwitchEvent]:
+        """The switchings of source-controlled switches: at the grid point where the state
+        of a step differs from the step before's (the threshold crossing is that grid point)."""
+        events = []
+        for j in self.scheduled:
+            changes = np.flatnonzero(states[2:, j] != states[1:-1, j]) + 1
+            events += [SwitchEvent(float(self.grid[c]), self.mlcs.switches[j].name,
+                                   bool(states[c + 1, j])) for c in changes]
+        return events
 
     def free_switch_arrays(self, states: np.ndarray) -> FreeSwitches:
         """Controls, thresholds and current states of the switches the loop must watch."""
@@ -568,13 +859,14 @@ def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> Simulati
 
 def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
              residual: np.ndarray, active: np.ndarray, states: np.ndarray,
-             stats: dict) -> SimulationError:
+             stats: dict, events: list[SwitchEvent]) -> SimulationError:
     """``error`` with its ``trajectory`` field set to the trajectory up to grid point ``k``
-    (the last good one), so that the caller can still write it."""
+    (the last good one) and its switchings ``events``, so that the caller can still
+    write them."""
     end = k + 1
     impulse = np.zeros((end, current.shape[1]))
     impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]
     error.trajectory = Trajectory(grid[:end].copy(), y[:end].copy(), current[:end].copy(), impulse,
                                   residual[:end].copy(), active[:end].copy(), states[:end].copy(),
-                                  dict(stats, steps=k))
+                                  dict(stats, steps=k), list(events))
     return error

@@ -24,7 +24,7 @@ from circuitnsds.circuit.elements import (
 )
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import behavioural, commands, devices, sources, xspice
+from circuitnsds.frontend.cards import behavioural, commands, devices, mosfets, sources, xspice
 from circuitnsds.frontend.cards.models import read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
 from circuitnsds.netlist import Netlist, Statement
@@ -32,11 +32,11 @@ from circuitnsds.netlist.subcircuits import element_letter
 
 UNSUPPORTED_ELEMENTS = {
     "j": "JFETs",
-    "m": "MOSFETs", "o": "lossy transmission lines", "p": "coupled transmission lines",
+    "o": "lossy transmission lines", "p": "coupled transmission lines",
     "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
     "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
 }
-SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, A and X (subcircuit instances)"
+SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A and X (subcircuit instances)"
 
 
 def elaborate(netlist: Netlist) -> Circuit:
@@ -77,6 +77,10 @@ def elaborate(netlist: Netlist) -> Circuit:
             commands.command(circuit, statement)
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
+        elif element_letter(statement.keyword) == "m":
+            for element in mosfets.mosfet(StatementReader(statement), circuit.models,
+                                          circuit.options, off_resistance):
+                circuit.add(element, statement.location)
         else:
             circuit.add(_element(statement, circuit.models, voltage_sources), statement.location)
     _couple(circuit, couplings)
@@ -117,7 +121,7 @@ def _element(statement: Statement, models: dict[str, object], voltage_sources: s
             f"{statement.keyword}: {UNSUPPORTED_ELEMENTS[letter]} ('{letter.upper()}' lines) "
             "are not supported by the ideal engine",
             hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
-            "with an S switch driven by its gate signal",
+            "with an S switch driven by its gate signal, or a MOSFET (M line)",
         )
     raise reader.error(f"{statement.keyword}: unknown element type '{letter.upper()}'",
                        hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")

@@ -57,6 +57,17 @@ _LAYOUT: dict[str, tuple[int, tuple[int, ...]]] = {
 _BEHAVIOURAL_KEYWORDS = frozenset({"value", "vol", "cur", "table", "laplace", "freq", "poly"})
 
 
+def _mosfet_nodes(tokens: list[str]) -> int:
+    """Nodes of an ``M`` line: 3 (``d g s MODEL``) or 4 (``d g s b MODEL``), counted from the
+    words before the first ``key=value`` (the ``off`` flag aside)."""
+    words = 0
+    for index in range(1, len(tokens)):
+        if tokens[index] == "=" or (index + 1 < len(tokens) and tokens[index + 1] == "="):
+            break
+        words += tokens[index] != "off"
+    return 4 if words >= 5 else 3
+
+
 def _behavioural(statement: Statement) -> bool:
     letter = element_letter(statement.keyword)
     return letter == "b" or (letter in {"e", "f", "g", "h"}
@@ -333,6 +344,8 @@ class _Flattener:
             _rename_code_model(tokens, context)
             return
         nodes, controls = _LAYOUT.get(element_letter(tokens[0]), (0, ()))
+        if element_letter(tokens[0]) == "m":
+            nodes = _mosfet_nodes(tokens)
         if behavioural:  # only the output nodes are known (the elaborator refuses the rest)
             nodes, controls = 2, ()
         tokens[0] = context.prefixed(tokens[0])

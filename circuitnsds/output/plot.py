@@ -56,8 +56,10 @@ def _panels(names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
     return panels
 
 
-def draw(figure, waves: Waveforms, names: Sequence[str] | None = None) -> None:
-    """Draw the panels of ``waves`` into a matplotlib ``figure`` (see the module docstring)."""
+def draw(figure, waves: Waveforms, names: Sequence[str] | None = None, events: bool = False) -> None:
+    """Draw the panels of ``waves`` into a matplotlib ``figure`` (see the module docstring);
+    with ``events``, each switching of ``waves.events`` as a thin vertical line on every
+    panel (solid: closing, dotted: opening)."""
     names = default_signals(waves) if names is None else [n.strip().lower() for n in names]
     names = [n for n in names if n != "time"]
     missing = [n for n in names if n not in waves]
@@ -75,6 +77,10 @@ def draw(figure, waves: Waveforms, names: Sequence[str] | None = None) -> None:
         factor, prefix = engineering_scale(peak) if unit else (1.0, "")
         for name in group:
             axis.plot(time * t_factor, waves[name] * factor, label=name, linewidth=1.0)
+        if events:
+            for time_of, _, closed in waves.events:
+                axis.axvline(time_of * t_factor, color="0.5", linewidth=0.4,
+                             linestyle="-" if closed else ":")
         axis.set_ylabel(f"{quantity} [{prefix}{unit}]" if unit else quantity)
         axis.grid(True, alpha=0.3)
         axis.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small",
@@ -90,7 +96,7 @@ def _size(panels: int) -> tuple[float, float]:
 
 
 def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | None = None,
-                   dpi: int = 120) -> None:
+                   dpi: int = 120, events: bool = False) -> None:
     """Write a figure of ``waves`` to ``path`` (format from the extension, PNG usually).
 
     Args:
@@ -98,6 +104,7 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
         path: file to write.
         names: signals to draw; default: :func:`default_signals`.
         dpi: resolution of raster formats.
+        events: mark each switching (``waves.events``) with a thin vertical line.
     """
     from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
 
@@ -105,7 +112,7 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
     chosen = default_signals(waves) if names is None else list(names)
     figure = Figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
                     layout="constrained")
-    draw(figure, waves, chosen)
+    draw(figure, waves, chosen, events)
     # rendered in memory, then written here: matplotlib's own writers can swallow a failed
     # write (ENOSPC on /dev/full reported success); closing our file raises it
     buffer = io.BytesIO()
@@ -142,8 +149,10 @@ def check_display() -> None:
                         where="plot", hint="write the figure to a file instead: --plot out.png")
 
 
-def show_waveforms(waves: Waveforms, names: Sequence[str] | None = None) -> None:
-    """Open an interactive window with the figure of ``waves``; returns when it is closed.
+def show_waveforms(waves: Waveforms, names: Sequence[str] | None = None,
+                   events: bool = False) -> None:
+    """Open an interactive window with the figure of ``waves`` (``events``: mark the
+    switchings); returns when it is closed.
 
     Raises:
         PlotError: no display, or matplotlib has no interactive backend.
@@ -159,5 +168,5 @@ def show_waveforms(waves: Waveforms, names: Sequence[str] | None = None) -> None
     chosen = default_signals(waves) if names is None else list(names)
     figure = plt.figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
                         layout="constrained")
-    draw(figure, waves, chosen)
+    draw(figure, waves, chosen, events)
     plt.show()

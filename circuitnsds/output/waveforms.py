@@ -76,6 +76,11 @@ class Waveforms:
         residual: scaled complementarity residual of every step.
         title: the netlist title.
         stats: solver counters and wall time.
+        events: every switching of an ``S``, ``W`` or ``M`` switch in time order, as
+            ``(time [s], element, state)`` named tuples (``state``: closed = true). A switch
+            controlled by a circuit quantity switches at the located crossing of its
+            threshold, between grid points; one controlled by a source at the grid point
+            its threshold crossing is (docs/method.md, event location).
     """
 
     time: np.ndarray
@@ -84,6 +89,7 @@ class Waveforms:
     residual: np.ndarray | None = None
     title: str = ""
     stats: dict[str, float] = field(default_factory=dict)
+    events: list[tuple[float, str, bool]] = field(default_factory=list)
 
     @property
     def names(self) -> list[str]:
@@ -108,7 +114,21 @@ class Waveforms:
     def select(self, names: Iterable[str]) -> Waveforms:
         """A copy with only the named signals (raises ``KeyError`` for an unknown one)."""
         chosen = {name.strip().lower(): self[name] for name in names}
-        return Waveforms(self.time, chosen, self.impulses, self.residual, self.title, self.stats)
+        return Waveforms(self.time, chosen, self.impulses, self.residual, self.title, self.stats,
+                         self.events)
+
+    def switchings(self, element: str, state: bool | None = None) -> np.ndarray:
+        """Instants [s] at which ``element`` switched (to ``state`` only, when given)."""
+        name = element.strip().lower()
+        return np.array([e[0] for e in self.events
+                         if e[1] == name and (state is None or e[2] == state)], dtype=float)
+
+    def events_to_csv(self, path: str | Path) -> None:
+        """Write the switchings as CSV: ``time,element,state`` (state 1 = closed, 0 = open)."""
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write("time,element,state\n")
+            for time, element, state in self.events:
+                handle.write(f"{time:.12g},{element},{int(state)}\n")
 
     def to_dataframe(self):
         """A pandas DataFrame indexed by time (pandas must be installed)."""

@@ -69,7 +69,7 @@ class Switch(Element):
         for column, value in open_row:
             builder.add("A", k, column, value)
         if self.control is None:
-            cplus, cminus = builder.node(self.nodes[2]), builder.node(self.nodes[3])
+            cplus, cminus = (builder.node(n) for n in self.control_nodes())
             control = [(cplus, 1.0), (cminus, -1.0)]
             control_nodes = (cplus, cminus)
         else:
@@ -87,6 +87,10 @@ class Switch(Element):
             control_nodes,
         )
         builder.output(f"i({self.name})", [(k, 1.0)])
+
+    def control_nodes(self) -> tuple[str, str]:
+        """``(nc+, nc-)``: the control of an ``S`` switch is ``v(nc+) - v(nc-)`` [V]."""
+        return self.nodes[2], self.nodes[3]
 
 
 def _keep(row: list[tuple[int, float]]) -> tuple[tuple[int, float], ...]:

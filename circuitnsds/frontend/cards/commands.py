@@ -29,7 +29,9 @@ IGNORED_COMMANDS = {
 UNSUPPORTED_COMMANDS = {".func", ".csparam", ".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
-                "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)"}
+                "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
+                "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
+                            "(default 10)"}
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
 
 
@@ -52,8 +54,8 @@ def read_options(reader: StatementReader) -> dict[str, float]:
         value = reader.number(key, text)
         if key == "theta" and not theta_in_range(value):
             raise reader.error(f".options theta={value:g} must lie in [0.5, 1]", hint=THETA_HINT)
-        if key == "gmin" and value <= 0:
-            raise reader.error(f".options gmin={value:g} must be positive")
+        if key in {"gmin", "mosdrive"} and value <= 0:
+            raise reader.error(f".options {key}={value:g} must be positive")
         used[key] = value
     if ignored:
         reader.warn(f".options {' '.join(ignored)} ignored (circuitnsds uses only "

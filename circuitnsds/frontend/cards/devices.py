@@ -16,6 +16,7 @@ from circuitnsds.circuit.elements import (
     SwitchModel,
 )
 from circuitnsds.frontend.cards.models import MODEL_KINDS, ResistorModel
+from circuitnsds.frontend.cards.mosfets import MosfetModel
 from circuitnsds.frontend.cards.reader import StatementReader
 
 IGNORED_PASSIVE_PARAMETERS = {"tc1", "tc2", "tc", "temp", "dtemp", "noisy", "scale", "ac"}
@@ -210,6 +211,8 @@ def inductance_matrix(inductors: list[Inductor], couplings: list[MutualInductanc
 def _kind(model: object) -> str:
     if isinstance(model, str):
         return f"a {MODEL_KINDS[model]}" if model in MODEL_KINDS else f"an unknown-type ({model.upper()})"
+    if isinstance(model, MosfetModel):
+        return f"a {model.kind.upper()} MOSFET"
     return {DiodeModel: "a diode", ResistorModel: "a resistor"}.get(
         type(model), "a current-controlled switch" if getattr(model, "current_controlled", False)
         else "a voltage-controlled switch")

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+from circuitnsds.frontend.cards.mosfets import MOS_KINDS, read_mos_model
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice import ANALOG_BLOCKS, read_xspice_model
 
@@ -33,7 +34,7 @@ DEFAULT_RESISTOR_LENGTH = 10e-6
 """ngspice's ``DEFL`` [m]."""
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
-               "r": "resistor", "res": "resistor"}
+               "r": "resistor", "res": "resistor", **MOS_KINDS}
 
 
 @dataclass(frozen=True)
@@ -61,7 +62,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
                ) -> tuple[str, object]:
     """Read a ``.model`` card; returns ``(name, model)``.
 
-    ``model`` is a :class:`DiodeModel`, :class:`SwitchModel` or :class:`ResistorModel`,
+    ``model`` is a :class:`DiodeModel`, :class:`SwitchModel`, :class:`ResistorModel` or
+    :class:`~circuitnsds.frontend.cards.mosfets.MosfetModel`,
     or the type name (a string) for a type the engine does not use.
     ``off_resistance`` [Ω] is the default off-resistance of diodes and switches
     (``1/GMIN``, from ``.options gmin``).
@@ -77,6 +79,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         reader.tokens = reader.tokens[:-1]
     if kind in ANALOG_BLOCKS:
         return name, read_xspice_model(reader, name, kind)
+    if kind in MOS_KINDS:
+        return name, read_mos_model(name, kind, reader)
     if kind not in MODEL_KINDS:
         return name, kind
     params: dict[str, float] = {}

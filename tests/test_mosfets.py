@@ -1,0 +1,269 @@
+"""MOSFETs (``M`` lines with VDMOS and level-1 models) read as ideal switches with a body diode.
+
+The channel is a switch on ``v(g, s)`` against ``Vto``; its on-resistance is
+``Rd + Rs + Rch`` with ``Rch`` the channel's small-``Vds`` resistance at ``|Vgs| = 10 V``
+(docs/netlist.md); the body diode is a piecewise-linear diode. Expected values below are
+the circuit's analytic solution with those parameters (a divider, a freewheeling current).
+Agreement of the same netlists with ngspice's smooth models is in test_mosfets_ngspice.py.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import circuitnsds
+from circuitnsds.cli.info import circuit_report
+from circuitnsds.errors import NetlistError
+from circuitnsds.frontend.cards.shockley import THERMAL_VOLTAGE, piecewise_linear_fit
+from tests.conftest import circuit_from
+
+# Vendor VDMOS lines as LTspice's standard.mos publishes them, copied from
+# kicad-spice-library/KiCad-Spice-Library @a8688952bcaab19f567bc4db237b60bde03ef310,
+# "Models/uncategorized/Bordodynovs Electronics Lib/cmp/Original/standard.mos", lines 659
+# (IRF530) and 685 (IRF7404, p-channel).
+IRF530 = (".model IRF530 VDMOS(Rg=3 Vto=4 Rd=50m Rs=12m Rb=60m Kp=5 lambda=.01 Cgdmax=1n "
+          "Cgdmin=.26n Cgs=.2n Cjo=.4n Is=52p ksubthres=.1 mfg=International_Rectifier Vds=100 "
+          "Ron=160m Qg=26n)")
+IRF7404 = (".model IRF7404 VDMOS(pchan Rg=3 Rd=16m Rs=12m Vto=-1 Kp=30 Cgdmax=1.6n Cgdmin=.2n "
+           "Cgs=2.7n Cjo=.8n Is=80p Rb=20m ksubthres=.1 mfg=International_Rectifier Vds=-20 "
+           "Ron=40m Qg=40n)")
+# ngspice's examples/vdmos/VDMOS_models.lib (imr/ngspice), continuation-line form without
+# parentheses, with the nchan flag.
+IRFP240 = """.model IRFP240 VDMOS nchan
++ Vto=4 Kp=5.9 Lambda=.001 Theta=0.015 ksubthres=.27
++ Rd=61m Rs=18m Rg=3 Rds=1e7
++ Cgdmax=2.45n Cgdmin=10p a=0.3 Cgs=1.2n
++ Is=60p N=1.1 Rb=14m XTI=3
++ Cjo=1.5n Vj=0.8 m=0.5
++ tcvth=-0.0065 MU=-1.27 texp0=1.5
++ Rthjc=0.4 Cthj=0.1
++ mtriode=0.8"""
+# A vendor subcircuit with M (level 3), R (one with a RES model), C and D lines, verbatim from
+# giant-axon/lu.i-neuron-pcb, models/2N7002.mod.
+SUBCKT_2N7002 = """.SUBCKT 2N7002 1 2 3
+*.SUBCKT 2N7002 2 3 1
+* 1=drain  2=gate  3=source
+Cgs  6 3 12.3e-12
+Cgd1 6 4 27.4e-12
+Cgd2 1 4 6e-12
+M1 5 6 3 3 MOST1
+M2 4 6 5 3 MOST2
+D1 3 1 Dbody
+Rd 5 1 Rtemp 2.3
+Rg 2 6 15
+.MODEL MOST1 NMOS (LEVEL=3 W=0.1 L=0.3e-6 Vto=2.014 Kp=3.09e-7
++                          RS=0 RD=0 UO=650 VMAX=0 XJ=0.5E-6 KAPPA=10E-2
++                          ETA=3e-6 TPG=1 IS=0 LD=0 WD=0 CGSO=0 CGDO=0
++                          CGBO=0 NFS=4.9e12 DELTA=0.1)
+.MODEL MOST2 NMOS (LEVEL=3 W=0.1 L=0.3e-6 Vto=-5.69 Kp=0.315e-5
++                          RS=1000 RD=1000 UO=650 VMAX=0 XJ=0.5E-6 KAPPA=10E-2
++                          ETA=3e-6 TPG=1 IS=0 LD=0 WD=0 CGSO=0 CGDO=0
++                          CGBO=0 NFS=0 DELTA=0.1)
+.MODEL Dbody D(Is=1e-14 N=0.88 Rs=0.7 Ikf=1e3 Cjo=0 M=0.5 Vj=0.4
++                          Bv=60 Ibv=10e-6 Tt=50e-9)
+.MODEL Rtemp RES(TC1=5.61e-3 TC2=2.23e-5)
+.ENDS"""
+
+
+def quiet(body: str):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return circuit_from(body)
+
+
+def vdmos_on_resistance(rd, rs, kp, vto, drive=10.0, theta=0.0, mtriode=1.0, slope=0.1):
+    """ngspice's VDMOS at small Vds: Id = Kp·mtriode·Vov·Vds/(1 + θ·Vgs), Vov smoothed."""
+    overdrive = slope * np.log1p(np.exp((drive - vto) / slope))
+    return rd + rs + (1 + theta * drive) / (kp * mtriode * overdrive)
+
+
+def test_vendor_vdmos_lines_map_to_a_switch_and_a_body_diode():
+    circuit = quiet(f"{IRF530}\n{IRFP240}\n{IRF7404}\nV1 d 0 1\nVg g 0 10\nVg2 g2 0 -10\n"
+                    "M1 d g 0 IRF530\nM2 d g 0 IRFP240\nM3 d g2 0 IRF7404")
+    m1, m2, m3 = (circuit.element(n) for n in ("m1", "m2", "m3"))
+    assert m1.model.on_resistance == pytest.approx(vdmos_on_resistance(0.05, 0.012, 5, 4))
+    assert m2.model.on_resistance == pytest.approx(
+        vdmos_on_resistance(0.061, 0.018, 5.9, 4, theta=0.015, mtriode=0.8, slope=0.27))
+    assert m2.model.off_resistance == 1e7                              # Rds
+    assert m3.polarity == -1 and m3.model.threshold == 1.0             # closes for v(s,g) > 1 V
+    assert m3.model.on_resistance == pytest.approx(vdmos_on_resistance(0.016, 0.012, 30, 1))
+    body = circuit.element("m1.dbody")
+    assert body.nodes == ("0", "d")                                    # source -> drain
+    assert circuit.element("m3.dbody").nodes == ("d", "0")             # p-channel: drain -> source
+    vfwd, ron = piecewise_linear_fit(52e-12, 1.0, 0.06)
+    assert (body.model.forward_drop, body.model.on_resistance) == pytest.approx((vfwd, ron))
+    # the chord passes through the Shockley curve at 0.1 A and 1 A
+    for current in (0.1, 1.0):
+        shockley = THERMAL_VOLTAGE * np.log1p(current / 52e-12) + 0.06 * current
+        assert vfwd + ron * current == pytest.approx(shockley)
+    assert circuit.element("m1.ciss").capacitance == pytest.approx(0.2e-9 + 1e-9)  # Cgs + Cgdmax
+    assert circuit.element("m1.coss").capacitance == pytest.approx(0.4e-9 + 0.26e-9)  # Cjo + Cgdmin
+    assert circuit.element("m1.ciss").nodes == ("m1.gate", "0")
+    assert circuit.element("m1.coss").nodes == ("d", "0")
+    assert circuit.element("m1.rg").nodes == ("g", "m1.gate")
+    assert m1.control_nodes() == ("m1.gate", "0")
+
+
+@settings(max_examples=60, deadline=None)
+@given(order=st.permutations(range(6)), flag=st.sampled_from(["", "nchan", "pchan"]),
+       where=st.integers(0, 6), parenthesised=st.booleans(), case=st.booleans())
+def test_vdmos_card_reads_the_same_in_any_order_and_layout(order, flag, where, parenthesised,
+                                                            case):
+    pairs = ["Vto=2.5", "Kp=12", "Rd=7m", "Rs=3m", "Rb=9m", "mfg=Some_Vendor"]
+    words = [pairs[k] for k in order]
+    if flag:
+        words.insert(where, flag)
+    body = " ".join(words).upper() if case else " ".join(words)
+    card = f".model q VDMOS({body})" if parenthesised else f".model q VDMOS {body}"
+    model = quiet(f"{card}\nV1 d 0 1\nVg g 0 10\nM1 d g 0 q").element("m1")
+    polarity = -1 if flag == "pchan" else 1
+    assert model.polarity == polarity
+    assert model.model.threshold == pytest.approx(polarity * 2.5)
+    drive_overdrive = 10 - polarity * 2.5
+    if drive_overdrive > 0:
+        assert model.model.on_resistance == pytest.approx(
+            vdmos_on_resistance(7e-3, 3e-3, 12, polarity * 2.5))
+
+
+def test_gate_drive_option_sets_the_on_resistance():
+    circuit = quiet(f".options mosdrive=5\n{IRF530}\nV1 d 0 1\nVg g 0 5\nM1 d g 0 IRF530")
+    assert circuit.element("m1").model.on_resistance == pytest.approx(
+        vdmos_on_resistance(0.05, 0.012, 5, 4, drive=5))
+
+
+def freewheel_netlist(device: str) -> str:
+    """L1 builds up a negative drain current (-1.2 A at 10 us), then the gate turns off."""
+    return (f"V1 in 0 -12\nL1 in d 100u\n{device}\nVg g 0 PULSE(10 0 10u 10n 10n 1 2)\n"
+            ".tran 10n 20u uic")
+
+
+def test_turning_off_a_negative_current_freewheels_through_the_body_diode():
+    circuit = quiet(f"{IRF530}\n" + freewheel_netlist("M1 d g 0 IRF530"))
+    waves = circuit.transient()
+    after = waves.time > 10.1e-6
+    current = waves["i(l1)"]
+    assert current[np.searchsorted(waves.time, 10e-6)] == pytest.approx(-1.2, rel=0.01)
+    body = circuit.element("m1.dbody").model
+    drop = -(body.forward_drop + body.on_resistance * -current[after])
+    np.testing.assert_allclose(waves["v(d)"][after], drop, atol=2e-3)   # clamped at -0.7 V
+    np.testing.assert_allclose(waves["i(m1.dbody)"][after], -current[after], rtol=1e-3)
+    assert np.abs(waves["v(d)"]).max() < 12.5                            # no spike anywhere
+    # the same switch without the body diode (an S switch with Coss, as users hand-built
+    # it) rings to I·sqrt(L/C) = 1.2 A · 500 ohm = 600 V
+    bare = quiet(".model sw SW(vt=4 ron=0.1)\n"
+                 + freewheel_netlist("S1 d 0 g 0 sw\nC1 d 0 0.4n"))
+    assert np.abs(bare.transient()["v(d)"]).max() > 500
+
+
+def test_p_channel_high_side_switch():
+    # source at 12 V, gate pulled to 2 V (Vgs = -10 V) from 1 us to 6 us, 10 ohm load
+    circuit = quiet(f"{IRF7404}\nV1 in 0 12\nM1 out g in IRF7404\nR1 out 0 10\n"
+                    "Vg g 0 PULSE(12 2 1u 10n 10n 5u 20u)\n.tran 10n 10u")
+    waves = circuit.transient()
+    ron = vdmos_on_resistance(0.016, 0.012, 30, 1)
+    on = (waves.time > 3e-6) & (waves.time < 6e-6)
+    off = waves.time > 8e-6
+    np.testing.assert_allclose(waves["v(out)"][on], 12 * 10 / (10 + ron), rtol=1e-6)
+    assert np.abs(waves["v(out)"][off]).max() < 1e-3
+    assert waves["v(out)"][waves.time < 0.9e-6].max() < 1e-3
+
+
+def test_vendor_subcircuit_with_level3_mosfets_reads_and_switches():
+    circuit = quiet(f"{SUBCKT_2N7002}\nV1 in 0 5\nR1 in d 100\nX1 d g 0 2N7002\n"
+                    "Vg g 0 PULSE(0 10 1u 10n 10n 3u 10u)\n.tran 10n 6u")
+    m1 = circuit.element("x1.m1")
+    beta = 3.09e-7 * 0.1 / 0.3e-6                                      # Kp·W/L of the model
+    assert m1.model.on_resistance == pytest.approx(1 / (beta * (10 - 2.014)))
+    assert circuit.element("x1.m2").model.threshold == pytest.approx(-5.69)   # depletion
+    waves = circuit.transient()
+    ron = m1.model.on_resistance + 2.3                                 # channel + Rd (Rtemp)
+    on = (waves.time > 2.5e-6) & (waves.time < 4e-6)
+    np.testing.assert_allclose(waves["v(d)"][on], 5 * ron / (100 + ron), rtol=1e-3)
+    assert waves["v(d)"][waves.time > 5.5e-6].min() > 4.99
+
+
+def test_bulk_node_of_a_four_terminal_mosfet_in_a_subcircuit_is_renamed():
+    circuit = quiet(".subckt sw d g s b\nM1 d g s b nch\n.model nch NMOS(Vto=1 Kp=1)\n.ends\n"
+                    "V1 in 0 1\nR1 in d 1\nVg g 0 5\nVb b 0 0\nX1 d g 0 b sw\n.tran 1u 2u")
+    assert circuit.element("x1.m1.dbd").nodes == ("b", "d")
+    assert circuit.element("x1.m1.dbs").nodes == ("b", "0")
+
+
+def test_info_lists_every_switching_element_with_its_mapping():
+    circuit = quiet(f"{IRF530}\n.model sw SW(vt=1 vh=0.2 ron=1)\nV1 d 0 1\nVg g 0 10\n"
+                    "M1 d g 0 IRF530\nS1 d 0 g 0 sw\n.tran 1u 2u")
+    text, ok = circuit_report(circuit)
+    assert ok
+    assert "n-channel VDMOS (drain d, source 0, gate m1.gate)" in text
+    assert "Ron = Rd + Rs + Rch = 0.05 + 0.012 + 0.03333 Ω" in text
+    assert "s1 d 0 g 0: model sw: ideal switch on v(g) - v(0), closes above 1.2 V" in text
+    assert "m1.dbody 0 d: model irf530.body: piecewise-linear diode" in text
+
+
+@pytest.mark.parametrize(
+    ("body", "pattern"),
+    [
+        ("M1 d g s nomodel", r"m1: model 'nomodel' is not defined"),
+        (".model sw SW()\nM1 d g s sw", r"not a MOSFET"),
+        (f"{IRF530}\nM1 d g s b IRF530", r"a VDMOS has three terminals"),
+        (".model n NMOS(level=54)\nM1 d g s s n", r"MOSFET level 54 is not supported"),
+        (f"{IRF530}\nM1 d g s IRF530 foo=1", r"instance parameter 'foo' is not supported"),
+        (".model p VDMOS(Vto=12)\nM1 d g s p", r"does not reach the threshold"),
+        (".model p VDMOS(Vto=1 bogus)", r"expected 'bogus=value'"),
+    ],
+)
+def test_mosfet_errors_name_the_line(body, pattern):
+    with pytest.raises(NetlistError, match=pattern):
+        quiet(body)
+
+
+# ngspice's examples/vdmos/inv_vdmos.sp (imr/ngspice), verbatim but for the .control block
+# (skipped by circuitnsds) and a .tran line added: a CMOS inverter of two VDMOS with
+# ngspice's default Vto = ±3 V, gates behind Rg = 5 kohm.
+INVERTER = """*****************==== Inverter ====*******************
+*********** VDMOS ****************************
+vdd 1 0 5
+vss 4 0 0
+
+.subckt inv out in vdd vss
+mp1 out in vdd p1
+mn1 out in vss n1
+.ends
+
+xinv 3 2 1 4 inv
+
+Vin 2 0 DC 0 Pulse (0 5 10n 10n 10n 140n 300n)
+
+.model  N1  vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p
+.model  P1  vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p pchan
+.tran 0.1n 300n
+.end
+"""
+
+
+def test_ngspice_vdmos_inverter_switches_when_the_gates_cross_their_thresholds():
+    from scipy.optimize import brentq
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuitnsds.read_netlist(INVERTER).transient()
+    # each gate: the 0 -> 5 V input ramp (10 ns from t = 10 ns) through Rg·Ciss = 5k·1.5p
+    tau, slope = 7.5e-9, 5 / 10e-9
+
+    def gate(t):
+        s = t - 10e-9
+        if s <= 10e-9:
+            return slope * (s - tau * (1 - np.exp(-s / tau)))
+        top = slope * (10e-9 - tau * (1 - np.exp(-10e-9 / tau)))
+        return 5 - (5 - top) * np.exp(-(s - 10e-9) / tau)
+
+    p_opens = brentq(lambda t: gate(t) - 2.0, 10e-9, 40e-9)   # v(s) - v(g) < 3 V
+    n_closes = brentq(lambda t: gate(t) - 3.0, 10e-9, 40e-9)  # v(g) - v(s) > 3 V
+    assert waves.switchings("xinv.mp1", False)[0] == pytest.approx(p_opens, abs=0.1e-9)
+    assert waves.switchings("xinv.mn1", True)[0] == pytest.approx(n_closes, abs=0.1e-9)
+    assert p_opens < n_closes                                   # no shoot-through
+    assert waves["v(3)"][waves.time < 15e-9].min() > 4.99
+    assert np.abs(waves["v(3)"][(waves.time > 30e-9) & (waves.time < 150e-9)]).max() < 1e-3
