@@ -1,5 +1,6 @@
 """Meaning of netlist statements, and the errors and warnings for what is not supported."""
 
+import math
 import warnings
 
 import pytest
@@ -61,11 +62,41 @@ R5 e 0 1""")
     assert functions[5] == Dc(2e-3)
 
 
-def test_ideal_diode_and_shockley_only_model_is_ideal():
-    circuit = read("D1 a 0 d1n4148\nR1 a 0 1\n.model d1n4148 D(Is=2.52n N=1.752 Rs=0.568 "
-                   "Cjo=4p M=0.4 tt=20n)")
+SHOCKLEY_1N4148 = ".model d1n4148 D(Is=2.52n N=1.752 Rs=0.568 Cjo=4p M=0.4 tt=20n)"
+
+
+def test_shockley_model_is_fitted_by_a_pwl_diode_and_diode_ideal_keeps_it_ideal():
+    circuit = read("D1 a 0 d1n4148\nR1 a 0 1\n" + SHOCKLEY_1N4148)
     model = circuit.elements[0].model
-    assert model.kind == "ideal" and model.forward_drop == 0 and model.off_resistance == 1e12
+    assert model.kind == "piecewise-linear" and model.off_resistance == 1e12
+    assert "Shockley fit" in model.origin and "0.1..1 A" in model.origin
+    # the Shockley curve at 27 C, written out here: v = N kT/q ln(1 + i/Is) + Rs i
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+    for current in (0.1, 0.3, 0.55, 1.0):
+        shockley = 1.752 * vt * math.log1p(current / 2.52e-9) + 0.568 * current
+        assert model.forward_drop + model.on_resistance * current == pytest.approx(shockley, abs=0.03)
+    # the slope is Rs plus the mean dynamic resistance N Vt / i over the range, not 0
+    assert 0.568 < model.on_resistance < 0.568 + 1.752 * vt / 0.1
+    ideal = read(".options diode=ideal\nD1 a 0 d1n4148\nR1 a 0 1\n" + SHOCKLEY_1N4148)
+    model = ideal.elements[0].model
+    assert model.kind == "ideal" and model.forward_drop == 0 and "diode=ideal" in model.origin
+
+
+def test_pwlfit_option_moves_the_fit_range():
+    model = read(".options pwlfit=10m\nD1 a 0 d1n4148\nR1 a 0 1\n" + SHOCKLEY_1N4148).elements[0].model
+    assert "0.001..0.01 A" in model.origin
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+    shockley = 1.752 * vt * math.log1p(5e-3 / 2.52e-9) + 0.568 * 5e-3
+    assert model.forward_drop + model.on_resistance * 5e-3 == pytest.approx(shockley, abs=0.01)
+
+
+def test_vendor_model_text_values_are_read():
+    # LTspice standard.dio as copied in KiCad-Spice-Library Models/Diode/DIODE2.lib line 127
+    model = read("D1 a 0 1n5819\nR1 a 0 1\n.model 1N5819 D(Is=31.7u Rs=.051 N=1.373 Cjo=110p M=.35 "
+                 "Eg=.69 Xti=2 Iave=1 Vpk=40 mfg=OnSemi type=Schottky)").elements[0].model
+    assert 0.2 < model.forward_drop < 0.4  # a Schottky drop, fitted over Iave/10..Iave
+    with pytest.raises(NetlistError, match="ako"):
+        read("D1 a 0 d\nR1 a 0 1\n.model d ako: 1N4007 d mfg=OnSemi")
 
 
 @pytest.mark.parametrize(

@@ -82,7 +82,7 @@ class Circuit:
         ac_spec: the ``.ac`` line, if any.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
-        options: ``.options`` the engine uses (``theta``, ``gmin``).
+        options: ``.options`` the engine uses (``theta``, ``gmin``, ``pwlfit``, ``diode``).
         saved_signals: signals named by ``.save`` (what the command line writes by default).
         strict: make every warning about the netlist or the circuit an error when the
             circuit is stamped or simulated (``read_netlist(..., strict=True)`` sets it).
@@ -99,7 +99,7 @@ class Circuit:
     ac_spec: AcSpec | None = None
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
-    options: dict[str, float] = field(default_factory=dict)
+    options: dict[str, float | str] = field(default_factory=dict)
     saved_signals: list[str] = field(default_factory=list)
     save_location: SourceLocation | None = None
     strict: bool = False

@@ -47,7 +47,7 @@ def _model_detail(element) -> str | None:
                   f"Roff={model.off_resistance:g} Ω")
         if model.kind == "zener":
             detail += f", BV={model.breakdown_voltage:g} V, Rrev={model.breakdown_resistance:g} Ω"
-        return f"model {model.name}: {detail}"
+        return f"model {model.name}: {detail}; read as {model.origin}"
     if hasattr(model, "threshold"):
         unit = "A" if model.current_controlled else "V"
         if getattr(element, "control", None):

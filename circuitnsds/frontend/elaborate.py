@@ -25,7 +25,7 @@ from circuitnsds.circuit.elements import (
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.frontend.cards import behavioural, commands, devices, mosfets, sources, xspice
-from circuitnsds.frontend.cards.models import read_model
+from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
 from circuitnsds.netlist import Netlist, Statement
 from circuitnsds.netlist.subcircuits import element_letter
@@ -58,10 +58,12 @@ def elaborate(netlist: Netlist) -> Circuit:
         if statement.keyword in commands.OPTION_KEYWORDS:
             circuit.options.update(commands.read_options(StatementReader(statement)))
     off_resistance = 1.0 / circuit.options.get("gmin", 1.0 / DEFAULT_OFF_RESISTANCE)
+    diodes = DiodeReading(ideal=circuit.options.get("diode") == "ideal",
+                          fit_current=circuit.options.get("pwlfit"))
     for statement in statements:
         if statement.keyword == ".model":
             reader = StatementReader(statement)
-            name, model = read_model(reader, off_resistance)
+            name, model = read_model(reader, off_resistance, diodes)
             if name in circuit.models:
                 raise reader.error(f".model {name} is defined twice",
                                    hint=f"the first is at {circuit.model_locations[name]}")

@@ -35,6 +35,8 @@ class DiodeModel:
         off_resistance: ``Roff`` [Ω], resistance of the blocking diode.
         breakdown_voltage: ``BV`` or ``Vrev`` [V] (> 0); ``None`` for a plain diode.
         breakdown_resistance: ``Rrev`` [Ω], slope of the breakdown branch.
+        origin: how the card was read, for ``info``: ``ideal``, ``LTspice PWL`` or the
+            Shockley fit (:mod:`circuitnsds.circuit.elements.diode_fit`) with its figures.
         location: where the card was written.
     """
 
@@ -44,6 +46,7 @@ class DiodeModel:
     off_resistance: float = DEFAULT_OFF_RESISTANCE
     breakdown_voltage: float | None = None
     breakdown_resistance: float = 0.0
+    origin: str = "ideal"
     location: SourceLocation | None = None
 
     @property

@@ -31,14 +31,18 @@ UNSUPPORTED_COMMANDS = {".func", ".csparam", ".if", ".else", ".elseif", ".endif"
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
-                            "(default 10)"}
+                            "(default 10)",
+                "pwlfit": "top of the current range [A] over which Shockley diode models are "
+                "fitted by a PWL diode",
+                "diode": "'ideal' to read Shockley diode models as ideal diodes"}
+TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
 
 
-def read_options(reader: StatementReader) -> dict[str, float]:
+def read_options(reader: StatementReader) -> dict[str, float | str]:
     """``.options name[=value] ...``: the options the engine uses, checked; one warning
     naming all the others."""
-    used: dict[str, float] = {}
+    used: dict[str, float | str] = {}
     ignored: list[str] = []
     while not reader.done():
         key = reader.next("option")
@@ -51,10 +55,16 @@ def read_options(reader: StatementReader) -> dict[str, float]:
             continue
         if text is None:
             raise reader.error(f".options {key} needs a value", hint=f"{key}: {USED_OPTIONS[key]}")
+        if key in TEXT_OPTIONS:
+            if text not in TEXT_OPTIONS[key]:
+                raise reader.error(f".options {key}={text} is not understood",
+                                   hint=f"{key} takes {' or '.join(sorted(TEXT_OPTIONS[key]))}")
+            used[key] = text
+            continue
         value = reader.number(key, text)
         if key == "theta" and not theta_in_range(value):
             raise reader.error(f".options theta={value:g} must lie in [0.5, 1]", hint=THETA_HINT)
-        if key in {"gmin", "mosdrive"} and value <= 0:
+        if key in {"gmin", "mosdrive", "pwlfit"} and value <= 0:
             raise reader.error(f".options {key}={value:g} must be positive")
         used[key] = value
     if ignored:

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
 from circuitnsds.frontend.cards.mosfets import MOS_KINDS, read_mos_model
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice import ANALOG_BLOCKS, read_xspice_model
@@ -58,18 +59,51 @@ class ResistorModel:
     location: object | None = None
 
 
-def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESISTANCE
-               ) -> tuple[str, object]:
+TEXT_PARAMETERS = {"mfg", "type"}
+"""Parameters whose value is text in vendor libraries (``mfg=OnSemi type=Schottky``):
+kept as documentation, never evaluated."""
+LTSPICE_DIODE_PARAMETERS = {"ron", "roff", "vfwd", "vrev", "rrev", "epsilon", "revepsilon",
+                            "ilimit", "revilimit"}
+"""Any of these makes a ``D`` model LTspice's piecewise-linear diode (the rule of ngspice's
+``ltspice_compat`` in ``inpcom.c``, which then runs it as its ``sidiode`` code model)."""
+SHOCKLEY_STATIC_PARAMETERS = {"is", "js", "n", "rs", "ibv", "nbv"}
+"""Parameters of the static Shockley curve: one of them makes the model fitted."""
+LTSPICE_DEFAULT_ON_RESISTANCE = 1.0
+"""``Ron`` [Ω] of an LTspice PWL diode that gives none (LTspice's help; ngspice's
+``sidiode`` code model, ``ifspec.ifs``)."""
+
+
+@dataclass(frozen=True)
+class DiodeReading:
+    """How ``.model ... D`` cards are read (from ``.options``).
+
+    Attributes:
+        ideal: ``.options diode=ideal``: Shockley parameters are ignored (the textbook
+            ideal diode, or ideal Zener with ``BV``).
+        fit_current: ``.options pwlfit=`` [A]: the top of the Shockley fit range for every
+            model (else each model's ``IAVE``/``IBV``, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
+    """
+
+    ideal: bool = False
+    fit_current: float | None = None
+
+
+def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESISTANCE,
+               diodes: DiodeReading = DiodeReading()) -> tuple[str, object]:
     """Read a ``.model`` card; returns ``(name, model)``.
 
     ``model`` is a :class:`DiodeModel`, :class:`SwitchModel`, :class:`ResistorModel` or
     :class:`~circuitnsds.frontend.cards.mosfets.MosfetModel`,
     or the type name (a string) for a type the engine does not use.
     ``off_resistance`` [Ω] is the default off-resistance of diodes and switches
-    (``1/GMIN``, from ``.options gmin``).
+    (``1/GMIN``, from ``.options gmin``); ``diodes`` says how diode models are read.
     """
     name = reader.next("model name")
     kind = reader.next("model type")
+    if kind == "ako" or kind.startswith("ako:"):
+        raise reader.error(f".model {name} {kind}: LTspice's 'ako:' (a kind of) alias is not "
+                           "supported", hint="copy the parameters of the model it names into a "
+                           f".model {name} D(...) line")
     if reader.peek() == "(":
         reader.position += 1
         if reader.tokens[-1] != ")":
@@ -87,19 +121,24 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
     for key, text in reader.keyword_values():
         if key in params:
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        if key in TEXT_PARAMETERS:
+            continue
         params[key] = reader.number(key, text)
     if kind == "d":
-        return name, _diode_model(name, params, reader, off_resistance)
+        return name, _diode_model(name, params, reader, off_resistance, diodes)
     if kind in {"sw", "csw"}:
         return name, _switch_model(name, kind, params, reader, off_resistance)
     return name, _resistor_model(name, params, reader)
 
 
 def _diode_model(name: str, params: dict[str, float], reader: StatementReader,
-                 off_resistance: float) -> DiodeModel:
+                 off_resistance: float, diodes: DiodeReading = DiodeReading()) -> DiodeModel:
+    """An LTspice PWL model (``Ron``/``Vfwd``/...: LTspice's defaults ``Ron = 1 Ω``,
+    ``Rrev = Ron``), a Shockley model fitted to a PWL one, or the ideal diode."""
     model = DiodeModel(name, off_resistance=off_resistance, location=reader.location)
     fields = {"vfwd": "forward_drop", "ron": "on_resistance", "roff": "off_resistance",
               "rrev": "breakdown_resistance"}
+    ltspice = LTSPICE_DIODE_PARAMETERS & params.keys()
     for key, value in params.items():
         if key in fields:
             if value < 0 or (key == "roff" and value == 0):
@@ -122,7 +161,44 @@ def _diode_model(name: str, params: dict[str, float], reader: StatementReader,
             reader.warn(f".model {name}: unknown diode parameter {key!r} ignored")
     if "rrev" in params and model.breakdown_voltage is None:
         reader.warn(f".model {name}: Rrev ignored: it needs a breakdown voltage (BV or Vrev)")
-    return model
+    if ltspice:
+        on = params.get("ron", LTSPICE_DEFAULT_ON_RESISTANCE)
+        model = replace(model, on_resistance=on,
+                        breakdown_resistance=params.get("rrev", on) or on)
+        ignored = sorted(SHOCKLEY_STATIC_PARAMETERS & params.keys())
+        return replace(model, origin="LTspice PWL (defaults Ron=1 Ω, Rrev=Ron)"
+                       + (f"; Shockley {', '.join(ignored)} ignored" if ignored else ""))
+    shockley = SHOCKLEY_STATIC_PARAMETERS & params.keys()
+    if not shockley:
+        return model
+    if diodes.ideal:
+        return replace(model, origin="ideal (.options diode=ideal; Shockley "
+                       f"{', '.join(sorted(shockley))} ignored)")
+    return _fitted(model, params, reader, diodes.fit_current)
+
+
+def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader,
+            fit_current: float | None) -> DiodeModel:
+    """The PWL diode fitted to the Shockley curve of ``params`` (see ``diode_fit``)."""
+    for key in ("is", "js", "n", "ibv", "nbv"):
+        if key in params and params[key] <= 0:
+            raise reader.error(f".model {model.name}: {key}={params[key]:g} must be positive")
+    if params.get("rs", 0.0) < 0:
+        raise reader.error(f".model {model.name}: rs={params['rs']:g} must not be negative")
+    diode = ShockleyDiode(
+        saturation_current=params.get("is", params.get("js", 1e-14)),
+        emission=params.get("n", 1.0), series_resistance=params.get("rs", 0.0),
+        breakdown_voltage=model.breakdown_voltage, breakdown_current=params.get("ibv", 1e-3),
+        breakdown_emission=params.get("nbv", 1.0), average_current=params.get("iave"))
+    forward = fit_forward(diode, fit_current)
+    origin = "Shockley fit: " + forward.describe("Vfwd", "Ron")
+    model = replace(model, forward_drop=forward.drop, on_resistance=forward.resistance)
+    if model.breakdown_voltage is not None:
+        reverse = fit_breakdown(diode, fit_current)
+        origin += "; " + reverse.describe("Vrev", "Rrev")
+        model = replace(model, breakdown_voltage=max(reverse.drop, 1e-9),
+                        breakdown_resistance=reverse.resistance)
+    return replace(model, origin=origin)
 
 
 def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
