@@ -54,9 +54,12 @@ def _model_detail(element) -> str | None:
             control = f"current of {element.control}"
         else:
             control = "v({}) - v({})".format(*element.control_nodes())
-        detail = (f"model {model.name}: ideal switch on {control}, closes above "
-                  f"{model.threshold + abs(model.hysteresis):g} {unit}, opens below "
-                  f"{model.threshold - abs(model.hysteresis):g} {unit}, "
+        if model.hysteresis == 0:
+            where = f"closed above {model.threshold:g} {unit}, open at or below it (ngspice)"
+        else:
+            where = (f"closes above {model.threshold + abs(model.hysteresis):g} {unit}, opens below "
+                     f"{model.threshold - abs(model.hysteresis):g} {unit}")
+        detail = (f"model {model.name}: ideal switch on {control}, {where}, "
                   f"Ron={model.on_resistance:.4g} Ω, Roff={model.off_resistance:g} Ω")
         if hasattr(element, "polarity"):
             channel = "n" if element.polarity > 0 else "p"

@@ -50,8 +50,9 @@ class RunComparison:
     def ok(self) -> bool:
         return self.ngspice.ok
 
-    def worst(self, measure: str = "nrms") -> SignalMetrics | None:
-        """The signal with the largest ``measure`` (``"nrms"`` or ``"nmax"``), negligible
+    def worst(self, measure: str = "error") -> SignalMetrics | None:
+        """The signal with the largest ``measure`` (``"error"``, ``"nrms"``, ``"rrms"`` or
+        ``"nmax"``), negligible
         signals left out; ``None`` if nothing was measured."""
         candidates = [metric for metric in self.metrics.values() if not metric.negligible]
         if not candidates:
@@ -146,6 +147,7 @@ def compare(
     stop: float | None = None,
     theta: float | None = None,
     ngspice_options: str = "",
+    ltspice: bool | None = None,
 ) -> Comparison:
     """Run a netlist in circuitnsds and in ngspice and measure the difference.
 
@@ -170,6 +172,11 @@ def compare(
         theta: θ of circuitnsds's θ-method (default: ``.options theta``, else 1).
         ngspice_options: an ``.options`` line for ngspice only, e.g. ``"method=gear"``
             (see docs/compare.md on trapezoidal ringing).
+        ltspice: run ngspice in its LTspice compatibility mode (``set ngbehavior=lta``), in
+            which LTspice PWL diode models (``Ron``, ``Vfwd``, ``Vrev``, ``Rrev`` ...) mean the
+            same device as in circuitnsds. ``None`` (default): when the netlist has such
+            models and ``n`` is not given; with ``n`` (a convergence study towards the ideal
+            diode) those models are Shockley diodes for ngspice, their PWL parameters dropped.
 
     Raises:
         NetlistError, CircuitError, SimulationError: from reading or running circuitnsds.
@@ -193,6 +200,10 @@ def compare(
     chosen_window = _window(window, span, waves.time)
     stop_time = stop if stop is not None else span[1]
     saves = sorted({save for name in chosen if (save := ngspice_vector(name)[1]) is not None})
+    if ltspice is None:
+        ltspice = n is None and any(str(getattr(model, "origin", "")).startswith("LTspice")
+                                    for model in circuit.models.values())
+    off_resistance = 1.0 / float(circuit.options.get("gmin", 1e-12))
     ammeters = sorted({name[2:-1].split(".")[-1] for name in chosen if _element_letter(name) == "d"})
 
     runs, notes = [], []
@@ -200,10 +211,13 @@ def compare(
         with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-") as scratch:
             translation = translate_netlist(source, overrides=override, step=step, stop=stop,
                                             saves=saves, ammeters=ammeters, options=ngspice_options,
-                                            scratch=Path(scratch))
-            notes = notes or translation.notes
+                                            scratch=Path(scratch), ltspice=ltspice,
+                                            off_resistance=off_resistance)
+            notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
+                                "ngbehavior=lta): the LTspice PWL diode models run as its "
+                                "sidiode code model"] if ltspice else []) + translation.notes)
             result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
-                                 title=circuit.title)
+                                 title=circuit.title, ltspice=ltspice)
         runs.append(_measure(result, waves, chosen, chosen_window))
     return Comparison(
         netlist=str(source) if "\n" not in str(source) else "<text>",

@@ -11,6 +11,11 @@ reference grid and restricted to the window ``[t0, t1]``:
   to the value; and 1 when it is zero everywhere (the "normalised" errors are then
   absolute, in V or A);
 * ``nrms`` = sqrt(mean((other − ref)²)) / scale (time-weighted mean);
+* ``rrms`` = sqrt(mean((other − ref)²)) / sqrt(mean(ref²)): the RMS error relative to the
+  signal's RMS value (1 when the reference is zero everywhere);
+* ``error``: ``rrms`` for a DC-like signal (its range is below :data:`DC_LIKE` of its RMS:
+  a converter's output, whose few-mV ripple would make ``nrms`` read 100 % for a 0.08 V
+  offset on 4.5 V), ``nrms`` otherwise; summaries rank signals by it;
 * ``nmax`` = max|other − ref| / scale, reached at ``max_at`` [s];
 * ``mean_diff`` = mean(other) − mean(ref) [V or A] (time averages: DC value);
 * ``ripple_diff`` = (max − min of other) − (max − min of ref) [V or A], the
@@ -25,6 +30,8 @@ import numpy as np
 
 #: A reference whose range is below this fraction of its magnitude counts as constant.
 CONSTANT_RANGE = 1e-9
+#: A reference whose range is below this fraction of its RMS value is DC-like.
+DC_LIKE = 0.2
 
 _trapezoid = getattr(np, "trapezoid", None) or np.trapz  # numpy < 2 has only trapz
 
@@ -63,9 +70,21 @@ class SignalMetrics:
     ripple_diff: float
     points: int
     negligible: bool = False
+    rrms: float = float("nan")
+    rms_ref: float = float("nan")
+
+    @property
+    def dc_like(self) -> bool:
+        """The reference's range is below ``DC_LIKE`` of its RMS value."""
+        return self.rms_ref > 0 and self.ripple_ref < DC_LIKE * self.rms_ref
+
+    @property
+    def error(self) -> float:
+        """``rrms`` for a DC-like signal, ``nrms`` otherwise (see the module docstring)."""
+        return self.rrms if self.dc_like else self.nrms
 
     def to_dict(self) -> dict[str, float | int | str]:
-        return asdict(self)
+        return {**asdict(self), "dc_like": self.dc_like, "error": self.error}
 
 
 def resample(time_from: np.ndarray, values: np.ndarray, time_to: np.ndarray) -> np.ndarray:
@@ -156,10 +175,14 @@ def signal_metrics(
     worst = int(np.argmax(np.abs(diff)))
     mean_ref, mean_other = time_mean(t, r), time_mean(t, o)
     ripple_other = float(o.max() - o.min())
+    rms_error = float(np.sqrt(max(time_mean(t, diff**2), 0.0)))
+    rms_ref = float(np.sqrt(max(time_mean(t, r**2), 0.0)))
     return SignalMetrics(
         signal=signal,
         scale=scale,
-        nrms=float(np.sqrt(max(time_mean(t, diff**2), 0.0))) / scale,
+        nrms=rms_error / scale,
+        rrms=rms_error / rms_ref if rms_ref > 0 else rms_error,
+        rms_ref=rms_ref,
         nmax=float(abs(diff[worst])) / scale,
         max_at=float(t[worst]),
         mean_ref=mean_ref,

@@ -146,6 +146,7 @@ def run_ngspice(
     *,
     overrides: DiodeOverrides | None = None,
     title: str = "",
+    ltspice: bool = False,
 ) -> NgspiceRun:
     """Run a translated netlist's ``.tran`` in ngspice.
 
@@ -156,6 +157,8 @@ def run_ngspice(
         stop: the ``.tran`` stop time [s]; a run that ends earlier has failed.
         overrides: recorded in the result (already applied to ``netlist``).
         title: title of the returned waveforms.
+        ltspice: read the netlist in ngspice's LTspice compatibility mode (``set
+            ngbehavior=lta`` before loading, as a ``.spiceinit`` would; unset afterwards).
 
     Raises:
         NgspiceUnavailable: PySpice or ``libngspice.so`` is missing.
@@ -167,6 +170,8 @@ def run_ngspice(
                             overrides=overrides or DiodeOverrides(), netlist=netlist)
         engine.lines.clear()
         try:
+            if ltspice:
+                _call(engine.exec_command, "set ngbehavior=lta")
             _call(engine.load_circuit, netlist)
             load_errors = [line for line in _stderr(engine.lines) if _is_load_error(line)]
             parse_messages = _stderr(engine.lines)
@@ -215,7 +220,7 @@ def _call(function, *args) -> bool:
 
 def _reset(engine) -> None:
     """Free the plots and the circuit so the next run starts clean (errors ignored)."""
-    for command in ("destroy all", "remcirc"):
+    for command in ("destroy all", "remcirc", "unset ngbehavior"):
         _call(engine.exec_command, command)
     engine.lines.clear()
 
@@ -258,8 +263,12 @@ def _read_plot(engine, plot: str, signals: list[str], title: str) -> tuple[Wavef
     values, missing = {}, []
     for signal in signals:
         vector = ngspice_vector(signal)[0]
-        if vector in arrays and arrays[vector].shape == time_points.shape:
-            values[signal] = arrays[vector]
+        # ngspice names the vector of a node whose name starts with a digit V(1), not 1
+        candidates = (vector, f"v({vector})") if signal.startswith("v(") else (vector,)
+        found = [name for name in candidates
+                 if name in arrays and arrays[name].shape == time_points.shape]
+        if found:
+            values[signal] = arrays[found[0]]
         else:
             missing.append(signal)
     return Waveforms(time_points, values, title=title, stats={"points": float(time_points.size)}), missing

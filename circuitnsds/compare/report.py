@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from circuitnsds.compare.errors import CompareError
-from circuitnsds.compare.metrics import NEGLIGIBLE
+from circuitnsds.compare.metrics import DC_LIKE, NEGLIGIBLE
 
 if TYPE_CHECKING:
     from circuitnsds.compare.api import Comparison, RunComparison
@@ -68,7 +68,10 @@ def format_table(comparison: Comparison) -> str:
         + (f", .options {comparison.ngspice_options}" if comparison.ngspice_options else ""),
         f"  window {engineering(t0, 's')} .. {engineering(t1, 's')}",
         *(f"  for ngspice: {note}" for note in comparison.notes),
-        "  errors of ngspice against circuitnsds, normalised by the circuitnsds signal's range;",
+        "  errors of ngspice against circuitnsds: nRMS and nMAX normalised by the circuitnsds "
+        "signal's range, rRMS by its RMS value;",
+        "  the summary ranks by rRMS for DC-like signals (range below "
+        f"{DC_LIKE:g} of the RMS value, marked *) and by nRMS otherwise;",
         "  Δmean and Δripple are ngspice minus circuitnsds (time average, peak-to-peak);",
         f"  (negligible): varies and differs by less than {NEGLIGIBLE:g} of the largest range of "
         "its kind; left out of summaries",
@@ -77,7 +80,7 @@ def format_table(comparison: Comparison) -> str:
         lines.append("")
         lines.append(f"ngspice {run_label(run)}: {_run_status(run)}")
         if run.metrics:
-            lines.append(f"  {'signal':<16}{'range':>11}{'nRMS':>10}{'nMAX':>10}{'at':>11}"
+            lines.append(f"  {'signal':<16}{'range':>11}{'nRMS':>10}{'rRMS':>10}{'nMAX':>10}{'at':>11}"
                          f"{'Δmean':>12}{'Δripple':>12}")
             for name in comparison.signals:
                 metric = run.metrics.get(name)
@@ -85,7 +88,9 @@ def format_table(comparison: Comparison) -> str:
                     lines.append(f"  {name:<16}  (not provided by ngspice)")
                     continue
                 unit = unit_of(name)
+                rrms = _percent(metric.rrms) + ("*" if metric.dc_like else "")
                 lines.append(f"  {name:<16}{engineering(metric.scale, unit):>11}{_percent(metric.nrms):>10}"
+                             f"{rrms:>10}"
                              f"{_percent(metric.nmax):>10}{engineering(metric.max_at, 's'):>11}"
                              f"{engineering(metric.mean_diff, unit):>12}"
                              f"{engineering(metric.ripple_diff, unit):>12}"
@@ -95,15 +100,15 @@ def format_table(comparison: Comparison) -> str:
     if len(comparison.runs) > 1:
         lines.append("")
         lines.append("convergence (largest error over the signals):")
-        lines.append(f"  {'ngspice':<22}{'status':<8}{'time [s]':>10}{'points':>8}  {'nRMS':>8} "
+        lines.append(f"  {'ngspice':<22}{'status':<8}{'time [s]':>10}{'points':>8}  {'error':>8} "
                      f"{'signal':<14}{'nMAX':>8} signal")
         for run in comparison.runs:
             points = run.ngspice.waveforms.time.size if run.ngspice.waveforms is not None else 0
             status = "ok" if run.ok else run.ngspice.status
-            rms, peak = run.worst("nrms"), run.worst("nmax")
+            rms, peak = run.worst("error"), run.worst("nmax")
             row = f"  {run_label(run):<22}{status:<8}{run.ngspice.seconds:>10.3g}{points:>8}  "
             if rms is not None and peak is not None:
-                row += f"{_percent(rms.nrms):>8} {rms.signal:<14}{_percent(peak.nmax):>8} {peak.signal:<14}"
+                row += f"{_percent(rms.error):>8} {rms.signal:<14}{_percent(peak.nmax):>8} {peak.signal:<14}"
             elif not run.ok:
                 where = engineering(run.ngspice.stopped_at, "s") if run.ngspice.stopped_at is not None \
                     else "start"
@@ -254,7 +259,7 @@ def plot_convergence(comparison: Comparison, path: str | Path) -> None:
     shown = [name for name in comparison.signals
              if any(name in run.metrics and not run.metrics[name].negligible for run in runs)]
     for index, name in enumerate(shown[:10]):
-        rms = np.array([run.metrics[name].nrms if name in run.metrics else np.nan for run in runs])
+        rms = np.array([run.metrics[name].error if name in run.metrics else np.nan for run in runs])
         peak = np.array([run.metrics[name].nmax if name in run.metrics else np.nan for run in runs])
         errors.loglog(n_values, rms, "o-", color=colors(index), label=f"{name} RMS")
         errors.loglog(n_values, peak, "s:", color=colors(index), alpha=0.6, markersize=4,

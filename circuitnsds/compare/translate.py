@@ -4,8 +4,14 @@ The same file is meant to run in both simulators (docs/compare.md), but a few th
 in it are for circuitnsds only or get in the way of a batch comparison:
 
 * diode-model parameters of the idealised diode (``Vfwd Ron Roff Vrev Rrev`` and
-  LTspice's ``Ilimit Revilimit Epsilon Revepsilon``): ngspice does not know them and
-  warns; they are dropped. ``Vrev`` becomes ``BV`` when the model has no ``BV``;
+  LTspice's ``Ilimit Revilimit Epsilon Revepsilon``): ngspice's own diode does not know
+  them. With ``ltspice=True`` (what :func:`~circuitnsds.compare.compare` chooses when the
+  netlist has such models) they are kept, for ngspice run with ``set ngbehavior=lta``,
+  which turns those models into its ``sidiode`` code model (``inpcom.c``,
+  ``ltspice_compat``); the LTspice defaults that ``sidiode`` lacks are written out
+  (``Roff`` = 1/gmin, where ``sidiode`` would take 1 Ω) and Shockley parameters, which
+  ``sidiode`` rejects, are dropped. Otherwise they are dropped and ``Vrev`` becomes ``BV``
+  when the model has no ``BV``;
 * the smooth-model overrides of a comparison (``N``, ``IS``, ``RS``, ``CJO``) replace
   the value of every ``D`` model, so one netlist is compared at several emission
   coefficients without editing it;
@@ -109,6 +115,8 @@ class Translation:
     notes: list[str] = field(default_factory=list)
     has_tran: bool = False
     ammeters: set[str] = field(default_factory=set)
+    ltspice: bool = False
+    off_resistance: float = 1e12
 
 
 def translate_netlist(
@@ -121,6 +129,8 @@ def translate_netlist(
     ammeters: Iterable[str] = (),
     options: str = "",
     scratch: Path | None = None,
+    ltspice: bool = False,
+    off_resistance: float = 1e12,
 ) -> Translation:
     """Rewrite a netlist for ngspice (see the module docstring for what changes).
 
@@ -134,6 +144,9 @@ def translate_netlist(
         options: text of an ``.options`` line added for ngspice (e.g. ``"method=gear"``).
         scratch: folder for translated ``.include``/``.lib`` files (required when the
             netlist includes files).
+        ltspice: keep LTspice PWL diode models for ngspice's LTspice mode (see above).
+        off_resistance: ``Roff`` [Ω] written into LTspice PWL models that give none
+            (circuitnsds's 1/gmin).
 
     Raises:
         NetlistError: an included file cannot be read, or ``.include`` is used without
@@ -145,7 +158,8 @@ def translate_netlist(
         text, base, name = _read(path, None), path.resolve().parent, str(path)
     else:
         text, base, name = source, Path.cwd(), "<text>"
-    translation = Translation("", ammeters={name.lower() for name in ammeters})
+    translation = Translation("", ammeters={name.lower() for name in ammeters}, ltspice=ltspice,
+                              off_resistance=off_resistance)
     lines = physical_lines(text)
     if not lines:
         raise NetlistError("the netlist is empty", where=name)
@@ -230,6 +244,8 @@ def _model(logical: str, overrides: DiodeOverrides, translation: Translation, na
     if rest.startswith("(") and rest.endswith(")"):
         rest = rest[1:-1]
     params = {key.lower(): value for key, value in _PAIR.findall(rest)}
+    if translation.ltspice and IDEAL_ONLY_PARAMETERS & params.keys():
+        return _ltspice_model(model, params, translation, name)
     dropped = [key for key in params if key in IDEAL_ONLY_PARAMETERS]
     if "vrev" in params and "bv" not in params:
         params["bv"] = params["vrev"]
@@ -246,6 +262,21 @@ def _model(logical: str, overrides: DiodeOverrides, translation: Translation, na
     if not params:
         return f".model {model} D"
     return f".model {model} D(" + " ".join(f"{key}={value}" for key, value in params.items()) + ")"
+
+
+def _ltspice_model(model: str, params: dict[str, str], translation: Translation, name: str) -> str:
+    """An LTspice PWL diode model for ngspice's ``sidiode``: idealised parameters only,
+    ``Roff`` written out when absent."""
+    kept = {key: value for key, value in params.items() if key in IDEAL_ONLY_PARAMETERS}
+    dropped = sorted(set(params) - set(kept))
+    if "roff" not in kept:
+        kept["roff"] = f"{translation.off_resistance:.12g}"
+        translation.notes.append(f"{name}: .model {model}: Roff={kept['roff']} written out "
+                                 "(LTspice's default 1/gmin; ngspice's sidiode would take 1 ohm)")
+    if dropped:
+        translation.notes.append(f"{name}: .model {model}: {', '.join(dropped)} removed (not "
+                                 "parameters of LTspice's PWL diode)")
+    return f".model {model} D(" + " ".join(f"{key}={value}" for key, value in kept.items()) + ")"
 
 
 AMMETER_PREFIX = "v_cnsds_"

@@ -60,6 +60,9 @@ class SwitchRelation:
         on_threshold: the switch closes when the control exceeds it (``VT + |VH|``).
         off_threshold: the switch opens when the control falls below it (``VT - |VH|``).
         initially_on: the ``ON`` flag of the instance (state before the operating point).
+        crossing: the level whose crossings by a source-driven control are put on the time
+            grid when it differs from both thresholds (``VT`` of a switch without hysteresis,
+            whose thresholds sit a round-off margin above it); ``None`` otherwise.
     """
 
     name: str
@@ -71,6 +74,7 @@ class SwitchRelation:
     on_threshold: float
     off_threshold: float
     initially_on: bool = False
+    crossing: float | None = None
 
     def next_state(self, on: bool, control: float) -> bool:
         """State after seeing ``control``: hysteresis keeps ``on`` between the thresholds."""
@@ -154,7 +158,9 @@ class MLCS:
         for switch in self.switches:
             if switch.control_stimulus is not None:
                 column, sign = switch.control_stimulus
-                for level in {switch.on_threshold, switch.off_threshold}:
+                levels = ({switch.crossing} if switch.crossing is not None
+                          else {switch.on_threshold, switch.off_threshold})
+                for level in levels:
                     points.update(threshold_crossings(self.stimuli[column], sign * level, stop))
         return np.array(sorted(points))
 

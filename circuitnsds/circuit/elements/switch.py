@@ -8,7 +8,15 @@ The model gives ``VT``/``VH`` (or ``IT``/``IH``), ``RON`` and ``ROFF``:
 * open:   ``i = (v(n+) - v(n-)) / ROFF`` (default ``ROFF = 1e12 Ω``, SPICE's gmin, so that
   a node reached only through open switches keeps a defined potential, as in ngspice);
 * the switch closes when the control exceeds ``VT + |VH|``, opens when it falls
-  below ``VT - |VH|``, and keeps its state in between.
+  below ``VT - |VH|``, and keeps its state in between;
+* with ``VH = 0`` (the default: ``SW(RON=1)`` alone has ``VT = VH = 0``) a control sitting
+  exactly at ``VT`` opens a closed switch and keeps an open one open, as ngspice 39's
+  ``swload.c``/``cswload.c`` do (there ``VH <= 0`` takes the "negative hysteresis" branch:
+  ``v > VT`` on, ``v < VT`` off, and at ``v = VT`` a switch coming from REALLY_ON becomes
+  HYST_OFF; at the operating point a switch without ``ON`` starts HYST_OFF): both
+  thresholds are then ``VT + AT_THRESHOLD·max(1, |VT|)``, so a 0/1 V gate with ``VT = 0``
+  opens the switch at 0 V. (ngspice would close a switch whose control rises from below
+  ``VT`` to exactly ``VT``; circuitnsds keeps it open.)
 
 ``i(name)`` flows from ``n+`` through the switch to ``n-``. The switch is an
 exogenous mode, not a complementarity pair: its state is decided from the
@@ -25,6 +33,9 @@ from circuitnsds.system.mlcs import MLCSBuilder
 
 DEFAULT_OFF_RESISTANCE = 1e12
 """Default ``ROFF`` [Ω] (ngspice: 1/GMIN)."""
+AT_THRESHOLD = 1e-9
+"""With ``VH = 0``, a control within this fraction of ``max(1, |VT|)`` above ``VT`` counts as
+"exactly at ``VT``" (round-off of a node voltage), where ngspice opens the switch."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +58,15 @@ class SwitchModel:
     on_resistance: float = 1.0
     off_resistance: float = DEFAULT_OFF_RESISTANCE
     location: object | None = None
+
+    def thresholds(self) -> tuple[float, float]:
+        """``(on, off)``: the switch closes when the control exceeds ``on`` and opens when it
+        falls below ``off`` [V or A] (see the module docstring for ``VH = 0``)."""
+        if self.hysteresis == 0:
+            level = self.threshold + AT_THRESHOLD * max(1.0, abs(self.threshold))
+            return level, level
+        half_band = abs(self.hysteresis)
+        return self.threshold + half_band, self.threshold - half_band
 
 
 @dataclass(frozen=True)
@@ -75,13 +95,13 @@ class Switch(Element):
         else:
             control = [(builder.branch(f"i({self.control})"), 1.0)]
             control_nodes = None
-        half_band = abs(self.model.hysteresis)
+        on_threshold, off_threshold = self.model.thresholds()
         builder.switch(
             dict(
                 name=self.name, row=k,
                 open_row=_keep(open_row), closed_row=_keep(closed_row), control=_keep(control),
-                on_threshold=self.model.threshold + half_band,
-                off_threshold=self.model.threshold - half_band,
+                on_threshold=on_threshold, off_threshold=off_threshold,
+                crossing=self.model.threshold if self.model.hysteresis == 0 else None,
                 initially_on=self.initially_on,
             ),
             control_nodes,

@@ -1,0 +1,121 @@
+"""Issue 18: netlists mean what their authors meant (ngspice/LTspice semantics), offline part.
+
+Each test reproduces one of the problems found by running netlists written by other people
+(the ngspice-backed checks of the same netlists are in test_compat_ngspice.py).
+"""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward, fit_line
+from circuitnsds.compare.metrics import signal_metrics
+from tests.conftest import NETLISTS, circuit_from
+
+EXTERNAL = NETLISTS / "external"
+VT = 1.380649e-23 * 300.15 / 1.602176634e-19
+
+
+def run(path, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return circuitnsds.read_netlist(path).transient(**kwargs)
+
+
+# problem 2: a switch exactly at VT with VH = 0 (ngspice 39 swload.c / cswload.c open it)
+
+@pytest.mark.parametrize("name", ["buck_sw_ron_only", "buck_csw_ron_only"])
+def test_switch_with_ron_only_opens_when_its_gate_returns_to_zero(name):
+    waves = run(EXTERNAL / f"{name}.cir")
+    steady = waves.time > 0.8e-3
+    # an ideal buck: v(out) = D * Vin with D = on time / period = (4u + 10n) / 10u, less the
+    # drops of the 10 mohm switch and diode at ~2 A (a few mV). Before: the switch never opened,
+    # v(out) -> 12 V and the inductor current ramped without bound.
+    duty = (4e-6 + 10e-9) / 10e-6
+    assert waves["v(out)"][steady].mean() == pytest.approx(duty * 12, rel=0.01)
+    assert waves["i(l1)"].max() < 6.0  # the start-up overshoot; before: 255 A at 1 ms
+
+
+def test_switch_at_threshold_semantics():
+    # VT = 0, VH = 0: closed for v > 0, open at v = 0 (coming from closed) and below
+    body = ("V1 c 0 PWL(0 0 1m 0 1.001m 1 2m 1 2.001m 0 3m 0 3.001m -1 4m -1)\n"
+            "S1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n.model sw SW(RON=1)\n.tran 10u 4m")
+    waves = circuit_from(body).transient()
+    t, i = waves.time, -waves["i(v2)"]
+    closed = i > 0.4  # 1 V over 1 + 1 ohm
+    assert not closed[(t > 0.1e-3) & (t < 0.99e-3)].any()     # exactly at VT from the start: open
+    assert closed[(t > 1.01e-3) & (t < 1.99e-3)].all()         # above VT: closed
+    assert not closed[(t > 2.01e-3)].any()                     # back at VT, then below: open
+    # with hysteresis the band keeps the state (unchanged): VT=0.5 VH=0.2 closes above 0.7
+    info = circuit_from("V1 c 0 0\nS1 a 0 c 0 sw\nR1 a 0 1\n.model sw SW(VT=0.5 VH=0.2)\n.tran 1u 1m")
+    assert info.elements[1].model.thresholds() == pytest.approx((0.7, 0.3))
+
+
+# problem 3: LTspice PWL diode defaults (Ron = 1 ohm, Rrev = Ron)
+
+def test_ltspice_diode_defaults_follow_ltspice_help():
+    # ngspice examples/xspice/various/simple-diode.cir (model A), edited: see the file
+    waves = run(EXTERNAL / "ngspice_simple_diode.cir")
+    v, i = waves["v(in)"], waves["i(r1)"]
+    # Vrev = 2 V, Rrev = Ron = 1 ohm: at -5 V the breakdown carries (5 - 2) / (1 + 1u) = 3 A
+    # (before: Rrev = 0 gave -3 MA through the 1 uohm load); forward: (5 - 1) / 1 = 4 A
+    assert i[np.argmin(v)] == pytest.approx(-3.0, rel=1e-5)
+    assert i[np.argmax(v)] == pytest.approx(4.0, rel=1e-5)
+    model = circuit_from("D1 a 0 m\nR1 a 0 1\n.model m D(Vfwd=0.7)\n.tran 1u 1u").elements[0].model
+    assert model.on_resistance == 1.0 and model.origin.startswith("LTspice PWL")
+
+
+# problem 4: Shockley models -> PWL diodes
+
+def test_shockley_fit_matches_the_curve_and_its_slope():
+    # a 1N5819-like Schottky (LTspice standard.dio: Is=31.7u Rs=.051 N=1.373 Iave=1)
+    diode = ShockleyDiode(31.7e-6, 1.373, 0.051, average_current=1.0)
+    fit = fit_forward(diode)
+    assert (fit.low, fit.high) == (0.1, 1.0)
+    currents = np.linspace(0.1, 1.0, 7)
+    exact = 1.373 * VT * np.log1p(currents / 31.7e-6) + 0.051 * currents
+    np.testing.assert_allclose(fit.drop + fit.resistance * currents, exact, atol=0.02)
+    # the least-squares slope lies between the curve's slopes at the range's ends
+    assert 0.051 + 1.373 * VT / 1.0 < fit.resistance < 0.051 + 1.373 * VT / 0.1
+    # breakdown: v = BV + NBV Vt ln(r / IBV) + RS r; the fitted line crosses BV near IBV
+    zener = ShockleyDiode(0.703e-15, 1.0, 0.871, breakdown_voltage=5.059, breakdown_current=49e-3)
+    reverse = fit_breakdown(zener)
+    assert reverse.drop + reverse.resistance * 49e-3 == pytest.approx(5.059 + 0.871 * 49e-3, abs=0.01)
+    assert reverse.resistance > 0.871
+
+
+def test_fit_line_stays_physical():
+    line = fit_line(lambda i: 0.5 * np.ones_like(i), 1.0)
+    assert line.resistance == 0 and line.drop == pytest.approx(0.5)
+    with pytest.raises(ValueError):
+        fit_line(lambda i: i, 0.0)
+
+
+def test_zener_with_shockley_breakdown_regulates_with_a_slope():
+    # the Motorola ZN4733 model (KiCad-Spice-Library DIODE2.LIB): Rs and the breakdown's
+    # dynamic resistance make the output rise with the input (before: exactly flat)
+    body = ("V1 in 0 PWL(0 8 1m 12)\nR1 in out 100\nD1 0 out zn4733\n"
+            ".model ZN4733 D (IS=.703F RS=.871 N=1 BV=5.059 IBV=49M CJO=189P VJ=.75 M=.33 TT=50.1N)\n"
+            ".tran 10u 1m")
+    waves = circuit_from(body).transient()
+    vout = waves["v(out)"]
+    regulation = (vout[-1] - vout[0]) / (waves["v(in)"][-1] - waves["v(in)"][0])
+    rz = circuit_from(body).elements[2].model.breakdown_resistance
+    assert regulation == pytest.approx(rz / (rz + 100), rel=1e-6)
+    assert 0.01 < regulation < 0.05
+
+
+# problem 8: errors relative to the RMS value for DC-like signals
+
+def test_rms_relative_error_for_a_dc_like_signal():
+    t = np.linspace(0, 1e-3, 1001)
+    ref = 4.5 + 0.005 * np.sin(2 * math.pi * 1e4 * t)
+    metric = signal_metrics(t, ref, ref - 0.08)
+    assert metric.nrms == pytest.approx(0.08 / 0.01, rel=1e-3)   # 800 % of the 10 mV ripple
+    assert metric.dc_like and metric.error == metric.rrms
+    assert metric.rrms == pytest.approx(0.08 / math.sqrt(4.5**2 + 0.005**2 / 2), rel=1e-4)
+    swinging = signal_metrics(t, np.sin(2 * math.pi * 1e3 * t), np.sin(2 * math.pi * 1e3 * t) + 0.01)
+    assert not swinging.dc_like and swinging.error == swinging.nrms
