@@ -221,6 +221,11 @@ class NetlistWarning(UserWarning):
     """Something in the netlist is accepted but not used (it is reported, never silent)."""
 
 
+class RunNote(UserWarning):
+    """Something the run chose for the user (a refined integration step): reported, and not
+    an error under ``--strict``."""
+
+
 class CircuitWarning(NetlistWarning):
     """The circuit is legal but probably not what was meant: a dangling node, a loop of
     voltage sources and capacitors with inconsistent initial conditions, a switch that

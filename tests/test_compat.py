@@ -119,3 +119,58 @@ def test_rms_relative_error_for_a_dc_like_signal():
     assert metric.rrms == pytest.approx(0.08 / math.sqrt(4.5**2 + 0.005**2 / 2), rel=1e-4)
     swinging = signal_metrics(t, np.sin(2 * math.pi * 1e3 * t), np.sin(2 * math.pi * 1e3 * t) + 0.01)
     assert not swinging.dc_like and swinging.error == swinging.nrms
+
+
+# problem 5: a TSTEP that cannot resolve a SIN or PULSE
+
+DOUBLER = """voltage doubler at 100 MHz with .tran 5n (TSTEP = half the period)
+V1 in 0 SIN(0 5 100meg)
+C1 in a 1n
+D1 0 a dd
+D2 a out dd
+C2 out 0 1n
+RL out 0 100k
+.model dd D
+.tran 5n 2u
+.end
+"""
+
+
+def test_a_tstep_that_cannot_resolve_a_sine_is_refined_and_reported_on_tstep():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        waves = circuitnsds.read_netlist(DOUBLER).transient()
+    notes = [str(w.message) for w in caught if issubclass(w.category, circuitnsds.errors.RunNote)]
+    assert len(notes) == 1 and "TSTEP/10" in notes[0] and "v1" in notes[0]
+    # reported on the TSTEP grid
+    np.testing.assert_allclose(np.diff(waves.time), 5e-9, rtol=1e-9)
+    # the ideal doubler charges its output to 2 x 5 V (before: the sine was sampled at its
+    # zeros only and the output stayed at 1e-11 V)
+    assert waves["v(out)"][-1] == pytest.approx(10.0, rel=0.03)
+
+
+def test_an_explicit_step_is_obeyed_with_a_warning_and_refused_under_strict():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        waves = circuitnsds.read_netlist(DOUBLER).transient(step=5e-9)
+    assert any("cannot resolve" in str(w.message) for w in caught)
+    assert abs(waves["v(out)"][-1]) < 1e-6  # what the step asked for: the sine's zeros
+    with pytest.raises(circuitnsds.errors.CircuitError, match="cannot resolve"):
+        circuitnsds.read_netlist(DOUBLER, strict=True).transient(step=5e-9)
+
+
+# problem 6: two .tran lines (a KiCad export included by a wrapper): ngspice runs the first
+
+def test_two_tran_lines_run_the_first_with_a_warning():
+    body = "V1 a 0 1\nR1 a 0 1k\n.tran 1u 1m\n.tran 2u 5m"
+    with pytest.warns(circuitnsds.errors.NetlistWarning, match="second .tran line ignored"):
+        circuit = circuit_from(body)
+    assert (circuit.tran.step, circuit.tran.stop) == (1e-6, 1e-3)
+    assert circuit.transient().time[-1] == pytest.approx(1e-3)
+
+
+@pytest.mark.parametrize("line", [".tran 0 10m", ".tran 10m"])
+def test_ltspice_tran_forms(line):
+    with pytest.warns(circuitnsds.errors.NetlistWarning, match="TSTOP/1000"):
+        circuit = circuit_from(f"V1 a 0 1\nR1 a 0 1k\n{line}")
+    assert circuit.tran.stop == 10e-3 and circuit.tran.step == pytest.approx(10e-6)

@@ -42,11 +42,6 @@ CATALOGUE = {
         "  hint: add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or give --step and "
         "--stop (step= and stop= in Python)",
     ),
-    ".tran TSTEP = 0": (
-        b"t\nR1 a 0 1k\nV1 a 0 1\n.tran 0 1m\n.end\n",
-        "bad.cir:4: .tran TSTEP = 0 s must be positive\n"
-        "  hint: .tran TSTEP TSTOP [TSTART [TMAX]] [UIC], e.g. .tran 1u 10m; in: .tran 0 1m",
-    ),
     ".tran TSTEP < 0": (
         b"t\nR1 a 0 1k\nV1 a 0 1\n.tran -1u 1m\n.end\n",
         "bad.cir:4: .tran TSTEP = -1 \xb5s must be positive\n"

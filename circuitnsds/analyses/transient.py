@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
@@ -13,8 +15,9 @@ from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
-from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
+from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
+from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
 from circuitnsds.theta import theta_in_range
 
 
@@ -37,6 +40,7 @@ def run_transient(
         raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
                            hint="add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or give "
                            "--step and --stop (step= and stop= in Python)")
+    explicit_step = step is not None
     step = step if step is not None else tran.step
     stop = stop if stop is not None else tran.stop
     start = start if start is not None else (tran.start if tran else 0.0)
@@ -57,6 +61,22 @@ def run_transient(
 
     mlcs = circuit.mlcs(step, stop)
     h = min(step, max_step) if max_step else step
+    report_step = None
+    needed = _resolving_step(circuit, step, stop)
+    if needed is not None and h > needed[0] * (1 + 1e-9):
+        what = (f"{needed[1]} needs a step of at most {needed[0]:.4g} s ({POINTS_PER_PERIOD} points "
+                f"per period)")
+        if explicit_step:
+            warnings.warn(CircuitWarning(
+                f"{circuit.file}: the step {h:.4g} s cannot resolve the sources: {what}; the step "
+                "given is obeyed (leave out --step to let circuitnsds refine it)"), stacklevel=2)
+        else:
+            factor = math.ceil(h / needed[0] - 1e-9)
+            report_step, h = h, h / factor
+            warnings.warn(RunNote(
+                f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
+                f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
+                stacklevel=2)
     breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
     try:
         grid = time_grid(h, stop, breakpoints)
@@ -78,6 +98,8 @@ def run_transient(
         if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
+    if report_step is not None:
+        trajectory = _decimated(trajectory, report_step, breakpoints)
     return _waveforms(circuit, mlcs, trajectory, start, stop)
 
 
@@ -153,6 +175,39 @@ def advise(error: SimulationError) -> None:
     """Give an engine error the hint of its ``cause`` (:data:`ADVICE`) unless it has one: what
     every analysis that runs the engine does with its errors."""
     error.hint = error.hint or ADVICE.get(error.cause)
+
+
+def _resolving_step(circuit: Circuit, tstep: float, stop: float) -> tuple[float, str] | None:
+    """``(largest step that resolves every SIN/PULSE source [s], the source that needs it)``,
+    ``None`` when no source constrains the step."""
+    best = None
+    for element in circuit.elements:
+        function = getattr(element, "function", None)
+        if function is None:
+            continue
+        needed = resolving_step(function.resolve(tstep, stop), stop)
+        if needed is not None and (best is None or needed < best[0]):
+            best = (needed, element.name)
+    return best
+
+
+def _decimated(trajectory, every: float, breakpoints: np.ndarray):
+    """The trajectory at the multiples of ``every`` [s] (and at breakpoints, the last point):
+    states as computed there, impulses summed over the dropped steps, residuals their maximum."""
+    time = trajectory.time
+    phase = time / every
+    keep = np.abs(phase - np.round(phase)) <= 1e-6
+    keep |= np.isin(time, breakpoints)
+    keep[[0, -1]] = True
+    index = np.flatnonzero(keep)
+    impulse = np.add.reduceat(trajectory.impulse, np.r_[0, index[:-1] + 1], axis=0) \
+        if trajectory.impulse.size else trajectory.impulse[index]
+    residual = np.maximum.reduceat(trajectory.residual, np.r_[0, index[:-1] + 1]) \
+        if trajectory.residual.size else trajectory.residual[index]
+    return replace(trajectory, time=time[index], y=trajectory.y[index],
+                   current=trajectory.current[index], impulse=impulse, residual=residual,
+                   active=trajectory.active[index], switches=trajectory.switches[index])
+
 
 HUGE = 1e100
 """A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""

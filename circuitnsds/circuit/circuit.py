@@ -8,7 +8,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from circuitnsds.circuit.elements import Element
-from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
+from circuitnsds.errors import CircuitError, NetlistError, NetlistWarning, SourceLocation
 from circuitnsds.system.mlcs import MLCS, MLCSBuilder
 
 
@@ -136,9 +136,13 @@ class Circuit:
                 node_set.add(node)
 
     def set_tran(self, tran: TranSpec, location: SourceLocation | None = None) -> None:
-        if self.tran is not None:
-            raise NetlistError("more than one .tran line", where=location,
-                               hint="keep one .tran TSTEP TSTOP line")
+        if self.tran is not None:  # ngspice runs the first .tran and warns
+            import warnings
+
+            warnings.warn(f"{location or self.file}: second .tran line ignored: the first one "
+                          f"(at {self.tran.location}) runs, as in ngspice", NetlistWarning,
+                          stacklevel=2)
+            return
         self.tran = tran
 
     def element(self, name: str) -> Element:

@@ -21,7 +21,14 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from circuitnsds.cli.progress import ProgressBar
-from circuitnsds.errors import CircuitnsdsError, NetlistWarning, SimulationError, as_error, for_terminal
+from circuitnsds.errors import (
+    CircuitnsdsError,
+    NetlistWarning,
+    RunNote,
+    SimulationError,
+    as_error,
+    for_terminal,
+)
 from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
@@ -197,7 +204,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
     for warning in caught:
-        print(f"circuitnsds: warning: {for_terminal(str(warning.message))}", file=sys.stderr)
+        kind = "note" if issubclass(warning.category, RunNote) else "warning"
+        print(f"circuitnsds: {kind}: {for_terminal(str(warning.message))}", file=sys.stderr)
 
 
 @contextmanager

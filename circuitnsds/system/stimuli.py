@@ -263,6 +263,23 @@ class Exp(_TwoLevels):
 Stimulus = Dc | Sin | Pulse | Pwl | Exp
 
 
+POINTS_PER_PERIOD = 20
+"""A SIN, or a PULSE that repeats within the run, is resolved by a step of at most
+1/POINTS_PER_PERIOD of its period."""
+
+
+def resolving_step(stimulus: Stimulus, stop: float) -> float | None:
+    """The largest step [s] that resolves a resolved ``stimulus`` over ``[0, stop]``: its
+    period / :data:`POINTS_PER_PERIOD` for a SIN of nonzero amplitude or a PULSE whose period
+    is shorter than ``stop``; ``None`` for the others (their corners are grid points)."""
+    if isinstance(stimulus, Sin) and stimulus.amplitude != 0 and stimulus.frequency:
+        return 1.0 / (stimulus.frequency * POINTS_PER_PERIOD)
+    if (isinstance(stimulus, Pulse) and stimulus.initial != stimulus.pulsed
+            and stimulus.period is not None and stimulus.period < stop):
+        return stimulus.period / POINTS_PER_PERIOD
+    return None
+
+
 def threshold_crossings(stimulus: Stimulus, level: float, stop: float) -> list[float]:
     """Instants in ``(0, stop)`` where a piecewise-linear function crosses ``level`` mid-piece.
 

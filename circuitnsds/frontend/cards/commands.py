@@ -122,6 +122,10 @@ def _save(circuit: Circuit, statement: Statement) -> None:
     circuit.save_location = statement.location
 
 
+DEFAULT_STEPS = 1000
+"""``.tran 0 TSTOP`` and ``.tran TSTOP`` (LTspice) integrate with ``TSTOP/DEFAULT_STEPS``."""
+
+
 def _tran(reader: StatementReader) -> TranSpec:
     numbers: list[float] = []
     uic = False
@@ -132,9 +136,16 @@ def _tran(reader: StatementReader) -> TranSpec:
             reader.position += 1
         else:
             numbers.append(reader.value(".tran time"))
-    if not 2 <= len(numbers) <= 4:
-        raise reader.error(f".tran takes TSTEP TSTOP [TSTART [TMAX]] [UIC], got {len(numbers)} numbers")
+    if not 1 <= len(numbers) <= 4:
+        raise reader.error(".tran takes TSTEP TSTOP [TSTART [TMAX]] [UIC] (or LTspice's .tran TSTOP), "
+                           "got no number")
+    if len(numbers) == 1:  # LTspice: .tran TSTOP
+        numbers = [0.0, numbers[0]]
     step, stop = numbers[0], numbers[1]
+    if step == 0 and stop > 0:  # LTspice: .tran 0 TSTOP (the simulator chooses its step)
+        step = stop / DEFAULT_STEPS
+        reader.warn(f".tran without TSTEP (LTspice form): step TSTOP/{DEFAULT_STEPS} = "
+                    f"{format_si(step, 's')} (refined further where a source needs it)")
     start = numbers[2] if len(numbers) > 2 else 0.0
     max_step = numbers[3] if len(numbers) > 3 else None
     for what, value in (("TSTEP", step), ("TSTOP", stop)):
