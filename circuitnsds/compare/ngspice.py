@@ -215,6 +215,10 @@ def _call(function, *args) -> bool:
         function(*args)
     except (NgSpiceCommandError, NgSpiceCircuitError):
         return False
+    except NameError as exc:  # PySpice's "ngSpice_Circ returned 1": the circuit was not loaded
+        if "returned" not in str(exc):
+            raise
+        return False
     return True
 
 

@@ -244,6 +244,12 @@ def _model(logical: str, overrides: DiodeOverrides, translation: Translation, na
     if rest.startswith("(") and rest.endswith(")"):
         rest = rest[1:-1]
     params = {key.lower(): value for key, value in _PAIR.findall(rest)}
+    text = [key for key in ("mfg", "type") if key in params]
+    for key in text:
+        del params[key]
+    if text:
+        translation.notes.append(f"{name}: .model {model}: {', '.join(text)} removed (text "
+                                 "values, which ngspice cannot read)")
     if translation.ltspice and IDEAL_ONLY_PARAMETERS & params.keys():
         return _ltspice_model(model, params, translation, name)
     dropped = [key for key in params if key in IDEAL_ONLY_PARAMETERS]
