@@ -34,7 +34,8 @@ from circuitnsds.system.mlcs import MLCS
 __version__ = "0.1.0"
 
 
-def read_netlist(source: str | Path, *, strict: bool = False) -> Circuit:
+def read_netlist(source: str | Path, *, strict: bool = False,
+                 options: dict[str, float | str] | None = None) -> Circuit:
     """Read a netlist file (a path) or netlist text (a string with a newline) into a Circuit.
 
     Includes, parameters and subcircuits are expanded first (``.include`` paths in text
@@ -44,6 +45,7 @@ def read_netlist(source: str | Path, *, strict: bool = False) -> Circuit:
         source: a path, or netlist text.
         strict: every warning (an ignored construct here, a suspicious circuit later when
             the circuit is stamped or simulated) is an error instead (``Circuit.strict``).
+        options: ``.options`` values that override the netlist's, e.g. ``{"diode": "ideal"}``.
 
     Raises:
         NetlistError: malformed or unsupported input, with file:line (under ``strict``
@@ -57,9 +59,9 @@ def read_netlist(source: str | Path, *, strict: bool = False) -> Circuit:
 
     with strict_warnings() if strict else nullcontext():
         if isinstance(source, Path) or "\n" not in source:
-            circuit = elaborate(load_netlist(source))
+            circuit = elaborate(load_netlist(source), options)
         else:
-            circuit = elaborate(load_netlist_text(source))
+            circuit = elaborate(load_netlist_text(source), options)
     circuit.strict = strict
     return circuit
 

@@ -14,13 +14,15 @@ from decimal import Decimal
 _SCALES = {
     "t": "1e12", "g": "1e9", "meg": "1e6", "k": "1e3", "mil": "25.4e-6",
     "m": "1e-3", "u": "1e-6", "n": "1e-9", "p": "1e-12", "f": "1e-15",
+    "\u00b5": "1e-6",  # µ, which LTspice writes and ngspice reads as u (inpcom.c utf8_check)
+    "\u03bc": "1e-6",  # Greek mu, the same sign (and what µ becomes in lower case)
 }
 SCALE_FACTORS: dict[str, float] = {key: float(text) for key, text in _SCALES.items()}
 """Scale suffix (lower case) -> factor."""
 
 _NUMBER = re.compile(
     r"""^(?P<mantissa>[+-]?(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)
-         (?P<scale>meg|mil|[tgkmunpf])?
+         (?P<scale>meg|mil|[tgkmunpf\u00b5\u03bc])?
          (?P<unit>[a-z%]*)$""",
     re.IGNORECASE | re.VERBOSE,
 )

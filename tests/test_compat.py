@@ -174,3 +174,22 @@ def test_ltspice_tran_forms(line):
     with pytest.warns(circuitnsds.errors.NetlistWarning, match="TSTOP/1000"):
         circuit = circuit_from(f"V1 a 0 1\nR1 a 0 1k\n{line}")
     assert circuit.tran.stop == 10e-3 and circuit.tran.step == pytest.approx(10e-6)
+
+
+# source syntax of LTspice exports (spicelib's top_circuit.net has PULSE(... 1) and 1µ)
+
+def test_pulse_number_of_pulses_and_sine_cycles():
+    from circuitnsds.system.stimuli import Pulse, Sin
+
+    pulse = Pulse(0, 1, 1e-6, 0, 0, 1e-6, 2e-6, 2)  # two pulses, then V1
+    t = [0.5e-6, 1.5e-6, 2.5e-6, 3.5e-6, 4.5e-6, 5.5e-6, 7.5e-6]
+    assert [pulse.value(x) for x in t] == [0, 1, 0, 1, 0, 0, 0]
+    np.testing.assert_array_equal(pulse.sample(np.array(t)), [0, 1, 0, 1, 0, 0, 0])
+    assert max(pulse.breakpoints(10e-6)) <= 4e-6
+    sine = Sin(1.0, 2.0, 1e3, 0.0, 0.0, 30.0, 2)  # LTspice NCYCLES: two periods, then held
+    assert sine.value(1.5e-3) == pytest.approx(1 + 2 * math.sin(2 * math.pi * 1.5 + math.pi / 6))
+    assert sine.value(5e-3) == pytest.approx(1 + 2 * math.sin(math.pi / 6))
+    assert 2e-3 in sine.breakpoints(10e-3)
+    circuit = circuit_from("V1 a 0 PULSE(0 1 1n 1n 1n 1u 1u 1)\nR1 a b 10\nL1 b 0 1µ\n.tran 2u\n.backanno")
+    assert circuit.element("l1").inductance == 1e-6
+    assert circuit.elements[0].function.count == 1

@@ -165,7 +165,10 @@ def compare(
             currents of voltage sources, inductors and diodes.
         window: ``(t0, t1)`` [s]; default the whole output span.
         n: emission coefficient(s) forced on every diode model for ngspice; a
-            sequence makes a convergence study (one ngspice run per value).
+            sequence makes a convergence study (one ngspice run per value). With ``n``,
+            circuitnsds reads Shockley models as ideal diodes (``.options diode=ideal``):
+            the limit N -> 0; without it, as the PWL diodes fitted to them, compared with
+            ngspice at the models' own N.
         is_, rs, cjo: saturation current [A], series resistance [Ω], junction
             capacitance [F] forced on every diode model (``None``: the netlist's).
         step, stop: ``.tran`` TSTEP and TSTOP [s] for both simulators (default: the netlist's).
@@ -191,6 +194,10 @@ def compare(
     overrides = [DiodeOverrides(n=value, is_=is_, rs=rs, cjo=cjo) for value in grid]
     version = ngspice_version()  # a missing ngspice is reported before circuitnsds runs
     circuit = circuitnsds.read_netlist(source)
+    fitted = n is not None and any(str(getattr(model, "origin", "")).startswith("Shockley fit")
+                                   for model in circuit.models.values())
+    if fitted:  # a study in N converges to the ideal diode, not to the fitted PWL one
+        circuit = circuitnsds.read_netlist(source, options={"diode": "ideal"})
     _warm_up()
     started = time.perf_counter()
     waves = circuit.transient(step, stop, theta=theta)
@@ -206,6 +213,8 @@ def compare(
     off_resistance = 1.0 / float(circuit.options.get("gmin", 1e-12))
     ammeters = sorted({name[2:-1].split(".")[-1] for name in chosen if _element_letter(name) == "d"})
 
+    if step is None and circuit.tran is not None:
+        step = circuit.tran.step  # LTspice's .tran 0 TSTOP / .tran TSTOP: ngspice needs TSTEP > 0
     runs, notes = [], []
     for override in overrides:
         with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-") as scratch:
@@ -215,7 +224,10 @@ def compare(
                                             off_resistance=off_resistance)
             notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
                                 "ngbehavior=lta): the LTspice PWL diode models run as its "
-                                "sidiode code model"] if ltspice else []) + translation.notes)
+                                "sidiode code model"] if ltspice else [])
+                              + (["circuitnsds reads the Shockley diode models as ideal diodes "
+                                  "(diode=ideal), the limit of the study in N"] if fitted else [])
+                              + translation.notes)
             result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
                                  title=circuit.title, ltspice=ltspice)
         runs.append(_measure(result, waves, chosen, chosen_window))

@@ -53,7 +53,7 @@ ALIASES = {"is": ("is", "js"), "cjo": ("cjo", "cj0", "cj"), "n": ("n",), "rs": (
 #: Commands removed from the ngspice netlist (analyses other than .tran, output, saving).
 DROPPED_COMMANDS = frozenset(
     {".save", ".op", ".ac", ".dc", ".noise", ".tf", ".sens", ".pz", ".disto", ".four", ".meas",
-     ".measure", ".print", ".plot", ".probe", ".width"}
+     ".measure", ".print", ".plot", ".probe", ".width", ".backanno"}
 )
 
 _PAIR = re.compile(r"([A-Za-z_][\w.]*)\s*=\s*(\{[^}]*\}|'[^']*'|\"[^\"]*\"|[^\s,()=]+)")
@@ -307,6 +307,9 @@ def _tran(logical: str, step: float | None, stop: float | None) -> str:
         return logical
     tokens = _FIELD.findall(logical)  # an expression {...} or '...' is one field
     numbers = [token for token in tokens[1:] if not token.lower().startswith("uic")]
+    if len(numbers) == 1 and step is not None:  # LTspice's .tran TSTOP: ngspice needs TSTEP
+        tokens.insert(tokens.index(numbers[0]), f"{step:.12g}")
+        numbers.insert(0, tokens[tokens.index(numbers[0]) - 1])
     if step is not None and numbers:
         tokens[tokens.index(numbers[0])] = f"{step:.12g}"
     if stop is not None and len(numbers) > 1:

@@ -39,10 +39,10 @@ UNSUPPORTED_ELEMENTS = {
 SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A and X (subcircuit instances)"
 
 
-def elaborate(netlist: Netlist) -> Circuit:
+def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -> Circuit:
     """Build the :class:`Circuit` described by a flat ``netlist``.
 
-    Order: ``.options`` first (``gmin`` sets model defaults), then every
+    Order: ``.options`` first (``gmin`` sets model defaults; ``options`` override them), then every
     ``.model`` (a model may follow the elements using it), then elements and
     commands in netlist order, and couplings (``K``) last.
 
@@ -57,6 +57,7 @@ def elaborate(netlist: Netlist) -> Circuit:
     for statement in statements:
         if statement.keyword in commands.OPTION_KEYWORDS:
             circuit.options.update(commands.read_options(StatementReader(statement)))
+    circuit.options.update(options or {})
     off_resistance = 1.0 / circuit.options.get("gmin", 1.0 / DEFAULT_OFF_RESISTANCE)
     diodes = DiodeReading(ideal=circuit.options.get("diode") == "ideal",
                           fit_current=circuit.options.get("pwlfit"))

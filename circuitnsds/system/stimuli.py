@@ -57,7 +57,9 @@ class Sin:
     """``SIN(VO VA FREQ TD THETA PHASE)``: VO + VA·exp(-(t-TD)·THETA)·sin(2π·FREQ·(t-TD) + PHASE).
 
     Before ``TD`` the value is ``VO + VA·sin(PHASE)``. ``PHASE`` is in degrees,
-    ``THETA`` in 1/s. Default ``FREQ`` (omitted or 0) is ``1/TSTOP``.
+    ``THETA`` in 1/s. Default ``FREQ`` (omitted or 0) is ``1/TSTOP``. LTspice's 7th
+    argument ``NCYCLES`` ends the sine after that many periods: the value then holds
+    ``VO + VA·exp(-THETA·NCYCLES/FREQ)·sin(PHASE)``, its value at that instant.
     """
 
     offset: float
@@ -66,12 +68,15 @@ class Sin:
     delay: float = 0.0
     damping: float = 0.0
     phase_deg: float = 0.0
+    cycles: float | None = None
 
     def resolve(self, tstep: float, tstop: float) -> Sin:
         return _with_defaults(self, {"frequency": 1.0 / tstop}, zero_too=("frequency",))
 
     def value(self, t: float) -> float:
         phase = math.radians(self.phase_deg)
+        if self.cycles:
+            t = min(t, self.delay + self.cycles / self.frequency)
         if t <= self.delay:
             return self.offset + self.amplitude * math.sin(phase)
         tau = t - self.delay
@@ -82,6 +87,8 @@ class Sin:
     def sample(self, times: np.ndarray) -> np.ndarray:
         """:meth:`value` at every instant of ``times`` [s]."""
         times = np.asarray(times, dtype=float)
+        if self.cycles:
+            times = np.minimum(times, self.delay + self.cycles / self.frequency)
         phase = math.radians(self.phase_deg)
         tau = np.maximum(times - self.delay, 0.0)
         wave = self.offset + self.amplitude * np.exp(-tau * self.damping) * np.sin(
@@ -89,7 +96,10 @@ class Sin:
         return np.where(times <= self.delay, self.offset + self.amplitude * math.sin(phase), wave)
 
     def breakpoints(self, stop: float) -> list[float]:
-        return [self.delay] if 0 < self.delay < stop else []
+        points = [self.delay] if 0 < self.delay < stop else []
+        if self.cycles and 0 < self.delay + self.cycles / self.frequency < stop:
+            points.append(self.delay + self.cycles / self.frequency)
+        return points
 
 
 @dataclass(frozen=True)
@@ -103,7 +113,8 @@ class _TwoLevels:
 
 @dataclass(frozen=True)
 class Pulse(_TwoLevels):
-    """``PULSE(V1 V2 TD TR TF PW PER)``.
+    """``PULSE(V1 V2 TD TR TF PW PER [NP])``; after ``NP`` pulses (ngspice, LTspice's
+    ``Ncycles``) the value stays at ``V1``.
 
     Defaults: ``TD = 0``, ``TR = TF = TSTEP``, ``PW = PER = TSTOP`` (also for a
     PW or PER given as 0). A rise or fall time given as 0 is kept as an
@@ -115,13 +126,14 @@ class Pulse(_TwoLevels):
     fall: float | None = None
     width: float | None = None
     period: float | None = None
+    count: float | None = None
 
     def resolve(self, tstep: float, tstop: float) -> Pulse:
         return _with_defaults(self, {"rise": tstep, "fall": tstep, "width": tstop, "period": tstop},
                               zero_too=("width", "period"))
 
     def value(self, t: float) -> float:
-        if t <= self.delay:
+        if t <= self.delay or self._finished(t):
             return self.initial
         local = t - self.delay
         if self.period > 0:
@@ -171,7 +183,14 @@ class Pulse(_TwoLevels):
             [rising, np.full_like(local, self.pulsed), falling],
             default=self.initial,
         )
-        return np.where(times <= self.delay, self.initial, result)
+        done = self._finished(times)
+        return np.where((times <= self.delay) | done, self.initial, result)
+
+    def _finished(self, t):
+        """After ``count`` pulses (ngspice's 8th argument ``NP``) the source stays at ``V1``."""
+        if not self.count:
+            return np.zeros_like(t, dtype=bool) if isinstance(t, np.ndarray) else False
+        return t >= self.delay + self.count * self.period
 
     def breakpoints(self, stop: float) -> list[float]:
         corners = np.array([0.0, self.rise, self.rise + self.width,
@@ -179,8 +198,10 @@ class Pulse(_TwoLevels):
         if self.period <= 0:
             starts = np.array([self.delay])
         else:
-            starts = self.delay + self.period * np.arange(
-                max(1, math.ceil((stop - self.delay) / self.period) + 1))
+            pulses = max(1, math.ceil((stop - self.delay) / self.period) + 1)
+            if self.count:
+                pulses = min(pulses, math.ceil(self.count))
+            starts = self.delay + self.period * np.arange(pulses)
         times = (starts[:, None] + corners[None, :]).ravel()
         return sorted(float(t) for t in times if 0 < t < stop)
 
@@ -275,7 +296,8 @@ def resolving_step(stimulus: Stimulus, stop: float) -> float | None:
     if isinstance(stimulus, Sin) and stimulus.amplitude != 0 and stimulus.frequency:
         return 1.0 / (stimulus.frequency * POINTS_PER_PERIOD)
     if (isinstance(stimulus, Pulse) and stimulus.initial != stimulus.pulsed
-            and stimulus.period is not None and stimulus.period < stop):
+            and stimulus.period is not None and stimulus.period < stop
+            and (stimulus.count is None or stimulus.count > 1)):
         return stimulus.period / POINTS_PER_PERIOD
     return None
 

@@ -23,7 +23,9 @@ IGNORED_COMMANDS = {
     ".meas": ".meas is not supported; compute measurements from the waveforms (run --measure)",
     ".measure": ".meas is not supported; compute measurements from the waveforms (run --measure)",
     ".temp": "the ideal devices have no temperature dependence",
-    ".width": "output formatting does not apply", ".nodeset": "the ideal operating point needs no hints",
+    ".width": "output formatting does not apply",
+    ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
+    ".nodeset": "the ideal operating point needs no hints",
 }
 
 UNSUPPORTED_COMMANDS = {".func", ".csparam", ".if", ".else", ".elseif", ".endif"}

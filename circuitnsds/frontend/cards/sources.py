@@ -74,7 +74,7 @@ def _is_number(token: str | None) -> bool:
     return token is not None and is_value(token)
 
 
-FUNCTION_ARITY = {"sin": (2, 6), "pulse": (2, 7), "exp": (2, 6), "pwl": (2, None)}
+FUNCTION_ARITY = {"sin": (2, 7), "pulse": (2, 8), "exp": (2, 6), "pwl": (2, None)}
 
 
 def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, float] | None]:
@@ -135,9 +135,15 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
         expected = f"{low} to {high}" if high else f"at least {low}"
         raise reader.error(f"{name}: {kind.upper()} takes {expected} numbers, got {len(args)}")
     if kind == "sin":
-        return Sin(*args[:2], *_defaults(args[2:], [None, 0.0, 0.0, 0.0]))
+        function = Sin(*args[:2], *_defaults(args[2:], [None, 0.0, 0.0, 0.0, None]))
+        if function.cycles is not None and function.cycles <= 0:
+            raise reader.error(f"{name}: SIN NCYCLES (7th argument) must be positive")
+        return function
     if kind == "pulse":
-        pulse = Pulse(*args[:2], *_defaults(args[2:], [0.0, None, None, None, None]))
+        pulse = Pulse(*args[:2], *_defaults(args[2:], [0.0, None, None, None, None, None]))
+        if pulse.count is not None and pulse.count <= 0:
+            raise reader.error(f"{name}: PULSE NP (8th argument, the number of pulses) must be "
+                               "positive")
         if any(x is not None and x < 0 for x in (pulse.rise, pulse.fall, pulse.width)):
             raise reader.error(f"{name}: PULSE rise, fall and width must not be negative")
         return pulse
