@@ -119,7 +119,7 @@ def test_vendor_model_text_values_are_read():
         ("V1 a 0 PWL(0 0 1m)", r"PWL needs time-value pairs"),
         ("V1 a 0 PWL(1m 0 0 1)", r"PWL times must not decrease"),
         ("V1 a 0 SFFM(0 1 1k 5 100)", r"SFFM sources are not supported"),
-        ("V1 a 0 SIN(0)", r"SIN takes 2 to 6 numbers"),
+        ("V1 a 0 SIN(0)", r"SIN takes 2 to 7 numbers"),
         (".tran uic", r"\.tran takes TSTEP TSTOP"),
         (".tran 1u 1m 2m", r"TSTART"),
         (".ic v(nowhere)=1\nR1 a 0 1", r"\.ic names node 'nowhere'"),

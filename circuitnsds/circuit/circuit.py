@@ -83,6 +83,8 @@ class Circuit:
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
         options: ``.options`` the engine uses (``theta``, ``gmin``, ``pwlfit``, ``diode``).
+        measurements: the ``.meas tran`` statements (:class:`circuitnsds.output.meas.MeasureSpec`).
+        fourier: the ``.four`` statements (:class:`circuitnsds.output.meas.FourierSpec`).
         saved_signals: signals named by ``.save`` (what the command line writes by default).
         strict: make every warning about the netlist or the circuit an error when the
             circuit is stamped or simulated (``read_netlist(..., strict=True)`` sets it).
@@ -101,6 +103,8 @@ class Circuit:
     file: str = "<text>"
     options: dict[str, float | str] = field(default_factory=dict)
     saved_signals: list[str] = field(default_factory=list)
+    measurements: list = field(default_factory=list)
+    fourier: list = field(default_factory=list)
     save_location: SourceLocation | None = None
     strict: bool = False
     reported: set[str] = field(default_factory=set, repr=False, compare=False)

@@ -148,8 +148,8 @@ def _add_output_arguments(command: argparse.ArgumentParser) -> None:
                          help="open the figure in a window (needs a display)")
     command.add_argument("--measure", action="append", default=[], metavar="EXPR",
                          help='measure on the results, e.g. "mean(v(out))", "ripple(v(out), 80m, '
-                         '100m)", "power(rload, period=20m)", "thd(v(in), 50)"; repeatable; printed '
-                         "as a table")
+                         '100m)", "power(rload, period=20m)", "thd(v(in), 50)", or ngspice\'s .meas '
+                         'syntax "tran vavg AVG v(out) from=1m to=2m"; repeatable; printed as a table')
     command.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
                          "(default: all)")
     command.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
@@ -226,12 +226,18 @@ def _prepare(args: argparse.Namespace):
     circuit = read_netlist(args.netlist)
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
+    meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
+    args.measure = [e for e in args.measure if e not in meas_lines]
     for expression in args.measure:  # syntax errors before a long run, not after it
         parse_measurement(expression)
     if args.plot:  # an unknown figure format before a long run, not after it
         from circuitnsds.output.plot import plot_format
 
         plot_format(args.plot)
+    if meas_lines:  # ngspice's syntax: --measure "tran vavg AVG v(out) from=1m to=2m"
+        from circuitnsds.output.meas import parse_meas
+
+        circuit.measurements.extend(parse_meas(f".meas {line}") for line in meas_lines)
     if args.show:
         from circuitnsds.output.plot import check_display
 
@@ -333,6 +339,13 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
 
         print(format_table([evaluate(expression, waves, circuit) for expression in args.measure]),
               flush=True)
+    if circuit.measurements or circuit.fourier:  # printed as ngspice prints them
+        from circuitnsds.output.meas import fourier, run_measurements
+
+        for result in run_measurements(circuit.measurements, waves):
+            print(result.line, flush=True)
+        for spec in circuit.fourier:
+            print(fourier(spec, waves), flush=True)
     if not args.quiet:
         print(f"circuitnsds: {summary}; wrote {', '.join(map(str, written))}", file=sys.stderr)
     if args.show:

@@ -36,11 +36,14 @@ class RunComparison:
             (a failure is reported, not measured).
         resampled: signal -> ngspice's values on circuitnsds's time grid [V or A]
             (NaN where ngspice has no value: after it stopped).
+        measurements: ``.meas`` name -> (circuitnsds's value, ngspice's printed value; NaN
+            where one of them has none).
     """
 
     ngspice: NgspiceRun
     metrics: dict[str, SignalMetrics] = field(default_factory=dict)
     resampled: dict[str, np.ndarray] = field(default_factory=dict)
+    measurements: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     @property
     def overrides(self) -> DiodeOverrides:
@@ -221,7 +224,8 @@ def compare(
             translation = translate_netlist(source, overrides=override, step=step, stop=stop,
                                             saves=saves, ammeters=ammeters, options=ngspice_options,
                                             scratch=Path(scratch), ltspice=ltspice,
-                                            off_resistance=off_resistance)
+                                            off_resistance=off_resistance,
+                                            measures=bool(circuit.measurements))
             notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
                                 "ngbehavior=lta): the LTspice PWL diode models run as its "
                                 "sidiode code model"] if ltspice else [])
@@ -231,6 +235,12 @@ def compare(
             result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
                                  title=circuit.title, ltspice=ltspice)
         runs.append(_measure(result, waves, chosen, chosen_window))
+        if circuit.measurements:
+            from circuitnsds.output.meas import run_measurements
+
+            ours = {r.name: r.value for r in run_measurements(circuit.measurements, waves)}
+            runs[-1].measurements = {name: (value, result.measurements.get(name, float("nan")))
+                                     for name, value in ours.items()}
     return Comparison(
         netlist=str(source) if "\n" not in str(source) else "<text>",
         title=circuit.title,

@@ -60,6 +60,8 @@ class NgspiceRun:
         missing: requested signals ngspice did not provide.
         messages: ngspice's stderr lines (and stdout lines that mention errors).
         netlist: the netlist text ngspice was given.
+        measurements: the ``.meas`` results ngspice printed (``name -> value``), when the
+            netlist kept its ``.meas`` lines (``translate_netlist(..., measures=True)``).
     """
 
     status: str
@@ -72,6 +74,7 @@ class NgspiceRun:
     missing: list[str] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
     netlist: str = ""
+    measurements: dict[str, float] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -181,6 +184,7 @@ def run_ngspice(
             result.seconds = time.perf_counter() - start
             plots = [name for name in engine.plot_names if name not in before and name.startswith("tran")]
             result.messages = _messages(engine.lines)
+            result.measurements = _measurements(engine.lines)
             if not plots and load_errors:
                 # the circuit was not loaded (the previous one was removed: nothing ran)
                 result.status = "rejected"
@@ -227,6 +231,20 @@ def _reset(engine) -> None:
     for command in ("destroy all", "remcirc", "unset ngbehavior"):
         _call(engine.exec_command, command)
     engine.lines.clear()
+
+
+_MEASURED = re.compile(r"^(\S+)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(?:\s|$)")
+
+
+def _measurements(lines: list[str]) -> dict[str, float]:
+    """``name = value ...`` lines of ngspice's ``.meas`` output on stdout."""
+    found = {}
+    for line in lines:
+        stream, _, content = line.partition(" ")
+        match = _MEASURED.match(content.strip()) if stream == "stdout" else None
+        if match:
+            found[match.group(1).lower()] = float(match.group(2))
+    return found
 
 
 def _stderr(lines: list[str]) -> list[str]:

@@ -97,6 +97,11 @@ def format_table(comparison: Comparison) -> str:
                              + ("  (negligible)" if metric.negligible else ""))
         elif run.ngspice.missing and run.ok:
             lines.append(f"  ngspice provided none of: {', '.join(run.ngspice.missing)}")
+        if run.measurements:
+            lines.append(f"  {'.meas':<16}{'circuitnsds':>16}{'ngspice':>16}{'relative':>12}")
+            for name, (ours, theirs) in run.measurements.items():
+                relative = abs(ours - theirs) / max(abs(theirs), 1e-300)
+                lines.append(f"  {name:<16}{ours:>16.7g}{theirs:>16.7g}{relative:>12.2e}")
     if len(comparison.runs) > 1:
         lines.append("")
         lines.append("convergence (largest error over the signals):")

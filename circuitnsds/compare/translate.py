@@ -117,6 +117,7 @@ class Translation:
     ammeters: set[str] = field(default_factory=set)
     ltspice: bool = False
     off_resistance: float = 1e12
+    measures: bool = False
 
 
 def translate_netlist(
@@ -131,6 +132,7 @@ def translate_netlist(
     scratch: Path | None = None,
     ltspice: bool = False,
     off_resistance: float = 1e12,
+    measures: bool = False,
 ) -> Translation:
     """Rewrite a netlist for ngspice (see the module docstring for what changes).
 
@@ -147,6 +149,7 @@ def translate_netlist(
         ltspice: keep LTspice PWL diode models for ngspice's LTspice mode (see above).
         off_resistance: ``Roff`` [Ω] written into LTspice PWL models that give none
             (circuitnsds's 1/gmin).
+        measures: keep the ``.meas``/``.measure`` lines (ngspice prints their results).
 
     Raises:
         NetlistError: an included file cannot be read, or ``.include`` is used without
@@ -159,7 +162,7 @@ def translate_netlist(
     else:
         text, base, name = source, Path.cwd(), "<text>"
     translation = Translation("", ammeters={name.lower() for name in ammeters}, ltspice=ltspice,
-                              off_resistance=off_resistance)
+                              off_resistance=off_resistance, measures=measures)
     lines = physical_lines(text)
     if not lines:
         raise NetlistError("the netlist is empty", where=name)
@@ -215,6 +218,9 @@ def _translate_lines(
             continue
         if keyword == ".end":
             break
+        if keyword in {".meas", ".measure"} and translation.measures:
+            out.extend(physical)
+            continue
         if keyword in DROPPED_COMMANDS:
             translation.notes.append(f"{name}: {keyword} removed")
             continue

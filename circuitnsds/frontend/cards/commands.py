@@ -19,9 +19,7 @@ IGNORED_COMMANDS = {
     ".dc": "only .tran is supported",
     ".noise": "only .tran is supported", ".tf": "only .tran is supported",
     ".sens": "only .tran is supported", ".pz": "only .tran is supported",
-    ".disto": "only .tran is supported", ".four": "Fourier analysis is not supported",
-    ".meas": ".meas is not supported; compute measurements from the waveforms (run --measure)",
-    ".measure": ".meas is not supported; compute measurements from the waveforms (run --measure)",
+    ".disto": "only .tran is supported",
     ".temp": "the ideal devices have no temperature dependence",
     ".width": "output formatting does not apply",
     ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
@@ -93,6 +91,18 @@ def command(circuit: Circuit, statement: Statement) -> None:
         _initial_conditions(circuit, reader)
     elif keyword == ".save":
         _save(circuit, statement)
+    elif keyword in {".meas", ".measure"}:
+        from circuitnsds.output.meas import parse_meas
+
+        spec = parse_meas(statement.text, statement.location)
+        if spec is None:
+            reader.warn(f"{keyword} ignored (only .meas tran is run): {statement.text}")
+        else:
+            circuit.measurements.append(spec)
+    elif keyword == ".four":
+        from circuitnsds.output.meas import parse_four
+
+        circuit.fourier.append(parse_four(statement.text, statement.location))
     elif keyword == ".title":
         circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""
     elif keyword in IGNORED_COMMANDS:

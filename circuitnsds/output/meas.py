@@ -1,0 +1,445 @@
+"""ngspice's ``.meas tran`` statements and ``.four``, executed on circuitnsds's waveforms.
+
+Supported (ngspice manual, "MEASUREMENTS"; semantics of ngspice 39's ``com_measure2.c``):
+
+* ``.meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG|MIN_AT|MAX_AT OUT [FROM=t] [TO=t] [TD=t]``:
+  AVG is the trapezoidal average over the grid points inside the window, RMS and INTEG
+  integrate the piecewise-linear curve with the window's ends interpolated, MIN/MAX (and
+  their instants, MIN_AT/MAX_AT) are taken over the grid points inside the window; PP is
+  MAX − MIN. ``TD`` moves the window's start (``max(FROM, TD)``).
+* ``.meas tran NAME WHEN OUT=VAL [RISE=n|FALL=n|CROSS=n|...=LAST] [TD=t] [FROM=t] [TO=t]``:
+  the instant of that crossing (linear interpolation between grid points); ``OUT=OUT2``
+  compares two signals. Without RISE/FALL/CROSS: the first crossing.
+* ``.meas tran NAME FIND OUT AT=t`` and ``FIND OUT WHEN OUT2=VAL ...``: the value of OUT there;
+  ``DERIV OUT AT=t`` / ``DERIV OUT WHEN ...``: its time derivative there (the slope of the
+  grid segment that holds the instant).
+* ``.meas tran NAME TRIG OUT VAL=v [TD RISE FALL CROSS] TARG OUT VAL=v [...]`` (or
+  ``TRIG AT=t``): the time from the trigger crossing to the target crossing.
+
+``OUT`` is ``v(node)``, ``v(a,b)`` or ``i(element)`` (any circuitnsds signal). Results print as
+ngspice prints them (``name = value`` with the window or instant). ``.four FREQ OUT ...`` prints
+the first nine harmonics of each output over the last period, as ngspice's Fourier analysis.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from circuitnsds.errors import NetlistError, SourceLocation
+from circuitnsds.output.measure import MeasurementError, _series, window
+from circuitnsds.output.waveforms import Waveforms
+from circuitnsds.values import parse_value
+
+WINDOW_KINDS = {"avg", "rms", "min", "max", "pp", "integ", "integral", "min_at", "max_at"}
+POINT_KINDS = {"when", "find", "deriv", "derivative", "trig"}
+LAST = -1
+"""``RISE=LAST`` (and FALL, CROSS): the last crossing."""
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """Where a WHEN/TRIG/TARG condition holds: ``signal`` crosses ``level`` (a number, or
+    another signal's name) for the ``count``-th time in ``direction`` (``rise``, ``fall``
+    or ``cross``; ``count`` :data:`LAST` for the last), ignoring times before ``delay``
+    and outside ``[start, stop]``; or, with ``at``, simply the instant ``at`` [s]."""
+
+    signal: str | None = None
+    level: float | str | None = None
+    direction: str = "cross"
+    count: int = 0
+    delay: float = 0.0
+    start: float | None = None
+    stop: float | None = None
+    at: float | None = None
+
+
+@dataclass(frozen=True)
+class MeasureSpec:
+    """One ``.meas tran`` statement, parsed.
+
+    Attributes:
+        name: the result's name (lower case).
+        kind: ``avg``, ``rms``, ``min``, ``max``, ``pp``, ``integ``, ``min_at``, ``max_at``,
+            ``when``, ``find``, ``deriv`` or ``trig``.
+        signal: OUT of window and FIND/DERIV measurements.
+        start, stop, delay: FROM, TO, TD [s].
+        when: the WHEN (or AT) condition; trig/targ: those of TRIG ... TARG.
+        text: the statement; location: its file:line.
+    """
+
+    name: str
+    kind: str
+    signal: str | None = None
+    start: float | None = None
+    stop: float | None = None
+    delay: float = 0.0
+    when: Crossing | None = None
+    trig: Crossing | None = None
+    targ: Crossing | None = None
+    text: str = ""
+    location: SourceLocation | None = None
+
+
+@dataclass
+class MeasureResult:
+    """A measurement's value and ngspice's printed line.
+
+    Attributes:
+        name: the measurement's name.
+        value: the result [unit of the signal, its integral, or s]; NaN when the condition
+            never holds (ngspice then prints an error and no value).
+        line: the line as ngspice prints it (``name = value ...``) or its failure message.
+        extra: the instants printed with it (``from``/``to``/``at``/``targ``/``trig``).
+    """
+
+    name: str
+    value: float
+    line: str
+    extra: dict[str, float] = field(default_factory=dict)
+
+
+_SIGNAL = r"[a-z]+\([^()]*\)"
+_TOKEN = re.compile(rf"{_SIGNAL}|'[^']*'|\{{[^}}]*\}}|[^\s=]+|=", re.IGNORECASE)
+
+
+def parse_meas(text: str, location: SourceLocation | None = None) -> MeasureSpec | None:
+    """Parse a ``.meas``/``.measure`` line; ``None`` (with nothing to do) for analyses other
+    than ``tran``, which the caller reports.
+
+    Raises:
+        NetlistError: a syntax circuitnsds does not read (with what to write instead).
+    """
+    tokens = [token.lower().replace(" ", "") if token.startswith(("v(", "i(", "V(", "I("))
+              else token.lower() for token in _TOKEN.findall(text)]
+
+    def fail(message: str) -> NetlistError:
+        return NetlistError(f"{tokens[0] if tokens else '.meas'}: {message}", where=location,
+                            text=text, hint="write .meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG OUT "
+                            "[FROM=t TO=t], .meas tran NAME WHEN OUT=VAL [RISE=n], .meas tran NAME "
+                            "FIND OUT AT=t, or .meas tran NAME TRIG ... TARG ...")
+
+    if len(tokens) < 4:
+        raise fail("too few fields")
+    analysis, name, kind = tokens[1], tokens[2], tokens[3]
+    if analysis != "tran":
+        return None
+    rest = tokens[4:]
+    if kind == "param" or kind.startswith("param"):
+        raise fail("PARAM= expressions of other measurements are not supported")
+    if kind in {"integral"}:
+        kind = "integ"
+    if kind == "derivative":
+        kind = "deriv"
+    if kind in WINDOW_KINDS:
+        if not rest or "=" in rest[:2] and rest[1:2] == ["="]:
+            raise fail(f"{kind.upper()} needs a signal, e.g. v(out)")
+        signal, options = rest[0], _options(rest[1:], fail)
+        _only(options, {"from", "to", "td"}, kind, fail)
+        return MeasureSpec(name, kind, signal=signal, start=options.get("from"),
+                           stop=options.get("to"), delay=options.get("td", 0.0), text=text,
+                           location=location)
+    if kind == "when":
+        return MeasureSpec(name, "when", when=_condition(rest, fail), text=text, location=location)
+    if kind in {"find", "deriv"}:
+        if not rest:
+            raise fail(f"{kind.upper()} needs a signal")
+        signal, rest = rest[0], rest[1:]
+        if rest[:1] == ["when"]:
+            return MeasureSpec(name, kind, signal=signal, when=_condition(rest[1:], fail), text=text,
+                               location=location)
+        options = _options(rest, fail)
+        if "at" not in options:
+            raise fail(f"{kind.upper()} needs AT=t or WHEN ...")
+        return MeasureSpec(name, kind, signal=signal, when=Crossing(at=options["at"]), text=text,
+                           location=location)
+    if kind == "trig":
+        if "targ" not in rest:
+            raise fail("TRIG needs a TARG part")
+        split = rest.index("targ")
+        return MeasureSpec(name, "trig", trig=_trigger(rest[:split], fail),
+                           targ=_trigger(rest[split + 1:], fail), text=text, location=location)
+    raise fail(f"{kind.upper()} measurements are not supported")
+
+
+def _options(tokens: list[str], fail) -> dict[str, float]:
+    """``key = value`` pairs; RISE/FALL/CROSS=LAST become :data:`LAST`."""
+    options: dict[str, float] = {}
+    k = 0
+    while k < len(tokens):
+        if k + 2 >= len(tokens) + 0 and not (k + 2 < len(tokens) + 1):
+            raise fail(f"expected key=value, found {' '.join(tokens[k:])!r}")
+        if k + 2 > len(tokens) or tokens[k + 1] != "=":
+            raise fail(f"expected key=value, found {' '.join(tokens[k:k + 3])!r}")
+        key, text = tokens[k], tokens[k + 2]
+        if key in {"rise", "fall", "cross"} and text == "last":
+            options[key] = LAST
+        else:
+            try:
+                options[key] = parse_value(text)
+            except ValueError:
+                raise fail(f"{key}={text}: not a number") from None
+        k += 3
+    return options
+
+
+def _only(options: dict, allowed: set[str], kind: str, fail) -> None:
+    extra = sorted(set(options) - allowed)
+    if extra:
+        raise fail(f"{kind.upper()} does not take {', '.join(extra)}")
+
+
+def _edge(options: dict) -> tuple[str, int]:
+    given = [key for key in ("rise", "fall", "cross") if key in options]
+    if len(given) > 1:
+        raise ValueError("give one of RISE, FALL and CROSS")
+    if not given:
+        return "cross", 0
+    return given[0], int(options[given[0]])
+
+
+def _condition(tokens: list[str], fail) -> Crossing:
+    """``OUT=VAL [RISE=n ...] [TD=t] [FROM=t] [TO=t]`` (VAL a number or a signal)."""
+    if len(tokens) < 3 or tokens[1] != "=":
+        raise fail("WHEN needs OUT=VAL, e.g. WHEN v(out)=2.5")
+    signal, level_text = tokens[0], tokens[2]
+    try:
+        level: float | str = parse_value(level_text)
+    except ValueError:
+        level = level_text
+    options = _options(tokens[3:], fail)
+    _only(options, {"rise", "fall", "cross", "td", "from", "to"}, "when", fail)
+    try:
+        direction, count = _edge(options)
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    return Crossing(signal, level, direction, count, options.get("td", 0.0), options.get("from"),
+                    options.get("to"))
+
+
+def _trigger(tokens: list[str], fail) -> Crossing:
+    """``OUT VAL=v [TD=t] [RISE|FALL|CROSS=n]`` or ``AT=t``."""
+    if tokens[:1] == ["at"]:
+        options = _options(tokens, fail)
+        return Crossing(at=options["at"])
+    if not tokens:
+        raise fail("TRIG/TARG needs a signal and VAL=")
+    options = _options(tokens[1:], fail)
+    _only(options, {"val", "td", "rise", "fall", "cross"}, "trig/targ", fail)
+    if "val" not in options:
+        raise fail("TRIG/TARG needs VAL=")
+    try:
+        direction, count = _edge(options)
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    return Crossing(tokens[0], options["val"], direction, count, options.get("td", 0.0))
+
+
+def crossing_time(waves: Waveforms, condition: Crossing) -> float:
+    """The instant [s] where ``condition`` holds (NaN if it never does)."""
+    if condition.at is not None:
+        return float(condition.at)
+    time, values = _series(waves, condition.signal)
+    if isinstance(condition.level, str):
+        values = values - _series(waves, condition.level)[1]
+        level = 0.0
+    else:
+        level = float(condition.level)
+    start = max(condition.delay, condition.start if condition.start is not None else -math.inf)
+    keep = time >= start
+    if condition.stop is not None:
+        keep &= time <= condition.stop
+    t, v = time[keep], values[keep] - level
+    if t.size < 2:
+        return math.nan
+    above = v[0] >= 0
+    found: list[float] = []
+    for k in range(1, t.size):
+        rising = not above and v[k] >= 0
+        falling = above and v[k] <= 0
+        if not (rising or falling):
+            continue
+        above = rising
+        if (condition.direction == "rise" and not rising) or (condition.direction == "fall"
+                                                            and not falling):
+            continue
+        slope = v[k] - v[k - 1]
+        instant = t[k] if slope == 0 else t[k - 1] - v[k - 1] * (t[k] - t[k - 1]) / slope
+        found.append(float(instant))
+        if condition.count in (0, len(found)):
+            return found[-1]
+    if condition.count == LAST and found:
+        return found[-1]
+    return math.nan
+
+
+def _value_at(waves: Waveforms, signal: str, instant: float) -> float:
+    time, values = _series(waves, signal)
+    if not time[0] <= instant <= time[-1]:
+        return math.nan
+    return float(np.interp(instant, time, values))
+
+
+def _slope_at(waves: Waveforms, signal: str, instant: float) -> float:
+    time, values = _series(waves, signal)
+    if not time[0] <= instant <= time[-1]:
+        return math.nan
+    k = int(np.clip(np.searchsorted(time, instant, side="right") - 1, 0, time.size - 2))
+    return float((values[k + 1] - values[k]) / (time[k + 1] - time[k]))
+
+
+def run_measurement(spec: MeasureSpec, waves: Waveforms) -> MeasureResult:
+    """Execute one measurement on ``waves``; a condition that never holds gives NaN and
+    ngspice's message (``out of interval``)."""
+    try:
+        return _run(spec, waves)
+    except MeasurementError as exc:
+        raise MeasurementError(exc.message, where=str(spec.location or ".meas"),
+                               hint=exc.hint) from None
+
+
+def _line(name: str, value: float, **extra: float) -> str:
+    return f"{name:<20}=  {value:e}" + "".join(f" {key}=  {number:e}" for key, number in extra.items())
+
+
+def _failed(spec: MeasureSpec) -> MeasureResult:
+    return MeasureResult(spec.name, math.nan,
+                         f"Error: measure  {spec.name}  {spec.kind.upper()} : out of interval")
+
+
+def _run(spec: MeasureSpec, waves: Waveforms) -> MeasureResult:
+    kind = spec.kind
+    if kind in WINDOW_KINDS:
+        time, values = _series(waves, spec.signal)
+        start = max(spec.delay, spec.start if spec.start is not None else time[0])
+        stop = spec.stop if spec.stop else time[-1]
+        inside = (time >= start) & (time <= stop)
+        if inside.sum() < 1 or start >= stop:
+            return _failed(spec)
+        t, v = time[inside], values[inside]
+        if kind == "avg":
+            if t.size < 2:
+                return _failed(spec)
+            value = float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+            return MeasureResult(spec.name, value, _line(spec.name, value, **{"from": start, "to": t[-1]}),
+                                 {"from": start, "to": float(t[-1])})
+        if kind in {"rms", "integ"}:
+            wt, wv = window(time, values, start, min(stop, time[-1]))
+            integral = float(np.sum(0.5 * (wv[1:] + wv[:-1]) * np.diff(wt)))
+            if kind == "integ":
+                value = integral
+            else:
+                squares = float(np.sum(np.diff(wt) * (wv[1:] ** 2 + wv[1:] * wv[:-1] + wv[:-1] ** 2) / 3))
+                value = math.sqrt(squares / (wt[-1] - wt[0]))
+            extra = {"from": float(wt[0]), "to": float(wt[-1])}
+            return MeasureResult(spec.name, value, _line(spec.name, value, **extra), extra)
+        low, high = int(np.argmin(v)), int(np.argmax(v))
+        if kind == "pp":
+            value = float(v[high] - v[low])
+            extra = {"from": start, "to": stop}
+            return MeasureResult(spec.name, value, _line(spec.name, value, **extra), extra)
+        index = low if kind.startswith("min") else high
+        if kind.endswith("_at"):
+            value = float(t[index])
+            return MeasureResult(spec.name, value, _line(spec.name, value, **{"with": float(v[index])}),
+                                 {"with": float(v[index])})
+        value = float(v[index])
+        return MeasureResult(spec.name, value, _line(spec.name, value, at=float(t[index])),
+                             {"at": float(t[index])})
+    if kind == "when":
+        value = crossing_time(waves, spec.when)
+        if math.isnan(value):
+            return _failed(spec)
+        return MeasureResult(spec.name, value, _line(spec.name, value))
+    if kind in {"find", "deriv"}:
+        instant = crossing_time(waves, spec.when)
+        if math.isnan(instant):
+            return _failed(spec)
+        value = (_value_at if kind == "find" else _slope_at)(waves, spec.signal, instant)
+        if math.isnan(value):
+            return _failed(spec)
+        return MeasureResult(spec.name, value, _line(spec.name, value), {"at": instant})
+    trig, targ = crossing_time(waves, spec.trig), crossing_time(waves, spec.targ)
+    if math.isnan(trig) or math.isnan(targ):
+        return _failed(spec)
+    value = targ - trig
+    return MeasureResult(spec.name, value, _line(spec.name, value, targ=targ, trig=trig),
+                         {"targ": targ, "trig": trig})
+
+
+def run_measurements(specs: list[MeasureSpec], waves: Waveforms) -> list[MeasureResult]:
+    """Every measurement of a netlist, in order."""
+    return [run_measurement(spec, waves) for spec in specs]
+
+
+@dataclass(frozen=True)
+class FourierSpec:
+    """``.four FREQ OUT ...``: the fundamental [Hz] and the outputs."""
+
+    frequency: float
+    signals: tuple[str, ...]
+    location: SourceLocation | None = None
+
+
+def parse_four(text: str, location: SourceLocation | None = None) -> FourierSpec:
+    """Parse ``.four FREQ OUT1 [OUT2 ...]``."""
+    tokens = _TOKEN.findall(text)
+    try:
+        frequency = parse_value(tokens[1])
+    except (IndexError, ValueError):
+        raise NetlistError(".four needs the fundamental frequency", where=location, text=text,
+                           hint="write .four 50 v(out)") from None
+    signals = tuple(token.lower().replace(" ", "") for token in tokens[2:])
+    if not signals or frequency <= 0:
+        raise NetlistError(".four needs a positive frequency and at least one output",
+                           where=location, text=text, hint="write .four 50 v(out)")
+    return FourierSpec(frequency, signals, location)
+
+
+FOURIER_HARMONICS = 9
+"""ngspice's default number of harmonics (``nfreqs``)."""
+
+
+def fourier_coefficients(waves: Waveforms, signal: str, frequency: float,
+                         count: int = FOURIER_HARMONICS, samples: int = 1024
+                         ) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(dc, magnitudes, phases [degrees])`` of harmonics 1..``count`` over the last period.
+
+    The period is resampled uniformly (linear interpolation) on ``samples`` points; phases
+    are SPICE's: relative to a sine, ``atan2(cosine part, sine part)`` (a sine has 0°).
+    """
+    period = 1.0 / frequency
+    t1 = float(waves.time[-1])
+    t, y = window(waves, signal, t1 - period, t1)
+    uniform = t1 - period + period * np.arange(samples) / samples
+    spectrum = np.fft.rfft(np.interp(uniform, t, y)) / samples
+    phase0 = 2 * np.pi * (t1 - period) * frequency * np.arange(1, count + 1)
+    coefficients = 2.0 * spectrum[1:count + 1] * np.exp(-1j * phase0)  # cos - j sin parts
+    cosine, sine = coefficients.real, -coefficients.imag
+    return (float(spectrum[0].real), np.hypot(cosine, sine),
+            np.degrees(np.arctan2(cosine, sine)))
+
+
+def fourier(spec: FourierSpec, waves: Waveforms) -> str:
+    """ngspice-style Fourier table of each output over the last period of the run."""
+    blocks = []
+    for signal in spec.signals:
+        dc, magnitudes, phases = fourier_coefficients(waves, signal, spec.frequency)
+        fundamental = magnitudes[0]
+        thd = (math.sqrt(float(np.sum(magnitudes[1:] ** 2))) / fundamental * 100
+               if fundamental else math.nan)
+        lines = [f"Fourier analysis for {signal}:",
+                 f"  No. Harmonics: {FOURIER_HARMONICS}, THD: {thd:g} %, Gridsize: 1024, "
+                 "Interpolation Degree: 1", "",
+                 "Harmonic Frequency   Magnitude   Phase       Norm. Mag   Norm. Phase",
+                 "-------- ---------   ---------   -----       ---------   -----------",
+                 f" 0       0           {dc:<11.6g} 0           0           0"]
+        for k in range(FOURIER_HARMONICS):
+            norm = magnitudes[k] / fundamental if fundamental else math.nan
+            lines.append(f" {k + 1:<7d} {(k + 1) * spec.frequency:<11.6g} {magnitudes[k]:<11.6g} "
+                         f"{phases[k]:<11.6g} {norm:<11.6g} {phases[k] - phases[0]:.6g}")
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)

@@ -1,0 +1,105 @@
+"""``.meas tran`` and ``.four`` on analytic waveforms (the ngspice comparison is in
+test_meas_ngspice.py)."""
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from circuitnsds.errors import NetlistError
+from circuitnsds.output.meas import fourier_coefficients, parse_meas, run_measurement
+from circuitnsds.output.waveforms import Waveforms
+from tests.conftest import circuit_from
+
+RC = ("V1 in 0 PULSE(0 1 0 0 0 1 2)\nR1 in out 1k\nC1 out 0 1u\n.options theta=0.5\n"
+      ".tran 1u 5m")
+
+
+def meas(line, waves):
+    return run_measurement(parse_meas(".meas tran " + line), waves)
+
+
+@pytest.fixture(scope="module")
+def rc():
+    return circuit_from(RC).transient()
+
+
+def test_rc_charging_measurements_match_the_exponential(rc):
+    tau = 1e-3
+    # WHEN: v = 1 - exp(-t/tau) = 0.5 at tau ln 2
+    assert meas("t50 WHEN v(out)=0.5", rc).value == pytest.approx(tau * math.log(2), rel=1e-4)
+    # TRIG/TARG 10 % -> 90 %: tau ln 9
+    rise = meas("tr TRIG v(out) VAL=0.1 RISE=1 TARG v(out) VAL=0.9 RISE=1", rc)
+    assert rise.value == pytest.approx(tau * math.log(9), rel=1e-4)
+    # AVG over 0..5 tau: 1 - (1 - e^-5)/5; INTEG = 5 tau * AVG
+    average = 1 - (1 - math.exp(-5)) / 5
+    assert meas("a AVG v(out) from=0 to=5m", rc).value == pytest.approx(average, rel=1e-5)
+    assert meas("q INTEG v(out) from=0 to=5m", rc).value == pytest.approx(5e-3 * average, rel=1e-5)
+    # RMS: sqrt(mean((1 - e^-x)^2)) over x in 0..5
+    mean_square = 1 - 2 * (1 - math.exp(-5)) / 5 + (1 - math.exp(-10)) / 10
+    assert meas("r RMS v(out) from=0 to=5m", rc).value == pytest.approx(math.sqrt(mean_square), rel=1e-5)
+    # FIND AT and DERIV AT: v and dv/dt = e^-t/tau / tau at 2 ms
+    assert meas("f FIND v(out) AT=2m", rc).value == pytest.approx(1 - math.exp(-2), rel=1e-6)
+    assert meas("d DERIV v(out) AT=2m", rc).value == pytest.approx(math.exp(-2) / tau, rel=1e-3)
+    # MAX, MIN, PP; FIND ... WHEN (the current when v(out) = 0.5 is 0.5 mA)
+    assert meas("m MAX v(out) from=1m to=2m", rc).value == pytest.approx(1 - math.exp(-2), rel=1e-6)
+    assert meas("n MIN v(out) from=1m to=2m", rc).value == pytest.approx(1 - math.exp(-1), rel=1e-6)
+    assert meas("p PP v(out) from=1m to=2m", rc).value == pytest.approx(math.exp(-1) - math.exp(-2),
+                                                                        rel=1e-5)
+    assert meas("i FIND i(v1) WHEN v(out)=0.5", rc).value == pytest.approx(-0.5e-3, rel=1e-4)
+    # a level never reached: NaN and ngspice's message
+    missing = meas("x WHEN v(out)=2", rc)
+    assert math.isnan(missing.value) and "out of interval" in missing.line
+
+
+def test_crossing_counts_rise_fall_cross_and_last():
+    t = np.linspace(0, 3, 3001)
+    waves = Waveforms(t, {"v(x)": np.sin(2 * np.pi * t)})
+    assert meas("a WHEN v(x)=0.5 RISE=2", waves).value == pytest.approx(1 + 1 / 12, abs=1e-6)
+    assert meas("b WHEN v(x)=0.5 FALL=1", waves).value == pytest.approx(5 / 12, abs=1e-6)
+    assert meas("c WHEN v(x)=0.5 CROSS=3", waves).value == pytest.approx(1 + 1 / 12, abs=1e-6)
+    assert meas("d WHEN v(x)=0.5 RISE=LAST", waves).value == pytest.approx(2 + 1 / 12, abs=1e-6)
+    assert meas("e WHEN v(x)=0.5 RISE=1 TD=1.5", waves).value == pytest.approx(2 + 1 / 12, abs=1e-6)
+
+
+def test_printed_like_ngspice(rc):
+    assert meas("t50 WHEN v(out)=0.5", rc).line.startswith("t50                 =  6.93")
+    assert " from=  0.000000e+00 to=  5.000000e-03" in meas("a AVG v(out) from=0 to=5m", rc).line
+
+
+def test_fourier_of_a_known_wave():
+    t = np.linspace(0, 2e-2, 20001)
+    wave = 1 + 3 * np.sin(2 * np.pi * 100 * t) + 0.5 * np.cos(2 * np.pi * 300 * t)
+    dc, magnitudes, phases = fourier_coefficients(Waveforms(t, {"v(x)": wave}), "v(x)", 100)
+    assert dc == pytest.approx(1, abs=1e-6)
+    np.testing.assert_allclose(magnitudes[:4], [3, 0, 0.5, 0], atol=1e-5)
+    assert phases[0] == pytest.approx(0, abs=1e-3) and phases[2] == pytest.approx(90, abs=1e-2)
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    (".meas tran x PARAM='a*2'", "PARAM"),
+    (".meas tran x AVG", "too few fields|needs a signal"),
+    (".meas tran x WHEN v(a)", "WHEN needs OUT=VAL"),
+    (".meas tran x TRIG v(a) VAL=1", "TARG"),
+    (".meas tran x FIND v(a)", "AT=t or WHEN"),
+    (".meas tran x AVG v(a) at=1", "does not take at"),
+    (".meas tran x FOO v(a)", "not supported"),
+])
+def test_meas_errors_say_what_to_write(line, message):
+    with pytest.raises(NetlistError, match=message):
+        parse_meas(line)
+
+
+def test_meas_in_a_netlist_runs_from_the_command_line(tmp_path):
+    path = tmp_path / "rc.cir"
+    path.write_text("rc\n" + RC + "\n.meas tran t50 WHEN v(out)=0.5\n.meas ac x MAX v(out)\n"
+                    ".four 200 v(in)\n.end\n")
+    done = subprocess.run([sys.executable, "-m", "circuitnsds", "run", str(path), "-q",
+                           "--measure", "tran avg1 AVG v(out) from=0 to=1m"],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "t50                 =  6.93" in done.stdout
+    assert "avg1" in done.stdout and "Fourier analysis for v(in)" in done.stdout
+    assert ".meas ignored (only .meas tran" in done.stderr
