@@ -13,6 +13,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
 from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements import Capacitor
 from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
@@ -271,8 +272,22 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) ->
     y, current = trajectory.y[first:], trajectory.current[first:]
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
     Y_out, L_out = mlcs.Y_out.tocsr(), mlcs.L_out.tocsr()
+    time = trajectory.time[first:]
+    # capacitor currents ΔQ/Δt of each step (charge-consistent: their integral is the charge
+    # the capacitor took; 0 at the first point), from n1 through the capacitor to n2
+    capacitors = {f"i({e.name})": e for e in circuit.elements if isinstance(e, Capacitor)
+                  and f"i({e.name})" not in rows}
+
+    def voltage(node: str) -> np.ndarray:
+        return np.zeros(time.size) if node == "0" else signal(f"v({node})")
 
     def signal(name: str) -> np.ndarray:
+        if name in capacitors:
+            element = capacitors[name]
+            charge = element.capacitance * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
+            flow = np.zeros(time.size)
+            flow[1:] = np.diff(charge) / np.diff(time)
+            return flow
         j = rows[name]
         values = np.zeros(y.shape[0])
         for matrix, unknowns in ((Y_out, y), (L_out, current)):
@@ -285,7 +300,7 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) ->
     for j, (device, sign) in enumerate(zip(mlcs.pair_devices, mlcs.pair_signs)):
         impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[first:, j]
     stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
-    return Waveforms(time=trajectory.time[first:], signals=LazySignals(mlcs.output_names, signal),
+    return Waveforms(time=time, signals=LazySignals([*mlcs.output_names, *capacitors], signal),
                      impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
                      stats=stats, events=[event for event in trajectory.events
                                           if event.time >= trajectory.time[first]])

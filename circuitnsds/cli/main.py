@@ -61,6 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")
     _add_output_arguments(run)
+    run.add_argument("--losses", nargs="?", const="", metavar="LOADS",
+                     help="print the power balance of every element over the run (sources, "
+                     "switches, diodes, resistors, stored energy, what is unaccounted); LOADS: "
+                     "comma-separated load elements counted as output, e.g. rload")
     run.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
     run.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
     run.add_argument("--theta", type=float, default=None,
@@ -339,6 +343,11 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
 
         print(format_table([evaluate(expression, waves, circuit) for expression in args.measure]),
               flush=True)
+    if getattr(args, "losses", None) is not None:
+        from circuitnsds.output.measure import losses
+
+        loads = tuple(name.strip() for name in args.losses.split(",") if name.strip())
+        print(losses(waves, circuit, outputs=loads).format(), flush=True)
     if circuit.measurements or circuit.fourier:  # printed as ngspice prints them
         from circuitnsds.output.meas import fourier, run_measurements
 

@@ -373,3 +373,124 @@ def format_table(measurements: list[Measurement]) -> str:
     lines = [f"{'measurement':<{width}}  value"]
     lines += [f"{m.expression:<{width}}  {m.formatted()}" for m in measurements]
     return "\n".join(lines)
+
+
+# --- loss table: where the input power goes ---
+
+@dataclass(frozen=True)
+class LossRow:
+    """One element's share [W] (average over the window): ``kind`` is ``input`` (power
+    delivered by a source), ``output`` (a load named by the caller), ``loss`` (absorbed by a
+    resistor, switch, diode or controlled source) or ``stored`` (rate of change of the
+    energy of inductors and capacitors, ``ΔE/T``)."""
+
+    element: str
+    kind: str
+    power: float
+
+
+@dataclass
+class LossTable:
+    """The rows and the balance ``input − output − losses − stored`` [W] over ``[t0, t1]``.
+
+    ``unaccounted`` is what no row holds: the energy dissipated in impulses (a capacitor
+    discharged through an ideal switch or diode in zero time: ``½CΔv²``) and the numerical
+    dissipation of the time stepper; ``relative`` is it divided by the input power.
+    """
+
+    rows: list[LossRow]
+    t0: float
+    t1: float
+
+    def total(self, kind: str) -> float:
+        return float(sum(row.power for row in self.rows if row.kind == kind))
+
+    @property
+    def unaccounted(self) -> float:
+        return (self.total("input") - self.total("output") - self.total("loss")
+                - self.total("stored"))
+
+    @property
+    def relative(self) -> float:
+        inflow = self.total("input")
+        return self.unaccounted / inflow if inflow else float("nan")
+
+    @property
+    def efficiency(self) -> float:
+        inflow = self.total("input")
+        return self.total("output") / inflow if inflow else float("nan")
+
+    def format(self) -> str:
+        lines = [f"power balance over {format_si(self.t0, 's')} .. {format_si(self.t1, 's')}",
+                 f"  {'element':<16}{'kind':<8}{'power':>12}{'share':>9}"]
+        inflow = self.total("input") or float("nan")
+        for row in self.rows:
+            lines.append(f"  {row.element:<16}{row.kind:<8}{format_si(row.power, 'W'):>12}"
+                         f"{100 * row.power / inflow:>8.3g}%")
+        lines.append(f"  {'unaccounted':<16}{'':<8}{format_si(self.unaccounted, 'W'):>12}"
+                     f"{100 * self.relative:>8.3g}%  (impulses, numerical dissipation)")
+        lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
+        return "\n".join(lines)
+
+
+def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
+           outputs: tuple[str, ...] = ()) -> LossTable:
+    """Where the power delivered by the sources goes, element by element.
+
+    Every element's average absorbed power ``mean(v·i)`` over the window (SPICE's passive
+    sign convention, as :func:`power`): sources with a net delivery are ``input`` rows,
+    elements named in ``outputs`` (the load resistors) ``output`` rows, the other resistors,
+    switches (``Ron·i²`` closed, ``v²/Roff`` open), diodes (``Vfwd·i + Ron·i²``) and
+    controlled sources ``loss`` rows; inductors, capacitors and couplings give one
+    ``stored`` row, ``ΔE/(t1 − t0)``. A periodic steady state over whole periods has no
+    stored term, and the balance (:attr:`LossTable.unaccounted`) closes to the energy of
+    impulses and the stepper's numerical dissipation.
+
+    Args:
+        waves: the full results (node voltages and element currents).
+        circuit: the circuit that produced them.
+        t0, t1, period: the window [s], as for :func:`mean`.
+        outputs: names of the load elements (``("rload",)``).
+    """
+    from circuitnsds.circuit.elements import (
+        Capacitor,
+        CurrentSource,
+        Inductor,
+        MutualInductance,
+        VoltageSource,
+    )
+
+    wanted = {name.lower() for name in outputs}
+    unknown = wanted - {element.name for element in circuit.elements}
+    if unknown:
+        raise MeasurementError(f"no element {', '.join(sorted(unknown))}", where="losses",
+                               hint="name the load resistors, e.g. outputs=('rload',)")
+    time = np.asarray(waves.time, dtype=float)
+    start, stop = window(time, time, t0, t1, period=period)[0][[0, -1]]
+    rows: list[LossRow] = []
+    stored = 0.0
+    for element in circuit.elements:
+        if isinstance(element, Inductor):
+            current = np.interp([start, stop], time, waves[f"i({element.name})"])
+            stored += 0.5 * element.inductance * (current[1] ** 2 - current[0] ** 2)
+            continue
+        if isinstance(element, Capacitor):
+            voltage = np.interp([start, stop], time, element_voltage(waves, element))
+            stored += 0.5 * element.capacitance * (voltage[1] ** 2 - voltage[0] ** 2)
+            continue
+        if isinstance(element, MutualInductance):
+            first, second = (np.interp([start, stop], time, waves[f"i({name})"])
+                             for name in element.inductors)
+            stored += element.mutual * (first[1] * second[1] - first[0] * second[0])
+            continue
+        if f"i({element.name})" not in waves or len(element.nodes) < 2:
+            continue
+        absorbed = mean(time, element_voltage(waves, element) * waves[f"i({element.name})"],
+                        start, stop)
+        if isinstance(element, (VoltageSource, CurrentSource)):
+            rows.append(LossRow(element.name, "input", -absorbed))
+        else:
+            rows.append(LossRow(element.name, "output" if element.name in wanted else "loss",
+                                absorbed))
+    rows.append(LossRow("L, C, K", "stored", stored / (stop - start)))
+    return LossTable(rows, float(start), float(stop))
