@@ -139,7 +139,7 @@ def test_errors_name_the_line(body, pattern):
     ("body", "pattern"),
     [
         (".options reltol=1e-4 method=gear", r"\.options reltol=1e-4 method=gear ignored"),
-        (".meas tran vmax max v(a)", r"\.meas ignored .*: \.meas tran vmax max v\(a\)"),
+        (".meas ac vmax max v(a)", r"\.meas ignored .*: \.meas ac vmax max v\(a\)"),
         (".print tran v(a)", r"\.print ignored"),
         (".model u D(Ilimit=1)", r"ilimit ignored"),
         (".model u D(foo=1)", r"unknown diode parameter 'foo'"),
