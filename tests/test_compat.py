@@ -193,3 +193,16 @@ def test_pulse_number_of_pulses_and_sine_cycles():
     circuit = circuit_from("V1 a 0 PULSE(0 1 1n 1n 1n 1u 1u 1)\nR1 a b 10\nL1 b 0 1µ\n.tran 2u\n.backanno")
     assert circuit.element("l1").inductance == 1e-6
     assert circuit.elements[0].function.count == 1
+
+
+def test_pwl_file_reads_time_value_pairs_relative_to_the_netlist(tmp_path):
+    (tmp_path / "wave.txt").write_text("* time value\n0 0\n1m, 2\n2m\t2\n3m 0\n")
+    netlist = tmp_path / "pwl.cir"
+    netlist.write_text('pwl file\nV1 a 0 PWL file="wave.txt"\nR1 a 0 1k\n.tran 10u 3m\n.end\n')
+    waves = circuitnsds.read_netlist(netlist).transient()
+    t = waves.time
+    assert waves["v(a)"][np.searchsorted(t, 0.5e-3)] == pytest.approx(1.0)
+    assert waves["v(a)"][np.searchsorted(t, 1.5e-3)] == pytest.approx(2.0)
+    netlist.write_text("pwl file\nV1 a 0 PWL(file=missing.txt)\nR1 a 0 1k\n.tran 10u 3m\n.end\n")
+    with pytest.raises(circuitnsds.errors.NetlistError, match="cannot read PWL file"):
+        circuitnsds.read_netlist(netlist)

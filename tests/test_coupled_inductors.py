@@ -175,3 +175,14 @@ def test_perfect_coupling_is_an_ideal_transformer(k):
                          f"K1 L1 L2 {k}\n.tran 10u 2m").transient()
     np.testing.assert_allclose(waves["v(c)"], 2 * k * waves["v(b)"], rtol=0, atol=1e-9)
     assert np.abs(waves["v(c)"]).max() > 0.5
+
+
+def test_ltspice_multi_inductor_coupling_couples_every_pair():
+    # LTspice: K1 L1 L2 L3 k couples all three pairs with the same k
+    body = ("V1 a 0 SIN(0 1 1k)\nL1 a 0 1m\nL2 b 0 1m\nL3 c 0 4m\nR2 b 0 1k\nR3 c 0 1k\n"
+            "K1 L1 L2 L3 0.9\n.tran 1u 1m")
+    circuit = circuit_from(body)
+    couplings = [e for e in circuit.elements if type(e).__name__ == "MutualInductance"]
+    assert sorted(c.inductors for c in couplings) == [("l1", "l2"), ("l1", "l3"), ("l2", "l3")]
+    assert {c.coupling for c in couplings} == {0.9}
+    assert [c.mutual for c in couplings if c.inductors == ("l2", "l3")] == [pytest.approx(0.9 * 2e-3)]

@@ -138,13 +138,13 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     inductors = {e.name: e for e in circuit.elements if isinstance(e, Inductor)}
     couplings: list[MutualInductance] = []
     for statement in statements:
-        coupling = devices.mutual_inductance(StatementReader(statement), inductors)
-        for other in couplings:
-            if set(other.inductors) == set(coupling.inductors):
-                raise NetlistError(f"{coupling.name}: {' and '.join(coupling.inductors)} are "
-                                   f"already coupled by {other.name}", where=statement.location)
-        couplings.append(coupling)
-        circuit.add(coupling, statement.location)
+        for coupling in devices.mutual_inductance(StatementReader(statement), inductors):
+            for other in couplings:
+                if set(other.inductors) == set(coupling.inductors):
+                    raise NetlistError(f"{coupling.name}: {' and '.join(coupling.inductors)} are "
+                                       f"already coupled by {other.name}", where=statement.location)
+            couplings.append(coupling)
+            circuit.add(coupling, statement.location)
     if not couplings:
         return
     import networkx as nx

@@ -177,24 +177,31 @@ def switch(reader: StatementReader, letter: str, models: dict[str, object],
                   initially_on=initially_on)
 
 
-def mutual_inductance(reader: StatementReader, inductors: dict[str, Inductor]) -> MutualInductance:
-    """``K name L1 L2 k``: couples two inductors already in the circuit."""
+def mutual_inductance(reader: StatementReader, inductors: dict[str, Inductor]) -> list[MutualInductance]:
+    """``K name L1 L2 [L3 ...] k``: couples inductors already in the circuit. LTspice's form
+    with more than two inductors couples every pair with the same ``k`` (one
+    :class:`MutualInductance` per pair, named ``K1_L1_L2``...)."""
     name = reader.name
-    names = (reader.next("first inductor"), reader.next("second inductor"))
+    fields = reader.tokens[reader.position:]
+    if len(fields) < 3:
+        raise reader.error(f"{name}: missing inductors or the coupling coefficient k",
+                           hint="write Kname L1 L2 k (LTspice: Kname L1 L2 L3 k)")
+    names = tuple(reader.next("inductor") for _ in fields[:-1])
     coupling = reader.value("coupling coefficient")
-    if not reader.done():
-        raise reader.error(f"{name}: unexpected {reader.peek()!r}", hint="write Kname L1 L2 k")
     for inductor in names:
         if inductor not in inductors:
             raise reader.error(f"{name}: {inductor!r} is not an inductor of this circuit",
-                               hint="K couples two L elements by name: K1 L1 L2 0.99")
-    if names[0] == names[1]:
+                               hint="K couples L elements by name: K1 L1 L2 0.99")
+    if len(set(names)) != len(names):
         raise reader.error(f"{name}: an inductor cannot be coupled to itself")
     if not 0 < abs(coupling) <= 1:
         raise reader.error(f"{name}: coupling coefficient k={coupling:g} must satisfy 0 < |k| <= 1")
-    return MutualInductance(name, (), reader.location, inductors=names,
-                            inductances=tuple(inductors[n].inductance for n in names),
-                            coupling=coupling)
+    pairs = [(a, b) for k, a in enumerate(names) for b in names[k + 1:]]
+    return [MutualInductance(name if len(pairs) == 1 else f"{name}_{a}_{b}", (), reader.location,
+                             inductors=(a, b), inductances=(inductors[a].inductance,
+                                                            inductors[b].inductance),
+                             coupling=coupling)
+            for a, b in pairs]
 
 
 def inductance_matrix(inductors: list[Inductor], couplings: list[MutualInductance]) -> np.ndarray:

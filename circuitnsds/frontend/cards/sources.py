@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 from circuitnsds.circuit.elements import (
     CurrentControlledCurrentSource,
     CurrentControlledVoltageSource,
@@ -113,9 +115,53 @@ def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, fl
     return Dc(0.0 if dc is None else dc), ac
 
 
+def _pwl_file(reader: StatementReader) -> Pwl:
+    """``PWL file=NAME`` (LTspice, ngspice): time-value pairs read from a text file
+    (whitespace, commas or semicolons between numbers; ``*``/``;``/``#`` comment lines),
+    relative to the netlist's folder."""
+    from pathlib import Path
+
+    match = re.search(r"""file\s*=\s*(?:"([^"]+)"|'([^']+)'|([^\s()]+))""", reader.statement.text,
+                      re.IGNORECASE)
+    if match is None:
+        raise reader.error(f"{reader.name}: PWL file= needs a file name", hint='PWL file="wave.txt"')
+    target = Path(next(group for group in match.groups() if group))
+    if not target.is_absolute():
+        target = Path(reader.location.file).resolve().parent / target
+    try:
+        text = target.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise reader.error(f"{reader.name}: cannot read PWL file {target}: {exc.strerror or exc}",
+                           hint="the path is relative to the netlist's folder") from None
+    numbers: list[float] = []
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line[0] in "*;#":
+            continue
+        for token in re.split(r"[\s,;]+", line):
+            if token:
+                try:
+                    numbers.append(parse_value(token))
+                except ValueError:
+                    raise reader.error(f"{reader.name}: {target.name}: {token!r} is not a number") from None
+    while not reader.done() and reader.peek() != ")":  # consume the file= tokens
+        reader.position += 1
+    if not reader.done():
+        reader.position += 1
+    if len(numbers) < 2 or len(numbers) % 2:
+        raise reader.error(f"{reader.name}: {target.name} must hold time-value pairs, "
+                           f"found {len(numbers)} numbers")
+    times, values = tuple(numbers[0::2]), tuple(numbers[1::2])
+    if any(b < a for a, b in zip(times, times[1:])):
+        raise reader.error(f"{reader.name}: {target.name}: PWL times must not decrease")
+    return Pwl(times, values)
+
+
 def _function(reader: StatementReader, kind: str) -> Stimulus:
     name = reader.name
     args: list[float] = []
+    if kind == "pwl" and "file" in reader.tokens[reader.position:reader.position + 2]:
+        return _pwl_file(reader)
     parenthesised = reader.peek() == "("
     if parenthesised:
         reader.position += 1
