@@ -206,3 +206,25 @@ def test_pwl_file_reads_time_value_pairs_relative_to_the_netlist(tmp_path):
     netlist.write_text("pwl file\nV1 a 0 PWL(file=missing.txt)\nR1 a 0 1k\n.tran 10u 3m\n.end\n")
     with pytest.raises(circuitnsds.errors.NetlistError, match="cannot read PWL file"):
         circuitnsds.read_netlist(netlist)
+
+
+def test_cli_differential_signals_window_and_decimation(tmp_path):
+    import csv
+    import subprocess
+    import sys
+
+    out = tmp_path / "o.csv"
+    done = subprocess.run([sys.executable, "-m", "circuitnsds", "run",
+                           str(EXTERNAL / "buck_sw_ron_only.cir"), "-q", "-o", str(out),
+                           "--signals", "v(sw,out), i(l1)", "--tstart", "0.9m", "--tstop", "1m",
+                           "--every", "10"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.reader(out.open()))
+    assert rows[0] == ["time", "v(sw,out)", "i(l1)"]
+    times = np.array([float(row[0]) for row in rows[1:]])
+    assert times[0] >= 0.9e-3 - 1e-12 and times[-1] == pytest.approx(1e-3)
+    full = run(EXTERNAL / "buck_sw_ron_only.cir")
+    inside = (full.time >= 0.9e-3) & (full.time <= 1e-3)
+    assert len(times) == len(np.unique(np.append(np.flatnonzero(inside)[::10], np.flatnonzero(inside)[-1])))
+    k = int(np.searchsorted(full.time, times[1]))
+    assert float(rows[2][1]) == pytest.approx(full["v(sw)"][k] - full["v(out)"][k], abs=1e-8)

@@ -42,6 +42,14 @@ class OutputError(CircuitnsdsError):
     """An output file cannot be written."""
 
 
+def _signal_names(text: str) -> list[str]:
+    """``"v(a,b), i(l1)"`` -> ``["v(a,b)", "i(l1)"]`` (commas inside parentheses kept)."""
+    import re
+
+    return [re.sub(r"\s+", "", name).lower()
+            for name in re.findall(r"[a-z]+\s*\([^)]*\)|[^,\s]+", text, re.IGNORECASE)]
+
+
 def _seconds(text: str) -> float:
     try:
         return parse_value(text)
@@ -61,6 +69,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")
     _add_output_arguments(run)
+    run.add_argument("--tstart", type=_seconds, metavar="T0",
+                     help="write (and plot) only from T0 on [s]; measurements use the whole run")
+    run.add_argument("--tstop", type=_seconds, metavar="T1", help="write (and plot) only up to T1 [s]")
+    run.add_argument("--every", type=int, metavar="N", default=1,
+                     help="write every N-th time point (and the last)")
     run.add_argument("--losses", nargs="?", const="", metavar="LOADS",
                      help="print the power balance of every element over the run (sources, "
                      "switches, diodes, resistors, stored energy, what is unaccounted); LOADS: "
@@ -337,7 +350,7 @@ def _ac(args: argparse.Namespace) -> int:
 
 def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
     """Write the files asked for, print the measurements and the summary, show the figure."""
-    names, written = _write_outputs(args, waves)
+    names, written = _write_outputs(args, _selected(args, waves))
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
@@ -380,6 +393,61 @@ def _write_partial(args: argparse.Namespace, error: SimulationError) -> None:
           f"(before the failure) to {', '.join(map(str, written))}", file=sys.stderr)
 
 
+def _signal_names(text: str) -> list[str]:
+    """``"v(a,b), i(l1)"`` -> ``["v(a,b)", "i(l1)"]`` (commas inside parentheses kept)."""
+    import re
+
+    return [re.sub(r"\s+", "", name).lower()
+            for name in re.findall(r"[a-z]+\s*\([^)]*\)|[^,\s]+", text, re.IGNORECASE)]
+
+
+def _seconds(text: str) -> float:
+    try:
+        return parse_value(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 10m, 1e-3)") from None
+
+
+def _selected(args: argparse.Namespace, waves):
+    """The waveforms to write: differential ``v(a,b)`` signals of ``--signals`` added, the
+    ``--tstart``/``--tstop`` window and ``--every`` decimation applied."""
+    import numpy as np
+
+    from circuitnsds.errors import CircuitError
+    from circuitnsds.output.measure import MeasurementError, _series
+    from circuitnsds.output.waveforms import Waveforms
+
+    extra = {}
+    for name in _signal_names(args.signals or ""):
+        if name.startswith("v(") and "," in name and name not in waves:
+            try:
+                extra[name] = _series(waves, name)[1]
+            except MeasurementError as exc:
+                raise CircuitError(exc.message, where="--signals", hint=exc.hint) from None
+    every = getattr(args, "every", 1)
+    tstart, tstop = getattr(args, "tstart", None), getattr(args, "tstop", None)
+    if every < 1:
+        raise CircuitError(f"--every {every} must be at least 1", where="--every")
+    time = waves.time
+    keep = np.ones(time.size, dtype=bool)
+    if tstart is not None:
+        keep &= time >= tstart
+    if tstop is not None:
+        keep &= time <= tstop
+    index = np.flatnonzero(keep)
+    if index.size == 0:
+        raise CircuitError(f"no time point in the window --tstart/--tstop "
+                           f"(the run spans {time[0]:g} .. {time[-1]:g} s)", where="--tstart")
+    if every > 1:
+        index = np.unique(np.append(index[::every], index[-1]))
+    if not extra and index.size == time.size:
+        return waves
+    signals = {name: np.asarray(waves[name])[index] for name in waves.names}
+    signals.update({name: values[index] for name, values in extra.items()})
+    return Waveforms(time[index], signals, title=waves.title, stats=waves.stats,
+                     residual=None if waves.residual is None else waves.residual[index])
+
+
 def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, list[Path]]:
     """Write the CSV (and the raw file and figure asked for); returns the signal names
     chosen with ``--signals`` (``None``: all) and the files written."""
@@ -387,8 +455,7 @@ def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, l
 
     names = None
     if args.signals:
-        names = [name.strip() for name in args.signals.split(",")
-                 if name.strip() and name.strip().lower() != "time"]
+        names = [name for name in _signal_names(args.signals) if name != "time"]
         unknown = [name for name in names if name not in waves]
         if unknown:
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",

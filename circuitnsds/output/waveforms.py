@@ -147,5 +147,6 @@ class Waveforms:
         """Write ``time`` and the signals (all by default) as CSV with a header row."""
         columns = list(names) if names is not None else self.names
         data = np.column_stack([self.time] + [self[name] for name in columns])
-        header = ",".join(["time"] + [name.strip().lower() for name in columns])
+        header = ",".join(["time"] + [f'"{name}"' if "," in name else name  # v(a,b) quoted
+                                      for name in (n.strip().lower() for n in columns)])
         np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.10g")
