@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from circuitnsds.errors import NetlistError
-from circuitnsds.output.meas import fourier_coefficients, parse_meas, run_measurement
+from circuitnsds.frontend.cards.meas import parse_meas
+from circuitnsds.output.meas import fourier_coefficients, run_measurement
 from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import circuit_from
 

@@ -252,7 +252,7 @@ def _prepare(args: argparse.Namespace):
 
         plot_format(args.plot)
     if meas_lines:  # ngspice's syntax: --measure "tran vavg AVG v(out) from=1m to=2m"
-        from circuitnsds.output.meas import parse_meas
+        from circuitnsds.frontend.cards.meas import parse_meas
 
         circuit.measurements.extend(parse_meas(f".meas {line}") for line in meas_lines)
     if args.show:

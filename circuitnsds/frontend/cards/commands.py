@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 from circuitnsds.circuit.circuit import AcSpec, Circuit, PssSpec, TranSpec
+from circuitnsds.frontend.cards.meas import parse_four, parse_meas
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
 from circuitnsds.theta import THETA_HINT, theta_in_range
@@ -92,16 +93,12 @@ def command(circuit: Circuit, statement: Statement) -> None:
     elif keyword == ".save":
         _save(circuit, statement)
     elif keyword in {".meas", ".measure"}:
-        from circuitnsds.output.meas import parse_meas
-
         spec = parse_meas(statement.text, statement.location)
         if spec is None:
             reader.warn(f"{keyword} ignored (only .meas tran is run): {statement.text}")
         else:
             circuit.measurements.append(spec)
     elif keyword == ".four":
-        from circuitnsds.output.meas import parse_four
-
         circuit.fourier.append(parse_four(statement.text, statement.location))
     elif keyword == ".title":
         circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""

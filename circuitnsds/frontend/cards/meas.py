@@ -1,0 +1,223 @@
+"""``.meas tran`` and ``.four`` lines -> plain specifications (ngspice's syntax).
+
+The forms read, and what they mean, are in :mod:`circuitnsds.output.meas`, which executes
+the specifications on the waveforms (it reads their attributes only: the two layers do not
+import each other).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from circuitnsds.errors import NetlistError, SourceLocation
+from circuitnsds.values import parse_value
+
+WINDOW_KINDS = {"avg", "rms", "min", "max", "pp", "integ", "integral", "min_at", "max_at"}
+POINT_KINDS = {"when", "find", "deriv", "derivative", "trig"}
+LAST = -1
+"""``RISE=LAST`` (and FALL, CROSS): the last crossing (any negative count means it)."""
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """Where a WHEN/TRIG/TARG condition holds: ``signal`` crosses ``level`` (a number, or
+    another signal's name) for the ``count``-th time in ``direction`` (``rise``, ``fall``
+    or ``cross``; ``count`` :data:`LAST` for the last), ignoring times before ``delay``
+    and outside ``[start, stop]``; or, with ``at``, simply the instant ``at`` [s]."""
+
+    signal: str | None = None
+    level: float | str | None = None
+    direction: str = "cross"
+    count: int = 0
+    delay: float = 0.0
+    start: float | None = None
+    stop: float | None = None
+    at: float | None = None
+
+
+@dataclass(frozen=True)
+class MeasureSpec:
+    """One ``.meas tran`` statement, parsed.
+
+    Attributes:
+        name: the result's name (lower case).
+        kind: ``avg``, ``rms``, ``min``, ``max``, ``pp``, ``integ``, ``min_at``, ``max_at``,
+            ``when``, ``find``, ``deriv`` or ``trig``.
+        signal: OUT of window and FIND/DERIV measurements.
+        start, stop, delay: FROM, TO, TD [s].
+        when: the WHEN (or AT) condition; trig/targ: those of TRIG ... TARG.
+        text: the statement; location: its file:line.
+    """
+
+    name: str
+    kind: str
+    signal: str | None = None
+    start: float | None = None
+    stop: float | None = None
+    delay: float = 0.0
+    when: Crossing | None = None
+    trig: Crossing | None = None
+    targ: Crossing | None = None
+    text: str = ""
+    location: SourceLocation | None = None
+
+
+_SIGNAL = r"[a-z]+\([^()]*\)"
+_TOKEN = re.compile(rf"{_SIGNAL}|'[^']*'|\{{[^}}]*\}}|[^\s=]+|=", re.IGNORECASE)
+
+
+def parse_meas(text: str, location: SourceLocation | None = None) -> MeasureSpec | None:
+    """Parse a ``.meas``/``.measure`` line; ``None`` (with nothing to do) for analyses other
+    than ``tran``, which the caller reports.
+
+    Raises:
+        NetlistError: a syntax circuitnsds does not read (with what to write instead).
+    """
+    tokens = [token.lower().replace(" ", "") if token.startswith(("v(", "i(", "V(", "I("))
+              else token.lower() for token in _TOKEN.findall(text)]
+
+    def fail(message: str) -> NetlistError:
+        return NetlistError(f"{tokens[0] if tokens else '.meas'}: {message}", where=location,
+                            text=text, hint="write .meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG OUT "
+                            "[FROM=t TO=t], .meas tran NAME WHEN OUT=VAL [RISE=n], .meas tran NAME "
+                            "FIND OUT AT=t, or .meas tran NAME TRIG ... TARG ...")
+
+    if len(tokens) < 4:
+        raise fail("too few fields")
+    analysis, name, kind = tokens[1], tokens[2], tokens[3]
+    if analysis != "tran":
+        return None
+    rest = tokens[4:]
+    if kind == "param" or kind.startswith("param"):
+        raise fail("PARAM= expressions of other measurements are not supported")
+    if kind in {"integral"}:
+        kind = "integ"
+    if kind == "derivative":
+        kind = "deriv"
+    if kind in WINDOW_KINDS:
+        if not rest or "=" in rest[:2] and rest[1:2] == ["="]:
+            raise fail(f"{kind.upper()} needs a signal, e.g. v(out)")
+        signal, options = rest[0], _options(rest[1:], fail)
+        _only(options, {"from", "to", "td"}, kind, fail)
+        return MeasureSpec(name, kind, signal=signal, start=options.get("from"),
+                           stop=options.get("to"), delay=options.get("td", 0.0), text=text,
+                           location=location)
+    if kind == "when":
+        return MeasureSpec(name, "when", when=_condition(rest, fail), text=text, location=location)
+    if kind in {"find", "deriv"}:
+        if not rest:
+            raise fail(f"{kind.upper()} needs a signal")
+        signal, rest = rest[0], rest[1:]
+        if rest[:1] == ["when"]:
+            return MeasureSpec(name, kind, signal=signal, when=_condition(rest[1:], fail), text=text,
+                               location=location)
+        options = _options(rest, fail)
+        if "at" not in options:
+            raise fail(f"{kind.upper()} needs AT=t or WHEN ...")
+        return MeasureSpec(name, kind, signal=signal, when=Crossing(at=options["at"]), text=text,
+                           location=location)
+    if kind == "trig":
+        if "targ" not in rest:
+            raise fail("TRIG needs a TARG part")
+        split = rest.index("targ")
+        return MeasureSpec(name, "trig", trig=_trigger(rest[:split], fail),
+                           targ=_trigger(rest[split + 1:], fail), text=text, location=location)
+    raise fail(f"{kind.upper()} measurements are not supported")
+
+
+def _options(tokens: list[str], fail) -> dict[str, float]:
+    """``key = value`` pairs; RISE/FALL/CROSS=LAST become :data:`LAST`."""
+    options: dict[str, float] = {}
+    k = 0
+    while k < len(tokens):
+        if k + 2 >= len(tokens) + 0 and not (k + 2 < len(tokens) + 1):
+            raise fail(f"expected key=value, found {' '.join(tokens[k:])!r}")
+        if k + 2 > len(tokens) or tokens[k + 1] != "=":
+            raise fail(f"expected key=value, found {' '.join(tokens[k:k + 3])!r}")
+        key, text = tokens[k], tokens[k + 2]
+        if key in {"rise", "fall", "cross"} and text == "last":
+            options[key] = LAST
+        else:
+            try:
+                options[key] = parse_value(text)
+            except ValueError:
+                raise fail(f"{key}={text}: not a number") from None
+        k += 3
+    return options
+
+
+def _only(options: dict, allowed: set[str], kind: str, fail) -> None:
+    extra = sorted(set(options) - allowed)
+    if extra:
+        raise fail(f"{kind.upper()} does not take {', '.join(extra)}")
+
+
+def _edge(options: dict) -> tuple[str, int]:
+    given = [key for key in ("rise", "fall", "cross") if key in options]
+    if len(given) > 1:
+        raise ValueError("give one of RISE, FALL and CROSS")
+    if not given:
+        return "cross", 0
+    return given[0], int(options[given[0]])
+
+
+def _condition(tokens: list[str], fail) -> Crossing:
+    """``OUT=VAL [RISE=n ...] [TD=t] [FROM=t] [TO=t]`` (VAL a number or a signal)."""
+    if len(tokens) < 3 or tokens[1] != "=":
+        raise fail("WHEN needs OUT=VAL, e.g. WHEN v(out)=2.5")
+    signal, level_text = tokens[0], tokens[2]
+    try:
+        level: float | str = parse_value(level_text)
+    except ValueError:
+        level = level_text
+    options = _options(tokens[3:], fail)
+    _only(options, {"rise", "fall", "cross", "td", "from", "to"}, "when", fail)
+    try:
+        direction, count = _edge(options)
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    return Crossing(signal, level, direction, count, options.get("td", 0.0), options.get("from"),
+                    options.get("to"))
+
+
+def _trigger(tokens: list[str], fail) -> Crossing:
+    """``OUT VAL=v [TD=t] [RISE|FALL|CROSS=n]`` or ``AT=t``."""
+    if tokens[:1] == ["at"]:
+        options = _options(tokens, fail)
+        return Crossing(at=options["at"])
+    if not tokens:
+        raise fail("TRIG/TARG needs a signal and VAL=")
+    options = _options(tokens[1:], fail)
+    _only(options, {"val", "td", "rise", "fall", "cross"}, "trig/targ", fail)
+    if "val" not in options:
+        raise fail("TRIG/TARG needs VAL=")
+    try:
+        direction, count = _edge(options)
+    except ValueError as exc:
+        raise fail(str(exc)) from None
+    return Crossing(tokens[0], options["val"], direction, count, options.get("td", 0.0))
+
+
+@dataclass(frozen=True)
+class FourierSpec:
+    """``.four FREQ OUT ...``: the fundamental [Hz] and the outputs."""
+
+    frequency: float
+    signals: tuple[str, ...]
+    location: SourceLocation | None = None
+
+
+def parse_four(text: str, location: SourceLocation | None = None) -> FourierSpec:
+    """Parse ``.four FREQ OUT1 [OUT2 ...]``."""
+    tokens = _TOKEN.findall(text)
+    try:
+        frequency = parse_value(tokens[1])
+    except (IndexError, ValueError):
+        raise NetlistError(".four needs the fundamental frequency", where=location, text=text,
+                           hint="write .four 50 v(out)") from None
+    signals = tuple(token.lower().replace(" ", "") for token in tokens[2:])
+    if not signals or frequency <= 0:
+        raise NetlistError(".four needs a positive frequency and at least one output",
+                           where=location, text=text, hint="write .four 50 v(out)")
+    return FourierSpec(frequency, signals, location)
