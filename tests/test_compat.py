@@ -228,3 +228,19 @@ def test_cli_differential_signals_window_and_decimation(tmp_path):
     assert len(times) == len(np.unique(np.append(np.flatnonzero(inside)[::10], np.flatnonzero(inside)[-1])))
     k = int(np.searchsorted(full.time, times[1]))
     assert float(rows[2][1]) == pytest.approx(full["v(sw)"][k] - full["v(out)"][k], abs=1e-8)
+
+
+def test_pwlfit_auto_refits_to_the_peak_current_of_a_first_run():
+    # Xyce's DIODE/diode.cir (IS=100f): 5 V through 2 kohm, 2.19 mA (its comment)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        circuit = circuitnsds.read_netlist(EXTERNAL / "xy_diode_pulse_autofit.cir")
+        waves = circuit.transient()
+    notes = [str(w.message) for w in caught if issubclass(w.category, circuitnsds.errors.RunNote)]
+    assert any("refitted to the peak currents" in note for note in notes)
+    peak = waves["i(d1)"].max()
+    assert peak == pytest.approx(2.19e-3, rel=0.01)
+    # the diode's drop at its operating point is the Shockley one (Xyce's comment: 0.6158 V) to
+    # within the least-squares line's deviation at the end of its range (7 mV here); with the
+    # default range (0.1..1 A) it was 0.72 V
+    assert waves["v(3)"].max() == pytest.approx(0.6158, abs=0.01)

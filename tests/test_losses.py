@@ -14,7 +14,7 @@ from tests.conftest import NETLISTS, circuit_from
 
 @pytest.fixture(scope="module")
 def buck():
-    circuit = circuitnsds.read_netlist(NETLISTS / "sync_buck_losses.cir")
+    circuit = circuitnsds.read_netlist(NETLISTS / "meas" / "sync_buck_losses.cir")
     return circuit, circuit.transient()
 
 
@@ -59,7 +59,8 @@ def test_capacitor_dumped_into_an_ideal_switch_is_unaccounted():
 
 
 def test_losses_from_the_command_line():
-    done = subprocess.run([sys.executable, "-m", "circuitnsds", "run", str(NETLISTS / "sync_buck_losses.cir"),
+    netlist = NETLISTS / "meas" / "sync_buck_losses.cir"
+    done = subprocess.run([sys.executable, "-m", "circuitnsds", "run", str(netlist),
                            "-q", "--losses", "rload", "--stop", "0.2m", "-o", "/dev/null"],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

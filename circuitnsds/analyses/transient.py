@@ -35,7 +35,66 @@ def run_transient(
     progress: Callable[[float, float], None] | None,
     stepping: str = "compiled",
 ) -> Waveforms:
-    """See :meth:`Circuit.transient`."""
+    """See :meth:`Circuit.transient`. With ``.options pwlfit=auto`` a first run measures the
+    peak forward (and breakdown) current of every fitted diode model, the models are refitted
+    over ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
+    if circuit.options.get("pwlfit") == "auto":
+        settings = dict(step=step, stop=stop, start=start, max_step=max_step, theta=theta, uic=uic,
+                        tol=tol, progress=progress, stepping=stepping)
+        first = _run_transient(circuit, **settings)
+        refitted = _refitted(circuit, first)
+        if refitted is not circuit:
+            return _run_transient(refitted, **settings)
+        return first
+    return _run_transient(circuit, step=step, stop=stop, start=start, max_step=max_step,
+                          theta=theta, uic=uic, tol=tol, progress=progress, stepping=stepping)
+
+
+def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
+    """A copy of ``circuit`` whose fitted diode models are refitted to the peak currents
+    ``waves`` shows through their instances (a model that never conducts keeps its fit)."""
+    from dataclasses import replace as copy
+
+    from circuitnsds.circuit.elements import Diode
+    from circuitnsds.circuit.elements.diode import fitted_model
+
+    peaks: dict[str, tuple[float, float]] = {}
+    for element in circuit.elements:
+        if isinstance(element, Diode) and element.model.shockley is not None:
+            current = np.asarray(waves[f"i({element.name})"]) / element.area
+            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
+            peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
+                                         max(reverse, float(-current.min(initial=0.0))))
+    if not peaks:
+        return circuit
+    models = {}
+    for name, (forward, reverse) in peaks.items():
+        model = next(e.model for e in circuit.elements if isinstance(e, Diode) and e.model.name == name)
+        refit = fitted_model(model, model.shockley, forward if forward > 1e-9 else None,
+                             reverse if reverse > 1e-9 else None)
+        models[name] = copy(refit, origin=refit.origin + " (pwlfit=auto: the peak current of a "
+                            "first run)")
+        warnings.warn(RunNote(f"{circuit.file}: .model {name}: refitted to the peak currents of a "
+                              f"first run: {models[name].origin}"), stacklevel=3)
+    elements = [copy(e, model=models[e.model.name]) if isinstance(e, Diode) and e.model.name in models
+                else e for e in circuit.elements]
+    refitted = copy(circuit, elements=elements, models={**circuit.models, **models})
+    return refitted
+
+
+def _run_transient(
+    circuit: Circuit,
+    *,
+    step: float | None,
+    stop: float | None,
+    start: float | None,
+    max_step: float | None,
+    theta: float,
+    uic: bool | None,
+    tol: float,
+    progress: Callable[[float, float], None] | None,
+    stepping: str = "compiled",
+) -> Waveforms:
     tran = circuit.tran
     if (step is None or stop is None) and tran is None:
         raise CircuitError("no .tran line and no step/stop given", where=circuit.file,

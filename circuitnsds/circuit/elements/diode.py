@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 
@@ -37,6 +38,8 @@ class DiodeModel:
         breakdown_resistance: ``Rrev`` [Ω], slope of the breakdown branch.
         origin: how the card was read, for ``info``: ``ideal``, ``LTspice PWL`` or the
             Shockley fit (:mod:`circuitnsds.circuit.elements.diode_fit`) with its figures.
+        shockley: the Shockley curve a fitted model came from (``None`` otherwise), so that
+            it can be refitted (``.options pwlfit=auto``).
         location: where the card was written.
     """
 
@@ -47,6 +50,7 @@ class DiodeModel:
     breakdown_voltage: float | None = None
     breakdown_resistance: float = 0.0
     origin: str = "ideal"
+    shockley: ShockleyDiode | None = None
     location: SourceLocation | None = None
 
     @property
@@ -57,6 +61,25 @@ class DiodeModel:
         if self.forward_drop or self.on_resistance:
             return "piecewise-linear"
         return "ideal"
+
+
+def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float | None = None,
+                 breakdown_current: float | None = None) -> DiodeModel:
+    """``model`` with ``Vfwd``/``Ron`` (and ``Vrev``/``Rrev`` when it has a breakdown) fitted
+    to ``diode``'s curve over ``[I/10, I]`` (defaults: ``IAVE``/``IBV``/1 A, see
+    :mod:`~circuitnsds.circuit.elements.diode_fit`)."""
+    from dataclasses import replace
+
+    forward = fit_forward(diode, forward_current)
+    origin = "Shockley fit: " + forward.describe("Vfwd", "Ron")
+    model = replace(model, forward_drop=forward.drop, on_resistance=forward.resistance,
+                    shockley=diode)
+    if diode.breakdown_voltage is not None:
+        reverse = fit_breakdown(diode, breakdown_current)
+        origin += "; " + reverse.describe("Vrev", "Rrev")
+        model = replace(model, breakdown_voltage=max(reverse.drop, 1e-9),
+                        breakdown_resistance=reverse.resistance)
+    return replace(model, origin=origin)
 
 
 @dataclass(frozen=True)

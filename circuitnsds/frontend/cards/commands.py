@@ -34,7 +34,7 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
                             "(default 10)",
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
-                "fitted by a PWL diode",
+                "fitted by a PWL diode, or 'auto': the peak current of a first run",
                 "diode": "'ideal' to read Shockley diode models as ideal diodes"}
 TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
@@ -56,6 +56,9 @@ def read_options(reader: StatementReader) -> dict[str, float | str]:
             continue
         if text is None:
             raise reader.error(f".options {key} needs a value", hint=f"{key}: {USED_OPTIONS[key]}")
+        if key == "pwlfit" and text == "auto":
+            used[key] = text
+            continue
         if key in TEXT_OPTIONS:
             if text not in TEXT_OPTIONS[key]:
                 raise reader.error(f".options {key}={text} is not understood",

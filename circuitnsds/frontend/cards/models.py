@@ -7,8 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
-from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
-from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
+from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
 from circuitnsds.frontend.cards.mosfets import MOS_KINDS, read_mos_model
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice import ANALOG_BLOCKS, read_xspice_model
@@ -190,15 +190,7 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
         emission=params.get("n", 1.0), series_resistance=params.get("rs", 0.0),
         breakdown_voltage=model.breakdown_voltage, breakdown_current=params.get("ibv", 1e-3),
         breakdown_emission=params.get("nbv", 1.0), average_current=params.get("iave"))
-    forward = fit_forward(diode, fit_current)
-    origin = "Shockley fit: " + forward.describe("Vfwd", "Ron")
-    model = replace(model, forward_drop=forward.drop, on_resistance=forward.resistance)
-    if model.breakdown_voltage is not None:
-        reverse = fit_breakdown(diode, fit_current)
-        origin += "; " + reverse.describe("Vrev", "Rrev")
-        model = replace(model, breakdown_voltage=max(reverse.drop, 1e-9),
-                        breakdown_resistance=reverse.resistance)
-    return replace(model, origin=origin)
+    return fitted_model(model, diode, fit_current, fit_current)
 
 
 def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
