@@ -244,3 +244,19 @@ def test_pwlfit_auto_refits_to_the_peak_current_of_a_first_run():
     # within the least-squares line's deviation at the end of its range (7 mV here); with the
     # default range (0.1..1 A) it was 0.72 V
     assert waves["v(3)"].max() == pytest.approx(0.6158, abs=0.01)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=200, deadline=None)
+@given(saturation=st.floats(1e-16, 1e-4), emission=st.floats(0.02, 3.0), series=st.floats(0, 5),
+       high=st.floats(1e-4, 10))
+def test_fitted_line_stays_within_its_reported_deviation(saturation, emission, series, high):
+    diode = ShockleyDiode(saturation, emission, series)
+    fit = fit_forward(diode, high)
+    currents = np.linspace(high / 10, high, 21)  # every other point of the 41 fitted
+    deviation = np.abs(fit.drop + fit.resistance * currents - diode.forward_voltage(currents))
+    assert deviation.max() <= fit.max_error * (1 + 1e-9) + 1e-12
+    assert fit.drop >= 0 and fit.resistance >= series * (1 - 1e-9)

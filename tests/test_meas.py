@@ -86,6 +86,8 @@ def test_fourier_of_a_known_wave():
     (".meas tran x TRIG v(a) VAL=1", "TARG"),
     (".meas tran x FIND v(a)", "AT=t or WHEN"),
     (".meas tran x AVG v(a) at=1", "does not take at"),
+    (".meas tran x AVG v(a) from=", "expected key=value"),
+    (".meas tran x AVG from=1m", "needs a signal"),
     (".meas tran x FOO v(a)", "not supported"),
 ])
 def test_meas_errors_say_what_to_write(line, message):
@@ -104,3 +106,22 @@ def test_meas_in_a_netlist_runs_from_the_command_line(tmp_path):
     assert "t50                 =  6.93" in done.stdout
     assert "avg1" in done.stdout and "Fourier analysis for v(in)" in done.stdout
     assert ".meas ignored (only .meas tran" in done.stderr
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+WORDS = st.sampled_from(["tran", "ac", "x", "avg", "rms", "when", "find", "deriv", "trig", "targ",
+                         "v(a)", "i(v1)", "=", "from", "to", "td", "rise", "fall", "cross", "last",
+                         "val", "at", "1m", "-2", "abc", "'p'", "pp", "integ", "max_at"])
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(WORDS, max_size=12))
+def test_any_meas_line_parses_or_says_what_to_write(words):
+    try:
+        spec = parse_meas(".meas " + " ".join(words))
+    except NetlistError as exc:
+        assert exc.hint  # every refusal says what to write
+    else:
+        assert spec is None or spec.name

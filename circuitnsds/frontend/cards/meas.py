@@ -96,7 +96,7 @@ def parse_meas(text: str, location: SourceLocation | None = None) -> MeasureSpec
     if kind == "derivative":
         kind = "deriv"
     if kind in WINDOW_KINDS:
-        if not rest or "=" in rest[:2] and rest[1:2] == ["="]:
+        if not rest or rest[1:2] == ["="]:  # AVG from=... : the signal is missing
             raise fail(f"{kind.upper()} needs a signal, e.g. v(out)")
         signal, options = rest[0], _options(rest[1:], fail)
         _only(options, {"from", "to", "td"}, kind, fail)
@@ -131,9 +131,7 @@ def _options(tokens: list[str], fail) -> dict[str, float]:
     options: dict[str, float] = {}
     k = 0
     while k < len(tokens):
-        if k + 2 >= len(tokens) + 0 and not (k + 2 < len(tokens) + 1):
-            raise fail(f"expected key=value, found {' '.join(tokens[k:])!r}")
-        if k + 2 > len(tokens) or tokens[k + 1] != "=":
+        if k + 2 >= len(tokens) or tokens[k + 1] != "=":
             raise fail(f"expected key=value, found {' '.join(tokens[k:k + 3])!r}")
         key, text = tokens[k], tokens[k + 2]
         if key in {"rise", "fall", "cross"} and text == "last":
