@@ -189,7 +189,7 @@ def run_measurements(specs: list, waves: Waveforms) -> list[MeasureResult]:
 
 
 FOURIER_HARMONICS = 9
-"""ngspice's default number of harmonics (``nfreqs``)."""
+"""Harmonics above DC: ngspice 39's default table has 10 rows, DC and harmonics 1-9."""
 
 
 def fourier_coefficients(waves: Waveforms, signal: str, frequency: float,
@@ -221,8 +221,8 @@ def fourier(spec, waves: Waveforms) -> str:
         thd = (math.sqrt(float(np.sum(magnitudes[1:] ** 2))) / fundamental * 100
                if fundamental else math.nan)
         lines = [f"Fourier analysis for {signal}:",
-                 f"  No. Harmonics: {FOURIER_HARMONICS}, THD: {thd:g} %, Gridsize: 1024, "
-                 "Interpolation Degree: 1", "",
+                 f"No. Harmonics: {FOURIER_HARMONICS + 1}, THD: {thd:g} %, Gridsize: 1024, "
+                 "Interpolation Degree: 1",
                  "Harmonic Frequency   Magnitude   Phase       Norm. Mag   Norm. Phase",
                  "-------- ---------   ---------   -----       ---------   -----------",
                  f" 0       0           {dc:<11.6g} 0           0           0"]
