@@ -260,3 +260,9 @@ def test_fitted_line_stays_within_its_reported_deviation(saturation, emission, s
     deviation = np.abs(fit.drop + fit.resistance * currents - diode.forward_voltage(currents))
     assert deviation.max() <= fit.max_error * (1 + 1e-9) + 1e-12
     assert fit.drop >= 0 and fit.resistance >= series * (1 - 1e-9)
+
+
+def test_info_says_junction_capacitance_and_transit_time_are_ignored():
+    model = circuit_from("D1 a 0 zn\nR1 a 0 1\n.MODEL ZN D (IS=.703F RS=.871 N=1 BV=5.059 IBV=49M "
+                         "CJO=189P VJ=.75 M=.33 TT=50.1N)").elements[0].model
+    assert "CJO, TT ignored" in model.origin

@@ -190,7 +190,12 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
         emission=params.get("n", 1.0), series_resistance=params.get("rs", 0.0),
         breakdown_voltage=model.breakdown_voltage, breakdown_current=params.get("ibv", 1e-3),
         breakdown_emission=params.get("nbv", 1.0), average_current=params.get("iave"))
-    return fitted_model(model, diode, fit_current, fit_current)
+    fitted = fitted_model(model, diode, fit_current, fit_current)
+    dynamic = [key.upper() for key in ("cjo", "cj0", "cj", "tt") if key in params]
+    if dynamic:  # DESIGN: outside the ideal model, said in info
+        fitted = replace(fitted, origin=fitted.origin + f"; {', '.join(dynamic)} ignored (junction "
+                         "capacitance and transit time are outside the ideal model)")
+    return fitted
 
 
 def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
