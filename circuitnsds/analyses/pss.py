@@ -395,7 +395,7 @@ class _Shooter:
         # the period's end, which is the same instant of the periodic solution
         run.y[0] = run.y[-1]
         run.current[0] = run.current[-1]
-        waves = _waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1])
+        waves = _waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1], periodic=True)
         waves.stats.update(analysis="pss", iterations=self.iterations)
         names = [self.mlcs.unknowns[j] for j in maps.state]
         return PSSResult(waveforms=waves, period=self.period, t0=float(run.time[0]), state_names=names,

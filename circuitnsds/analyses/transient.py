@@ -325,15 +325,21 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
         error.hint = f"this step's LCP: {analysis.summary()}"
 
 
-def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) -> Waveforms:
-    """Output signals of ``trajectory`` from ``start`` on (each computed when first read)."""
+def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
+               periodic: bool = False) -> Waveforms:
+    """Output signals of ``trajectory`` from ``start`` on (each computed when first read).
+
+    ``periodic``: the trajectory is one period of a periodic solution (its first and last
+    points are the same instant), so the step into the first point is the last one."""
     first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
     y, current = trajectory.y[first:], trajectory.current[first:]
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
     Y_out, L_out = mlcs.Y_out.tocsr(), mlcs.L_out.tocsr()
     time = trajectory.time[first:]
     # capacitor currents ΔQ/Δt of each step (charge-consistent: their integral is the charge
-    # the capacitor took; 0 at the first point), from n1 through the capacitor to n2
+    # the capacitor took), from n1 through the capacitor to n2; at the first point the step
+    # before it (0 at the start of a run; the period's last step for a periodic one)
+    before = max(first - 1, 0)
     capacitors = {f"i({e.name})": e for e in circuit.elements if isinstance(e, Capacitor)
                   and f"i({e.name})" not in rows}
 
@@ -346,10 +352,21 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float) ->
             charge = element.capacitance * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
             flow = np.zeros(time.size)
             flow[1:] = np.diff(charge) / np.diff(time)
+            if periodic and time.size > 1:
+                flow[0] = flow[-1]
+            elif first > 0:
+                v = [0.0 if n == "0" else float(_row(f"v({n})", trajectory.y[before:first],
+                                                     trajectory.current[before:first])[0])
+                     for n in element.nodes[:2]]
+                step = time[0] - trajectory.time[before]
+                flow[0] = (charge[0] - element.capacitance * (v[0] - v[1])) / step
             return flow
+        return _row(name, y, current)
+
+    def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
         j = rows[name]
-        values = np.zeros(y.shape[0])
-        for matrix, unknowns in ((Y_out, y), (L_out, current)):
+        values = np.zeros(states.shape[0])
+        for matrix, unknowns in ((Y_out, states), (L_out, currents)):
             span = slice(matrix.indptr[j], matrix.indptr[j + 1])
             for column, weight in zip(matrix.indices[span], matrix.data[span]):
                 values += weight * unknowns[:, column]

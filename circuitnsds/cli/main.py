@@ -401,13 +401,6 @@ def _signal_names(text: str) -> list[str]:
             for name in re.findall(r"[a-z]+\s*\([^)]*\)|[^,\s]+", text, re.IGNORECASE)]
 
 
-def _seconds(text: str) -> float:
-    try:
-        return parse_value(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 10m, 1e-3)") from None
-
-
 def _selected(args: argparse.Namespace, waves):
     """The waveforms to write: differential ``v(a,b)`` signals of ``--signals`` added, the
     ``--tstart``/``--tstop`` window and ``--every`` decimation applied."""
