@@ -14,8 +14,9 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
 * its off-resistance: VDMOS ``Rds`` when given, else the circuit's ``1/gmin``;
 * an ideal body diode (VDMOS: source → drain for n-channel, in series with ``Rb``, with
   ``BV`` as a Zener breakdown when given; level 1–3: the bulk–drain and bulk–source
-  junctions; none when ``IS = 0``) whose ``Vfwd``/``Ron`` are the chord of its Shockley curve
-  (:mod:`circuitnsds.frontend.cards.shockley`);
+  junctions; none when ``IS = 0``) whose ``Vfwd``/``Ron`` are the least-squares line of its
+  Shockley curve over 0.1–1 A (:func:`circuitnsds.circuit.elements.diode_fit.fit_forward`, the
+  fit of diode models);
 * linear capacitances when the model gives them, the gate–drain one split into its two
   grounded halves, each at the value it has when its node moves: ngspice's Cgd(Vgd) is
   Cgdmax while the channel conducts (``Vgd > 0``) and falls toward Cgdmin as the drain
@@ -43,10 +44,10 @@ from circuitnsds.circuit.elements import (
     Resistor,
     SwitchModel,
 )
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_forward
 from circuitnsds.circuit.elements.mosfet import Mosfet
 from circuitnsds.errors import SourceLocation
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
-from circuitnsds.frontend.cards.shockley import piecewise_linear_fit
 
 DEFAULT_GATE_DRIVE = 10.0
 """``|Vgs|`` [V] at which the on-resistance is computed: the usual datasheet ``Rds(on)``
@@ -279,7 +280,8 @@ def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: s
         return []
     emission = model.get("n", 1.0) if model.kind == "vdmos" else 1.0
     resistance = model.get("rb", 0.0) if model.kind == "vdmos" else 0.0
-    forward, slope = piecewise_linear_fit(saturation, emission, resistance)
+    fit = fit_forward(ShockleyDiode(saturation, emission, resistance), 1.0)
+    forward, slope = fit.drop, fit.resistance
     breakdown = abs(model.params["bv"]) if model.kind == "vdmos" and model.params.get("bv") else None
     diode_model = DiodeModel(f"{model.name}.body", forward_drop=forward, on_resistance=slope,
                              off_resistance=off_resistance, breakdown_voltage=breakdown,
