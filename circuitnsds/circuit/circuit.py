@@ -109,31 +109,43 @@ class Circuit:
     strict: bool = False
     reported: set[str] = field(default_factory=set, repr=False, compare=False)
 
-    def _index(self) -> tuple[dict[str, Element], set[str]]:
-        """Elements by name and the set of nodes, kept in step with :attr:`elements` and
-        :attr:`nodes` (rebuilt when those lists were changed directly): reading a netlist
-        of ``N`` elements costs O(N), not O(N²)."""
+    def _index(self, rebuild: bool = False) -> tuple[dict[str, int], set[str]]:
+        """Positions of the elements by name and the set of nodes, kept in step with
+        :attr:`elements` and :attr:`nodes` (rebuilt when those lists changed length, or on
+        request): reading a netlist of ``N`` elements costs O(N), not O(N²)."""
         index = self.__dict__.get("_by_name")
         node_set = self.__dict__.get("_node_set")
-        if index is None or len(index) != len(self.elements) or len(node_set) != len(self.nodes):
+        if (rebuild or index is None or len(index) != len(self.elements)
+                or len(node_set) != len(self.nodes)):
             index = {}
-            for element in self.elements:
-                index.setdefault(element.name, element)
+            for position, element in enumerate(self.elements):
+                index.setdefault(element.name, position)
             node_set = set(self.nodes)
             self.__dict__["_by_name"], self.__dict__["_node_set"] = index, node_set
         return index, node_set
 
+    def _find(self, name: str) -> Element | None:
+        """The element called ``name`` (lower case), or ``None``; an element replaced in
+        :attr:`elements` directly is found too (the index is checked, rebuilt if stale)."""
+        for rebuild in (False, True):
+            position = self._index(rebuild)[0].get(name)
+            if position is None:
+                return None
+            if position < len(self.elements) and self.elements[position].name == name:
+                return self.elements[position]
+        return None
+
     def add(self, element: Element, location: SourceLocation | None = None) -> None:
         """Append an element; its nodes join the node list."""
-        index, node_set = self._index()
-        existing = index.get(element.name)
+        existing = self._find(element.name)
         if existing is not None:
             first = f" (first at {existing.location})" if existing.location else ""
             raise NetlistError(f"element {element.name} is defined twice{first}",
                                where=location or element.name,
                                hint="element names must be unique")
+        index, node_set = self._index()
+        index[element.name] = len(self.elements)
         self.elements.append(element)
-        index[element.name] = element
         for node in element.nodes:
             if node != "0" and node not in node_set:
                 self.nodes.append(node)
@@ -150,12 +162,11 @@ class Circuit:
         self.tran = tran
 
     def element(self, name: str) -> Element:
-        """The element called ``name`` (case-insensitive). A scan of :attr:`elements`, not the
-        name index of :meth:`add`: a caller may have replaced an element in the list."""
-        for element in self.elements:
-            if element.name == name.lower():
-                return element
-        raise KeyError(name)
+        """The element called ``name`` (case-insensitive)."""
+        element = self._find(name.lower())
+        if element is None:
+            raise KeyError(name)
+        return element
 
     def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
         """Stamp every element into the circuit's MLCS.
