@@ -87,3 +87,24 @@ def test_ideal_diodes_in_parallel_are_warned_about_at_run():
     with warnings.catch_warnings():
         warnings.simplefilter("error")                           # with Ron they share: no warning
         circuit_from(body.replace(".model dd D", ".model dd D(Ron=1)")).transient()
+
+
+CUT = """V1 in 0 1
+R1 in a 1
+L1 a b 1m
+Vg g 0 PULSE(5 0 1m 1u 1u 10 20)
+S1 b 0 g 0 sw
+.model sw SW(VT=2.5 RON=0.01 ROFF=1e9)
+.tran 1u 2m"""
+
+
+def test_an_inductor_current_cut_in_one_step_is_warned_with_its_dirac_weight():
+    # 1 V / 1.01 ohm = 0.990 A through 1 mH, cut when S1 opens at 1 ms: flux L·I = 0.99 mV·s
+    with pytest.warns(CircuitWarning, match=r"current of l1 \(0\.99 A\) is cut in one step at "
+                                            r"t = 0\.001\d* s.*L·ΔI = 0\.00099 V·s"):
+        waves = circuit_from(CUT).transient()
+    assert np.abs(waves["i(l1)"][-1]) < 1e-6                     # it was cut
+    with warnings.catch_warnings():                               # a freewheeling diode: no cut
+        warnings.simplefilter("error", CircuitWarning)
+        free = circuit_from(CUT + "\nD1 b a dd\n.model dd D").transient()
+    assert free["i(l1)"][-1] > 0.1                                # still decaying through D1

@@ -158,9 +158,46 @@ def _run_transient(
         if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
+    _warn_cut_inductors(mlcs, trajectory)
     if report_step is not None:
         trajectory = _decimated(trajectory, report_step, breakpoints)
     return _waveforms(circuit, mlcs, trajectory, start, stop)
+
+
+def _warn_cut_inductors(mlcs, trajectory) -> None:
+    """Warn when an inductor's current is cut in one step (an opening switch or a blocking
+    device with no other path): the ideal inductor then has a Dirac voltage, of weight the
+    flux L·ΔI [V·s], and the voltage shown at that step (L·ΔI/h, or I·Roff) depends on the
+    step and on Roff, not on the circuit. A current that falls to zero smoothly (a diode's
+    natural turn-off) does not count: the cut step must change the current more than ten
+    times as much as the step before it."""
+    E = mlcs.E.tocsr()
+    y = trajectory.y
+    if y.shape[0] < 3:
+        return
+    for row, name in enumerate(mlcs.unknowns):
+        if not (name.startswith("i(") and mlcs.differential_rows[row]):
+            continue
+        current = y[:, row]
+        scale = float(np.abs(current).max())
+        if not scale > 0.0:
+            continue
+        change = np.abs(np.diff(current))
+        before = np.concatenate([[np.inf], change[:-1]])
+        cut = np.flatnonzero((np.abs(current[:-1]) > 0.05 * scale) & (np.abs(current[1:]) < 1e-3 * scale)
+                             & (change > 10.0 * before))
+        if not cut.size:
+            continue
+        k = int(cut[0])
+        inductance = float(E[row, row])
+        flux = inductance * abs(float(current[k]))
+        more = f" (and {cut.size - 1} more times)" if cut.size > 1 else ""
+        warnings.warn(
+            f"the current of {name[2:-1]} ({current[k]:.3g} A) is cut in one step at "
+            f"t = {trajectory.time[k + 1]:.6g} s{more}: an ideal inductor then has a Dirac voltage "
+            f"of weight L·ΔI = {flux:.3g} V·s; the voltage shown at that step depends on the step "
+            "(L·ΔI/h) or on Roff, not on the circuit; give the current a path (a freewheeling "
+            "diode, a snubber) if that is not meant", CircuitWarning, stacklevel=4)
 
 
 MEMORY_SHARE = 0.8
