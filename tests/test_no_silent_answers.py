@@ -104,7 +104,11 @@ def test_an_inductor_current_cut_in_one_step_is_warned_with_its_dirac_weight():
                                             r"t = 0\.001\d* s.*L·ΔI = 0\.00099 V·s"):
         waves = circuit_from(CUT).transient()
     assert np.abs(waves["i(l1)"][-1]) < 1e-6                     # it was cut
+    flux = waves.flux_impulse("L1")
+    assert np.count_nonzero(flux) == 1 and flux.sum() == pytest.approx(-1e-3 / 1.01, rel=1e-3)
+    assert waves.time[np.flatnonzero(flux)[0]] == pytest.approx(1e-3, abs=2e-6)
     with warnings.catch_warnings():                               # a freewheeling diode: no cut
         warnings.simplefilter("error", CircuitWarning)
         free = circuit_from(CUT + "\nD1 b a dd\n.model dd D").transient()
     assert free["i(l1)"][-1] > 0.1                                # still decaying through D1
+    assert not free.flux_impulses and not free.flux_impulse("l1").any()

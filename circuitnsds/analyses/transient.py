@@ -158,23 +158,43 @@ def _run_transient(
         if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
-    _warn_cut_inductors(mlcs, trajectory)
+    fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
     if report_step is not None:
+        full_time = trajectory.time
         trajectory = _decimated(trajectory, report_step, breakpoints)
-    return _waveforms(circuit, mlcs, trajectory, start, stop)
+        fluxes = {name: _onto(flux, full_time, trajectory.time) for name, flux in fluxes.items()}
+    waves = _waveforms(circuit, mlcs, trajectory, start, stop)
+    first = trajectory.time.size - waves.time.size
+    waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
+    return waves
 
 
-def _warn_cut_inductors(mlcs, trajectory) -> None:
-    """Warn when an inductor's current is cut in one step (an opening switch or a blocking
-    device with no other path): the ideal inductor then has a Dirac voltage, of weight the
-    flux L·ΔI [V·s], and the voltage shown at that step (L·ΔI/h, or I·Roff) depends on the
-    step and on Roff, not on the circuit. A current that falls to zero smoothly (a diode's
-    natural turn-off) does not count: the cut step must change the current more than ten
-    times as much as the step before it."""
+def _onto(weights: np.ndarray, time: np.ndarray, reported: np.ndarray) -> np.ndarray:
+    """Dirac weights per step of the grid ``time`` summed onto the reported points: a weight
+    counts at the first reported point at or after its step's end."""
+    out = np.zeros(reported.size)
+    where = np.flatnonzero(weights)
+    index = np.minimum(np.searchsorted(reported, time[where] - 1e-12 * max(reported[-1], 1e-300)),
+                       reported.size - 1)
+    np.add.at(out, index, weights[where])
+    return out
+
+
+def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
+    """Inductor name -> flux [V·s] of its Dirac voltage per step (``L·Δi`` at each step that
+    cuts its current, 0 elsewhere), with a warning for each such inductor.
+
+    A cut: an opening switch or a blocking device with no other path takes the current
+    (above 5 % of its maximum) below 0.1 % in one step; the ideal inductor then has a Dirac
+    voltage, and the voltage shown at that step (L·ΔI/h, or I·Roff) depends on the step and
+    on Roff, not on the circuit. A current that falls to zero smoothly (a diode's natural
+    turn-off) does not count: the cut step must change the current more than ten times as
+    much as the step before it."""
     E = mlcs.E.tocsr()
     y = trajectory.y
+    fluxes: dict[str, np.ndarray] = {}
     if y.shape[0] < 3:
-        return
+        return fluxes
     for row, name in enumerate(mlcs.unknowns):
         if not (name.startswith("i(") and mlcs.differential_rows[row]):
             continue
@@ -188,8 +208,11 @@ def _warn_cut_inductors(mlcs, trajectory) -> None:
                              & (change > 10.0 * before))
         if not cut.size:
             continue
-        k = int(cut[0])
         inductance = float(E[row, row])
+        weights = np.zeros(current.size)
+        weights[cut + 1] = inductance * (current[cut + 1] - current[cut])
+        fluxes[name[2:-1]] = weights
+        k = int(cut[0])
         flux = inductance * abs(float(current[k]))
         more = f" (and {cut.size - 1} more times)" if cut.size > 1 else ""
         warnings.warn(
@@ -197,7 +220,9 @@ def _warn_cut_inductors(mlcs, trajectory) -> None:
             f"t = {trajectory.time[k + 1]:.6g} s{more}: an ideal inductor then has a Dirac voltage "
             f"of weight L·ΔI = {flux:.3g} V·s; the voltage shown at that step depends on the step "
             "(L·ΔI/h) or on Roff, not on the circuit; give the current a path (a freewheeling "
-            "diode, a snubber) if that is not meant", CircuitWarning, stacklevel=4)
+            "diode, a snubber) if that is not meant (Waveforms.flux_impulse)", CircuitWarning,
+            stacklevel=4)
+    return fluxes
 
 
 MEMORY_SHARE = 0.8

@@ -74,6 +74,10 @@ class Waveforms:
             instant (``μ`` of the scheme). Where a state jumps, the current is a
             Dirac: its weight is this charge, which does not shrink with the step.
         residual: scaled complementarity residual of every step.
+        flux_impulses: inductor name -> flux [V·s] of a Dirac voltage across it in the step
+            ending at each instant, ``L·Δi`` where its current was cut in one step (an opening
+            switch with no other path), 0 elsewhere; only inductors with such a step appear.
+            The voltage shown at that step (``L·Δi/h``, or ``I·Roff``) depends on the step.
         title: the netlist title.
         stats: solver counters and wall time.
         events: every switching of an ``S``, ``W`` or ``M`` switch in time order, as
@@ -90,6 +94,7 @@ class Waveforms:
     title: str = ""
     stats: dict[str, float] = field(default_factory=dict)
     events: list[tuple[float, str, bool]] = field(default_factory=list)
+    flux_impulses: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -111,11 +116,16 @@ class Waveforms:
         """Charge [C] through ``device`` in each step (see ``impulses``)."""
         return self.impulses[device.lower()]
 
+    def flux_impulse(self, inductor: str) -> np.ndarray:
+        """Flux [V·s] of the Dirac voltage across ``inductor`` in each step (see
+        ``flux_impulses``; zeros for an inductor whose current was never cut)."""
+        return self.flux_impulses.get(inductor.lower(), np.zeros(self.time.size))
+
     def select(self, names: Iterable[str]) -> Waveforms:
         """A copy with only the named signals (raises ``KeyError`` for an unknown one)."""
         chosen = {name.strip().lower(): self[name] for name in names}
         return Waveforms(self.time, chosen, self.impulses, self.residual, self.title, self.stats,
-                         self.events)
+                         self.events, self.flux_impulses)
 
     def switchings(self, element: str, state: bool | None = None) -> np.ndarray:
         """Instants [s] at which ``element`` switched (to ``state`` only, when given)."""
