@@ -137,3 +137,41 @@ def test_pwm_buck_control_to_output_matches_sine_injection(settled, frequency):
     theirs = 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
     assert abs(np.degrees(np.angle(ours / theirs))) < 2
+
+
+def test_pwm_boost_control_to_output_shows_the_right_half_plane_zero():
+    # CCM boost, D = 0.4: averaged control-to-output (ideal switch and diode)
+    # GAIN·Vin/(1−D)² · (1 − s/ωz)/(1 + sL/(R(1−D)²) + s²LC/(1−D)²), ωz = R(1−D)²/L (2.86 kHz)
+    duty, vin, inductance, capacitance, load = 0.4, 5.0, 100e-6, 100e-6, 5.0
+    circuit = read(f"""PWM boost: S1 closed while v(ctrl) > v(ramp)
+Vin in 0 DC {vin}
+Vc ctrl 0 DC {duty / GAIN}
+Vramp ramp 0 PULSE(0 1 0 {RISE} {FALL} {WIDTH} {PERIOD})
+L1 in sw {inductance}
+S1 sw 0 ctrl ramp swmod
+D1 sw out dfree
+C1 out 0 {capacitance}
+Rload out 0 {load}
+.model swmod SW(VT=0 VH=0 RON=1m ROFF=1e9)
+.model dfree D(Ron=1m)
+.tran {STEP} 1m
+.end
+""")
+    result = circuit.pss(step=STEP)
+    assert result.iterations <= 3 and result.relative_residual < 1e-10
+    frequencies = np.array([100.0, 1e3, 2e3, 3e3, 5e3, 1e4])  # up to fs/10
+    ac = circuit.ac("vc", "v(out)", frequencies, pss=result)
+    got = ac.transfer["v(out)"]
+    s = 2j * np.pi * frequencies
+    off = 1 - duty
+    zero = load * off**2 / inductance  # [rad/s]
+    poles = 1 + s * inductance / (load * off**2) + s * s * inductance * capacitance / off**2
+    expected = GAIN * vin / off**2 * (1 - s / zero) / poles
+    ratio = got / expected
+    assert np.abs(20 * np.log10(np.abs(ratio))).max() < 0.5
+    assert np.abs(np.degrees(np.angle(ratio))).max() < 3
+    assert ac.phase_deg("v(out)")[-1] < -225  # falls past −180° (poles) by the zero's −atan(f/fz)
+    # the zero from the response itself: the numerator G·poles has phase −atan(f/fz)
+    numerator = np.angle(got * poles)
+    estimates = frequencies[1:5] / np.tan(-numerator[1:5])
+    assert np.abs(estimates / (zero / (2 * np.pi)) - 1).max() < 0.05
