@@ -175,3 +175,20 @@ Rload out 0 {load}
     numerator = np.angle(got * poles)
     estimates = frequencies[1:5] / np.tan(-numerator[1:5])
     assert np.abs(estimates / (zero / (2 * np.pi)) - 1).max() < 0.05
+
+
+def test_cli_ac_takes_the_comparator_control_as_input(tmp_path):
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "pwm.cir"
+    netlist.write_text(buck().replace(".end", ".ac dec 2 100 1k\n.end"))
+    table = tmp_path / "bode.csv"
+    assert main(["ac", str(netlist), "--input", "Vc", "--output", "v(out)", "-o", str(table),
+                 "-q"]) == 0
+    lines = table.read_text().splitlines()
+    assert lines[0] == "frequency,mag(v(out)),phase(v(out))"
+    frequency, magnitude, phase = map(float, lines[1].split(","))
+    s = 2j * np.pi * frequency
+    expected = VIN * GAIN / (1 + s * L / R + s * s * L * C)
+    assert magnitude == pytest.approx(20 * np.log10(abs(expected)), abs=0.05)
+    assert phase == pytest.approx(np.degrees(np.angle(expected)), abs=0.5)
