@@ -305,12 +305,27 @@ def test_newton_cycling_between_mode_sequences_goes_to_the_fallback():
     assert_device_laws(circuit, result.waveforms)
 
 
-def test_pwm_switch_controlled_by_the_circuit_is_explained_when_no_period_settles():
-    # the voltage-mode buck's S1 compares the error amplifier with the ramp: the transient
-    # switches it at located crossings inside the steps, which the whole-step maps of the
-    # period map's Jacobian do not describe (no saltation term)
+def test_voltage_mode_buck_with_a_circuit_controlled_pwm_settles():
+    # the voltage-mode buck's S1 compares the error amplifier with the ramp: its instants are
+    # located and the period map's Jacobian carries their sensitivity (saltation), so Newton
+    # ends quadratically once the fallback's transient periods have brought it near
     text = (NETLISTS / "buck_voltage_mode.cir").read_text().replace(
         "Vref ref 0 PWL(0 0 1m 2.5)", "Vref ref 0 DC 2.5")
+    circuit = circuitnsds.read_netlist(text)
+    result = circuit.pss()
+    assert result.relative_residual <= 1e-9
+    last = result.history[-4:]
+    assert last[-1] < 1e-10
+    # quadratic at the end (a Jacobian without the saltation term would converge linearly
+    # at best: each of these would be a fixed fraction of the one before)
+    assert last[-1] < 100 * last[-2] ** 2 and last[-2] < 100 * last[-3] ** 2
+    out = result.waveforms["v(out)"]
+    # the loop's reference: 2.5 V·(1 + Rtop/Rbot); op-amp gain 1e4 leaves ~1e-4
+    assert float(np.mean(out)) == pytest.approx(5.0, rel=1e-3)
+    # the settled period's switchings: one opening, one closing, at located instants
+    events = result.waveforms.events
+    assert sorted({e.state for e in events}) == [False, True]
+    assert any(e.time not in set(result.waveforms.time) for e in events)
     with pytest.raises(circuitnsds.SimulationError, match=r"(?s)S1 are controlled by the circuit.*"
-                       r"saltation.*tol="):
+                       r"sequence.*tol="):
         circuitnsds.read_netlist(text).pss(step=0.2e-6, max_iterations=1)

@@ -323,14 +323,15 @@ class _Shooter:
         hint = ("try a smaller step (--step), more warm-up periods (periods_warmup, .pss TSTAB), "
                 "or check the period")
         if free:
-            hint = (f"switch(es) {', '.join(free)} are controlled by the circuit: the transient "
-                    "switches them at the crossings located inside the steps, but the period map's "
-                    "Jacobian is built from whole-step maps and lacks the saltation term of those "
-                    "switchings, so Newton does not converge to them;\n  more warm-up periods "
-                    "(periods_warmup, .pss TSTAB) bring the transient closer, and a tolerance above "
-                    f"the best residual (tol={2 * best[0]:.2g}, --tol) accepts the best period "
-                    "found;\n  if they switch by themselves (a hysteretic controller), the period is "
-                    "not the sources' and that is not supported")
+            hint = (f"switch(es) {', '.join(free)} are controlled by the circuit: their instants "
+                    "are located and the period map's Jacobian follows them, but only for the "
+                    "sequence of modes and switchings a run visits; far from the periodic state "
+                    "Newton can jump between sequences (a switching that appears or vanishes, a "
+                    "limiter that saturates);\n  more warm-up periods (periods_warmup, .pss TSTAB) "
+                    "bring the transient closer, and a tolerance above the best residual "
+                    f"(tol={2 * best[0]:.2g}, --tol) accepts the best period found;\n  if they "
+                    "switch by themselves (a hysteretic controller), the period is not the sources' "
+                    "and that is not supported")
         raise SimulationError(f"the periodic steady state was not found: {failure}; best relative "
                               f"residual {best[0]:.2g} after {self.transient_periods} transient periods",
                               where=self.circuit.file, hint=hint)

@@ -107,7 +107,9 @@ def build_parser() -> argparse.ArgumentParser:
                              "the periodic steady state")
     ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
     ac.add_argument("--input", metavar="SOURCE",
-                    help="the source whose value is perturbed, as named in the netlist (default: "
+                    help="the source whose value is perturbed, as named in the netlist: a supply "
+                    "(line-to-output), a current source at the output (output impedance), the "
+                    "control voltage of a PWM comparator switch (control-to-output) (default: "
                     "every source with an AC magnitude, as SPICE's .ac)")
     ac.add_argument("--output", action="append", metavar="SIGNAL",
                     help="signal to report, e.g. v(out); repeatable (default: every signal)")

@@ -222,28 +222,34 @@ def integrate(
         return sorted([e for e in events if e.time <= grid[last]]
                       + stepping.scheduled_events(states[:last + 1]))
 
+    def split(k: int) -> None:
+        """A circuit-controlled switch's control crossed its threshold during step k - 1:
+        take that step again, split at the crossing(s)."""
+        nonlocal guess, restart, charge, events
+        previous = charge0 if k == 1 and charge0 is not None else mlcs.E @ y[k - 1]
+        try:
+            parts = stepping.split_step(k - 1, states[k - 1], states[k], previous, y[k - 1],
+                                        active[k])
+        except SimulationError as exc:
+            raise _stopped(exc, k - 1, grid, y, current, residual, active, states, stats,
+                           so_far(k - 1)) from None
+        # the state and pair currents at t_k are those of the last part (so that every
+        # sample obeys the device laws); the step's charge is the sum over its parts
+        y[k], current[k], residual[k] = parts.result.u, parts.result.z, parts.result.residual
+        split_impulses[k] = parts.impulse
+        active[k] = guess = np.asarray(parts.result.active, dtype=bool)
+        states[k] = parts.states
+        events += parts.events
+        stepping.splits[k - 1] = parts.parts
+        restart = parts.at_end
+        last_active[states[k].tobytes()] = guess
+        charge = mlcs.E @ y[k]
+
+    stepping.splits = {}
     k = 0
     while k < count - 1:
         if k > 0 and stepping.crossings(states[k], y[k]):
-            # a circuit-controlled switch's control crossed its threshold during step k - 1:
-            # take that step again, split at the crossing(s)
-            previous = charge0 if k == 1 and charge0 is not None else mlcs.E @ y[k - 1]
-            try:
-                split = stepping.split_step(k - 1, states[k - 1], states[k], previous, y[k - 1],
-                                            active[k])
-            except SimulationError as exc:
-                raise _stopped(exc, k - 1, grid, y, current, residual, active, states, stats,
-                               so_far(k - 1)) from None
-            # the state and pair currents at t_k are those of the last part (so that every
-            # sample obeys the device laws); the step's charge is the sum over its parts
-            y[k], current[k], residual[k] = split.result.u, split.result.z, split.result.residual
-            split_impulses[k] = split.impulse
-            active[k] = guess = np.asarray(split.result.active, dtype=bool)
-            states[k] = split.states
-            events += split.events
-            restart = split.at_end
-            last_active[states[k].tobytes()] = guess
-            charge = mlcs.E @ y[k]
+            split(k)
         states[k + 1] = stepping.switch_states(k, states[k], y[k])
         changed = k > 0 and (restart or bool((states[k + 1] != states[k]).any()))
         restart = False
@@ -291,6 +297,8 @@ def integrate(
         k += 1
         _report()
 
+    if count > 1 and stepping.crossings(states[-1], y[-1]):
+        split(count - 1)  # a crossing in the last step is located too (a period's end)
     impulse = np.zeros((count, m))
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
     for row, charge_of_step in split_impulses.items():
@@ -335,6 +343,32 @@ class _Solved(NamedTuple):
     residual: float
 
 
+class SplitPart(NamedTuple):
+    """One part of a step split at located switchings (θ = 1 parts; read by
+    :mod:`circuitnsds.engine.step_maps` for the saltation term).
+
+    Attributes:
+        start: offset of the part's start from the step's start [s].
+        length: the part's length [s] (it ends at ``start + length``).
+        states: switch states during the part.
+        y_start: the unknowns at the part's start (``E y_start`` is what it carries in).
+        u, z: its solution (unknowns at its end, pair currents [A]); ``active`` its active set.
+        theta: the part's θ (1 unless it is the first part of a θ < 1 step).
+        row: the free switch (row of ``_Stepping.free``) whose control crosses its threshold
+            at the part's end, or -1 when the part ends at the step's end (a fixed instant).
+    """
+
+    start: float
+    length: float
+    states: np.ndarray
+    y_start: np.ndarray
+    u: np.ndarray
+    z: np.ndarray
+    active: np.ndarray
+    theta: float
+    row: int
+
+
 @dataclass
 class _Split:
     """A step taken again in parts at located switchings (:meth:`_Stepping.split_step`).
@@ -346,6 +380,7 @@ class _Split:
         events: the switchings located in the step.
         at_end: the last switching happened at the very end of the step (the next step
             is the first in the new state).
+        parts: the parts the step was taken in (:class:`SplitPart`).
     """
 
     result: object
@@ -353,6 +388,7 @@ class _Split:
     states: np.ndarray
     events: list[SwitchEvent]
     at_end: bool
+    parts: list[SplitPart]
 
 
 def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
@@ -426,6 +462,7 @@ class _Stepping:
         self.mapped_seconds = 0.0
         self.event_solves = 0
         self._dense_cache: dict[tuple, _DenseMode] = {}
+        self.splits: dict[int, list[SplitPart]] = {}  # the last run's split steps
 
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
@@ -565,14 +602,16 @@ class _Stepping:
         restart = k == 0 or bool((before != states).any()) or self.step_class[k] >= self.sizes
         theta = 1.0 if restart else self.theta
         states = states.copy()
-        start, impulse, events = 0.0, np.zeros(self.mlcs.m), []
+        start, impulse, events, parts = 0.0, np.zeros(self.mlcs.m), [], []
         while True:
             rest = h - start
             end = self.partial_step(k, start, rest, theta, states, charge, y, guess)
             rows = self.crossings(states, end.u)
             if not rows:
                 impulse += end.z * rest
-                return _Split(end, impulse, states, events, False)
+                parts.append(SplitPart(start, rest, states.copy(), y, end.u, end.z,
+                                       np.asarray(end.active, dtype=bool), theta, -1))
+                return _Split(end, impulse, states, events, False, parts)
             if len(events) >= MAX_EVENTS_PER_STEP:
                 name = self.mlcs.switches[self.free[rows[0]]].name
                 raise chattering_error(name, self.grid[k], self.grid[k + 1], len(events))
@@ -581,13 +620,17 @@ class _Stepping:
             j = int(self.free[row])
             if first >= rest - MIN_FRACTION * h:  # at the end of the step
                 impulse += end.z * rest
+                parts.append(SplitPart(start, rest, states.copy(), y, end.u, end.z,
+                                       np.asarray(end.active, dtype=bool), theta, -1))
                 states[j] = not states[j]
                 events.append(SwitchEvent(float(self.grid[k + 1]), self.mlcs.switches[j].name,
                                           bool(states[j])))
-                return _Split(end, impulse, states, events, True)
+                return _Split(end, impulse, states, events, True, parts)
             if first > MIN_FRACTION * h:
                 part = self.partial_step(k, start, first, theta, states, charge, y, guess,
                                          end.active)
+                parts.append(SplitPart(start, first, states.copy(), y, part.u, part.z,
+                                       np.asarray(part.active, dtype=bool), theta, row))
                 impulse += part.z * first
                 y, guess = part.u, np.asarray(part.active, dtype=bool)
                 charge = self.E @ y

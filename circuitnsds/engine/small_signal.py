@@ -23,9 +23,11 @@ results are transfer functions per unit of the source's value, V/V, A/V, V/A, ..
   of the first case (it tends to it as ``ωh → 0``); above half the switching frequency the
   other sidebands ``ω + n·ωs`` of the switched response alias onto ω: physical, not an error.
 
-Switching instants are those of the grid (source-driven switches at their threshold
-crossings): a perturbation that would move an instant (a PWM comparator's control) needs
-the saltation term of located events, which the engine does not have yet.
+A step split at a located switching of a circuit-controlled switch (a PWM comparator)
+enters with its exact linearisation, the switching instant's sensitivity to the state and
+to the sources included (:func:`circuitnsds.engine.step_maps.split_map`): a perturbed
+control voltage moves the instant, and the response carries the saltation term.
+Source-driven switches switch at grid points, which a small perturbation does not move.
 """
 
 from __future__ import annotations
@@ -85,22 +87,27 @@ def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarra
     """
     inputs = np.asarray(inputs, dtype=complex)
     time = maps.trajectory.time
-    period = time[-1] - time[0]
+    t0 = time[0]
+    period = time[-1] - t0
     omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
-    phase = np.exp(1j * np.outer(omega, time - time[0]))  # e^{jω (t_k − t0)}, (F, N + 1)
+    phase = np.exp(1j * np.outer(omega, time - t0))  # e^{jω (t_k − t0)}, (F, N + 1)
     state = maps.state
     size = state.size
     n = maps.trajectory.y.shape[1]
-    modes = maps.modes
+
+    def drive(k: int) -> np.ndarray:
+        """``[δy_{k+1}; δλ_α]`` from the input alone (δx_k = 0), one row per frequency."""
+        total = 0
+        for instant, G in maps.input_terms(k):
+            total = total + np.outer(np.exp(1j * omega * (instant - t0)), G @ inputs)
+        return total
+
     # one pass: the particular response from δx_0 = 0 and the homogeneous part Φ
     forced = np.zeros((omega.size, size), dtype=complex)
     phi = np.eye(size)
     for k in range(maps.steps):
-        mode = modes[maps.mode_of_step[k]]
-        M = mode.P[state][:, state]
-        drive = (np.outer(phase[:, k + 1], mode.Q1[state] @ inputs)
-                 + np.outer(phase[:, k], mode.Q0[state] @ inputs))
-        forced = forced @ M.T + drive
+        M, _ = maps.step(k)
+        forced = forced @ M.T + drive(k)[:, state]
         phi = M @ phi
     start = np.empty((omega.size, size), dtype=complex)
     ring = np.exp(1j * omega * period)
@@ -112,12 +119,12 @@ def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarra
     result = np.zeros((omega.size, outputs.shape[0]), dtype=complex)
     x = start
     for k in range(maps.steps):
-        mode = modes[maps.mode_of_step[k]]
-        full = (x @ mode.P[:, state].T + np.outer(phase[:, k + 1], mode.Q1 @ inputs)
-                + np.outer(phase[:, k], mode.Q0 @ inputs))  # [y_{k+1}; λ_α], (F, n + a)
+        Y, _ = maps.full_map(k)
+        full = x @ Y.T + drive(k)  # [δy_{k+1}; δλ_α], (F, n + a)
         values = full[:, :n] @ on_y
-        if mode.active.size:
-            values += full[:, n:] @ on_pairs[mode.active]
+        active = maps.active_pairs(k)
+        if active.size:
+            values += full[:, n:] @ on_pairs[active]
         result += (weights[k] * np.conj(phase[:, k + 1]))[:, None] * values
         x = full[:, state]
     return result

@@ -22,6 +22,31 @@ Where ``E`` couples two nodes (a floating capacitor), both node voltages are sta
 unknowns while only their difference is stored; ``Φ`` then has an eigenvalue 0 in
 the direction the step does not see, which is harmless.
 
+A step split at located switchings of circuit-controlled switches
+(:meth:`circuitnsds.engine.integrate._Stepping.split_step`) is taken in parts: part ``i``
+of length ``σ_i = T_i − T_{i−1}`` (``T_0 = t_k``, the last part ends at ``t_{k+1}``) in its
+own switch states and active set solves the fixed-mode θ = 1 step system
+
+    K_i(σ_i) [y_i; λ_i] = [E y_{i−1}/σ_i + S f(T_i); −e_α],   K_i(σ) = [[E/σ − A, −B_α], [C_α, D_αα]]
+
+and an inner instant ``T_i`` is where the switch's control ``c·y_i − threshold`` is 0. The
+map of the whole step then depends on ``x_k`` also through the instants: its exact
+Jacobian (:func:`split_map`) is built part by part, carrying ``J = ∂y_{i−1}/∂(x_k, δf)``
+and ``∂T_{i−1}/∂(x_k, δf)``. Differentiating ``K_i s = r`` (``s = [y_i; λ_i]``):
+
+    ∂s/∂T_i     =  K_i⁻¹ [E (y_i − y_{i−1})/σ_i² + S ḟ(T_i); 0]   (= v_i)
+    ∂s/∂T_{i−1} = −K_i⁻¹ [E (y_i − y_{i−1})/σ_i²; 0]
+    ∂s/∂y_{i−1} =  K_i⁻¹ [E/σ_i; 0],   ∂s/∂f(T_i) = K_i⁻¹ [S; 0]
+
+and, at a located instant, ``c·y_i(T_i) = threshold`` gives
+``∂T_i = −c·(∂y_i with T_i held) / (c·v_i)``: the switching-instant sensitivity, whose
+product with ``v_i`` is the saltation term (the difference of the two modes' vector
+fields at the instant, in the discrete system). ``ḟ`` is the sources' slope, a central
+difference of their time functions over 1e-6 of the step (exact on a PULSE's linear
+segments). The sources enter each part at its end instant ``T_i``
+(:meth:`StepMaps.input_terms`): a sine injected into a source is sampled there, as the
+transient does.
+
 With θ < 1 the step also carries ``(1-θ)·A y_k`` on the differential rows, which
 involves algebraic unknowns: the map on the state alone does not exist, and
 :func:`run_with_maps` refuses θ ≠ 1.
@@ -34,7 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from circuitnsds.engine.dense_loop import ModeMap
-from circuitnsds.engine.integrate import Trajectory, _Stepping, integrate
+from circuitnsds.engine.integrate import SplitPart, Trajectory, _Stepping, integrate
 from circuitnsds.errors import SimulationError
 from circuitnsds.system.mlcs import MLCS
 
@@ -44,6 +69,99 @@ def state_unknowns(mlcs: MLCS) -> np.ndarray:
     E = mlcs.E.tocsc()
     E.eliminate_zeros()
     return np.flatnonzero(np.diff(E.indptr) > 0).astype(np.int64)
+
+
+@dataclass
+class SplitMap:
+    """The exact linearisation of one step split at located switchings (:func:`split_map`).
+
+    Attributes:
+        Y: ``(n + a, state)``, ``∂[y_{k+1}; λ_α]/∂x_k`` including the instants' sensitivity.
+        g: ``[y_{k+1}; λ_α] − Y x_k`` at the run's values.
+        inputs: ``(T_i, G_i)`` per part: ``G_i = ∂[y_{k+1}; λ_α]/∂f(T_i)``, ``(n + a, sources)``.
+        active: the active pairs of the last part (the ``λ_α`` rows).
+        instants: ``(T_i, ∂T_i/∂x_k)`` of each located switching in the step.
+    """
+
+    Y: np.ndarray
+    g: np.ndarray
+    inputs: list[tuple[float, np.ndarray]]
+    active: np.ndarray
+    instants: list[tuple[float, np.ndarray]]
+
+
+def _source_slope(stepping: _Stepping, t: float, h: float) -> np.ndarray:
+    """Every source's time derivative at ``t`` [unit/s]: a central difference over ``1e-6·h``."""
+    d = 1e-6 * h
+    return (stepping.source_at(t + d) - stepping.source_at(t - d)) / (2 * d)
+
+
+def split_map(stepping: _Stepping, k: int, parts: list[SplitPart], state: np.ndarray) -> SplitMap:
+    """The exact Jacobian of step ``k`` taken in ``parts`` (module docstring), with respect to
+    the state at its start and to the sources' values at each part's end.
+
+    Raises:
+        SimulationError: a part's step matrix is singular, or a control touches its
+            threshold without crossing it (``c·v = 0``: the instant has no derivative).
+    """
+    mlcs = stepping.mlcs
+    n, sources = mlcs.n, len(mlcs.stimuli)
+    t_k = float(stepping.grid[k])
+    h = float(stepping.grid[k + 1]) - t_k
+    size = state.size
+    columns = size + len(parts) * sources
+    J = np.zeros((n, columns))
+    J[state, np.arange(size)] = 1.0  # E y_k depends on the state only
+    d_start = np.zeros(columns)
+    ends, instants = [], []
+    for i, part in enumerate(parts):
+        if part.theta != 1.0:
+            raise ValueError("split step maps need implicit Euler parts (theta = 1)")
+        mode = stepping._dense_mode(part.states, part.active, 1.0)
+        sigma, a = part.length, mode.act.size
+        K = mode.bordered.copy()
+        K[:n, :n] = mode.E / sigma - mode.A
+        moved = mode.E @ (part.u - part.y_start) / sigma**2
+        end_time = t_k + part.start + sigma
+        rhs = np.zeros((n + a, columns))
+        rhs[:n] = mode.E @ J / sigma - np.outer(moved, d_start)
+        own = slice(size + i * sources, size + (i + 1) * sources)
+        rhs[:n, own] += mode.S
+        try:
+            d = np.linalg.solve(K, rhs)
+            if part.row >= 0:
+                slope = np.zeros(n + a)
+                slope[:n] = moved + mode.S @ _source_slope(stepping, end_time, h)
+                v = np.linalg.solve(K, slope)
+        except np.linalg.LinAlgError:
+            raise SimulationError(
+                f"the part of the step from t = {t_k + part.start:.9g} s to {end_time:.9g} s has a "
+                "singular step matrix in the mode it took, so it has no step map",
+                where=f"t = {end_time:.9g} s", time=end_time,
+                cause=SimulationError.STEP_MAP_SINGULAR) from None
+        if part.row >= 0:
+            control = stepping.free_controls[part.row]
+            rate = float(control @ v[:n])
+            if not abs(rate) > 1e-12 * (np.abs(control) @ np.abs(v[:n]) + 1e-300):
+                name = mlcs.switches[int(stepping.free[part.row])].name
+                raise SimulationError(
+                    f"the control of switch {name} touches its threshold at t = {end_time:.9g} s "
+                    "without crossing it: the switching instant has no derivative",
+                    where=f"t = {end_time:.9g} s", time=end_time)
+            d_start = -(control @ d[:n]) / rate
+            d += np.outer(v, d_start)
+            instants.append((end_time, d_start[:size].copy()))
+        else:
+            d_start = np.zeros(columns)
+        J = d[:n]
+        ends.append(end_time)
+    last = parts[-1]
+    act = stepping._dense_mode(last.states, last.active, 1.0).act
+    Y = d[:, :size]
+    inputs = [(end, d[:, size + i * sources:size + (i + 1) * sources]) for i, end in enumerate(ends)]
+    values = np.concatenate([last.u, last.z[act]])
+    g = values - Y @ parts[0].y_start[state]
+    return SplitMap(Y, g, inputs, act, instants)
 
 
 @dataclass
@@ -60,6 +178,8 @@ class StepMaps:
         keys: each step's mode as bytes (step size class, switch states, active set):
             two runs visited the same mode sequence when their ``keys`` are equal.
         sources: every source's value at every grid point, shape ``(N, k)``.
+        splits: the steps split at located switchings and their exact maps (their
+            ``mode_of_step`` is -1).
     """
 
     trajectory: Trajectory
@@ -68,6 +188,7 @@ class StepMaps:
     mode_of_step: np.ndarray
     keys: list[bytes]
     sources: np.ndarray
+    splits: dict[int, SplitMap]
 
     @property
     def steps(self) -> int:
@@ -75,7 +196,11 @@ class StepMaps:
 
     def full_map(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """``(Y, g)`` with ``[y_{k+1}; λ_α] = Y x_k + g`` (every unknown after step ``k``
-        and the active pairs' currents [A], from the state before it)."""
+        and the active pairs' currents [A], from the state before it; for a split step the
+        linearisation at the run, :class:`SplitMap`)."""
+        split = self.splits.get(k)
+        if split is not None:
+            return split.Y, split.g
         mode = self.modes[self.mode_of_step[k]]
         g = mode.Q1 @ self.sources[k + 1] + mode.Q0 @ self.sources[k] + mode.c
         return mode.P[:, self.state], g
@@ -85,11 +210,21 @@ class StepMaps:
         Y, g = self.full_map(k)
         return Y[self.state], g[self.state]
 
-    def input_map(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(Q1, Q0)`` restricted to the state rows: how ``x_{k+1}`` moves with the sources'
-        values at ``t_{k+1}`` and ``t_k`` (columns in ``MLCS.stimuli`` order)."""
+    def input_terms(self, k: int) -> list[tuple[float, np.ndarray]]:
+        """``(t, G)`` pairs: ``[y_{k+1}; λ_α]`` moves by ``G δf(t)`` with the sources' values
+        ``δf`` at the instants ``t`` [s] (columns in ``MLCS.stimuli`` order): ``t_{k+1}`` and
+        ``t_k`` (``Q1``, ``Q0``) for a whole step, each part's end for a split one."""
+        split = self.splits.get(k)
+        if split is not None:
+            return split.inputs
         mode = self.modes[self.mode_of_step[k]]
-        return mode.Q1[self.state], mode.Q0[self.state]
+        time = self.trajectory.time
+        return [(float(time[k + 1]), mode.Q1), (float(time[k]), mode.Q0)]
+
+    def active_pairs(self, k: int) -> np.ndarray:
+        """Indices of the pairs whose currents follow ``y_{k+1}`` in :meth:`full_map`."""
+        split = self.splits.get(k)
+        return split.active if split is not None else self.modes[self.mode_of_step[k]].active
 
     def composition(self, first: int = 0, last: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(Φ, c)`` with ``x_last = Φ x_first + c`` for the steps ``first .. last - 1``
@@ -138,9 +273,17 @@ class StepMapper:
         modes: list[ModeMap] = []
         keys: list[bytes] = []
         of_step = np.empty(trajectory.time.size - 1, dtype=np.int64)
+        splits = {k: split_map(stepping, k, parts, self.state)
+                  for k, parts in stepping.splits.items()}
         for k in range(of_step.size):
             states, active = trajectory.switches[k + 1], trajectory.active[k + 1]
             key = np.int64(classes[k]).tobytes() + states.tobytes() + active.tobytes()
+            if k in splits:  # its parts' modes (the instants move with the state)
+                key += b"split" + b"".join(p.states.tobytes() + p.active.tobytes()
+                                           for p in stepping.splits[k])
+                keys.append(key)
+                of_step[k] = -1
+                continue
             keys.append(key)
             found = index.get(key)
             if found is None:
@@ -153,7 +296,7 @@ class StepMapper:
                 found = index[key] = len(modes)
                 modes.append(mode)
             of_step[k] = found
-        return StepMaps(trajectory, self.state, modes, of_step, keys, stepping.sources)
+        return StepMaps(trajectory, self.state, modes, of_step, keys, stepping.sources, splits)
 
     def _build(self, stepping: _Stepping, k: int, cls: int, states: np.ndarray,
                active: np.ndarray) -> ModeMap:
