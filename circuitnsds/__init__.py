@@ -14,6 +14,7 @@ Typical use::
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 from circuitnsds import _blas  # noqa: F401  (first: before numpy is imported)
@@ -34,15 +35,24 @@ from circuitnsds.system.mlcs import MLCS
 __version__ = "0.1.0"
 
 
-def read_netlist(source: str | Path, *, strict: bool = False,
+def read_netlist(source: str | Path, *, params: Mapping[str, float] | None = None,
+                 random=None, strict: bool = False,
                  options: dict[str, float | str] | None = None) -> Circuit:
     """Read a netlist file (a path) or netlist text (a string with a newline) into a Circuit.
 
     Includes, parameters and subcircuits are expanded first (``.include`` paths in text
-    are relative to the current directory).
+    are relative to the current directory). To build many circuits from one netlist
+    (a sweep), read it once with :class:`circuitnsds.frontend.build.CircuitBuilder`.
 
     Args:
         source: a path, or netlist text.
+        params: parameter values replacing the netlist's ``.param`` definitions
+            (``{"D": 0.4}``; names case-insensitive), also those written in subcircuit
+            bodies; a name the netlist does not use is warned about. Parameters stepped by
+            ``.step`` lines and not given take their first value (with a warning).
+        random: a ``numpy.random.Generator`` for the Monte Carlo functions (``agauss``,
+            ``mc``, ...); default: point 0 of ``.options seed`` (else seed 1), see
+            :func:`circuitnsds.netlist.steps.point_generator`.
         strict: every warning (an ignored construct here, a suspicious circuit later when
             the circuit is stamped or simulated) is an error instead (``Circuit.strict``).
         options: ``.options`` values that override the netlist's, e.g. ``{"diode": "ideal"}``.
@@ -54,20 +64,22 @@ def read_netlist(source: str | Path, *, strict: bool = False,
     from contextlib import nullcontext
 
     from circuitnsds.errors import strict_warnings
-    from circuitnsds.frontend.elaborate import elaborate
-    from circuitnsds.netlist import load_netlist, load_netlist_text
+    from circuitnsds.frontend.build import CircuitBuilder
 
     with strict_warnings() if strict else nullcontext():
-        if isinstance(source, Path) or "\n" not in source:
-            circuit = elaborate(load_netlist(source), options)
-        else:
-            circuit = elaborate(load_netlist_text(source), options)
-    circuit.strict = strict
-    return circuit
+        builder = CircuitBuilder.load(source)
+    return builder.build(params, random, strict=strict, options=options)
+
+
+def sweep(netlist, params=None, **options):
+    """Run a netlist at many parameter values; see :func:`circuitnsds.sweeps.api.sweep`."""
+    from circuitnsds.sweeps.api import sweep as run
+
+    return run(netlist, params, **options)
 
 
 __all__ = [
     "MLCS", "Circuit", "CircuitError", "CircuitWarning", "CircuitnsdsError", "NetlistError",
     "NetlistWarning",
-    "SimulationError", "TranSpec", "Waveforms", "compare", "measure", "read_netlist",
+    "SimulationError", "TranSpec", "Waveforms", "compare", "measure", "read_netlist", "sweep",
 ]

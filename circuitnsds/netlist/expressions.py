@@ -1,17 +1,24 @@
 """Safe evaluation of netlist expressions (``{1/(2*pi*fc*r)}``, ``'a+b'``), never ``eval``.
 
-A small recursive-descent parser over this grammar (case-insensitive)::
+A small recursive-descent parser builds a tree (plain tuples) that is then evaluated;
+the grammar (case-insensitive)::
 
-    expression := sum
-    sum        := product (("+" | "-") product)*
-    product    := unary (("*" | "/") unary)*
-    unary      := ("+" | "-") unary | power
-    power      := atom (("^" | "**") signed)*         # left-associative, as ngspice-39: 2^3^2 = 64
-    signed     := ("+" | "-") signed | atom
-    atom       := NUMBER | NAME | NAME "(" sum ("," sum)* ")" | "(" sum ")"
+    expression  := disjunction ["?" expression ":" expression]    # c ? a : b, right-assoc.
+    disjunction := conjunction ("||" conjunction)*
+    conjunction := comparison ("&&" comparison)*
+    comparison  := sum (("==" | "!=" | "<" | "<=" | ">" | ">=") sum)*
+    sum         := product (("+" | "-") product)*
+    product     := unary (("*" | "/") unary)*
+    unary       := ("+" | "-" | "!") unary | power
+    power       := atom (("^" | "**") signed)*     # left-associative, as ngspice-39: 2^3^2 = 64
+    signed      := ("+" | "-") signed | atom
+    atom        := NUMBER | NAME | NAME "(" expression ("," expression)* ")" | "(" expression ")"
 
 So unary minus binds looser than the power: ``-2^2`` is ``-4`` and ``2^-1`` is ``0.5``;
 ``2^3^2`` is ``(2^3)^2 = 64`` as in ngspice-39 (which the same netlist must agree with).
+Comparisons and ``!``, ``&&``, ``||`` give 1 or 0; a condition is true when nonzero, and
+``c ? a : b``, ``if(c, a, b)`` and ``ternary_fcn(c, a, b)`` evaluate only the branch
+chosen (the operator order of ngspice's manual, "Parameters, functions, expressions").
 ``NUMBER`` is a SPICE number with its scale suffix and units (``4.7k``, ``10u``,
 ``1e-3``, ``2.2meg``; see :func:`circuitnsds.values.parse_value`). ``NAME`` is a
 parameter (``[a-z_][a-z0-9_]*``) or the constant ``pi`` (unless a parameter is so
@@ -21,9 +28,14 @@ named). Every intermediate result must be a finite float; anything else raises
 
 from __future__ import annotations
 
+import functools
 import math
 import re
-from collections.abc import Callable, Mapping
+import sys
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Protocol
 
 from circuitnsds.values import parse_value
 
@@ -63,8 +75,8 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None, str]] = {
 
 
 MAX_DEPTH = 100
-"""Deepest nesting of parentheses and function calls in one expression (the parser recurses
-once per level; ngspice's own parser also has a limit)."""
+"""Deepest nesting of parentheses, function calls and ``?:`` in one expression (the parser
+recurses once per level; ngspice's own parser also has a limit)."""
 
 EXCERPT = 60
 """Longest piece of an expression quoted in a message [characters]."""
@@ -77,6 +89,50 @@ def excerpt(text: str, limit: int = EXCERPT) -> str:
         return repr(text)
     half = limit // 2
     return f"{text[:half]!r} ... {text[-half:]!r} ({len(text)} characters)"
+
+
+def _sigma(sigma: float) -> float:
+    if sigma == 0:
+        raise ZeroDivisionError("sigma = 0")
+    return sigma
+
+
+def _gauss(random: Random, *args: float) -> float:
+    if len(args) == 1:  # LTspice: gauss(x), zero mean and standard deviation x
+        return args[0] * random.standard_normal()
+    nominal, relative, sigma = args
+    return nominal + nominal * relative / _sigma(sigma) * random.standard_normal()
+
+
+def _limit(random: Random, nominal: float, absolute: float) -> float:
+    return nominal + absolute if random.uniform(-1.0, 1.0) > 0 else nominal - absolute
+
+
+RANDOM_FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None, str]] = {
+    "agauss": (lambda r, nom, avar, sigma: nom + avar / _sigma(sigma) * r.standard_normal(), 3, 3,
+               "agauss(nom, avar, sigma): nom plus a Gaussian draw of standard deviation avar/sigma "
+               "(ngspice)"),
+    "gauss": (_gauss, 1, 3, "gauss(nom, rvar, sigma): nom plus a Gaussian draw of standard deviation "
+              "nom·rvar/sigma (ngspice); gauss(x): a Gaussian draw of standard deviation x (LTspice)"),
+    "aunif": (lambda r, nom, avar: nom + avar * r.uniform(-1.0, 1.0), 2, 2,
+              "aunif(nom, avar): nom plus a uniform draw in [-avar, avar) (ngspice)"),
+    "unif": (lambda r, nom, rvar: nom + nom * rvar * r.uniform(-1.0, 1.0), 2, 2,
+             "unif(nom, rvar): nom plus a uniform draw in [-nom·rvar, nom·rvar) (ngspice)"),
+    "limit": (_limit, 2, 2, "limit(nom, avar): nom + avar or nom - avar, each with probability "
+              "1/2 (ngspice)"),
+    "mc": (lambda r, nom, tol: nom + nom * tol * r.uniform(-1.0, 1.0), 2, 2,
+           "mc(x, tol): a uniform draw between x·(1-tol) and x·(1+tol) (LTspice)"),
+    "flat": (lambda r, x: x * r.uniform(-1.0, 1.0), 1, 1,
+             "flat(x): a uniform draw in [-x, x) (LTspice)"),
+}
+"""Monte Carlo functions: name -> (implementation taking the generator first, least and most
+arguments, meaning). Every call draws anew; a ``.param`` is evaluated once per circuit, so
+every use of a parameter defined by one of them sees the same draw (as in ngspice)."""
+
+CONDITIONAL_FUNCTIONS = {"if": "if(c, a, b): a where c is nonzero, else b (only that branch is "
+                         "evaluated)", "ternary_fcn": "ternary_fcn(c, a, b): the same as if(c, a, b) "
+                         "(ngspice's name)"}
+"""Functions of a condition: only the branch chosen is evaluated."""
 
 
 class ExpressionError(ValueError):
@@ -99,12 +155,38 @@ _TOKEN = re.compile(
     r"""\s*(?:
         (?P<number>(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?[a-z%]*)
       | (?P<name>[a-z_][a-z0-9_]*)
-      | (?P<op>\*\*|[-+*/^(),])
+      | (?P<op>\*\*|==|!=|<=|>=|&&|\|\||[-+*/^(),<>!?:])
     )""",
     re.VERBOSE,
 )
 
 Lookup = Callable[[str], "float | None"]
+
+
+@dataclass(frozen=True)
+class UserFunction:
+    """A ``.func name(a, b) {body}`` definition.
+
+    Attributes:
+        name: the function (lower case).
+        parameters: its argument names (lower case), in order.
+        body: its expression, without braces or quotes.
+    """
+
+    name: str
+    parameters: tuple[str, ...]
+    body: str
+
+
+FunctionLookup = Callable[[str], "UserFunction | None"]
+
+
+class Random(Protocol):
+    """The random source of the Monte Carlo functions: a ``numpy.random.Generator``."""
+
+    def standard_normal(self) -> float: ...
+
+    def uniform(self, low: float, high: float) -> float: ...
 
 
 def _tokens(text: str) -> list[tuple[str, str, int]]:
@@ -131,12 +213,18 @@ def _finite(value: float, what: str, text: str) -> float:
     return value
 
 
-class _Parser:
-    """Evaluates while parsing: one method per grammar rule."""
+# An expression tree: plain tuples, ("num", value) ("name", name) ("neg", x) ("not", x)
+# ("chain", first, ((operator, node), ...)) for a run of left-associative binary operators of
+# one precedence level (evaluated in a loop), ("if", condition, then, else),
+# ("call", name, (arguments...)).
+Node = tuple
 
-    def __init__(self, text: str, lookup: Lookup):
+
+class _Parser:
+    """Builds the expression tree: one method per grammar rule (nothing is evaluated)."""
+
+    def __init__(self, text: str):
         self.text = text
-        self.lookup = lookup
         self.tokens = _tokens(text)
         self.index = 0
         self.depth = 0
@@ -162,117 +250,295 @@ class _Parser:
         return ExpressionError(f"syntax error: {expectation}, found {found} after "
                                f"{excerpt(self.text[:position].strip())} in {excerpt(self.text)}")
 
-    def parse(self) -> float:
+    def parse(self) -> Node:
         if self.current[0] == "end":
             raise ExpressionError("empty expression")
-        value = self.sum()
+        tree = self.expression()
         if self.current[0] != "end":
             raise self.unexpected("expected an operator")
-        return value
+        return tree
 
-    def sum(self) -> float:
-        value = self.product()
-        while (op := self.accept("+", "-")) is not None:
-            right = self.product()
-            value = _finite(value + right if op == "+" else value - right, "a sum", self.text)
-        return value
-
-    def product(self) -> float:
-        value = self.unary()
-        while (op := self.accept("*", "/")) is not None:
-            right = self.unary()
-            if op == "*":
-                value = _finite(value * right, "a product", self.text)
-            elif right == 0:
-                raise ExpressionError(f"division by zero in {excerpt(self.text)}")
-            else:
-                value = _finite(value / right, "a quotient", self.text)
-        return value
-
-    def signs(self) -> float:
-        """The product of the leading ``+``/``-`` signs (a loop: any number of them)."""
-        sign = 1.0
-        while (op := self.accept("+", "-")) is not None:
-            if op == "-":
-                sign = -sign
-        return sign
-
-    def unary(self) -> float:
-        sign = self.signs()
-        value = self.power()
-        return -value if sign < 0 else value
-
-    def power(self) -> float:
-        value = self.atom()
-        while self.accept("^", "**") is not None:
-            value = _power(value, self.signed(), self.text)
-        return value
-
-    def signed(self) -> float:
-        """An exponent: an atom with any number of signs (``2^-1``)."""
-        sign = self.signs()
-        value = self.atom()
-        return -value if sign < 0 else value
-
-    def nested(self, parse: Callable[[], float]) -> float:
-        """``parse()`` one level deeper in parentheses or function calls (at most :data:`MAX_DEPTH`)."""
+    def nested(self, parse: Callable[[], Node]) -> Node:
+        """``parse()`` one level deeper in parentheses, calls or ``?:`` (at most :data:`MAX_DEPTH`)."""
         self.depth += 1
         if self.depth > MAX_DEPTH:
-            raise ExpressionError(f"parentheses or function calls nested more than {MAX_DEPTH} "
+            raise ExpressionError(f"parentheses, function calls or ?: nested more than {MAX_DEPTH} "
                                   f"levels deep in {excerpt(self.text)}")
         try:
             return parse()
         finally:
             self.depth -= 1
 
-    def atom(self) -> float:
+    def chain(self, operand: Callable[[], Node], *ops: str) -> Node:
+        """``operand (op operand)*`` as one node ``("chain", first, ((op, node), ...))``,
+        evaluated left to right in a loop (a long sum is not a deep tree)."""
+        first = operand()
+        rest = []
+        while (op := self.accept(*ops)) is not None:
+            rest.append((op, operand()))
+        return ("chain", first, tuple(rest)) if rest else first
+
+    def expression(self) -> Node:
+        """``condition ? a : b`` (right-associative, lowest precedence)."""
+        condition = self.disjunction()
+        if self.accept("?") is None:
+            return condition
+        then = self.nested(self.expression)
+        self.expect(":")
+        return ("if", condition, then, self.nested(self.expression))
+
+    def disjunction(self) -> Node:
+        return self.chain(self.conjunction, "||")
+
+    def conjunction(self) -> Node:
+        return self.chain(self.comparison, "&&")
+
+    def comparison(self) -> Node:
+        return self.chain(self.sum, "==", "!=", "<", "<=", ">", ">=")
+
+    def sum(self) -> Node:
+        return self.chain(self.product, "+", "-")
+
+    def product(self) -> Node:
+        return self.chain(self.unary, "*", "/")
+
+    def unary(self) -> Node:
+        """Any number of leading ``+ - !`` (a loop), then a power."""
+        prefix = []
+        while (op := self.accept("+", "-", "!")) is not None:
+            prefix.append(op)
+        tree = self.power()
+        for op in reversed(prefix):  # --x is x, !!!x is !x: the tree stays shallow
+            if op == "-":
+                tree = tree[1] if tree[0] == "neg" else ("neg", tree)
+            elif op == "!":
+                inner = tree[1] if tree[0] == "not" else None
+                tree = inner if inner is not None and inner[0] == "not" else ("not", tree)
+            if _depth(tree) > MAX_DEPTH:
+                raise ExpressionError(f"more than {MAX_DEPTH} alternating unary operators in "
+                                      f"{excerpt(self.text)}")
+        return tree
+
+    def power(self) -> Node:
+        """``atom (^ signed)*``, left-associative, as one chain."""
+        first = self.atom()
+        rest = []
+        while self.accept("^", "**") is not None:
+            rest.append(("^", self.signed()))
+        return ("chain", first, tuple(rest)) if rest else first
+
+    def signed(self) -> Node:
+        """An exponent: an atom with any number of signs (``2^-1``), read in a loop."""
+        negative = False
+        while (op := self.accept("+", "-")) is not None:
+            negative ^= op == "-"
+        tree = self.atom()
+        return ("neg", tree) if negative else tree
+
+    def atom(self) -> Node:
         kind, token, _ = self.current
         if kind == "number":
             self.index += 1
             try:
-                return parse_value(token)
+                return ("num", parse_value(token))
             except ValueError:
                 raise ExpressionError(f"{token!r} is not a number in {excerpt(self.text)}") from None
         if kind == "name":
             self.index += 1
             if self.accept("("):
                 return self.nested(lambda: self.call(token))
-            if token in FUNCTIONS:
-                raise ExpressionError(f"{token} is a function: write {token}(...) in {excerpt(self.text)}")
-            value = self.lookup(token)
-            if value is None:
-                value = CONSTANTS.get(token)
-            if value is None:
-                raise UndefinedNameError(token, self.text)
-            return value
+            return ("name", token)
         if self.accept("("):
-            value = self.nested(self.sum)
+            tree = self.nested(self.expression)
             self.expect(")")
-            return value
+            return tree
         raise self.unexpected("expected a number, a name or '('")
 
-    def call(self, name: str) -> float:
-        if name not in FUNCTIONS:
-            raise ExpressionError(f"unknown function {name}() in {excerpt(self.text)}; known: "
-                                  + ", ".join(sorted(FUNCTIONS)))
-        function, least, most, _ = FUNCTIONS[name]
-        args = [self.sum()]
+    def call(self, name: str) -> Node:
+        arguments = [self.expression()]
         while self.accept(","):
-            args.append(self.sum())
+            arguments.append(self.expression())
         self.expect(")")
-        if len(args) < least or (most is not None and len(args) > most):
-            expected = f"{least}" if least == most else f"at least {least}"
-            raise ExpressionError(f"{name}() takes {expected} argument{'s' * (expected != '1')}, "
-                                  f"got {len(args)} in {excerpt(self.text)}")
-        arguments = ", ".join(f"{a:g}" for a in args)
+        return ("call", name, tuple(arguments))
+
+
+def _depth(tree: Node) -> int:
+    """How many ``neg``/``not`` nodes head ``tree``."""
+    depth = 0
+    while tree[0] in ("neg", "not"):
+        depth, tree = depth + 1, tree[1]
+    return depth
+
+
+STACK = 6000
+"""Python frames allowed while parsing or evaluating (one level of parentheses takes about 15
+frames of the recursive descent; :data:`MAX_DEPTH` levels must fit)."""
+
+
+@contextmanager
+def _stack() -> Iterator[None]:
+    """Raise Python's recursion limit to :data:`STACK` for the block (restored after)."""
+    previous = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(previous, STACK))
+    try:
+        yield
+    finally:
+        sys.setrecursionlimit(previous)
+
+
+def parse(text: str) -> Node:
+    """The expression tree of ``text`` (lower-cased first); cached, as a sweep evaluates the
+    same expressions at every point.
+
+    Raises:
+        ExpressionError: a syntax error, an unexpected character, a bad number, or nesting
+            deeper than :data:`MAX_DEPTH`.
+    """
+    with _stack():
+        return _parse(text)
+
+
+@functools.lru_cache(maxsize=4096)
+def _parse(text: str) -> Node:
+    """The expression tree of ``text`` (lower-cased first); cached, as a sweep evaluates the
+    same expressions at every point.
+
+    Raises:
+        ExpressionError: a syntax error, an unexpected character or a bad number.
+    """
+    return _Parser(text.lower()).parse()
+
+
+MAX_CALL_DEPTH = 100
+"""Deepest nesting of ``.func`` calls (a ``.func`` calling itself is stopped here)."""
+
+
+class _Evaluator:
+    """Evaluates a tree: names through ``lookup``, ``.func`` calls through ``functions``,
+    Monte Carlo functions from ``random``."""
+
+    def __init__(self, text: str, lookup: Lookup, functions: FunctionLookup, random: Random | None,
+                 depth: int = 0):
+        self.text = text
+        self.lookup = lookup
+        self.functions = functions
+        self.random = random
+        self.depth = depth
+
+    def value(self, node: Node) -> float:
+        kind = node[0]
+        if kind == "num":
+            return node[1]
+        if kind == "name":
+            return self.name(node[1])
+        if kind == "neg":
+            return -self.value(node[1])
+        if kind == "not":
+            return float(self.value(node[1]) == 0)
+        if kind == "if":  # only the branch taken is evaluated (its errors and random draws)
+            return self.value(node[2] if self.value(node[1]) != 0 else node[3])
+        if kind == "call":
+            return self.call(node[1], node[2])
+        return self.chain(node[1], node[2])
+
+    def chain(self, first: Node, rest: tuple) -> float:
+        """``first op node op node ...`` left to right; ``&&``/``||`` stop at the first
+        operand that decides (its right side is not evaluated)."""
+        value = self.value(first)
+        for op, node in rest:
+            if op == "&&":
+                value = float(value != 0 and self.value(node) != 0)
+            elif op == "||":
+                value = float(value != 0 or self.value(node) != 0)
+            else:
+                value = self.operation(op, value, self.value(node))
+        return value
+
+    def name(self, name: str) -> float:
+        if name in FUNCTIONS or name in RANDOM_FUNCTIONS or name in CONDITIONAL_FUNCTIONS:
+            raise ExpressionError(f"{name} is a function: write {name}(...) in {excerpt(self.text)}")
+        value = self.lookup(name)
+        if value is None:
+            value = CONSTANTS.get(name)
+        if value is None:
+            raise UndefinedNameError(name, self.text)
+        return value
+
+    def operation(self, op: str, left: float, right: float) -> float:
+        text = self.text
+        if op == "+":
+            return _finite(left + right, "a sum", text)
+        if op == "-":
+            return _finite(left - right, "a sum", text)
+        if op == "*":
+            return _finite(left * right, "a product", text)
+        if op == "/":
+            if right == 0:
+                raise ExpressionError(f"division by zero in {excerpt(text)}")
+            return _finite(left / right, "a quotient", text)
+        if op == "^":
+            return _power(left, right, text)
+        return float({"==": left == right, "!=": left != right, "<": left < right,
+                      "<=": left <= right, ">": left > right, ">=": left >= right}[op])
+
+    def call(self, name: str, arguments: tuple[Node, ...]) -> float:
+        if name in CONDITIONAL_FUNCTIONS:
+            _count(name, len(arguments), 3, 3, self.text)
+            return self.value(arguments[1] if self.value(arguments[0]) != 0 else arguments[2])
+        user = self.functions(name)
+        if user is not None:
+            return self.user_call(user, [self.value(a) for a in arguments])
+        if name in RANDOM_FUNCTIONS:
+            function, least, most, _ = RANDOM_FUNCTIONS[name]
+            args = [self.value(a) for a in arguments]
+            _count(name, len(args), least, most, self.text)
+            if self.random is None:
+                raise ExpressionError(f"{name}() draws a random number, and no random generator "
+                                      f"is given in {excerpt(self.text)}")
+            return _finite(function(self.random, *args), f"{name}()", self.text)
+        if name not in FUNCTIONS:
+            known = sorted({*FUNCTIONS, *RANDOM_FUNCTIONS, *CONDITIONAL_FUNCTIONS})
+            raise ExpressionError(f"unknown function {name}() in {excerpt(self.text)}; known: "
+                                  + ", ".join(known) + " (and .func definitions)")
+        function, least, most, _ = FUNCTIONS[name]
+        args = [self.value(a) for a in arguments]
+        _count(name, len(args), least, most, self.text)
+        formatted = ", ".join(f"{a:g}" for a in args)
         try:
             result = float(function(*args))
         except (ValueError, ZeroDivisionError):
-            raise ExpressionError(f"{name}({arguments}) is undefined (domain error) "
+            raise ExpressionError(f"{name}({formatted}) is undefined (domain error) "
                                   f"in {excerpt(self.text)}") from None
         except OverflowError:
-            raise ExpressionError(f"{name}({arguments}) overflows in {excerpt(self.text)}") from None
-        return _finite(result, f"{name}({arguments})", self.text)
+            raise ExpressionError(f"{name}({formatted}) overflows in {excerpt(self.text)}") from None
+        return _finite(result, f"{name}({formatted})", self.text)
+
+    def user_call(self, user: UserFunction, args: list[float]) -> float:
+        _count(user.name, len(args), len(user.parameters), len(user.parameters), self.text)
+        if self.depth >= MAX_CALL_DEPTH:
+            raise ExpressionError(f".func {user.name}() calls itself (nested deeper than "
+                                  f"{MAX_CALL_DEPTH}) in {excerpt(self.text)}")
+        bound = dict(zip(user.parameters, args))
+
+        def lookup(name: str) -> float | None:
+            return bound[name] if name in bound else self.lookup(name)
+
+        inner = _Evaluator(user.body.lower(), lookup, self.functions, self.random, self.depth + 1)
+        try:
+            return inner.value(parse(user.body))
+        except UndefinedNameError:
+            raise
+        except ExpressionError as exc:
+            raise ExpressionError(f"in .func {user.name}({', '.join(user.parameters)}) = "
+                                  f"{excerpt(user.body)} called from {excerpt(self.text)}: {exc}") from None
+
+
+def _count(name: str, given: int, least: int, most: int | None, text: str) -> None:
+    if given < least or (most is not None and given > most):
+        expected = f"{least}" if least == most else (
+            f"at least {least}" if most is None else f"{least} to {most}")
+        raise ExpressionError(f"{name}() takes {expected} argument{'s' * (expected != '1')}, "
+                              f"got {given} in {excerpt(text)}")
 
 
 def _power(base: float, exponent: float, text: str) -> float:
@@ -288,25 +554,44 @@ def _power(base: float, exponent: float, text: str) -> float:
     return _finite(result, f"{base:g}^{exponent:g}", text)
 
 
-def evaluate(text: str, names: Mapping[str, float] | Lookup | None = None) -> float:
+def evaluate(text: str, names: Mapping[str, float] | Lookup | None = None, *,
+             functions: Mapping[str, UserFunction] | FunctionLookup | None = None,
+             random: Random | None = None) -> float:
     """The value of an expression.
 
     Args:
         text: the expression without its braces or quotes (``1/(2*pi*fc*r)``).
         names: parameter values, as a mapping or as a function returning a name's value
             or ``None`` when it is undefined (it may compute the value on demand, and raise).
+        functions: ``.func`` definitions, as a mapping or a function returning ``None`` for
+            a name that is not one (a ``.func`` hides a built-in function of the same name).
+        random: the generator of the Monte Carlo functions (:data:`RANDOM_FUNCTIONS`);
+            each call draws anew. Without one, those functions are an error.
 
     Raises:
         ExpressionError: syntax error, undefined name (:class:`UndefinedNameError`),
             division by zero, domain error, or a non-finite result.
     """
+    lookup: Lookup
     if names is None:
-        lookup: Lookup = lambda name: None  # noqa: E731
+        lookup = lambda name: None  # noqa: E731
     elif isinstance(names, Mapping):
         lookup = names.get
     else:
         lookup = names
-    return _Parser(text.lower(), lookup).parse()
+    function_lookup: FunctionLookup
+    if functions is None:
+        function_lookup = lambda name: None  # noqa: E731
+    elif isinstance(functions, Mapping):
+        function_lookup = functions.get
+    else:
+        function_lookup = functions
+    tree = parse(text)
+    try:
+        with _stack():
+            return _Evaluator(text.lower(), lookup, function_lookup, random).value(tree)
+    except RecursionError:  # .func calls inside deep expressions: a limit, not a crash
+        raise ExpressionError(f"the evaluation nests too deeply in {excerpt(text)}") from None
 
 
 def strip_delimiters(token: str) -> str | None:

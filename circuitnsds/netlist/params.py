@@ -17,7 +17,9 @@ from dataclasses import dataclass
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.netlist.expressions import (
     ExpressionError,
+    Random,
     UndefinedNameError,
+    UserFunction,
     evaluate,
     strip_delimiters,
 )
@@ -127,14 +129,40 @@ class Scope:
         parent: the scope names fall back to (the caller's); ``None`` at the top level.
         label: the instance path of a subcircuit scope (``x1.x2``), for messages;
             ``None`` at the top level.
+        random: the generator of the Monte Carlo functions (``agauss`` ...); a subcircuit
+            scope uses its parent's.
     """
 
-    def __init__(self, parent: Scope | None = None, label: str | None = None):
+    def __init__(self, parent: Scope | None = None, label: str | None = None,
+                 random: Random | None = None):
         self.parent = parent
         self.label = label
+        self.random = random if random is not None or parent is None else parent.random
         self.definitions: dict[str, Definition] = {}
         self.values: dict[str, float] = {}
+        self.functions: dict[str, tuple[UserFunction, SourceLocation]] = {}
         self._evaluating: list[str] = []
+
+    def define_function(self, function: UserFunction, location: SourceLocation) -> None:
+        """Add a ``.func`` definition (visible here and in the subcircuits called from here).
+
+        Raises:
+            NetlistError: the function is already defined at this level.
+        """
+        if function.name in self.functions:
+            raise NetlistError(f".func {function.name} is defined twice (first at "
+                               f"{self.functions[function.name][1]})", where=location,
+                               hint="give each function one definition")
+        self.functions[function.name] = (function, location)
+
+    def function(self, name: str) -> UserFunction | None:
+        """The ``.func`` named ``name`` here or in an enclosing scope, ``None`` if none."""
+        if name in self.functions:
+            return self.functions[name][0]
+        return self.parent.function(name) if self.parent is not None else None
+
+    def _value(self, expression: str) -> float:
+        return evaluate(expression, self.lookup, functions=self.function, random=self.random)
 
     def define(self, definition: Definition) -> None:
         """Add a definition (evaluated later, on demand or by :meth:`evaluate_all`).
@@ -187,7 +215,7 @@ class Scope:
                 "once, in order)")
         self._evaluating.append(name)
         try:
-            value = evaluate(definition.expression, self.lookup)
+            value = self._value(definition.expression)
         except ExpressionError as exc:
             raise _error(exc, f"parameter {name!r}", definition.location, definition.text,
                          self.label) from None
@@ -214,7 +242,7 @@ class Scope:
             NetlistError: with the statement's file:line and the expression.
         """
         try:
-            return evaluate(expression, self.lookup)
+            return self._value(expression)
         except ExpressionError as exc:
             raise _error(exc, what, statement.location, statement.text, self.label) from None
         except RecursionError:
@@ -263,3 +291,42 @@ def param_definitions(statement: Statement) -> list[Definition]:
         raise NetlistError(".param defines nothing", where=statement.location,
                            hint="write .param name=value")
     return [Definition(name, expression, statement.location, statement.text) for name, expression in pairs]
+
+
+_FUNC = re.compile(r"\.func\s+([a-z_][a-z0-9_]*)\s*\(([^)]*)\)\s*(?:=\s*)?(.*)", re.IGNORECASE | re.DOTALL)
+
+
+def func_definition(statement: Statement) -> UserFunction:
+    """The function of a ``.func name(a, b) {body}`` statement (ngspice and LTspice syntax;
+    the body may also be ``'body'``, bare, or follow an ``=``).
+
+    Raises:
+        NetlistError: a line that is not of that form, an argument named twice, or a body
+            that is not an expression (its syntax is checked here, its names when called).
+    """
+    hint = "write .func name(x, y) {expression of x and y}"
+    match = _FUNC.fullmatch(statement.text.strip())
+    if match is None:
+        raise NetlistError("cannot read the .func line", where=statement.location,
+                           hint=f"{hint}; in: {statement.text}")
+    name, arguments, body = match[1].lower(), match[2], match[3].strip()
+    parameters = tuple(a.strip().lower() for a in arguments.split(",") if a.strip())
+    for parameter in parameters:
+        if not re.fullmatch(r"[a-z_][a-z0-9_]*", parameter):
+            raise NetlistError(f".func {name}: {parameter!r} is not an argument name",
+                               where=statement.location, hint=hint)
+        if parameters.count(parameter) > 1:
+            raise NetlistError(f".func {name}: argument {parameter!r} is named twice",
+                               where=statement.location, hint=hint)
+    inner = strip_delimiters(body)
+    body = inner if inner is not None else body
+    if not body.strip():
+        raise NetlistError(f".func {name} has no body", where=statement.location, hint=hint)
+    from circuitnsds.netlist.expressions import parse
+
+    try:
+        parse(body)
+    except ExpressionError as exc:
+        raise NetlistError(f".func {name}: {exc}", where=statement.location,
+                           hint=f"in: {statement.text}") from None
+    return UserFunction(name, parameters, body)

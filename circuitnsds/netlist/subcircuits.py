@@ -23,16 +23,17 @@ definition) and its ``text`` ends with ``[in x1.x2]``, so messages are precise.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.errors import NetlistError
 from circuitnsds.netlist.behavioural import flat_tokens
-from circuitnsds.netlist.expressions import ExpressionError
+from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
     Definition,
     Scope,
+    func_definition,
     param_definitions,
     parse_assignments,
     split_parameters,
@@ -130,6 +131,7 @@ class SubcircuitDefinition:
         models: names of the models it defines (local to each instance).
         elements: names of the elements it defines.
         params: its ``.param`` definitions.
+        functions: its ``.func`` lines.
     """
 
     name: str
@@ -142,6 +144,7 @@ class SubcircuitDefinition:
     models: set[str] = field(default_factory=set)
     elements: set[str] = field(default_factory=set)
     params: list[Definition] = field(default_factory=list)
+    functions: list[Statement] = field(default_factory=list)
 
 
 @dataclass
@@ -152,6 +155,7 @@ class _Structure:
     definitions: dict[str, SubcircuitDefinition] = field(default_factory=dict)
     global_nodes: set[str] = field(default_factory=set)
     params: list[Definition] = field(default_factory=list)
+    functions: list[Statement] = field(default_factory=list)
 
 
 def _structure(statements: list[Statement]) -> _Structure:
@@ -184,6 +188,8 @@ def _structure(statements: list[Statement]) -> _Structure:
             definition.body.append(statement)
             if keyword == ".param":
                 definition.params.extend(param_definitions(statement))
+            elif keyword == ".func":
+                definition.functions.append(statement)
             elif keyword == ".model" and len(statement.tokens) > 1:
                 definition.models.add(statement.tokens[1])
             elif not statement.is_command:
@@ -192,6 +198,8 @@ def _structure(statements: list[Statement]) -> _Structure:
             structure.body.append(statement)
             if keyword == ".param":
                 structure.params.extend(param_definitions(statement))
+            elif keyword == ".func":
+                structure.functions.append(statement)
     if stack:
         raise NetlistError(f".subckt {stack[-1].name} has no .ends", where=stack[-1].statement.location,
                            hint=f"close the definition with .ends {stack[-1].name}")
@@ -277,8 +285,9 @@ class _Context:
 
 
 class _Flattener:
-    def __init__(self, structure: _Structure):
+    def __init__(self, structure: _Structure, overrides: dict[str, float]):
         self.structure = structure
+        self.replaced = overrides
         self.statements: list[Statement] = []
         self._sizes: dict[int, int] = {}
 
@@ -306,7 +315,7 @@ class _Flattener:
     def expand(self, body: list[Statement], context: _Context) -> None:
         for statement in body:
             keyword = statement.keyword
-            if keyword == ".param":
+            if keyword in (".param", ".func"):
                 continue
             elif not statement.is_command and element_letter(keyword) == "x":
                 self.instance(statement, context)
@@ -426,8 +435,13 @@ class _Flattener:
         for parameter, expression in definition.defaults:
             if parameter not in scope.values:
                 scope.define(Definition(parameter, expression, location, text))
+        for statement_ in definition.functions:
+            scope.define_function(func_definition(statement_), statement_.location)
         for param in definition.params:
-            scope.define(param)
+            if param.name in self.replaced:
+                scope.set_value(param.name, self.replaced[param.name])
+            else:
+                scope.define(param)
         scope.evaluate_all()
         ports = {port: context.node(node) for port, node in zip(definition.ports, nodes)}
         inner = _Context(definition, path, scope, ports, context.global_nodes, parent=context)
@@ -461,8 +475,19 @@ class _Flattener:
         return values
 
 
-def flatten(netlist: Netlist) -> Netlist:
+def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
+            random: Random | None = None) -> Netlist:
     """Evaluate parameters and expand subcircuits (includes must be expanded already).
+
+    Args:
+        netlist: the statements, includes expanded.
+        params: parameter values replacing the ``.param`` definitions of the same name
+            (names lower case), at the top level and in subcircuit bodies; a name no
+            ``.param`` defines becomes a top-level parameter (as LTspice's ``.step param``).
+            A subcircuit's ``params:`` defaults are its interface and are not replaced:
+            give them ``{expressions}`` of top-level parameters to sweep them.
+        random: the generator of the Monte Carlo functions (``agauss`` ...); without one,
+            a netlist using them is an error.
 
     Returns:
         a new :class:`Netlist` with the same title, file and ``ended`` flag, whose
@@ -473,12 +498,18 @@ def flatten(netlist: Netlist) -> Netlist:
         NetlistError: with file:line, for malformed definitions, undefined or cyclic
             parameters, unknown or recursive subcircuits, port-count mismatches.
     """
+    overrides = {name.lower(): float(value) for name, value in (params or {}).items()}
     structure = _structure(netlist.statements)
-    scope = Scope()
+    scope = Scope(random=random)
+    for statement in structure.functions:
+        scope.define_function(func_definition(statement), statement.location)
     for definition in structure.params:
-        scope.define(definition)
+        if definition.name not in overrides:
+            scope.define(definition)
+    for name, value in overrides.items():
+        scope.set_value(name, value)
     scope.evaluate_all()
-    flattener = _Flattener(structure)
+    flattener = _Flattener(structure, overrides)
     top = _Context(None, "", scope, {}, frozenset(structure.global_nodes))
     flattener.expand(structure.body, top)
     return replace(netlist, statements=flattener.statements)

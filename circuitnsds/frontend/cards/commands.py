@@ -27,7 +27,7 @@ IGNORED_COMMANDS = {
     ".nodeset": "the ideal operating point needs no hints",
 }
 
-UNSUPPORTED_COMMANDS = {".func", ".csparam", ".if", ".else", ".elseif", ".endif"}
+UNSUPPORTED_COMMANDS = {".csparam", ".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
@@ -35,7 +35,8 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                             "(default 10)",
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
                 "fitted by a PWL diode, or 'auto': the peak current of a first run",
-                "diode": "'ideal' to read Shockley diode models as ideal diodes"}
+                "diode": "'ideal' to read Shockley diode models as ideal diodes",
+                "seed": "seed of the Monte Carlo functions (agauss, mc, ...; a positive integer)"}
 TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
 
@@ -70,6 +71,8 @@ def read_options(reader: StatementReader) -> dict[str, float | str]:
             raise reader.error(f".options theta={value:g} must lie in [0.5, 1]", hint=THETA_HINT)
         if key in {"gmin", "mosdrive", "pwlfit"} and value <= 0:
             raise reader.error(f".options {key}={value:g} must be positive")
+        if key == "seed" and (value != int(value) or value < 0):
+            raise reader.error(f".options seed={value:g} must be a non-negative integer")
         used[key] = value
     if ignored:
         reader.warn(f".options {' '.join(ignored)} ignored (circuitnsds uses only "
