@@ -84,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="θ of the θ-method in [0.5, 1] (default: .options theta, else 1: implicit Euler)")
     run.add_argument("--uic", action="store_true",
                      help="start from initial conditions (as .tran ... UIC)")
+    from circuitnsds.cli.sweep import add_execution_arguments
+
+    add_execution_arguments(run)  # a netlist with .step lines makes `run` a sweep
 
     pss = commands.add_parser("pss", help="find the periodic steady state (one settled period), "
                               "write it as run does")
@@ -143,6 +146,9 @@ def build_parser() -> argparse.ArgumentParser:
     from circuitnsds.compare.cli import add_compare_parser
 
     add_compare_parser(commands)
+    from circuitnsds.cli.sweep import add_sweep_parser
+
+    add_sweep_parser(commands)
     return parser
 
 
@@ -187,6 +193,10 @@ def main(argv: list[str] | None = None) -> int:
                 from circuitnsds.compare.cli import run_compare
 
                 status = run_compare(args)
+            elif args.command == "sweep":
+                from circuitnsds.cli.sweep import run_sweep
+
+                status = run_sweep(args)
             else:
                 status = {"run": _run, "pss": _pss, "ac": _ac, "info": _info}[args.command](args)
         except CircuitnsdsError as exc:
@@ -237,12 +247,13 @@ def _writing(path: Path) -> Iterator[None]:
                           hint="check that the folder exists and is writable") from None
 
 
-def _prepare(args: argparse.Namespace):
-    """Read the netlist and check what can be checked before a long run (``run``, ``pss``)."""
+def _prepare(args: argparse.Namespace, builder=None):
+    """Read the netlist (unless ``builder`` has read it) and check what can be checked before
+    a long run (``run``, ``pss``)."""
     from circuitnsds import read_netlist
     from circuitnsds.output.measure import parse_measurement
 
-    circuit = read_netlist(args.netlist)
+    circuit = builder.build() if builder is not None else read_netlist(args.netlist)
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -265,7 +276,13 @@ def _prepare(args: argparse.Namespace):
 
 
 def _run(args: argparse.Namespace) -> int:
-    circuit = _prepare(args)
+    from circuitnsds.cli.sweep import run_steps
+    from circuitnsds.frontend.build import CircuitBuilder
+
+    builder = CircuitBuilder.load(args.netlist)  # read once
+    if builder.steps:  # .step lines: the run is a sweep
+        return run_steps(args, builder)
+    circuit = _prepare(args, builder)
     progress = ProgressBar(sys.stderr, enabled=False if args.quiet else None)
     try:
         waves = circuit.transient(args.step, args.stop, theta=args.theta,

@@ -90,3 +90,41 @@ class ProgressBar:
             self.stream.write("\n")
             self.stream.flush()
             self.shown = False
+
+
+def format_count(done: int, total: int, elapsed: float, what: str = "points", width: int = 24) -> str:
+    """One progress line for work counted in items (the points of a sweep).
+
+    Example: ``[██████████░░░░░░░░░░░░░░]  42%  8/19 points  2.1 points/s  5 s left``.
+    """
+    fraction = min(max(done / total, 0.0), 1.0) if total > 0 else 1.0
+    filled = int(round(fraction * width))
+    parts = [f"[{'█' * filled}{'░' * (width - filled)}] {100 * fraction:3.0f}%", f"{done}/{total} {what}"]
+    if elapsed > 0 and done > 0:
+        parts.append(f"{done / elapsed:.3g} {what}/s")
+        if done < total:
+            parts.append(f"{elapsed * (total - done) / done:.0f} s left")
+    return "  ".join(parts)
+
+
+class CountBar(ProgressBar):
+    """Progress callback ``bar(done, total)`` counting finished items (sweep points); the
+    same terminal rules as :class:`ProgressBar`."""
+
+    def __init__(self, stream: TextIO | None = None, enabled: bool | None = None, delay: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic, what: str = "points"):
+        super().__init__(stream, enabled, delay, clock)
+        self.what = what
+
+    def __call__(self, done: int, total: int, *_: object) -> None:  # type: ignore[override]
+        if not self.enabled:
+            return
+        elapsed = self.clock() - self.started
+        if elapsed < self.delay and not self.shown:
+            return
+        line = format_count(done, total, elapsed, self.what)
+        padding = " " * max(self._width - len(line), 0)
+        self._width = len(line)
+        self.stream.write(f"\r{line}{padding}")
+        self.stream.flush()
+        self.shown = True

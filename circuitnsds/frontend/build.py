@@ -19,6 +19,7 @@ from pathlib import Path
 
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.errors import NetlistWarning, SourceLocation, strict_warnings
+from circuitnsds.frontend.cards.reader import warn_at
 from circuitnsds.frontend.elaborate import elaborate
 from circuitnsds.netlist.expressions import Random
 from circuitnsds.netlist.includes import expand_includes
@@ -100,8 +101,10 @@ class CircuitBuilder:
         return self.seed if self.seed is not None else DEFAULT_SEED
 
     def unknown(self, params: Mapping[str, float]) -> list[str]:
-        """The names in ``params`` that the netlist neither defines nor uses (typos)."""
-        return [name for name in params if name.lower() not in self._names]
+        """The names in ``params`` that the netlist neither defines nor uses (typos); stepped
+        parameters and ``run`` (a Monte Carlo run count) are never reported."""
+        stepped = {step.name.lower() for step in self.steps} | {"run"}
+        return [name for name in params if name.lower() not in self._names | stepped]
 
     def build(self, params: Mapping[str, float] | None = None, random: Random | None = None, *,
               strict: bool = False) -> Circuit:
@@ -121,16 +124,14 @@ class CircuitBuilder:
         given = {name.lower(): float(value) for name, value in (params or {}).items()}
         with strict_warnings() if strict else nullcontext():
             for name in self.unknown(given):
-                warnings.warn(NetlistWarning(f"parameter {name!r} is given, and the netlist neither "
-                                             "defines nor uses it", hint="check its spelling"),
-                              stacklevel=2)
+                warnings.warn(f"parameter {name!r} is given, and the netlist neither defines nor "
+                              "uses it (check its spelling)", NetlistWarning, stacklevel=2)
             missing = [s for s in self.steps if s.name.lower() not in given]
             if missing:
                 first = ", ".join(f"{s.name}={s.values[0]:g}" for s in missing)
-                warnings.warn(NetlistWarning(
-                    f"one circuit from a netlist with .step lines: {first} (the first value)",
-                    where=missing[0].location, hint="run the sweep with circuitnsds.sweep or "
-                    "`circuitnsds run`, or give the parameters' values"), stacklevel=2)
+                warn_at(missing[0].location, f"one circuit from a netlist with .step lines: {first} "
+                        "(the first values; run the sweep with circuitnsds.sweep or `circuitnsds "
+                        "run`, or give the parameters' values)")
                 given.update({s.name.lower(): s.values[0] for s in missing})
             if random is None:
                 random = point_generator(self.default_seed, 0)
@@ -153,11 +154,27 @@ def _step_statement(step: Step) -> Statement:
 
 
 def _written_names(netlist: Netlist) -> set[str]:
-    """Every word of the netlist's statements (lower case): a parameter given but absent from
-    them cannot have any effect."""
+    """The names that parameter values can reach (lower case): every word of ``.param`` and
+    ``.func`` lines, of the parameter part of ``.subckt`` and ``X`` lines, and inside
+    ``{...}``/``'...'`` expressions. A parameter given but absent from them has no effect."""
     import re
 
-    words: set[str] = set()
+    from circuitnsds.netlist.expressions import strip_delimiters
+    from circuitnsds.netlist.params import split_parameters
+
+    def words(text: str) -> set[str]:
+        return set(re.findall(r"[a-z_][a-z0-9_]*", text.lower()))
+
+    names: set[str] = set()
     for statement in netlist.statements:
-        words.update(re.findall(r"[a-z_][a-z0-9_]*", statement.text.lower()))
-    return words
+        keyword = statement.keyword
+        if keyword in (".param", ".func"):
+            names |= words(statement.text)
+            continue
+        if keyword == ".subckt" or keyword.rsplit(".", 1)[-1].startswith("x"):
+            names |= words(split_parameters(statement.text)[1])
+        for token in statement.tokens:
+            inner = strip_delimiters(token)
+            if inner is not None:
+                names |= words(inner)
+    return names

@@ -1,0 +1,152 @@
+"""``circuitnsds sweep``: a netlist at many parameter values, a table (and a figure).
+
+``circuitnsds run`` on a netlist with ``.step`` lines comes here too. The table goes to
+stdout (and to ``-o`` as CSV); the exit status is 0 when every point ran, 1 when some
+failed (their rows say why; the table is written all the same).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from circuitnsds.cli.progress import CountBar
+from circuitnsds.errors import CircuitError
+from circuitnsds.values import parse_value
+
+PARAM_HELP = ('NAME=START:STOP:COUNT (COUNT values, both ends included), NAME=V1,V2,... or NAME=V; '
+              'repeatable: the points are the outer product (first --param outermost, after the '
+              "netlist's .step lines)")
+
+
+def _seconds(text: str) -> float:
+    try:
+        return parse_value(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 1u, 10ms, 2e-3)") from None
+
+
+def _param(text: str):
+    from circuitnsds.netlist.steps import StepSyntaxError, parse_param_option
+
+    try:
+        return parse_param_option(text)
+    except StepSyntaxError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_sweep_parser(commands) -> None:
+    """The ``sweep`` subcommand's arguments."""
+    sweep = commands.add_parser("sweep", help="run a netlist at many parameter values (or Monte "
+                                "Carlo runs), locally or on a Dask cluster; write a table")
+    sweep.add_argument("netlist", type=Path, help="SPICE netlist with .param definitions")
+    sweep.add_argument("--param", action="append", default=[], type=_param, metavar="NAME=VALUES",
+                       help=PARAM_HELP)
+    sweep.add_argument("--samples", type=int, metavar="N",
+                       help="N Monte Carlo runs (parameter run = 1..N, innermost), as "
+                       ".step param run 1 N 1")
+    sweep.add_argument("--measure", action="append", default=[], metavar="EXPR",
+                       help='measurement per point, e.g. "mean(v(out), 1m, 2m)"; repeatable; '
+                       "a column each")
+    sweep.add_argument("-o", "--output", type=Path, metavar="CSV", help="write the table as CSV")
+    sweep.add_argument("--plot", type=Path, metavar="PNG",
+                       help="figure: each measurement against the first swept parameter (a line per "
+                       "value of the next), or histograms for Monte Carlo runs")
+    sweep.add_argument("--waveforms", type=Path, metavar="DIR",
+                       help="also write each point's waveforms to DIR/point_NNNN.csv")
+    sweep.add_argument("--signals", help='signals written with --waveforms, e.g. "v(out),i(l1)"')
+    add_execution_arguments(sweep)
+    sweep.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
+    sweep.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
+    sweep.add_argument("--theta", type=float, default=None, help="θ of the θ-method in [0.5, 1]")
+    sweep.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
+
+
+def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--workers``, ``--scheduler``, ``--seed``: for ``sweep``, and for ``run`` on a netlist
+    with ``.step`` lines."""
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="sweeps: local worker processes (default: one per core); 0: every "
+                        "point in this process, without Dask")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="sweeps: a running Dask scheduler, e.g. tcp://host:8786 (its workers "
+                        "need circuitnsds, not the netlist's files)")
+    parser.add_argument("--seed", type=int,
+                        help="Monte Carlo seed (default: .options seed, else 1)")
+
+
+def run_sweep(args: argparse.Namespace) -> int:
+    """Run ``circuitnsds sweep`` (or ``run`` on a netlist with ``.step`` lines)."""
+    from circuitnsds.frontend.build import CircuitBuilder
+    from circuitnsds.sweeps.api import sweep
+
+    builder = CircuitBuilder.load(args.netlist)
+    params = {}
+    for step in getattr(args, "param", []):
+        if step.name.lower() in {name.lower() for name in params}:
+            raise CircuitError(f"--param {step.name} is given twice", where="--param")
+        params[step.name] = list(step.values)
+    signals = [s.strip() for s in args.signals.split(",") if s.strip()] if args.signals else None
+    if args.plot:
+        from circuitnsds.output import sweep_plot  # noqa: F401  (matplotlib present before the run)
+    progress = CountBar(sys.stderr, enabled=False if args.quiet else None)
+    try:
+        table = sweep(builder, params, samples=getattr(args, "samples", None), measure=args.measure,
+                      signals=signals, workers=getattr(args, "workers", None),
+                      scheduler=getattr(args, "scheduler", None), seed=getattr(args, "seed", None),
+                      keep_waveforms=getattr(args, "waveforms", None) or False, step=args.step,
+                      stop=args.stop, theta=args.theta, progress=progress)
+    finally:
+        progress.close()
+    parameters = [c for c in table.columns if c not in (*args.measure, "status", "error", "warnings",
+                                                        "file")]
+    written = []
+    if args.output:
+        from circuitnsds.cli.main import _writing
+
+        with _writing(args.output):
+            table.to_csv(args.output, index=False, float_format="%.10g")
+        written.append(args.output)
+    shown = table.drop(columns=[c for c in ("warnings", "file") if c in table.columns])
+    if not (table["error"] != "").any():
+        shown = shown.drop(columns=["status", "error"])
+    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"), flush=True)
+    for message in dict.fromkeys(m for text in table["warnings"] if text for m in text.split("; ")):
+        print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
+    if args.plot:
+        from circuitnsds.cli.main import _writing
+        from circuitnsds.output.sweep_plot import plot_sweep
+
+        with _writing(args.plot):
+            plot_sweep(table, parameters, args.measure, args.plot)
+        written.append(args.plot)
+    failed = int((table["status"] != "ok").sum())
+    if not args.quiet:
+        where = f"; wrote {', '.join(map(str, written))}" if written else ""
+        print(f"circuitnsds: {len(table)} points in {table.attrs['seconds']:.3g} s, "
+              f"{failed} failed{where}", file=sys.stderr)
+    if failed:
+        print(f"circuitnsds: error: {failed} of {len(table)} points failed (see the error column)",
+              file=sys.stderr)
+        return 1
+    return 0
+
+
+def has_steps(path: Path) -> bool:
+    """Whether the netlist file has ``.step`` lines (then ``run`` runs the sweep)."""
+    from circuitnsds.frontend.build import CircuitBuilder
+
+    return bool(CircuitBuilder.load(path).steps)
+
+
+def run_steps(args: argparse.Namespace) -> int:
+    """``circuitnsds run`` on a netlist with ``.step`` lines: the sweep they describe, the
+    ``run`` options that make sense for a table (``-o`` is the table's CSV)."""
+    if args.raw or args.show or args.uic:
+        used = [name for name, on in (("-r/--raw", args.raw), ("--show", args.show), ("--uic", args.uic))
+                if on]
+        raise CircuitError(f"{', '.join(used)}: not available when .step lines make `run` a sweep",
+                           where=str(args.netlist), hint="use circuitnsds sweep (see --help), or add "
+                           "UIC to the .tran line")
+    return run_sweep(args)

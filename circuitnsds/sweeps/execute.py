@@ -1,0 +1,87 @@
+"""Running the points of a sweep: in this process, or on dask.distributed.
+
+* ``workers=0``: every point in this process, in order (for debugging: tracebacks and
+  breakpoints work, no Dask involved).
+* ``executor=Client(...)`` or ``scheduler="tcp://host:8786"``: the points are tasks of a
+  running Dask cluster (the Client made from an address is closed at the end).
+* otherwise a ``LocalCluster`` of ``workers`` processes (default: one per core), one
+  thread each, is started for the sweep and closed after it.
+
+A task carries the :class:`~circuitnsds.sweeps.task.Job` (netlist text with its includes
+resolved, analysis, measurements) and one :class:`~circuitnsds.sweeps.task.Point`;
+workers need circuitnsds installed, not the netlist's files.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+
+from circuitnsds.errors import CircuitnsdsError
+from circuitnsds.sweeps.task import Job, Point, run_point
+
+CONNECT_TIMEOUT = "10s"
+"""How long to try to reach a scheduler given by its address."""
+
+Progress = Callable[[int, int], None]
+"""``progress(finished, total)``, called as points finish."""
+
+
+class ExecutorError(CircuitnsdsError):
+    """The Dask cluster cannot be reached or started."""
+
+
+def run_points(job: Job, points: Sequence[Point], *, executor=None, workers: int | None = None,
+               scheduler: str | None = None, progress: Progress | None = None) -> list[dict]:
+    """The rows of :func:`~circuitnsds.sweeps.task.run_point` for every point, in point order.
+
+    Raises:
+        ExecutorError: Dask is missing, or the scheduler cannot be reached.
+    """
+    if executor is None and scheduler is None and workers == 0:
+        rows = []
+        for done, point in enumerate(points, start=1):
+            rows.append(run_point(job, point))
+            if progress is not None:
+                progress(done, len(points))
+        return rows
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise ExecutorError("a sweep on workers needs dask.distributed, which is not installed",
+                            hint='pip install "dask[distributed]" (or run with workers=0 / '
+                            "--workers 0: every point in this process)") from None
+    if executor is not None:
+        return _gather(executor, job, points, progress)
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError) as exc:
+            raise ExecutorError(f"cannot reach the Dask scheduler at {scheduler}: {exc}",
+                                hint="start one with `dask scheduler` and workers with `dask worker "
+                                "ADDRESS`, or leave --scheduler out for a local cluster") from None
+        with client:
+            return _gather(client, job, points, progress)
+    count = workers if workers is not None else (os.cpu_count() or 1)
+    if count < 1:
+        raise ExecutorError(f"workers={count}: give a positive number, or 0 to run in this process")
+    with LocalCluster(n_workers=min(count, max(len(points), 1)), threads_per_worker=1, processes=True,
+                      dashboard_address=None, silence_logs=40) as cluster, Client(cluster) as client:
+        return _gather(client, job, points, progress)
+
+
+def _gather(client, job: Job, points: Sequence[Point], progress: Progress | None) -> list[dict]:
+    from distributed import as_completed
+
+    futures = client.map(run_point, [job] * len(points), points, pure=False)
+    rows: dict[int, dict] = {}
+    try:
+        for done, future in enumerate(as_completed(futures), start=1):
+            row = future.result()
+            rows[row["index"]] = row
+            if progress is not None:
+                progress(done, len(points))
+    finally:
+        for future in futures:
+            future.release()
+    return [rows[point.index] for point in points]

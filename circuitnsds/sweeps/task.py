@@ -1,0 +1,106 @@
+"""One sweep point: build the circuit for its parameters, run the analysis, measure.
+
+Everything a point needs travels as plain data: a :class:`Job` (the netlist as
+:class:`~circuitnsds.frontend.build.NetlistSource` text, the analysis and the
+measurements, the same for every point) and a :class:`Point` (index, parameter values,
+seed). :func:`run_point` never raises for a failure of the point: its row says
+``status="failed"`` and the error message.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+import warnings
+from dataclasses import dataclass, field
+
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.errors import CircuitError, CircuitnsdsError
+from circuitnsds.frontend.build import CircuitBuilder, NetlistSource
+from circuitnsds.netlist.steps import point_generator
+from circuitnsds.output.measure import evaluate, parse_measurement
+
+ANALYSES: dict[str, str] = {"tran": "transient", "pss": "pss"}
+"""Analysis name -> the :class:`~circuitnsds.circuit.circuit.Circuit` method that runs it
+(``method(**options) -> Waveforms``); a new analysis is one entry here."""
+
+
+def check_analysis(analysis: str) -> None:
+    """Raise a clear error for an analysis that is unknown or not in this version.
+
+    Raises:
+        CircuitError: unknown name, or the circuit has no such method here.
+    """
+    if analysis not in ANALYSES:
+        raise CircuitError(f"unknown analysis {analysis!r}", where="sweep(analysis=...)",
+                           hint=f"known: {', '.join(ANALYSES)}")
+    if not hasattr(Circuit, ANALYSES[analysis]):
+        raise CircuitError(f"analysis {analysis!r} is not available in this version of circuitnsds "
+                           f"(Circuit.{ANALYSES[analysis]} is missing)", where="sweep(analysis=...)",
+                           hint="use analysis='tran'")
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every point of a sweep shares.
+
+    Attributes:
+        source: the netlist, includes resolved.
+        analysis: a key of :data:`ANALYSES`.
+        options: keyword arguments of the analysis (``step``, ``stop``, ``theta`` ...).
+        measure: measurement expressions (:func:`circuitnsds.output.measure.evaluate`).
+        signals: signals kept with ``keep_waveforms`` (``None``: all).
+        keep_waveforms: return each point's waveforms with its row.
+    """
+
+    source: NetlistSource
+    analysis: str = "tran"
+    options: dict = field(default_factory=dict)
+    measure: tuple[str, ...] = ()
+    signals: tuple[str, ...] | None = None
+    keep_waveforms: bool = False
+
+
+@dataclass(frozen=True)
+class Point:
+    """One point: its position in the sweep, its parameters (names as written) and the seed."""
+
+    index: int
+    params: dict[str, float]
+    seed: int
+
+
+@functools.lru_cache(maxsize=8)
+def builder_for(source: NetlistSource) -> CircuitBuilder:
+    """The builder of a netlist source, kept per process: a worker parses a netlist once."""
+    return CircuitBuilder.from_source(source)
+
+
+def run_point(job: Job, point: Point) -> dict:
+    """Run one point.
+
+    Returns:
+        ``{"index", "params", "values" (measurement -> float), "status" ("ok" or "failed"),
+        "error" (message or ""), "warnings" (messages joined by "; "), "seconds" (wall time),
+        "waveforms" (kept waveforms or None)}``.
+    """
+    started = time.perf_counter()
+    values = {expression: float("nan") for expression in job.measure}
+    status, error, waves = "ok", "", None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            circuit = builder_for(job.source).build(point.params, point_generator(point.seed, point.index))
+            waves = getattr(circuit, ANALYSES[job.analysis])(**job.options)
+            for expression in job.measure:
+                values[expression] = evaluate(parse_measurement(expression), waves, circuit).value
+            if job.keep_waveforms:
+                waves = waves.select(job.signals) if job.signals else waves.select(waves.names)
+        except CircuitnsdsError as exc:
+            status, error, waves = "failed", str(exc), None
+        except Exception as exc:  # a bug: still one row, not a dead sweep
+            status, error, waves = "failed", f"internal error: {type(exc).__name__}: {exc}", None
+    messages = list(dict.fromkeys(str(w.message) for w in caught))
+    return {"index": point.index, "params": point.params, "values": values, "status": status,
+            "error": error, "warnings": "; ".join(messages), "seconds": time.perf_counter() - started,
+            "waveforms": waves if job.keep_waveforms else None}
