@@ -23,35 +23,36 @@ from pathlib import Path
 
 import numpy as np
 
-import circuitnsds
+from circuitnsds.frontend.build import CircuitBuilder
 from circuitnsds.output import measure
 
 VIN, FSW, L, C, RLOAD = 12.0, 100e3, 100e-6, 100e-6, 5.0
 RON_SWITCH, VFWD, RON_DIODE, R_WINDING = 50e-3, 0.7, 20e-3, 50e-3
 PERIOD = 1.0 / FSW
 
-NETLIST = """Buck converter, duty {duty:.3f}
-V1 in 0 DC {vin}
-Vgate gate 0 PULSE(0 1 0 0 0 {ton:.9g} {period:.9g})
+# The converter with its duty cycle, initial state and time grid as parameters: read once,
+# then built for each run (circuitnsds.frontend.build.CircuitBuilder), no text edited.
+NETLIST = f"""Buck converter, duty cycle D
+.param duty=0.5 v0=0 i0=0 tstep=50n tstop={PERIOD!r}
+V1 in 0 DC {VIN!r}
+Vgate gate 0 PULSE(0 1 0 0 0 {{duty*{PERIOD!r}}} {PERIOD!r})
 S1 in sw gate 0 power_switch
 D1 0 sw freewheel
-L1 sw lx {inductance} ic={current:.9g}
-RL lx out {winding}
-C1 out 0 {capacitance} ic={voltage:.9g}
-Rload out 0 {load}
-.model power_switch SW(VT=0.5 VH=0.1 RON={ron_switch} ROFF=1e9)
-.model freewheel D(Vfwd={vfwd} Ron={ron_diode})
-.tran {step:.9g} {stop:.9g} uic
+L1 sw lx {L!r} ic={{i0}}
+RL lx out {R_WINDING!r}
+C1 out 0 {C!r} ic={{v0}}
+Rload out 0 {RLOAD!r}
+.model power_switch SW(VT=0.5 VH=0.1 RON={RON_SWITCH!r} ROFF=1e9)
+.model freewheel D(Vfwd={VFWD!r} Ron={RON_DIODE!r})
+.tran {{tstep}} {{tstop}} uic
 .end
 """
+BUILDER = CircuitBuilder.load(NETLIST)
 
 
 def buck(duty: float, voltage: float, current: float, stop: float, step: float):
     """The converter as a Circuit, starting from ``v(out) = voltage`` and ``i(l1) = current``."""
-    return circuitnsds.read_netlist(NETLIST.format(
-        duty=duty, vin=VIN, ton=duty * PERIOD, period=PERIOD, inductance=L, current=current,
-        winding=R_WINDING, capacitance=C, voltage=voltage, load=RLOAD, ron_switch=RON_SWITCH,
-        vfwd=VFWD, ron_diode=RON_DIODE, step=step, stop=stop))
+    return BUILDER.build({"duty": duty, "v0": voltage, "i0": current, "tstop": stop, "tstep": step})
 
 
 def run(duty: float, state: np.ndarray, periods: int, step: float):

@@ -4,43 +4,41 @@ Run from the repository root::
 
     python examples/ripple_vs_capacitance.py [--out ripple_vs_capacitance.png] [--fast]
 
-For each capacitance the netlist's C1 is replaced, the transient is run with
-ideal piecewise-linear diodes, and the last two mains periods give the mean
-output voltage and the peak-to-peak ripple (``circuitnsds.output.measure``). The
-textbook estimate ``ΔV ≈ V_out / (R_load · 2 f · C)`` is printed and drawn beside it.
+The netlist's reservoir capacitor is the parameter ``C``: one :func:`circuitnsds.sweep`
+runs the transient for each value (ideal piecewise-linear diodes; on local worker
+processes, or in this process with ``--workers 0``) and measures the mean output voltage
+and the peak-to-peak ripple over the last two mains periods. The textbook estimate
+``ΔV ≈ V_out / (R_load · 2 f · C)`` is printed and drawn beside it.
 """
 
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import circuitnsds
-from circuitnsds.output import measure
 
 NETLIST = Path(__file__).resolve().parent.parent / "netlists" / "bridge_rectifier.cir"
 MAINS_HZ, LOAD_OHM = 50.0, 1e3
 
 
-def ripple_table(capacitances: list[float], fast: bool = False
+def ripple_table(capacitances: list[float], fast: bool = False, workers: int | None = 0
                  ) -> list[tuple[float, float, float, float]]:
     """``(C [F], mean V_out [V], ripple [V p-p], textbook estimate [V])`` for each C.
 
-    ``fast``: 50 µs steps over 3 mains periods instead of 20 µs over 10.
+    ``fast``: 50 µs steps over 3 mains periods instead of 20 µs over 10. ``workers``: as
+    :func:`circuitnsds.sweep` takes it (0: in this process; ``None``: one per core).
     """
-    circuit = circuitnsds.read_netlist(NETLIST)
     step, stop = (50e-6, 3 / MAINS_HZ) if fast else (20e-6, 10 / MAINS_HZ)
-    window = (stop - 2 / MAINS_HZ, stop)
-    rows = []
-    for capacitance in capacitances:
-        position = circuit.elements.index(circuit.element("c1"))
-        circuit.elements[position] = replace(circuit.element("c1"), capacitance=capacitance)
-        waves = circuit.transient(step=step, stop=stop)
-        mean = measure.mean(waves, "v(out)", *window)
-        rows.append((capacitance, mean, measure.ripple(waves, "v(out)", *window),
-                     mean / (LOAD_OHM * 2 * MAINS_HZ * capacitance)))
-    return rows
+    window = f"{stop - 2 / MAINS_HZ!r}, {stop!r}"
+    expressions = [f"mean(v(out), {window})", f"ripple(v(out), {window})"]
+    table = circuitnsds.sweep(NETLIST, {"C": capacitances}, measure=expressions, step=step, stop=stop,
+                              workers=workers)
+    failed = table[table["status"] != "ok"]
+    if not failed.empty:
+        raise RuntimeError(f"C = {failed['C'].iloc[0]:g} F failed: {failed['error'].iloc[0]}")
+    return [(c, mean, ripple, mean / (LOAD_OHM * 2 * MAINS_HZ * c))
+            for c, mean, ripple in zip(table["C"], table[expressions[0]], table[expressions[1]])]
 
 
 def figure(rows: list[tuple[float, float, float, float]], path: str | Path) -> None:
@@ -65,10 +63,13 @@ def main(argv: list[str] | None = None) -> list[tuple[float, float, float, float
     parser.add_argument("--out", "--plot", type=Path, default=Path("ripple_vs_capacitance.png"),
                         help="figure to write (default: ripple_vs_capacitance.png)")
     parser.add_argument("--fast", action="store_true", help="three capacitors, short coarse runs")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="worker processes (default: one per core; 0: this process only)")
     args = parser.parse_args(argv)
     capacitances = [100e-6, 470e-6, 1000e-6] if args.fast else [47e-6, 100e-6, 220e-6, 470e-6,
                                                                  1000e-6]
-    rows = ripple_table(capacitances, args.fast)
+    workers = args.workers if args.workers is not None else (0 if args.fast else None)
+    rows = ripple_table(capacitances, args.fast, workers)
     print(f"{'C [uF]':>8} {'mean [V]':>9} {'ripple [V]':>11} {'estimate [V]':>13}")
     for capacitance, mean, ripple, estimate in rows:
         print(f"{capacitance * 1e6:8.0f} {mean:9.2f} {ripple:11.2f} {estimate:13.2f}")

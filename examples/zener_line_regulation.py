@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-import circuitnsds
+from circuitnsds.frontend.build import CircuitBuilder
 from circuitnsds.output import measure
 
 BV, RZ, RS, VMAX, RAMP = 5.1, 7.0, 100.0, 15.0, 10e-3
@@ -29,22 +29,23 @@ LOADS = (250.0, 500.0, 1000.0)
 LINE = (9.0, 12.0)
 """Input voltages [V] between which the line regulation is measured."""
 
-NETLIST = """Zener shunt regulator, {load:g} ohm load
-V1 in 0 PWL(0 0 {ramp:g} {vmax:g})
-Rs in out {rs:g}
+# The load and the time step are parameters: the netlist is read once, then built per load.
+NETLIST = f"""Zener shunt regulator, load Rl
+.param rl=1k tstep=3.3u
+V1 in 0 PWL(0 0 {RAMP!r} {VMAX!r})
+Rs in out {RS!r}
 DZ1 0 out z5v1
-Rload out 0 {load:g}
-.model z5v1 D(BV={bv:g} Rrev={rz:g} Vfwd=0.7)
-.tran {step:g} {ramp:g}
+Rload out 0 {{rl}}
+.model z5v1 D(BV={BV!r} Rrev={RZ!r} Vfwd=0.7)
+.tran {{tstep}} {RAMP!r}
 .end
 """
+BUILDER = CircuitBuilder.load(NETLIST)
 
 
 def regulator(load: float, fast: bool = False):
     """The regulator with ``load`` [Ω] as a Circuit (input ramp 0 -> 15 V over 10 ms)."""
-    step = RAMP / (300 if fast else 3000)
-    return circuitnsds.read_netlist(NETLIST.format(load=load, ramp=RAMP, vmax=VMAX, rs=RS, bv=BV,
-                                                   rz=RZ, step=step))
+    return BUILDER.build({"rl": load, "tstep": RAMP / (300 if fast else 3000)})
 
 
 def characterise(load: float, fast: bool = False) -> dict:

@@ -65,9 +65,29 @@ def run_points(job: Job, points: Sequence[Point], *, executor=None, workers: int
     count = workers if workers is not None else (os.cpu_count() or 1)
     if count < 1:
         raise ExecutorError(f"workers={count}: give a positive number, or 0 to run in this process")
-    with LocalCluster(n_workers=min(count, max(len(points), 1)), threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=40) as cluster, Client(cluster) as client:
+    with local_worker_config(), LocalCluster(
+            n_workers=min(count, max(len(points), 1)), threads_per_worker=1, processes=True,
+            dashboard_address=None, silence_logs=40) as cluster, Client(cluster) as client:
         return _gather(client, job, points, progress)
+
+
+def local_worker_config():
+    """Dask settings for the sweep's own local workers (a context manager).
+
+    Two of Dask's defaults were measured to slow a point down 1.5-2x in a worker against
+    the same point in a plain process (benchmarks/sweep.py, on the buck): the statistical
+    profiler, which samples every thread's stack every 10 ms while holding the GIL, and
+    ``MALLOC_TRIM_THRESHOLD_=65536``, which makes glibc give freed memory back at once
+    (and map large arrays anew each time). Both are off here; one BLAS thread stays.
+    Workers of a cluster you start yourself can be given the same settings:
+    ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False dask worker ... --no-nanny``.
+    """
+    import dask
+
+    environment = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+    environment.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return dask.config.set({"distributed.worker.profile.enabled": False,
+                            "distributed.nanny.pre-spawn-environ": environment})
 
 
 def _gather(client, job: Job, points: Sequence[Point], progress: Progress | None) -> list[dict]:
