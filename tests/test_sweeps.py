@@ -517,3 +517,10 @@ def test_cli_bad_param_is_a_usage_error(capsys):
         main(["sweep", str(BUCK), "--param", "D=0.2:0.8"])
     assert info.value.code == 2
     assert "a range is START:STOP:COUNT" in capsys.readouterr().err
+
+
+def test_a_shipped_netlist_keeps_its_control_block_warning():
+    text = "t\nR1 a 0 1k\nV1 a 0 DC 1\n.control\nrun\nplot v(a)\n.endc\n.tran 1u 2u\n.end\n"
+    builder = CircuitBuilder.from_source(CircuitBuilder.load(text).source())
+    with pytest.warns(NetlistWarning, match=r"\.control \.\.\. \.endc block skipped .*run, plot"):
+        builder.build()

@@ -23,7 +23,13 @@ from circuitnsds.frontend.cards.reader import warn_at
 from circuitnsds.frontend.elaborate import elaborate
 from circuitnsds.netlist.expressions import Random
 from circuitnsds.netlist.includes import expand_includes
-from circuitnsds.netlist.parser import Netlist, Statement, parse_netlist, read_netlist_file
+from circuitnsds.netlist.parser import (
+    ControlBlock,
+    Netlist,
+    Statement,
+    parse_netlist,
+    read_netlist_file,
+)
 from circuitnsds.netlist.steps import DEFAULT_SEED, Step, options_seed, point_generator, split_steps
 from circuitnsds.netlist.subcircuits import flatten
 
@@ -36,11 +42,14 @@ class NetlistSource:
         text: title line, then one statement per line (continuations joined), ``.end``.
         file: the netlist's name, for messages.
         locations: ``(file, line)`` of each statement, in order.
+        control_blocks: ``(file, line, commands)`` of each ngspice ``.control`` script (not
+            run; the elaborator says so).
     """
 
     text: str
     file: str
     locations: tuple[tuple[str, int], ...]
+    control_blocks: tuple[tuple[str, int, tuple[str, ...]], ...] = ()
 
 
 class CircuitBuilder:
@@ -82,7 +91,9 @@ class CircuitBuilder:
             raise ValueError("the netlist source's text and locations do not match")
         statements = [Statement(s.tokens, SourceLocation(*where), s.text)
                       for s, where in zip(parsed.statements, source.locations)]
-        return cls(Netlist(parsed.title, statements, source.file, parsed.ended))
+        blocks = [ControlBlock(SourceLocation(file, line), list(commands))
+                  for file, line, commands in source.control_blocks]
+        return cls(Netlist(parsed.title, statements, source.file, parsed.ended, blocks))
 
     def source(self) -> NetlistSource:
         """This netlist (``.step`` lines included) as a :class:`NetlistSource`."""
@@ -93,7 +104,9 @@ class CircuitBuilder:
             locations.append((statement.location.file, statement.location.line))
         if self.netlist.ended:
             lines.append(".end")
-        return NetlistSource("\n".join(lines) + "\n", self.netlist.file, tuple(locations))
+        blocks = tuple((b.location.file, b.location.line, tuple(b.commands))
+                       for b in self.netlist.control_blocks)
+        return NetlistSource("\n".join(lines) + "\n", self.netlist.file, tuple(locations), blocks)
 
     @property
     def default_seed(self) -> int:

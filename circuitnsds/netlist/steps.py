@@ -27,7 +27,7 @@ import itertools
 import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.netlist.expressions import ExpressionError, evaluate, strip_delimiters
@@ -190,7 +190,7 @@ def split_steps(netlist: Netlist) -> tuple[Netlist, list[Step]]:
                 raise NetlistError(f".step param {step.name}: the parameter is already stepped "
                                    f"at {other.location}", where=statement.location)
         steps.append(step)
-    return Netlist(netlist.title, kept, netlist.file, netlist.ended), steps
+    return replace(netlist, statements=kept), steps
 
 
 def options_seed(statements: Iterable[Statement]) -> int | None:
