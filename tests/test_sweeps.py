@@ -298,6 +298,16 @@ def test_param_option_refuses_or_reads(text):
     assert step.values and all(math.isfinite(v) for v in step.values)
 
 
+@settings(max_examples=100, deadline=None)
+@given(values=st.lists(st.floats(-1e12, 1e12, allow_nan=False), min_size=1, max_size=10),
+       name=st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,8}", fullmatch=True),
+       keyword=st.sampled_from(["list", "LIST", "List"]))
+def test_step_list_lines_give_the_values_and_the_name_as_written(values, name, keyword):
+    line = f".step param {name} {keyword} " + " ".join(repr(v) for v in values)
+    builder = CircuitBuilder.load(f"t\n{line}\nR1 a 0 {{{name}}}\n.tran 1u 2u\n")
+    assert builder.steps[0].name == name and builder.steps[0].values == tuple(values)
+
+
 def test_param_option_errors():
     for text, message in [("D", "expected NAME=START"), ("D=", "no values"), ("1D=3", "expected NAME"),
                           ("D=1:2", "START:STOP:COUNT"), ("D=1:2:0", "positive integer"),
@@ -354,6 +364,8 @@ def test_bad_arguments_are_clear_errors():
     if not hasattr(circuitnsds.Circuit, "pss"):
         with pytest.raises(CircuitError, match="analysis 'pss' is not available"):
             circuitnsds.sweep(BUCK, {"D": [0.1]}, analysis="pss", workers=0)
+    with pytest.raises(CircuitError, match="scheduler and workers are both given"):
+        circuitnsds.sweep(BUCK, {"D": [0.1]}, scheduler="tcp://127.0.0.1:9", workers=0)
     with pytest.raises(circuitnsds.CircuitnsdsError, match="cannot read the measurement"):
         circuitnsds.sweep(BUCK, {"D": [0.1]}, measure=["average v(out)"], workers=0)
 

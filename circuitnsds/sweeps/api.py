@@ -94,6 +94,11 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
 
     started = time.perf_counter()
     check_analysis(analysis)
+    chosen = [name for name, value in (("executor", executor), ("scheduler", scheduler),
+                                       ("workers", workers)) if value is not None]
+    if len(chosen) > 1:
+        raise CircuitError(f"{' and '.join(chosen)} are both given: they choose where the points run",
+                           where="sweep", hint="give one of them (workers=0: in this process)")
     for expression in measure:  # syntax errors now, not at every point
         parse_measurement(expression)
     builder = netlist if isinstance(netlist, CircuitBuilder) else CircuitBuilder.load(netlist)
