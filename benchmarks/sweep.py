@@ -16,6 +16,8 @@ Columns:
 * ``wall [s]``: wall time of ``circuitnsds.sweep`` (cluster start and stop included).
 * ``points [s]``: sum of the points' own run times (build + transient + measurements).
 * ``first [s]``: the first point of a process (imports and the compiled loop's cache load).
+* ``median point [ms]``, ``median CPU [ms]``: wall and CPU time of a point where it ran
+  (CPU below wall: the point waited for a core).
 * ``overhead/point [ms]``: ``(workers · wall − points) / N``: what each point costs
   beyond its own work (cluster start-up, scheduling, transfers, idle workers), in
   worker-time.
@@ -24,6 +26,7 @@ Columns:
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -58,16 +61,19 @@ def main() -> None:
     same = serial.drop(columns="warnings").equals(parallel.drop(columns="warnings"))
     print(f"{args.points}-point duty sweep of {NETLIST.name}, {stop * 1e3:g} ms simulated per point "
           f"(step 0.1 us); tables equal bit for bit: {same}")
-    print(f"{'run':<22} {'wall [s]':>9} {'points [s]':>11} {'first [s]':>10} {'per point [ms]':>15} "
-          f"{'overhead/point [ms]':>20}")
+    print(f"{'run':<22} {'wall [s]':>9} {'points [s]':>11} {'first [s]':>10} {'median point [ms]':>18} "
+          f"{'median CPU [ms]':>16} {'overhead/point [ms]':>20}")
     for name, table, wall, workers in (("serial (workers=0)", serial, serial_wall, 1),
                                        (f"{args.workers} local workers", parallel, parallel_wall,
                                         args.workers)):
         seconds = np.array(table.attrs["point_seconds"])
+        cpu = np.array(table.attrs["point_cpu_seconds"])
         overhead = (workers * wall - seconds.sum()) / len(seconds)
         print(f"{name:<22} {wall:9.2f} {seconds.sum():11.2f} {seconds[0]:10.2f} "
-              f"{1e3 * np.median(seconds):15.1f} {1e3 * overhead:20.1f}")
+              f"{1e3 * np.median(seconds):18.1f} {1e3 * np.median(cpu):16.1f} {1e3 * overhead:20.1f}")
     print(f"ratio parallel/serial: {parallel_wall / serial_wall:.2f}")
+    print(f"load average (1, 5, 15 min) at the end: {', '.join(f'{v:.1f}' for v in os.getloadavg())} "
+          f"on {os.cpu_count()} cores")
 
 
 if __name__ == "__main__":

@@ -81,8 +81,8 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
         a pandas DataFrame, one row per point in grid order: the parameter columns (names
         as written), one column per measurement, ``status`` (``"ok"`` or ``"failed"``),
         ``error`` (the message of a failed point, else empty) and ``warnings``. Its
-        ``attrs`` hold ``seed``, ``seconds`` (wall time of the sweep) and
-        ``point_seconds`` (the time of each point where it ran).
+        ``attrs`` hold ``seed``, ``seconds`` (wall time of the sweep), ``point_seconds``
+        and ``point_cpu_seconds`` (wall and CPU time of each point where it ran).
 
     Raises:
         NetlistError: the netlist cannot be read (a point's failure is in its row instead).
@@ -137,5 +137,6 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     elif keep_waveforms:
         table["waveforms"] = [row["waveforms"] for row in rows]
     table.attrs.update(seed=seed, seconds=time.perf_counter() - started,
-                       point_seconds=[row["seconds"] for row in rows])
+                       point_seconds=[row["seconds"] for row in rows],
+                       point_cpu_seconds=[row["cpu_seconds"] for row in rows])
     return table

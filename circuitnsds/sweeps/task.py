@@ -82,9 +82,11 @@ def run_point(job: Job, point: Point) -> dict:
     Returns:
         ``{"index", "params", "values" (measurement -> float), "status" ("ok" or "failed"),
         "error" (message or ""), "warnings" (messages joined by "; "), "seconds" (wall time),
+        "cpu_seconds" (CPU time of the process while it ran: less than "seconds" when other
+        work shares the cores),
         "waveforms" (kept waveforms or None)}``.
     """
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     values = {expression: float("nan") for expression in job.measure}
     status, error, waves = "ok", "", None
     with warnings.catch_warnings(record=True) as caught:
@@ -103,4 +105,5 @@ def run_point(job: Job, point: Point) -> dict:
     messages = list(dict.fromkeys(str(w.message) for w in caught))
     return {"index": point.index, "params": point.params, "values": values, "status": status,
             "error": error, "warnings": "; ".join(messages), "seconds": time.perf_counter() - started,
+            "cpu_seconds": time.process_time() - cpu,
             "waveforms": waves if job.keep_waveforms else None}
