@@ -4,7 +4,7 @@ Run from the repository root::
 
     python benchmarks/sweep.py [--points 40] [--workers 2] [--stop 10m]
 
-Prints one table: the wall time of the 40-point sweep of ``netlists/buck_param.cir``
+Prints one table: the wall time of the 40-point sweep of ``netlists/sweeps/buck_param.cir``
 (D from 0.1 to 0.9, measured: mean output and ripple over the last millisecond) run
 serially (``workers=0``, no Dask) and on a LocalCluster of N one-thread worker processes
 started and closed by the sweep, the ratio of the two, and what the parallel run costs
@@ -35,7 +35,7 @@ import numpy as np
 import circuitnsds
 from circuitnsds.values import parse_value
 
-NETLIST = Path(__file__).resolve().parent.parent / "netlists" / "buck_param.cir"
+NETLIST = Path(__file__).resolve().parent.parent / "netlists" / "sweeps" / "buck_param.cir"
 
 
 def run(points: int, workers: int, stop: float):

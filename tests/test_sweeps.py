@@ -30,8 +30,8 @@ from circuitnsds.netlist.steps import (
 from circuitnsds.output import measure
 
 ROOT = Path(__file__).resolve().parent.parent
-BUCK = ROOT / "netlists" / "buck_param.cir"
-MONTE_CARLO = ROOT / "netlists" / "buck_monte_carlo.cir"
+BUCK = ROOT / "netlists" / "sweeps" / "buck_param.cir"
+MONTE_CARLO = ROOT / "netlists" / "sweeps" / "buck_monte_carlo.cir"
 
 # A synchronous buck's power stage: an ideal 24 V PWM source into L, C and the load, with
 # tolerances (10 %, 3 sigma) drawn by ngspice's agauss. Short run, few steps: 200 runs stay fast.
@@ -251,6 +251,14 @@ def test_step_lines_in_ltspice_syntax_parse_and_nest():
 def test_step_errors(line, message):
     with pytest.raises(NetlistError, match=message):
         CircuitBuilder.load(f"t\n.param x=1\n{line}\nR1 a 0 {{x}}\n.tran 1u 2u\n")
+
+
+def test_the_bundled_monte_carlo_netlist_is_200_seeded_runs():
+    builder = CircuitBuilder.load(MONTE_CARLO)
+    assert [(s.name, s.values) for s in builder.steps] == [("run", tuple(float(k) for k in range(1, 201)))]
+    assert builder.seed == 17
+    first, second = (builder.build({"run": k + 1}, point_generator(17, k)) for k in range(2))
+    assert first.element("l1").inductance != second.element("l1").inductance
 
 
 def test_step_param_lin_includes_the_stop_value():
