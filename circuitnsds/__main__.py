@@ -4,4 +4,5 @@ import sys
 
 from circuitnsds.cli.main import main
 
-sys.exit(main())
+if __name__ == "__main__":  # sweeps start worker processes, which must not run the command again
+    sys.exit(main())

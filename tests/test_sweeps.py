@@ -544,3 +544,19 @@ def test_a_shipped_netlist_keeps_its_control_block_warning():
     builder = CircuitBuilder.from_source(CircuitBuilder.load(text).source())
     with pytest.warns(NetlistWarning, match=r"\.control \.\.\. \.endc block skipped .*run, plot"):
         builder.build()
+
+
+def test_the_progress_bar_counts_finished_points():
+    import io
+
+    from circuitnsds.cli.progress import CountBar, format_count
+
+    assert format_count(5, 20, 10.0).split("  ")[1:] == ["25%", "5/20 points", "0.5 points/s", "30 s left"]
+    ticks = iter([0.0, 2.0, 4.0])
+    stream = io.StringIO()
+    bar = CountBar(stream, enabled=True, delay=1.0, clock=lambda: next(ticks))
+    bar(1, 2)  # 2 s after the start: drawn
+    bar(2, 2)
+    bar.close()
+    lines = stream.getvalue().split("\r")
+    assert "1/2 points" in lines[1] and "2/2 points" in lines[2] and stream.getvalue().endswith("\n")
