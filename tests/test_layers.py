@@ -23,8 +23,10 @@ ALLOWED = {
     "analyses": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output"},
     "compare": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
                 "analyses"},
+    "sweeps": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
+               "analyses"},
     "cli": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
-            "analyses", "compare"},
+            "analyses", "compare", "sweeps"},
 }
 FOUNDATION = {"errors", "units", "values", "theta", "_blas"}
 
