@@ -207,8 +207,9 @@ V1 a 0 DC 1
 
 # ---------------------------------------------------------------- .step and --param
 
-# The forms of LTspice's help, "Dot commands > .STEP" (.step param RLOAD LIST 5 10 15,
-# .step oct v1 1 20 5, .step I1 10u 100u 10u, .step NPN 2N2222(VAF) 50 100 25, .step temp -55 125 10).
+# The examples of LTspice's help, ".STEP -- Parameter Sweeps"
+# (ltspicehelpmanual.azurewebsites.net/STEP--ParameterSweeps.htm): .step param RLOAD LIST 5 10 15,
+# .step oct v1 1 20 5, .step I1 10u 100u 10u, .step NPN 2N2222(VAF) 50 100 25, .step temp -55 125 10.
 STEPPED = """stepped RC
 .param rload=1k c=1u
 .step param RLOAD LIST 5 10 15
@@ -248,6 +249,7 @@ def test_step_lines_in_ltspice_syntax_parse_and_nest():
     (".step dec param x 0 10 5", "positive start and stop"),
     (".step param x 1 2", "expected START STOP INCR, got 2 values"),
     (".step param x list", "list has no values"),
+    (".step param x file=values.txt", "values from a file are not read"),
 ])
 def test_step_errors(line, message):
     with pytest.raises(NetlistError, match=message):
@@ -266,6 +268,9 @@ def test_step_param_lin_includes_the_stop_value():
     builder = CircuitBuilder.load("t\n.param r=1\n.step param R 1k 10k 1k\nR1 a 0 {r}\n.tran 1u 2u\n")
     values = builder.steps[0].values
     assert len(values) == 10 and values[0] == 1e3 and values[-1] == 1e4
+    # the kind may follow the name (.STEP PARAM <variable> DEC ..., as other readers write it)
+    builder = CircuitBuilder.load("t\n.param r=1\n.step param R dec 1 100 1\nR1 a 0 {r}\n.tran 1u 2u\n")
+    assert builder.steps[0].values == (1.0, 10.0, 100.0)
 
 
 @settings(max_examples=200, deadline=None)

@@ -8,6 +8,9 @@ the Monte Carlo seed, and the grid of points they make.
     .step dec param NAME START STOP POINTS    POINTS per decade from START up to STOP
     .step oct param NAME START STOP POINTS    POINTS per octave
     .step param NAME list V1 V2 ...           the values listed
+    .step param NAME dec START STOP POINTS    (the sweep kind may also follow the name)
+
+as LTspice's help describes it ("STEP — Parameter Sweeps"); ``file=`` lists are refused.
 
 Several ``.step`` lines nest: the points are their outer product, the first line being
 the outermost loop (the last line's parameter changes fastest). ``STOP`` is included when
@@ -152,6 +155,11 @@ def read_step(statement: Statement) -> Step:
         raise NetlistError(".step param: missing parameter name", where=statement.location, hint=STEP_HINT)
     name = written[1] if len(written) > 1 and written[1].lower() == tokens[1] else tokens[1]
     arguments = tokens[2:]
+    if arguments and arguments[0] in ("lin", "dec", "oct") and kind == "lin":  # .step param X dec ...
+        kind = arguments.pop(0)
+    if "file" in arguments:
+        raise NetlistError(f".step param {name} file=...: values from a file are not read",
+                           where=statement.location, hint="write the values with list V1 V2 ...")
     try:
         if arguments and arguments[0] == "list":
             if kind != "lin":
