@@ -76,12 +76,13 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Monte Carlo seed (default: .options seed, else 1)")
 
 
-def run_sweep(args: argparse.Namespace) -> int:
-    """Run ``circuitnsds sweep`` (or ``run`` on a netlist with ``.step`` lines)."""
+def run_sweep(args: argparse.Namespace, builder=None) -> int:
+    """Run ``circuitnsds sweep`` (or ``run`` on a netlist with ``.step`` lines; ``builder``:
+    the netlist already read)."""
     from circuitnsds.frontend.build import CircuitBuilder
     from circuitnsds.sweeps.api import sweep
 
-    builder = CircuitBuilder.load(args.netlist)
+    builder = builder if builder is not None else CircuitBuilder.load(args.netlist)
     params = {}
     for step in getattr(args, "param", []):
         if step.name.lower() in {name.lower() for name in params}:
@@ -133,14 +134,7 @@ def run_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-def has_steps(path: Path) -> bool:
-    """Whether the netlist file has ``.step`` lines (then ``run`` runs the sweep)."""
-    from circuitnsds.frontend.build import CircuitBuilder
-
-    return bool(CircuitBuilder.load(path).steps)
-
-
-def run_steps(args: argparse.Namespace) -> int:
+def run_steps(args: argparse.Namespace, builder=None) -> int:
     """``circuitnsds run`` on a netlist with ``.step`` lines: the sweep they describe, the
     ``run`` options that make sense for a table (``-o`` is the table's CSV)."""
     if args.raw or args.show or args.uic:
@@ -149,4 +143,4 @@ def run_steps(args: argparse.Namespace) -> int:
         raise CircuitError(f"{', '.join(used)}: not available when .step lines make `run` a sweep",
                            where=str(args.netlist), hint="use circuitnsds sweep (see --help), or add "
                            "UIC to the .tran line")
-    return run_sweep(args)
+    return run_sweep(args, builder)
