@@ -395,6 +395,21 @@ def test_waveforms_kept_or_written(tmp_path):
     assert header.startswith("time,") and "v(out)" in header
 
 
+def test_points_need_no_file_includes_are_shipped_resolved(tmp_path):
+    (tmp_path / "models.lib").write_text(".model dfree D(Ron=1m)\n.param Rl=5\n")
+    netlist = tmp_path / "top.cir"
+    netlist.write_text(BUCK.read_text().replace(".model dfree D(Ron=1m)", ".include models.lib")
+                       .replace(" Rl=5", ""))
+    builder = CircuitBuilder.load(netlist)
+    (tmp_path / "models.lib").unlink()  # the points must not read it
+    table = circuitnsds.sweep(builder, {"D": [0.5]}, measure=["mean(v(out), 1.5m, 2m)"], workers=0)
+    assert list(table["status"]) == ["ok"]
+    assert table["mean(v(out), 1.5m, 2m)"][0] == pytest.approx(12.0, rel=0.03)
+    bad = circuitnsds.sweep(builder, {"D": [0.5]}, signals=["v(nowhere)"], keep_waveforms=True,
+                            workers=0, stop=20e-6)
+    assert "unknown signal(s) v(nowhere)" in bad["error"][0] and "available: v(in)" in bad["error"][0]
+
+
 # ---------------------------------------------------------------- Monte Carlo
 
 def test_monte_carlo_200_runs_equal_a_plain_loop_over_the_same_seeds():

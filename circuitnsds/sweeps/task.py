@@ -97,7 +97,11 @@ def run_point(job: Job, point: Point) -> dict:
             for expression in job.measure:
                 values[expression] = evaluate(parse_measurement(expression), waves, circuit).value
             if job.keep_waveforms:
-                waves = waves.select(job.signals) if job.signals else waves.select(waves.names)
+                unknown = [name for name in job.signals or () if name not in waves]
+                if unknown:
+                    raise CircuitError(f"unknown signal(s) {', '.join(unknown)}", where="signals",
+                                       hint=f"available: {', '.join(waves.names)}")
+                waves = waves.select(job.signals or waves.names)
         except CircuitnsdsError as exc:
             status, error, waves = "failed", str(exc), None
         except Exception as exc:  # a bug: still one row, not a dead sweep
