@@ -494,6 +494,22 @@ def test_a_real_dask_cluster_gives_the_in_process_table_bit_for_bit(tmp_path):
                 process.wait(timeout=5)
 
 
+def test_the_default_local_cluster_gives_the_in_process_table(tmp_path):
+    # a script without a __main__ guard: on Linux the workers are forked, not re-imported
+    script = tmp_path / "script.py"
+    script.write_text(
+        "import circuitnsds, json\n"
+        f"power_stage = {POWER_STAGE!r}\n"
+        "arguments = dict(params={'run': [1, 2, 3, 4]}, measure=['ripple(v(out), 20u, 40u)'])\n"
+        "local = circuitnsds.sweep(power_stage, workers=2, **arguments)\n"
+        "serial = circuitnsds.sweep(power_stage, workers=0, **arguments)\n"
+        "print(json.dumps([local.equals(serial), list(local['status'])]))\n")
+    output = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert output.returncode == 0, output.stderr[-2000:]
+    assert json.loads(output.stdout.strip().splitlines()[-1]) == [True, ["ok"] * 4]
+
+
 def test_an_unreachable_scheduler_is_a_clear_error(monkeypatch):
     from circuitnsds.sweeps import execute
     from circuitnsds.sweeps.execute import ExecutorError

@@ -5,7 +5,8 @@
 * ``executor=Client(...)`` or ``scheduler="tcp://host:8786"``: the points are tasks of a
   running Dask cluster (the Client made from an address is closed at the end).
 * otherwise a ``LocalCluster`` of ``workers`` processes (default: one per core), one
-  thread each, is started for the sweep and closed after it.
+  thread each, is started for the sweep and closed after it (on Linux the workers are
+  forked from this process after it has run the first point: see :data:`FORK`).
 
 A task carries the :class:`~circuitnsds.sweeps.task.Job` (netlist text with its includes
 resolved, analysis, measurements) and one :class:`~circuitnsds.sweeps.task.Point`;
@@ -15,6 +16,7 @@ workers need circuitnsds installed, not the netlist's files.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable, Sequence
 
 from circuitnsds.errors import CircuitnsdsError
@@ -65,10 +67,28 @@ def run_points(job: Job, points: Sequence[Point], *, executor=None, workers: int
     count = workers if workers is not None else (os.cpu_count() or 1)
     if count < 1:
         raise ExecutorError(f"workers={count}: give a positive number, or 0 to run in this process")
+    first: list[dict] = []
+    if FORK and points:  # the first point here: it warms this process, which the workers copy
+        first.append(run_point(job, points[0]))
+        if progress is not None:
+            progress(1, len(points))
+        if len(points) == 1:
+            return first
+    rest = points[len(first):]
+    shifted = None if progress is None else (lambda done, _: progress(done + len(first), len(points)))
     with local_worker_config(), LocalCluster(
-            n_workers=min(count, max(len(points), 1)), threads_per_worker=1, processes=True,
+            n_workers=min(count, len(rest)), threads_per_worker=1, processes=True,
             dashboard_address=None, silence_logs=40) as cluster, Client(cluster) as client:
-        return _gather(client, job, points, progress)
+        return first + _gather(client, job, rest, shifted)
+
+
+FORK = sys.platform == "linux"
+"""Start the sweep's local workers by forking this process (Linux): they begin with its
+imports and its loaded stepping loops instead of importing everything anew, and a script
+needs no ``if __name__ == "__main__":`` guard. This process runs the first point itself
+first, so what the workers copy is warm. Measured on the buck (40 points, 10 ms each, 2
+workers, loaded machine): first point in a worker 0.8 s instead of 5-7 s, the sweep 1.3x
+the serial time instead of 1.9-2.6x. Elsewhere workers are spawned (Python's default)."""
 
 
 def local_worker_config():
@@ -86,8 +106,11 @@ def local_worker_config():
 
     environment = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environment.pop("MALLOC_TRIM_THRESHOLD_", None)
-    return dask.config.set({"distributed.worker.profile.enabled": False,
-                            "distributed.nanny.pre-spawn-environ": environment})
+    settings = {"distributed.worker.profile.enabled": False,
+                "distributed.nanny.pre-spawn-environ": environment}
+    if FORK:
+        settings["distributed.worker.multiprocessing-method"] = "fork"
+    return dask.config.set(settings)
 
 
 def _gather(client, job: Job, points: Sequence[Point], progress: Progress | None) -> list[dict]:
