@@ -9,7 +9,8 @@ Prints one table: the wall time of the 40-point sweep of ``netlists/sweeps/buck_
 serially (``workers=0``, no Dask) and on a LocalCluster of N one-thread worker processes
 started and closed by the sweep, the ratio of the two, and what the parallel run costs
 beyond the work itself. Figures are what this machine gives at the time (other programs
-share its cores), so run it twice.
+share its cores), so run it twice. A short transient first warms this process (imports,
+compiled loops loaded), so that neither run pays that; forked workers (Linux) inherit it.
 
 Columns:
 
@@ -56,6 +57,7 @@ def main() -> None:
     parser.add_argument("--stop", default="10m", help="simulated time per point (default 10m)")
     args = parser.parse_args()
     stop = parse_value(args.stop)
+    circuitnsds.read_netlist(NETLIST).transient(stop=20e-6)  # both runs start warm: imports, loops loaded
     serial, serial_wall = run(args.points, 0, stop)
     parallel, parallel_wall = run(args.points, args.workers, stop)
     same = serial.drop(columns="warnings").equals(parallel.drop(columns="warnings"))
