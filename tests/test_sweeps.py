@@ -348,6 +348,15 @@ def test_duty_sweep_table_matches_single_runs():
         assert row[1] == pytest.approx(24 * duty, rel=0.03)
 
 
+def test_a_pss_sweep_measures_the_settled_period():
+    table = circuitnsds.sweep(BUCK, {"D": [0.3, 0.6]}, analysis="pss", measure=["mean(v(out))"],
+                              workers=0)
+    assert list(table["status"]) == ["ok", "ok"], list(table["error"])
+    # ideal buck in continuous conduction, settled: mean output D * 24 V (switch and diode
+    # resistances of 10 mohm and 1 mohm against 5 ohm: < 0.3 %)
+    assert list(table["mean(v(out))"]) == pytest.approx([0.3 * 24, 0.6 * 24], rel=0.005)
+
+
 ILL_POSED = """Voltage source shorted by an ideal switch when G puts its gate above VT
 .param G=0
 .step param G list 0 1 0.2
@@ -378,6 +387,9 @@ def test_bad_arguments_are_clear_errors():
     if not hasattr(circuitnsds.Circuit, "pss"):
         with pytest.raises(CircuitError, match="analysis 'pss' is not available"):
             circuitnsds.sweep(BUCK, {"D": [0.1]}, analysis="pss", workers=0)
+    else:
+        with pytest.raises(CircuitError, match="analysis 'pss' takes no stop"):
+            circuitnsds.sweep(BUCK, {"D": [0.1]}, analysis="pss", stop=1e-3, workers=0)
     with pytest.raises(CircuitError, match="scheduler and workers are both given"):
         circuitnsds.sweep(BUCK, {"D": [0.1]}, scheduler="tcp://127.0.0.1:9", workers=0)
     with pytest.raises(circuitnsds.CircuitnsdsError, match="cannot read the measurement"):

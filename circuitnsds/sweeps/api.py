@@ -93,7 +93,6 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     from circuitnsds.sweeps.execute import run_points
 
     started = time.perf_counter()
-    check_analysis(analysis)
     chosen = [name for name, value in (("executor", executor), ("scheduler", scheduler),
                                        ("workers", workers)) if value is not None]
     if len(chosen) > 1:
@@ -110,6 +109,7 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     seed = int(seed) if seed is not None else builder.default_seed
     options = {key: value for key, value in (("step", step), ("stop", stop), ("theta", theta),
                                              ("uic", uic)) if value is not None}
+    check_analysis(analysis, options)
     directory = None if isinstance(keep_waveforms, bool) else Path(keep_waveforms)
     job = Job(builder.source(), analysis, options, tuple(measure),
               tuple(signals) if signals else None, bool(keep_waveforms))

@@ -25,11 +25,13 @@ ANALYSES: dict[str, str] = {"tran": "transient", "pss": "pss"}
 (``method(**options) -> Waveforms``); a new analysis is one entry here."""
 
 
-def check_analysis(analysis: str) -> None:
-    """Raise a clear error for an analysis that is unknown or not in this version.
+def check_analysis(analysis: str, options: dict | None = None) -> None:
+    """Raise a clear error for an analysis that is unknown or not in this version, or for
+    settings it does not take.
 
     Raises:
-        CircuitError: unknown name, or the circuit has no such method here.
+        CircuitError: unknown name, the circuit has no such method here, or an option the
+            method does not accept.
     """
     if analysis not in ANALYSES:
         raise CircuitError(f"unknown analysis {analysis!r}", where="sweep(analysis=...)",
@@ -38,6 +40,13 @@ def check_analysis(analysis: str) -> None:
         raise CircuitError(f"analysis {analysis!r} is not available in this version of circuitnsds "
                            f"(Circuit.{ANALYSES[analysis]} is missing)", where="sweep(analysis=...)",
                            hint="use analysis='tran'")
+    import inspect
+
+    accepted = inspect.signature(getattr(Circuit, ANALYSES[analysis])).parameters
+    refused = [name for name in options or {} if name not in accepted]
+    if refused:
+        raise CircuitError(f"analysis {analysis!r} takes no {', '.join(refused)}", where="sweep",
+                           hint=f"its settings: {', '.join(n for n in accepted if n != 'self')}")
 
 
 @dataclass(frozen=True)
@@ -93,7 +102,8 @@ def run_point(job: Job, point: Point) -> dict:
         warnings.simplefilter("always")
         try:
             circuit = builder_for(job.source).build(point.params, point_generator(point.seed, point.index))
-            waves = getattr(circuit, ANALYSES[job.analysis])(**job.options)
+            result = getattr(circuit, ANALYSES[job.analysis])(**job.options)
+            waves = getattr(result, "waveforms", result)  # pss: one settled period
             for expression in job.measure:
                 values[expression] = evaluate(parse_measurement(expression), waves, circuit).value
             if job.keep_waveforms:
