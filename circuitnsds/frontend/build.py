@@ -120,7 +120,7 @@ class CircuitBuilder:
         return [name for name in params if name.lower() not in self._names | stepped]
 
     def build(self, params: Mapping[str, float] | None = None, random: Random | None = None, *,
-              strict: bool = False) -> Circuit:
+              strict: bool = False, options: dict[str, float | str] | None = None) -> Circuit:
         """The circuit for these parameter values.
 
         Args:
@@ -130,6 +130,7 @@ class CircuitBuilder:
             random: generator of the Monte Carlo functions; default: point 0 of the
                 netlist's seed (:func:`~circuitnsds.netlist.steps.point_generator`).
             strict: every warning is an error.
+            options: ``.options`` values that override the netlist's (``{"diode": "ideal"}``).
 
         Raises:
             NetlistError: malformed input (with file:line).
@@ -148,7 +149,7 @@ class CircuitBuilder:
                 given.update({s.name.lower(): s.values[0] for s in missing})
             if random is None:
                 random = point_generator(self.default_seed, 0)
-            circuit = elaborate(flatten(self.netlist, given, random))
+            circuit = elaborate(flatten(self.netlist, given, random), options)
         circuit.strict = strict
         return circuit
 
