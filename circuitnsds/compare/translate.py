@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
@@ -166,7 +166,7 @@ def translate_netlist(
     lines = physical_lines(text)
     if not lines:
         raise NetlistError("the netlist is empty", where=name)
-    body = _translate_lines(lines[1:], base, name, overrides, step, stop, scratch, translation)
+    body = _translate_lines(lines[1:], _Context(base, name, overrides, step, stop, scratch, translation))
     if not translation.has_tran:
         if step is None or stop is None:
             raise NetlistError("no .tran line", where=name,
@@ -190,16 +190,23 @@ def _read(path: Path, where: str | None) -> str:
                            "file)") from None
 
 
-def _translate_lines(
-    lines: list[str],
-    base: Path,
-    name: str,
-    overrides: DiodeOverrides,
-    step: float | None,
-    stop: float | None,
-    scratch: Path | None,
-    translation: Translation,
-) -> list[str]:
+@dataclass(frozen=True)
+class _Context:
+    """What translating one file needs: where it is (``base`` folder, ``name`` for messages),
+    the settings of the whole translation, and the :class:`Translation` being filled in."""
+
+    base: Path
+    name: str
+    overrides: DiodeOverrides
+    step: float | None
+    stop: float | None
+    scratch: Path | None
+    translation: Translation
+
+
+def _translate_lines(lines: list[str], context: _Context) -> list[str]:
+    name, overrides, translation = context.name, context.overrides, context.translation
+    step, stop = context.step, context.stop
     out: list[str] = []
     in_control = False
     for line in logical_lines(lines):
@@ -235,7 +242,7 @@ def _translate_lines(
             out.extend(_ammeter(logical))
             continue
         if keyword in {".include", ".inc", ".lib"}:
-            out.append(_include(logical, base, name, overrides, step, stop, scratch, translation))
+            out.append(_include(logical, context))
             continue
         out.extend(physical)
     return out
@@ -323,17 +330,9 @@ def _tran(logical: str, step: float | None, stop: float | None) -> str:
     return " ".join(tokens)
 
 
-def _include(
-    logical: str,
-    base: Path,
-    name: str,
-    overrides: DiodeOverrides,
-    step: float | None,
-    stop: float | None,
-    scratch: Path | None,
-    translation: Translation,
-) -> str:
-    """Translate an included file into ``scratch`` and point the line at it."""
+def _include(logical: str, context: _Context) -> str:
+    """Translate an included file into ``context.scratch`` and point the line at it."""
+    base, name, scratch, translation = context.base, context.name, context.scratch, context.translation
     parts = logical.split(None, 1)
     keyword, argument = parts[0], parts[1].strip() if len(parts) > 1 else ""
     if keyword.lower() == ".lib" and len(argument.split()) < 2 and not argument.startswith(("'", '"')):
@@ -350,8 +349,8 @@ def _include(
         raise NetlistError(f"{keyword} needs a scratch folder for the translated file",
                            where=name, hint="pass scratch=Path(...) to translate_netlist")
     text = _read(path, f"{name}: {keyword} {target}")
-    body = _translate_lines(physical_lines(text), path.resolve().parent, str(path), overrides, step,
-                            stop, scratch, translation)
+    body = _translate_lines(physical_lines(text), replace(context, base=path.resolve().parent,
+                                                          name=str(path)))
     copy = scratch / f"{len(translation.includes) + 1}_{path.name}"
     copy.write_text("\n".join(body) + "\n", encoding="utf-8")
     translation.includes.append(copy)

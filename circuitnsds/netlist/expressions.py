@@ -554,6 +554,15 @@ def _power(base: float, exponent: float, text: str) -> float:
     return _finite(result, f"{base:g}^{exponent:g}", text)
 
 
+def _as_lookup(table):
+    """A mapping, a lookup function or ``None`` as a function ``name -> value or None``."""
+    if table is None:
+        return lambda name: None
+    if isinstance(table, Mapping):
+        return table.get
+    return table
+
+
 def evaluate(text: str, names: Mapping[str, float] | Lookup | None = None, *,
              functions: Mapping[str, UserFunction] | FunctionLookup | None = None,
              random: Random | None = None) -> float:
@@ -572,20 +581,8 @@ def evaluate(text: str, names: Mapping[str, float] | Lookup | None = None, *,
         ExpressionError: syntax error, undefined name (:class:`UndefinedNameError`),
             division by zero, domain error, or a non-finite result.
     """
-    lookup: Lookup
-    if names is None:
-        lookup = lambda name: None  # noqa: E731
-    elif isinstance(names, Mapping):
-        lookup = names.get
-    else:
-        lookup = names
-    function_lookup: FunctionLookup
-    if functions is None:
-        function_lookup = lambda name: None  # noqa: E731
-    elif isinstance(functions, Mapping):
-        function_lookup = functions.get
-    else:
-        function_lookup = functions
+    lookup: Lookup = _as_lookup(names)
+    function_lookup: FunctionLookup = _as_lookup(functions)
     tree = parse(text)
     try:
         with _stack():
