@@ -102,8 +102,14 @@ SETTINGS = {
 NGSPICE_FAILS = {"bridge_rectifier"}
 
 
+# No diode at all (ideal B-source half bridges): N changes nothing, so there is no trend to
+# check; their agreement with ngspice (mean, frequency, duty) is asserted in
+# tests/test_comparators.py.
+WITHOUT_DIODES = {"buck_hysteretic", "buck_peak_current"}
+
+
 def netlist_names():
-    return sorted(path.stem for path in NETLISTS.glob("*.cir"))
+    return sorted(path.stem for path in NETLISTS.glob("*.cir") if path.stem not in WITHOUT_DIODES)
 
 
 @pytest.mark.parametrize("name", netlist_names())

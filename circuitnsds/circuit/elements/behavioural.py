@@ -69,6 +69,32 @@ class MinMax:
     b: Affine
 
 
+@dataclass(frozen=True)
+class Select:
+    """Auxiliary unknown ``x = on if control > 0 else off``: a comparator.
+
+    ``control`` is affine; the choice is an ideal switch of the engine (an exogenous mode, see
+    :mod:`circuitnsds.circuit.elements.switch`) whose control is the non-constant part of
+    ``control`` and whose threshold is ``-control.constant ± hysteresis``, so its instant is
+    located like any circuit-controlled switch's and every change is in ``waves.events``
+    under ``name``. The row of ``x`` is switched: ``0 = on - x`` closed, ``0 = off - x`` open
+    (constants through the element's unit unknown ``x(name.one) = 1``).
+
+    Attributes:
+        control: the compared difference (``a - b`` for ``a > b``) [its unit].
+        on: value while ``control > 0``.
+        off: value while ``control < 0``.
+        name: the switch's name (``b1.cmp0``), as it appears in events.
+        hysteresis: half-width of the band in which the state is kept (0: none).
+    """
+
+    control: Affine
+    on: Affine
+    off: Affine
+    name: str = ""
+    hysteresis: float = 0.0
+
+
 def _stamp_row(builder: MLCSBuilder, row: int, value: Affine, auxiliary: list[int],
                sign: float) -> None:
     """Add ``sign·value`` to row ``row`` of ``0 = A y + B λ + s``."""
@@ -86,10 +112,45 @@ def _stamp_pair_row(builder: MLCSBuilder, pair: int, value: Affine, auxiliary: l
     builder.e[pair] += sign * value.constant
 
 
-def stamp_auxiliaries(builder: MLCSBuilder, name: str, auxiliaries: tuple[MinMax, ...]) -> list[int]:
+def _selected_row(builder: MLCSBuilder, x: int, value: Affine, auxiliary: list[int],
+                  one: int) -> tuple[tuple[int, float], ...]:
+    """Row ``0 = value - x`` over ``y``, the constant as a coefficient of the unit unknown."""
+    row: dict[int, float] = {x: -1.0}
+    for column, c in value.columns(builder, auxiliary) + [(one, value.constant)]:
+        row[column] = row.get(column, 0.0) + c
+    return tuple((column, c) for column, c in row.items() if c != 0.0 or column == x)
+
+
+def _stamp_select(builder: MLCSBuilder, name: str, select: Select, x: int,
+                  columns: list[int]) -> None:
+    new = f"x({name}.one)" not in builder.unknowns
+    one = builder.branch(f"x({name}.one)")
+    if new:  # 0 = one - 1
+        builder.add("A", one, one, 1.0)
+        builder.add("S", one, builder.stimulus(Dc(1.0)), -1.0)
+    open_row = _selected_row(builder, x, select.off, columns, one)
+    closed_row = _selected_row(builder, x, select.on, columns, one)
+    for column, value in open_row:
+        builder.add("A", x, column, value)
+    half_band = abs(select.hysteresis)
+    builder.switch(dict(
+        name=select.name, row=x, open_row=open_row, closed_row=closed_row,
+        control=tuple(select.control.columns(builder, columns)),
+        on_threshold=-select.control.constant + half_band,
+        off_threshold=-select.control.constant - half_band,
+        initially_on=False,
+    ))
+    builder.output(f"x({select.name})", [(x, 1.0)])
+
+
+def stamp_auxiliaries(builder: MLCSBuilder, name: str,
+                      auxiliaries: tuple[MinMax | Select, ...]) -> list[int]:
     """Allocate and stamp the auxiliary unknowns ``x_k`` of element ``name``; their columns."""
     columns = [builder.branch(f"x({name}.{k})") for k in range(len(auxiliaries))]
     for k, (auxiliary, x) in enumerate(zip(auxiliaries, columns)):
+        if isinstance(auxiliary, Select):
+            _stamp_select(builder, name, auxiliary, x, columns)
+            continue
         sign = 1.0 if auxiliary.kind == "max" else -1.0
         # 0 = b - x + sign·λ ;  w = sign·(x - a)
         _stamp_row(builder, x, auxiliary.b, columns, 1.0)
@@ -113,7 +174,7 @@ class BehaviouralSource(Element):
 
     output: str = "v"
     value: Affine = Affine()
-    auxiliaries: tuple[MinMax, ...] = ()
+    auxiliaries: tuple[MinMax | Select, ...] = ()
     expression: str = ""
     model: str | None = None
 

@@ -9,11 +9,15 @@ ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`
 * ``min``, ``max``, ``abs``, ``uramp`` and ``limit(x, lo, hi) = min(max(x, lo), hi)`` of affine
   values: one complementarity pair per ``min``/``max`` (no smoothing);
 * ``TABLE`` of one affine argument: the piecewise-linear interpolation, held at the end
-  values outside the table, as a sum of clamped ramps (two pairs per segment).
+  values outside the table, as a sum of clamped ramps (two pairs per segment);
+* a comparison ``a > b`` / ``a < b`` (``>=``, ``<=`` alike; value 1 or 0), ``c ? a : b``,
+  ``if(c, a, b)`` and ``u(x)`` (``x > 0``) whose condition compares two such values and whose
+  branches are such values: a comparator (:class:`Select`), an ideal switch of the engine whose
+  instant is located (it is in ``waves.events`` as ``name.cmpK``).
 
 Anything else is refused with a message naming the term: a product or quotient of two
-unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, comparisons and
-``if``/``u()``/``sgn`` (switching: they need located switching instants, not available yet),
+unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, ``==``/``!=``,
+``&&``/``||``/``!``, conditions that are not one comparison, ``sgn``/``floor``/...,
 and ``time`` (write the time function as an independent source and use its ``v()``).
 """
 
@@ -22,21 +26,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax
+from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax, Select
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist.behavioural import Node, parse, to_text
 from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
 
 REPRESENTABLE = ("the ideal engine represents affine combinations of v(node), v(node1, node2), "
-                 "i(vsource) and constants, and min(), max(), abs(), uramp(), limit(x, lo, hi) of "
-                 "them (exact complementarity pairs), and TABLE of one affine argument")
-SWITCHING = {"u": "the unit step u()", "u2": "u2()", "sgn": "sgn()", "if": "if()",
-             "ternary_fcn": "ternary_fcn()", "floor": "floor()", "ceil": "ceil()",
-             "nint": "nint()", "int": "int()"}
-"""Functions whose value jumps: switching elements (comparators), not representable yet."""
-SWITCHING_HINT = ("it switches, and comparators need located switching instants, which this "
-                  "version does not have: drive an S switch (VT=threshold) from the compared "
-                  "voltage instead")
+                 "i(vsource) and constants, min(), max(), abs(), uramp(), limit(x, lo, hi) of "
+                 "them (exact complementarity pairs), comparisons a > b, a < b (1 or 0), "
+                 "c ? a : b, if(c, a, b), u(x) whose condition compares two of them (a "
+                 "comparator: an event-located switch), and TABLE of one affine argument")
+SWITCHING = {"u2": "u2()", "sgn": "sgn()", "ternary_fcn": "ternary_fcn()", "floor": "floor()",
+             "ceil": "ceil()", "nint": "nint()", "int": "int()"}
+"""Functions whose value jumps in ways not written as one comparison: refused."""
+SWITCHING_HINT = ("only a single comparison (a > b, a < b, a >= b, a <= b) of two affine values "
+                  "is a comparator; write it as c ? a : b, if(c, a, b) or u(x), or combine "
+                  "comparators arithmetically")
+COMPARISONS = {">": 1.0, ">=": 1.0, "<": -1.0, "<=": -1.0}
+"""Comparison operators and the sign of ``left - right`` that is positive when they hold."""
 
 
 class Unrepresentable(ValueError):
@@ -88,8 +95,9 @@ class Classifier:
     """Turns expression trees into :class:`Linear` values, collecting the ``min``/``max``
     auxiliaries they need (in ``auxiliaries``)."""
 
-    def __init__(self) -> None:
-        self.auxiliaries: list[MinMax] = []
+    def __init__(self, name: str = "") -> None:
+        self.auxiliaries: list[MinMax | Select] = []
+        self.name = name
 
     def value(self, tree: Node) -> Linear:
         kind = tree[0]
@@ -112,9 +120,10 @@ class Classifier:
             return self.operation(tree)
         if kind == "call":
             return self.call(tree)
-        if kind in {"if", "and", "or", "not"}:
-            what = "a conditional (c ? a : b)" if kind == "if" else "a logical operation"
-            raise Unrepresentable(to_text(tree), f"{what}: {SWITCHING_HINT}")
+        if kind == "if":
+            return self.select(tree[1], tree[2], tree[3])
+        if kind in {"and", "or", "not"}:
+            raise Unrepresentable(to_text(tree), f"a logical operation: {SWITCHING_HINT}")
         raise Unrepresentable(to_text(tree), "unknown construct")
 
     @staticmethod
@@ -123,6 +132,8 @@ class Classifier:
         return Linear() if node == "0" else Linear({("v", node): 1.0})
 
     def operation(self, tree: Node) -> Linear:
+        if tree[1] in COMPARISONS:
+            return self.select(tree, ("num", 1.0), ("num", 0.0))
         op, left, right = tree[1], self.value(tree[2]), self.value(tree[3])
         text = to_text(tree)
         if op in {"+", "-"}:
@@ -145,12 +156,37 @@ class Classifier:
             if right.is_constant and right.constant == 1.0:
                 return left
             raise Unrepresentable(text, "a power of an unknown is nonlinear")
-        raise Unrepresentable(text, f"the comparison {op!r}: {SWITCHING_HINT}")
+        raise Unrepresentable(text, f"the comparison {op!r} (equality is not a switching "
+                              f"threshold): {SWITCHING_HINT}")
+
+    def condition(self, tree: Node) -> Linear:
+        """The affine difference that is positive where comparison ``tree`` holds."""
+        if tree[0] != "op" or tree[1] not in COMPARISONS:
+            raise Unrepresentable(to_text(tree), f"a condition that is not one comparison: "
+                                  f"{SWITCHING_HINT}")
+        left, right = self.value(tree[2]), self.value(tree[3])
+        return left.plus(right, -1.0).scaled(COMPARISONS[tree[1]])
+
+    def select(self, condition: Node, on: Node, off: Node) -> Linear:
+        """``on`` where ``condition`` holds, else ``off``: a new comparator auxiliary, or the
+        branch itself when the condition is constant."""
+        difference = self.condition(condition)
+        if difference.is_constant:
+            return self.value(on if difference.constant > 0 else off)
+        chosen, other = self.value(on), self.value(off)
+        count = sum(isinstance(a, Select) for a in self.auxiliaries)
+        self.auxiliaries.append(Select(difference.affine(), chosen.affine(), other.affine(),
+                                       name=f"{self.name}.cmp{count}"))
+        return Linear({("x", len(self.auxiliaries) - 1): 1.0})
 
     def call(self, tree: Node) -> Linear:
         name, text = tree[1], to_text(tree)
         if name in SWITCHING:
             raise Unrepresentable(text, f"{SWITCHING[name]}: {SWITCHING_HINT}")
+        if name == "if" and len(tree[2]) == 3:
+            return self.select(*tree[2])
+        if name == "u" and len(tree[2]) == 1:
+            return self.select(("op", ">", tree[2][0], ("num", 0.0)), ("num", 1.0), ("num", 0.0))
         args = [self.value(a) for a in tree[2]]
         if name in {"min", "max"} and len(args) >= 2:
             result = args[0]
@@ -203,7 +239,7 @@ class Classifier:
         return result
 
 
-def classify(text: str) -> tuple[Linear, list[MinMax]]:
+def classify(text: str) -> tuple[Linear, list[MinMax | Select]]:
     """The value of expression ``text`` and the auxiliaries it needs.
 
     Raises:
@@ -226,7 +262,7 @@ def behavioural_source(reader: StatementReader, letter: str,
         form = "V={expr} or I={expr}" if letter == "b" else "VALUE={expr} or TABLE {expr} = (x, y) ..."
         raise reader.error(f"{name}: expected {form} after the two nodes",
                            hint=f"write {name.upper()} n+ n- {form}")
-    classifier = Classifier()
+    classifier = Classifier(name)
     try:
         if key == "table":
             expression = reader.next("table expression")[1:-1]
@@ -269,11 +305,14 @@ def _table(reader: StatementReader, classifier: Classifier, expression: str) -> 
     return classifier.table(classifier.value(parse(expression)), points)
 
 
-def _controls(value: Linear, auxiliaries: list[MinMax]) -> tuple[list[str], list[str]]:
+def _controls(value: Linear, auxiliaries: list[MinMax | Select]) -> tuple[list[str], list[str]]:
     """Nodes and voltage sources the value reads (in order of first use)."""
     nodes: dict[str, None] = {}
     sources: dict[str, None] = {}
-    for affine in [value.affine()] + [x for aux in auxiliaries for x in (aux.a, aux.b)]:
+    parts = [value.affine()]
+    for aux in auxiliaries:
+        parts += [aux.control, aux.on, aux.off] if isinstance(aux, Select) else [aux.a, aux.b]
+    for affine in parts:
         nodes.update((n, None) for n, _ in affine.voltages)
         sources.update((s, None) for s, _ in affine.currents)
     return list(nodes), list(sources)
