@@ -23,6 +23,22 @@ numba's first call), which bounds the whole-process ratio however fast the stepp
 Usage: ``python benchmarks/performance.py [--quick] [--json out.json]``. ``--quick``
 shortens every run (a smoke test; the figures in the issue note come from the full run).
 ngspice is optional: without it the ngspice columns say so.
+
+The issue 19 table (``--part issue19``, also run first by default): every case of that
+issue, as a user runs it, whole processes, the median of ``--repeats`` runs each:
+
+* buck 24 -> 12 V, 100 ms at 0.1 µs, ``run -o out.csv --signals v(out)``;
+* the bundled bridge rectifier (5,000 steps), ``run -o bridge.csv --plot bridge.png``,
+  warm (compiled code cached) and as the first run after an install (an empty cache
+  folder, ``CIRCUITNSDS_CACHE_DIR``);
+* ``import circuitnsds`` and reading the bridge's netlist;
+* flyback 48 -> 12 V with RCD clamp, 100 pF Coss and coupled inductors, 3 ms at 10 ns,
+  θ = 0.5 and θ = 1;
+* boost in discontinuous conduction, 60 ms at 0.05 µs (1.2M steps);
+* 4-stage full-wave RF voltage multiplier, 16 diodes;
+* the CSV writer on 1M rows × 2 columns, against ``numpy.savetxt`` and pandas;
+
+ngspice runs the same netlists in batch mode (``wrdata v(out)``).
 """
 
 from __future__ import annotations
@@ -180,13 +196,148 @@ def ladder_netlist(sections: int, stop: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+ISSUE19_CASES = [
+    # label, netlist, extra arguments of `run`, .tran override for a quick run
+    ("buck 100 ms, CSV of v(out)", NETLISTS / "buck_100ms.cir", ["--signals", "v(out)"]),
+    ("bridge, CSV + PNG (warm)", HERE.parent / "netlists" / "bridge_rectifier.cir", ["--plot", "{png}"]),
+    ("flyback Coss θ=0.5", NETLISTS / "flyback_coss.cir", ["--signals", "v(out)", "--theta", "0.5"]),
+    ("flyback Coss θ=1", NETLISTS / "flyback_coss.cir", ["--signals", "v(out)", "--theta", "1"]),
+    ("boost DCM 60 ms", NETLISTS / "boost_dcm_60ms.cir", ["--signals", "v(out)"]),
+    ("RF multiplier 16 pairs", NETLISTS / "rf_multiplier.cir", ["--signals", "v(out)"]),
+]
+
+
+def _median_process(command: list[str], cwd: Path, repeats: int, env: dict | None = None,
+                    fresh: Path | None = None) -> tuple[float, subprocess.CompletedProcess]:
+    """Median wall time of ``repeats`` runs (a new empty cache folder under ``fresh`` for each
+    run when given: the first run after an install)."""
+    times, done = [], None
+    for index in range(repeats):
+        run_env = dict(os.environ if env is None else env)
+        if fresh is not None:
+            run_env["CIRCUITNSDS_CACHE_DIR"] = str(fresh / f"cache{index}")
+        started = time.perf_counter()
+        done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False, env=run_env)
+        times.append(time.perf_counter() - started)
+    return float(np.median(times)), done
+
+
+def _quick_tran(text: str, factor: float) -> str:
+    """The netlist with its .tran stop time multiplied by ``factor`` (a smoke test)."""
+    found = re.search(r"(?im)^\.tran\s+(\S+)\s+(\S+)", text)
+    step, stop = found.group(1), circuitnsds.values.parse_value(found.group(2))
+    return with_tran(text, f".tran {step} {stop * factor!r}")
+
+
+def issue19(workdir: Path, repeats: int, scale: float) -> list[dict]:
+    """The rows of the issue 19 table (see the module docstring)."""
+    rows = []
+    for label, netlist, extra in ISSUE19_CASES:
+        text = netlist.read_text() if scale == 1.0 else _quick_tran(netlist.read_text(), scale)
+        name = re.sub(r"\W+", "_", label)
+        path = workdir / f"{name}.cir"
+        path.write_text(text)
+        arguments = [a.replace("{png}", str(workdir / f"{name}.png")) for a in extra]
+        command = [sys.executable, "-m", "circuitnsds", "run", str(path), "-o", str(workdir / f"{name}.csv"),
+                   "-q", *arguments]
+        ours, done = _median_process(command, workdir, repeats)
+        tran = re.search(r"(?im)^\.tran.*$", text).group(0)
+        ng = [ngspice_process(text, tran, workdir, name) for _ in range(repeats)]
+        theta = float(arguments[arguments.index("--theta") + 1]) if "--theta" in arguments else 1.0
+        inproc = ours_in_process(text, theta=theta)
+        rows.append({"case": label, "steps": inproc["steps"], "pairs": inproc["pairs"],
+                     "ours_process_s": ours if done.returncode == 0 else float("nan"),
+                     "ours_note": "" if done.returncode == 0 else done.stderr.strip()[-120:],
+                     "us_per_step": inproc["us_per_step"], "mapped_share": inproc["mapped_share"],
+                     "ngspice_process_s": float(np.median([r["wall_s"] for r in ng])),
+                     "ngspice_ok": all(r["ok"] for r in ng), "ngspice_note": ng[0].get("error", "")})
+        if label.startswith("bridge"):  # the same command as the first run after an install
+            first, done = _median_process(command, workdir, repeats, fresh=workdir / "fresh")
+            rows.append({"case": "bridge, first run after install", "steps": inproc["steps"],
+                         "pairs": inproc["pairs"], "ours_process_s": first})
+            code = f"import circuitnsds; circuitnsds.read_netlist({str(netlist)!r})"
+            reading, _ = _median_process([sys.executable, "-c", code], workdir, repeats)
+            rows.append({"case": "import + read netlist", "steps": 0, "pairs": inproc["pairs"],
+                         "ours_process_s": reading})
+    rows.extend(csv_rows(workdir, 1_000_000 if scale == 1.0 else 100_000))
+    for row in rows:
+        ok = row.get("ngspice_ok", True) and row.get("ngspice_process_s") == row.get("ngspice_process_s")
+        row["ratio"] = (row["ngspice_process_s"] / row["ours_process_s"]
+                        if ok and "ngspice_process_s" in row else float("nan"))
+    return rows
+
+
+def csv_rows(workdir: Path, rows: int) -> list[dict]:
+    """Seconds to write ``rows`` × 2 columns (time, a signal) as CSV: ours (full precision)
+    against numpy.savetxt (10 and 17 digits) and pandas (full precision)."""
+    time_column = np.linspace(0.0, 0.1, rows)
+    signal = 12.0 + 0.3 * np.sin(1e5 * time_column) + 1e-3 * np.random.default_rng(0).random(rows)
+    waves = circuitnsds.Waveforms(time=time_column, signals={"v(out)": signal})
+    data = np.column_stack([time_column, signal])
+    path = workdir / "speed.csv"
+    writers = {
+        "CSV ours (repr, full)": lambda: waves.to_csv(path),
+        "CSV numpy.savetxt %.10g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.10g"),
+        "CSV numpy.savetxt %.17g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.17g"),
+    }
+    try:
+        import pandas as pd
+
+        frame = pd.DataFrame(data)
+        writers["CSV pandas %.17g"] = lambda: frame.to_csv(path, index=False, float_format="%.17g")
+    except ImportError:
+        pass
+    result = []
+    for label, write in writers.items():
+        seconds = []
+        for _ in range(3):
+            started = time.perf_counter()
+            write()
+            seconds.append(time.perf_counter() - started)
+        best = float(np.median(seconds))
+        size = path.stat().st_size
+        result.append({"case": f"{label}, {rows // 1000}k rows", "steps": rows, "pairs": 0,
+                       "ours_process_s": best, "ours_note": f"{size / 1e6 / best:.0f} MB/s"})
+    return result
+
+
+def print_issue19(rows: list[dict]) -> None:
+    def f(value, spec):
+        return format(value, spec) if isinstance(value, (int, float)) and value == value else "-"
+
+    print(f"{'case':<36}{'steps':>9}{'pairs':>6}{'ours[s]':>9}{'us/step':>9}{'mapped':>8}"
+          f"{'ngspice[s]':>11}{'ng/ours':>8}  note")
+    for r in rows:
+        note = r.get("ours_note", "")
+        if "ngspice_ok" in r and not r["ngspice_ok"]:
+            note = (note + " ngspice: " + (r.get("ngspice_note") or "failed")[:40]).strip()
+        share = r.get("mapped_share")
+        print(f"{r['case']:<36}{r['steps']:>9}{r['pairs']:>6}{f(r.get('ours_process_s'), '9.2f'):>9}"
+              f"{f(r.get('us_per_step'), '9.2f'):>9}"
+              f"{(f(100 * share, '7.1f') + '%') if share is not None else '-':>8}"
+              f"{f(r.get('ngspice_process_s'), '11.2f'):>11}{f(r.get('ratio'), '8.2f'):>8}  {note}")
+    print("ours[s], ngspice[s]: whole processes (median of the repeats); us/step: in-process stepping "
+          "time per step; mapped: share of steps taken by the compiled mode loop.")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs (smoke test)")
     parser.add_argument("--json", type=Path, default=HERE / "results" / "performance.json")
+    parser.add_argument("--part", choices=["all", "issue19", "issue8"], default="all")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per case of the issue 19 table")
     args = parser.parse_args(argv)
     scale = 0.05 if args.quick else 1.0
     rows = []
+    if args.part in ("all", "issue19"):
+        with tempfile.TemporaryDirectory() as tmp:
+            table = issue19(Path(tmp), args.repeats, scale)
+        print_issue19(table)
+        print()
+        rows.extend(table)
+        if args.part == "issue19":
+            return _save(args, rows)
+    earlier: list[dict] = []  # the issue 8 table
     # numba's first calls (loading the compiled loops, ~0.3 s each) are start-up, not stepping:
     # warm the dense mode table (the buck) and the sparse loop (a 40-section ladder)
     ours_in_process(with_tran((NETLISTS / "buck_100ms.cir").read_text(), ".tran 0.1u 20u"))
@@ -194,34 +345,39 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         workdir = Path(tmp)
         for theta in (1.0, 0.5):
-            rows.append(case(f"1 buck θ={theta:g}", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
+            earlier.append(case(f"1 buck θ={theta:g}", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
                              5e-3 * scale, workdir, own_reference=True, theta=theta))
         # the step at which θ = 0.5 matches ngspice's error against its own reference (h² scaling)
-        rows.append(case("1 buck θ=0.5 h=0.08u", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
+        earlier.append(case("1 buck θ=0.5 h=0.08u", NETLISTS / "buck_100ms.cir", 0.1e-6, 100e-3 * scale,
                          5e-3 * scale, workdir, own_reference=True, theta=0.5, our_step=0.08e-6))
-        rows.append(start_up(NETLISTS / "buck_100ms.cir", workdir))
-        rows.append(case("2 bridge 470 uF", NETLISTS / "bridge_200ms.cir", 20e-6, 200e-3 * scale,
+        earlier.append(start_up(NETLISTS / "buck_100ms.cir", workdir))
+        earlier.append(case("2 bridge 470 uF", NETLISTS / "bridge_200ms.cir", 20e-6, 200e-3 * scale,
                          200e-3 * scale, workdir))
-        rows.append(case("3 CW x5", NETLISTS / "cw5_1s.cir", 20e-6, 1.0 * scale, 0.2 * scale, workdir))
+        earlier.append(case("3 CW x5", NETLISTS / "cw5_1s.cir", 20e-6, 1.0 * scale, 0.2 * scale, workdir))
         zener = (HERE.parent / "netlists" / "book_zener_rlc.cir").read_text()
         for step in (5e-3, 5e-5):
             inproc = ours_in_process(zener, step=step, stop=5.0)
-            rows.append({"case": f"5 Zener RLC h={step:g}", "steps": inproc["steps"],
+            earlier.append({"case": f"5 Zener RLC h={step:g}", "steps": inproc["steps"],
                          "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
                          "ours_stepping_s": inproc["stepping_s"], "us_per_step": inproc["us_per_step"],
                          "us_per_mapped_step": inproc["us_per_mapped_step"],
                          "mapped_share": inproc["mapped_share"]})
         for sections in (10, 100, 1000):
             inproc = ours_in_process(ladder_netlist(sections, 5e-3 * max(scale, 0.1)))
-            rows.append({"case": f"4 ladder N={sections}", "steps": inproc["steps"],
+            earlier.append({"case": f"4 ladder N={sections}", "steps": inproc["steps"],
                          "pairs": inproc["pairs"], "unknowns": inproc["unknowns"],
                          "ours_stepping_s": inproc["stepping_s"], "us_per_step": inproc["us_per_step"],
                          "us_per_mapped_step": inproc["us_per_mapped_step"],
                          "mapped_share": inproc["mapped_share"]})
-    print_table(rows)
+    print_table(earlier)
+    rows.extend(earlier)
+    return _save(args, rows)
+
+
+def _save(args: argparse.Namespace, rows: list[dict]) -> int:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     meta = {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
-            "quick": args.quick, "ngspice": ngspice_version()}
+            "quick": args.quick, "ngspice": ngspice_version(), "load": os.getloadavg()}
     args.json.write_text(json.dumps({"meta": meta, "rows": rows}, indent=2, default=float))
     print(f"\nJSON: {args.json}")
     return 0

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from circuitnsds.engine.integrate import _step_classes
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.system.stimuli import Exp, Pulse, Pwl, Sin
 
@@ -78,3 +79,17 @@ def test_grid_contains_breakpoints_and_regular_steps(step, stop_steps, points):
     assert np.all(np.diff(grid) > MERGE_FRACTION * step)  # no step in rounding noise
     for b in breakpoints[(breakpoints > 0) & (breakpoints < stop)]:
         assert np.min(np.abs(grid - b)) <= MERGE_FRACTION * step
+
+
+@given(regular=st.floats(1e-9, 1.0), count=st.integers(1, 60),
+       others=st.lists(st.tuples(st.integers(0, 59), st.floats(1e-3, 2.0)), max_size=12))
+def test_step_classes_number_equal_sizes_in_increasing_order(regular, count, others):
+    """The integrator's step classes (fast path: only the irregular steps sorted) against
+    the definition: the rank of each step's size rounded to 1e-9 of the largest."""
+    steps = np.full(count, regular)
+    for index, factor in others:
+        if index < count:
+            steps[index] = regular * factor
+    quantum = 1e-9 * steps.max()
+    expected = np.unique(np.round(steps / quantum), return_inverse=True)[1].reshape(-1)
+    np.testing.assert_array_equal(_step_classes(steps), expected)

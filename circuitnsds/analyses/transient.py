@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -33,7 +33,8 @@ def run_transient(
     uic: bool | None,
     tol: float,
     progress: Callable[[float, float], None] | None,
-    stepping: str = "compiled",
+    stepping: str = "auto",
+    signals: Sequence[str] | None = None,
 ) -> Waveforms:
     """See :meth:`Circuit.transient`. With ``.options pwlfit=auto`` a first run measures the
     peak forward (and breakdown) current of every fitted diode model, the models are refitted
@@ -41,13 +42,14 @@ def run_transient(
     if circuit.options.get("pwlfit") == "auto":
         settings = dict(step=step, stop=stop, start=start, max_step=max_step, theta=theta, uic=uic,
                         tol=tol, progress=progress, stepping=stepping)
-        first = _run_transient(circuit, **settings)
+        first = _run_transient(circuit, **settings)  # every signal: the diodes' currents
         refitted = _refitted(circuit, first)
         if refitted is not circuit:
-            return _run_transient(refitted, **settings)
-        return first
+            return _run_transient(refitted, **settings, signals=signals)
+        return first if signals is None else first.select(signals)
     return _run_transient(circuit, step=step, stop=stop, start=start, max_step=max_step,
-                          theta=theta, uic=uic, tol=tol, progress=progress, stepping=stepping)
+                          theta=theta, uic=uic, tol=tol, progress=progress, stepping=stepping,
+                          signals=signals)
 
 
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
@@ -93,7 +95,8 @@ def _run_transient(
     uic: bool | None,
     tol: float,
     progress: Callable[[float, float], None] | None,
-    stepping: str = "compiled",
+    stepping: str = "auto",
+    signals: Sequence[str] | None = None,
 ) -> Waveforms:
     tran = circuit.tran
     if (step is None or stop is None) and tran is None:
@@ -114,8 +117,8 @@ def _run_transient(
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     if stepping not in STEPPINGS:
         raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
-                           where=circuit.file, hint="\"compiled\" (default), \"numpy\" (the same loops "
-                           "in Python) or \"mlcp\" (one complementarity problem per step)")
+                           where=circuit.file, hint="\"auto\" (default), \"compiled\", \"numpy\" (the "
+                           "same loops in Python) or \"mlcp\" (one complementarity problem per step)")
     if not 0 <= start < stop:
         raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
 
@@ -144,9 +147,12 @@ def _run_transient(
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
     check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
-    _check_memory(circuit, mlcs, grid)
+    _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
+    if signals is not None and report_step is None:  # (decimated runs keep every signal)
+        return _kept_signals(circuit, mlcs, grid, state, [name.strip().lower() for name in signals],
+                             start, stop, theta=theta, tol=tol, progress=progress, stepping=stepping)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                                state.switches, theta=theta, tol=tol, progress=progress,
@@ -158,6 +164,10 @@ def _run_transient(
         if exc.trajectory is not None:
             exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
         raise
+    except KeyboardInterrupt as exc:  # the waveforms so far, for the caller to write
+        if getattr(exc, "trajectory", None) is not None:
+            exc.partial = _waveforms(circuit, mlcs, exc.trajectory, start, stop)
+        raise
     fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
     if report_step is not None:
         full_time = trajectory.time
@@ -166,7 +176,7 @@ def _run_transient(
     waves = _waveforms(circuit, mlcs, trajectory, start, stop)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
-    return waves
+    return waves if signals is None else waves.select(signals)
 
 
 def _onto(weights: np.ndarray, time: np.ndarray, reported: np.ndarray) -> np.ndarray:
@@ -245,13 +255,17 @@ def available_memory() -> int | None:
         return None
 
 
-def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray) -> None:
+def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray, signals: Sequence[str] | None = None) -> None:
     """Refuse, before starting, a run whose results cannot fit in memory (a 1,000-node ladder
     over 5e6 steps needs 37 GiB): the estimate of the arrays every grid point fills, against
-    :data:`MEMORY_SHARE` of the memory available."""
+    :data:`MEMORY_SHARE` of the memory available. A run keeping only ``signals`` needs
+    those, the time and the residual per point, and its segments (:func:`_kept_signals`)."""
     from circuitnsds.units import format_si
 
-    needed = trajectory_bytes(mlcs, grid.size)
+    if signals is None:
+        needed = trajectory_bytes(mlcs, grid.size)
+    else:
+        needed = 8 * grid.size * (len(signals) + 2) + 2 * SEGMENT_BYTES
     available = available_memory()
     if available is None or needed <= MEMORY_SHARE * available:
         return
@@ -260,7 +274,7 @@ def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray) -> None:
         f"{mlcs.n} unknowns and {mlcs.m} pairs), more than the {available / 2**30:.3g} GiB of memory "
         "available", where=circuit.file,
         hint=f"a longer step (now {format_si(float(np.diff(grid).max()), 's')}), a shorter .tran, "
-        "or a smaller circuit")
+        "a smaller circuit, or fewer signals kept (--signals v(out))")
 
 
 def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
@@ -442,3 +456,84 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
                      impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
                      stats=stats, events=[event for event in trajectory.events
                                           if event.time >= trajectory.time[first]])
+
+
+SEGMENT_BYTES = 256 * 2**20
+"""Memory the per-step arrays of one segment of a run that keeps only some signals may take
+[bytes] (see :func:`_kept_signals`)."""
+
+
+def segment_steps(mlcs) -> int:
+    """Steps per segment of :func:`_kept_signals`: :data:`SEGMENT_BYTES` over the bytes
+    the integrator stores per step (unknowns, pair currents, impulses, active flags,
+    switch states, residual, time, the sources' values)."""
+    width = mlcs.n + 4 * mlcs.m + len(mlcs.switches) + len(mlcs.stimuli) + 4
+    return max(2, SEGMENT_BYTES // (8 * width))
+
+
+def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[str], start: float,
+                  stop: float, **options) -> Waveforms:
+    """A transient that keeps only the signals ``names`` (and the time and each step's residual):
+    memory bounded by what is kept, not by the circuit's size times the steps.
+
+    The grid is integrated in segments of at most :data:`SEGMENT_BYTES` of per-step arrays;
+    each segment starts from the state the previous one ended with (``continued``: no
+    restart step), its chosen signals are kept and the rest is dropped. The arithmetic is
+    that of one run, up to rounding: a segment's first step is solved as a complementarity
+    problem where one run would apply the mode's step map. Impulses are not kept.
+    """
+    unknown = [name for name in names if name not in mlcs.output_names]
+    if unknown:
+        raise CircuitError(f"unknown signal(s) {', '.join(unknown)}", where="signals",
+                           hint=f"available: {', '.join(mlcs.output_names)}")
+    rows = segment_steps(mlcs)
+    kept: dict[str, list[np.ndarray]] = {name: [] for name in names}
+    times: list[np.ndarray] = []
+    residuals: list[np.ndarray] = []
+    events: list = []
+    stats: dict[str, float] = {}
+    progress = options.pop("progress")
+    total = grid[-1]
+    report = None if progress is None else (lambda t, _end: progress(t, total))
+
+    def keep(trajectory, first: int) -> None:
+        waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
+        times.append(trajectory.time[first:])
+        residuals.append(trajectory.residual[first:])
+        for name in names:
+            kept[name].append(waves[name][first:])
+        events.extend(event for event in trajectory.events if not events or event.time > events[-1].time)
+        for key, value in trajectory.stats.items():
+            stats[key] = stats.get(key, 0) + value
+
+    def result() -> Waveforms:
+        time = np.concatenate(times) if times else np.zeros(0)
+        begin = int(np.searchsorted(time, start - 1e-12 * stop))
+        signals = {name: np.concatenate(kept[name])[begin:] if kept[name] else np.zeros(0)
+                   for name in names}
+        residual = np.concatenate(residuals)[begin:] if residuals else np.zeros(0)
+        return Waveforms(time=time[begin:], signals=signals, residual=residual, title=circuit.title,
+                         stats=dict(stats, unknowns=mlcs.n, pairs=mlcs.m),
+                         events=[event for event in events if not time.size or event.time >= time[begin]])
+
+    y, charge, current, active, switches = state.y, state.charge, state.current, state.active, \
+        state.switches
+    first = 0
+    while first < grid.size - 1:
+        last = min(first + rows, grid.size - 1)
+        try:
+            trajectory = integrate(mlcs, grid[first:last + 1], y, charge, current, active, switches,
+                                   progress=report, continued=first > 0, **options)
+        except (SimulationError, KeyboardInterrupt) as exc:
+            if isinstance(exc, SimulationError):
+                _word(exc)
+                _diagnose(exc, circuit, mlcs, grid, options["theta"])
+            if getattr(exc, "trajectory", None) is not None and exc.trajectory.time.size:
+                keep(exc.trajectory, 0 if first == 0 else 1)
+            exc.partial = result()
+            raise
+        keep(trajectory, 0 if first == 0 else 1)
+        y, current = trajectory.y[-1], trajectory.current[-1]
+        active, switches, charge = trajectory.active[-1], trajectory.switches[-1], None
+        first = last
+    return result()

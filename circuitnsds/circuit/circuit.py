@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -82,6 +82,7 @@ class Circuit:
         ac_spec: the ``.ac`` line, if any.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
+        included: the files its ``.include``/``.lib`` lines read (resolved paths).
         options: ``.options`` the engine uses (``theta``, ``gmin``, ``pwlfit``, ``diode``).
         measurements: the ``.meas tran`` statements (:class:`circuitnsds.output.meas.MeasureSpec`).
         fourier: the ``.four`` statements (:class:`circuitnsds.output.meas.FourierSpec`).
@@ -101,6 +102,7 @@ class Circuit:
     ac_spec: AcSpec | None = None
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
+    included: list[str] = field(default_factory=list)
     options: dict[str, float | str] = field(default_factory=dict)
     saved_signals: list[str] = field(default_factory=list)
     measurements: list = field(default_factory=list)
@@ -246,7 +248,8 @@ class Circuit:
         uic: bool | None = None,
         tol: float = 1e-9,
         progress: Callable[[float, float], None] | None = None,
-        stepping: str = "compiled",
+        stepping: str = "auto",
+        signals: Sequence[str] | None = None,
     ):
         """Run a transient analysis with ideal devices; returns :class:`~circuitnsds.Waveforms`.
 
@@ -264,11 +267,18 @@ class Circuit:
             tol: complementarity tolerance of every step (scaled residual).
             progress: ``callback(t, stop)`` called now and then during the run.
             stepping: how the steps whose mode (conducting devices, switch states, step
-                size) is already known are taken: ``"compiled"`` (default) by the mode
-                loops compiled with numba, ``"numpy"`` by the same loops run in Python,
-                ``"mlcp"`` not at all: every step is solved as a complementarity problem.
-                The three compute the same scheme (results agree to rounding); the
-                others are for checking and timing the compiled path.
+                size) is already known are taken: ``"auto"`` (default) by the mode loops,
+                run in Python until the steps left are worth loading the loops compiled
+                with numba (a short run never imports numba), ``"compiled"`` by the
+                compiled loops from the start, ``"numpy"`` by the same loops run in
+                Python, ``"mlcp"`` not at all: every step is solved as a complementarity
+                problem. All compute the same scheme (results agree to rounding); the
+                last three are for checking and timing the paths.
+            signals: keep only these signals (e.g. ``["v(out)"]``; default: every signal,
+                computed when first read). The run then goes in segments whose other
+                unknowns are dropped as it goes: memory is bounded by what is kept (a
+                million steps of one signal: 16 MB with the time), however large the
+                circuit. No impulses are kept.
 
         Raises:
             CircuitError: the circuit or the analysis settings are ill-posed.
@@ -282,7 +292,7 @@ class Circuit:
         with self._strictness():
             return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
                                  theta=theta, uic=uic, tol=tol, progress=progress,
-                                 stepping=stepping)
+                                 stepping=stepping, signals=signals)
 
     def pss(
         self,

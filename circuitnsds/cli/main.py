@@ -29,6 +29,7 @@ from circuitnsds.errors import (
     as_error,
     for_terminal,
 )
+from circuitnsds.output.files import OutputError, check_outputs
 from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
@@ -36,10 +37,6 @@ EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simula
                130: "interrupted"}
 """The exit statuses of the command and their meaning (docs/usage.md lists them)."""
 STRICT_HELP = "treat every warning (ignored constructs, suspicious circuits) as an error"
-
-
-class OutputError(CircuitnsdsError):
-    """An output file cannot be written."""
 
 
 def _signal_names(text: str) -> list[str]:
@@ -138,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     info = commands.add_parser("info", help="print elements, nodes, MLCS size, breakpoints "
                                "and the circuit checks")
-    info.add_argument("netlist", type=Path)
+    info.add_argument("netlist", type=Path, help="SPICE netlist; - reads it from standard input")
     info.add_argument("--matrices", type=Path, metavar="NPZ",
                       help="also save the MLCS matrices to this .npz file")
     info.add_argument("--strict", action="store_true", help=STRICT_HELP + " (after the report)")
@@ -154,10 +151,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_output_arguments(command: argparse.ArgumentParser) -> None:
     """The arguments ``run`` and ``pss`` share: the netlist, the files written, measurements."""
-    command.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    command.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect); - reads it "
+                         "from standard input")
     command.add_argument("-o", "--output", type=Path,
-                         help="CSV file to write (default: NETLIST name with .csv, in the "
-                         "current directory, unless only -r is given)")
+                         help="CSV file to write, - for standard output (default: NETLIST name with "
+                         ".csv, in the current directory, unless only -r is given; standard output "
+                         "for a netlist read from standard input)")
     command.add_argument("-r", "--raw", type=Path, metavar="RAW",
                          help="also write a SPICE raw file (binary, as ngspice's write) for ngspice, "
                          "LTspice's viewer, spicelib")
@@ -212,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"circuitnsds: error: {as_error(warning)}", file=sys.stderr)
             return 1
         except KeyboardInterrupt:
+            _print_warnings(caught)
             print("circuitnsds: interrupted", file=sys.stderr)
             return 130
         except BrokenPipeError:  # output piped into `head` and the like: not an error
@@ -247,13 +247,47 @@ def _writing(path: Path) -> Iterator[None]:
                           hint="check that the folder exists and is writable") from None
 
 
+def _read(path: Path):
+    """The circuit of netlist file ``path``, or of standard input for ``-``."""
+    if str(path) == "-":
+        from circuitnsds.frontend.elaborate import elaborate
+        from circuitnsds.netlist import load_netlist_text
+
+        return elaborate(load_netlist_text(sys.stdin.read(), file="<stdin>"))
+    from circuitnsds import read_netlist
+
+    return read_netlist(path)
+
+
+def _outputs(args: argparse.Namespace) -> dict[str, Path]:
+    """Option -> file of every output asked for (``-``: standard output)."""
+    outputs = {}
+    if args.output or not args.raw:  # a raw file alone replaces the default CSV
+        stdin = str(args.netlist) == "-"
+        outputs["-o"] = args.output or Path("-" if stdin else args.netlist.stem + ".csv")
+    if args.raw:
+        outputs["-r"] = args.raw
+    if args.plot:
+        outputs["--plot"] = args.plot
+    return outputs
+
+
+def _shown(written: list[Path]) -> str:
+    return ", ".join("standard output" if str(path) == "-" else str(path) for path in written)
+
+
 def _prepare(args: argparse.Namespace, builder=None):
     """Read the netlist (unless ``builder`` has read it) and check what can be checked before
     a long run (``run``, ``pss``)."""
-    from circuitnsds import read_netlist
     from circuitnsds.output.measure import parse_measurement
 
-    circuit = builder.build() if builder is not None else read_netlist(args.netlist)
+    circuit = builder.build() if builder is not None else _read(args.netlist)
+    outputs = _outputs(args)
+    # before a long run: never over the netlist, a file it includes, or another output
+    check_outputs(outputs, [circuit.file, *circuit.included])
+    if str(outputs.get("-r")) == "-" or str(outputs.get("--plot")) == "-":
+        raise OutputError("only the CSV (-o -) can go to standard output", where="-r/--plot",
+                          hint="give -r and --plot file names")
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -279,17 +313,29 @@ def _run(args: argparse.Namespace) -> int:
     from circuitnsds.cli.sweep import run_steps
     from circuitnsds.frontend.build import CircuitBuilder
 
-    builder = CircuitBuilder.load(args.netlist)  # read once
+    source = args.netlist if str(args.netlist) != "-" else sys.stdin.read() + "\n"  # - : stdin
+    builder = CircuitBuilder.load(source)  # read once
     if builder.steps:  # .step lines: the run is a sweep
         return run_steps(args, builder)
     circuit = _prepare(args, builder)
     progress = ProgressBar(sys.stderr, enabled=False if args.quiet else None)
+    # only the signals written are kept (memory bounded by them), unless measurements may
+    # need others
+    names = [name for name in _signal_names(args.signals or "") if name != "time"]
+    plain = names and all("," not in name for name in names)  # v(a,b) is computed from two
+    needs_all = args.measure or getattr(args, "losses", None) is not None or circuit.measurements \
+        or circuit.fourier
+    kept = names if plain and not needs_all else None
     try:
         waves = circuit.transient(args.step, args.stop, theta=args.theta,
-                                  uic=True if args.uic else None, progress=progress)
+                                  uic=True if args.uic else None, progress=progress, signals=kept)
     except SimulationError as exc:
         progress.close()
-        _write_partial(args, exc)
+        _write_partial(args, exc.partial, "before the failure")
+        raise
+    except KeyboardInterrupt as exc:  # Ctrl-C: keep what was computed, as for a failed step
+        progress.close()
+        _write_partial(args, getattr(exc, "partial", None), "when interrupted")
         raise
     finally:
         progress.close()
@@ -373,8 +419,8 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
-        print(format_table([evaluate(expression, waves, circuit) for expression in args.measure]),
-              flush=True)
+        table = format_table([evaluate(expression, waves, circuit) for expression in args.measure])
+        print(table, file=sys.stderr if "-" in map(str, written) else sys.stdout, flush=True)
     if getattr(args, "losses", None) is not None:
         from circuitnsds.output.measure import losses
 
@@ -388,7 +434,7 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
         for spec in circuit.fourier:
             print(fourier(spec, waves), flush=True)
     if not args.quiet:
-        print(f"circuitnsds: {summary}; wrote {', '.join(map(str, written))}", file=sys.stderr)
+        print(f"circuitnsds: {summary}; wrote {_shown(written)}", file=sys.stderr)
     if args.show:
         from circuitnsds.output.plot import show_waveforms
 
@@ -396,20 +442,20 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
     return 0
 
 
-def _write_partial(args: argparse.Namespace, error: SimulationError) -> None:
-    """Write the waveforms computed before a failed step to the files asked for (the error
-    itself is reported by the caller); a failure to write them is only mentioned."""
-    partial = error.partial
+def _write_partial(args: argparse.Namespace, partial, when: str) -> None:
+    """Write the waveforms computed before a failed step or an interruption (``partial``,
+    ``None`` if nothing was computed) to the files asked for (the error itself is reported
+    by the caller); a failure to write them is only mentioned."""
     if partial is None or partial.time.size == 0:
+        print(f"circuitnsds: no results to write ({when} before the first step)", file=sys.stderr)
         return
     try:
         _, written = _write_outputs(args, partial)
     except CircuitnsdsError as exc:
-        print(f"circuitnsds: the results before the failure were not written: {exc.message}",
-              file=sys.stderr)
+        print(f"circuitnsds: the results {when} were not written: {exc.message}", file=sys.stderr)
         return
     print(f"circuitnsds: wrote the results up to t = {partial.time[-1]:.6g} s "
-          f"(before the failure) to {', '.join(map(str, written))}", file=sys.stderr)
+          f"({when}) to {_shown(written)}", file=sys.stderr)
 
 
 def _signal_names(text: str) -> list[str]:
@@ -473,8 +519,12 @@ def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, l
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
                                where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
     written = []
-    if args.output or not args.raw:  # a raw file alone replaces the default CSV
-        output = args.output or Path(args.netlist.stem + ".csv")
+    output = _outputs(args).get("-o")
+    if output is not None and str(output) == "-":
+        waves.to_csv(sys.stdout, names)
+        sys.stdout.flush()
+        written.append(output)
+    elif output is not None:
         with _writing(output):
             waves.to_csv(output, names)
         written.append(output)
@@ -498,16 +548,16 @@ def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, l
 
 
 def _info(args: argparse.Namespace) -> int:
-    from circuitnsds import read_netlist
     from circuitnsds.cli.info import circuit_report
 
-    circuit = read_netlist(args.netlist)
+    circuit = _read(args.netlist)
     report, ok = circuit_report(circuit)
     print(report)
     if not ok:
         print("circuitnsds: error: the circuit fails the checks above", file=sys.stderr)
         return 1
     if args.matrices:
+        check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included])
         with _writing(args.matrices):
             circuit.mlcs().save(args.matrices)
         print(f"matrices saved to {args.matrices}")

@@ -26,7 +26,8 @@ the step's class and switch state, when a state-controlled switch must change,
 or at the end. A converter thus runs its thousands of periods in one
 call once both phases' modes are known.
 
-The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`);
+The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`: on its
+first compiled call, cached per user);
 ``use_compiled=False`` runs the same loop in Python with a numpy step (same arithmetic up to the summation
 order of the products: results agree to rounding, not bit for bit).
 """
@@ -340,6 +341,11 @@ _python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
 def _plain(arrays: TableArrays) -> tuple:
     """``arrays`` as nested plain tuples (what :func:`_table_loop` takes)."""
     return (tuple(arrays.maps), *arrays[1:])
+
+
+def compiled_loaded() -> bool:
+    """Whether the compiled loop has been loaded (numba imported) in this process."""
+    return AVAILABLE and _compiled.loaded
 
 
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,

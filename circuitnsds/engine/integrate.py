@@ -61,6 +61,7 @@ from circuitnsds.engine.events import (
     chattering_error,
     regula_falsi,
 )
+from circuitnsds.engine.loop_choice import LoopChoice
 from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
 from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
@@ -79,7 +80,7 @@ Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped 
 dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
 100: 10.3 / 2.95. The dense table also changes modes without leaving the compiled
 loop, which is what converters (small ``n``, many switchings) need."""
-STEPPINGS = ("compiled", "numpy", "mlcp")
+STEPPINGS = ("auto", "compiled", "numpy", "mlcp")
 """The stepping strategies of :func:`integrate` (its ``stepping`` argument)."""
 ENUMERATED_PAIRS = 4
 """Up to this many pairs, a partial step of event location tries every active set as a
@@ -147,8 +148,9 @@ def integrate(
     theta: float = 1.0,
     tol: float = 1e-9,
     progress: Callable[[float, float], None] | None = None,
-    stepping: str = "compiled",
+    stepping: str = "auto",
     cache: dict | None = None,
+    continued: bool = False,
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -165,10 +167,16 @@ def integrate(
         progress: ``callback(t, t_end)``, called about twice a second (so never
             for runs shorter than half a second), and once at the end if it was called.
         stepping: how steps whose mode is known are taken (one of :data:`STEPPINGS`):
-            ``"compiled"`` by the mode loops compiled with numba (the default; the same
-            loops in Python when numba is missing), ``"numpy"`` by the same loops in
-            Python, ``"mlcp"`` by no loop: every step is solved as an MLCP. One scheme
-            all three: the results agree to rounding.
+            ``"auto"`` (the default) by the mode loops, in Python until the steps left
+            are worth loading the compiled loop (:mod:`circuitnsds.engine.loop_choice`;
+            the sparse loop of large circuits always compiled), ``"compiled"`` by the
+            loops compiled with numba from the start (the same loops in Python when numba
+            is missing), ``"numpy"`` by the same loops in Python, ``"mlcp"`` by no loop:
+            every step is solved as an MLCP. One scheme all four: the results agree to
+            rounding.
+        continued: ``grid[0]`` is not the start of the analysis but a point of a run
+            continued from there (``y0`` etc. its state): the first step is a θ-step
+            like the others, not the implicit-Euler restart of an initial state.
         cache: a dict the caller keeps between runs on the same grid (a shooting method
             runs one period again and again): the step solvers and mode maps built for
             this grid are kept in it and reused (``stats`` then count since it was made);
@@ -182,7 +190,8 @@ def integrate(
     theta = check_theta(theta)
     if stepping not in STEPPINGS:
         raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {stepping!r}")
-    compiled, mapped = stepping == "compiled", stepping != "mlcp"
+    mapped = stepping != "mlcp"
+    choice = LoopChoice({"auto": None, "compiled": True}.get(stepping, False))
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
@@ -197,7 +206,7 @@ def integrate(
     states[0] = (switches0 if switches0 is not None
                  else [switch.initially_on for switch in switches])
 
-    stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0])
+    stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0], continued)
     started = wallclock.perf_counter()
     clock = {"last": started, "reported": False}
 
@@ -247,58 +256,67 @@ def integrate(
 
     stepping.splits = {}
     k = 0
-    while k < count - 1:
-        if k > 0 and stepping.crossings(states[k], y[k]):
-            split(k)
-        states[k + 1] = stepping.switch_states(k, states[k], y[k])
-        changed = k > 0 and (restart or bool((states[k + 1] != states[k]).any()))
-        restart = False
-        if changed:
-            # a switch changed: the pairs most likely take the mode they had the last
-            # time the switches were in this state (the other phase of a converter)
-            guess = last_active.get(states[k + 1].tobytes(), guess)
-        cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
-        if k > 0 and guess is not None and k != left_mode_at and mapped:
-            done, reason, guess = stepping.run_mapped(k, min(count - 1, k + CHUNK), cls, states[k + 1],
-                                                      guess, y, current, active, used, compiled)
-            # step `done` left the mode the loop continued with (same class and switch state
-            # as the step before): the MLCP solves it. After a change the loop tried the mode
-            # stored for the new state; the guess (the set last seen with it) may differ.
-            left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
-                                    and stepping.continues(done)) else -1
-            if done > k:
-                finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
-                if not finite.all():
-                    bad = k + 1 + int(np.argmin(finite))
-                    raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
-                                   residual, active, states, stats, so_far(bad - 1))
-                states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
-                if stepping.scheduled.size:
-                    states[k + 1:done + 1, stepping.scheduled] = stepping.schedule[k:done]
-                last_active[states[done].tobytes()] = guess
-                stats["mapped_steps"] += done - k
-                k, charge = done, None
-                _report()
-                continue  # the next step decides its states and mode afresh
-        if charge is None:
-            charge = mlcs.E @ y[k]
-        try:
-            result = stepping.solve_step(k, cls, states[k + 1], charge, y[k], guess)
-        except SimulationError as exc:  # keep what was computed: the caller writes it
-            raise _stopped(exc, k, grid, y, current, residual, active, states, stats,
-                           so_far(k)) from None
-        y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
-        current[k + 1] = result.z
-        residual[k + 1] = result.residual
-        active[k + 1] = guess = np.asarray(result.active, dtype=bool)
-        last_active[states[k + 1].tobytes()] = guess
-        stats["mlcp_steps"] += 1
-        charge = mlcs.E @ y[k + 1]
-        k += 1
-        _report()
+    try:
+        while k < count - 1:
+            if k > 0 and stepping.crossings(states[k], y[k]):
+                split(k)
+            states[k + 1] = stepping.switch_states(k, states[k], y[k])
+            changed = (k > 0 or continued) and (restart or bool((states[k + 1] != states[k]).any()))
+            restart = False
+            if changed:
+                # a switch changed: the pairs most likely take the mode they had the last
+                # time the switches were in this state (the other phase of a converter)
+                guess = last_active.get(states[k + 1].tobytes(), guess)
+            cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
+            if k > 0 and guess is not None and k != left_mode_at and mapped:
+                use = choice.compiled(k, count - 1 - k) if stepping.dense else choice.mode is not False
+                entered = wallclock.perf_counter()
+                last_step = min(count - 1, k + (CHUNK if use else choice.python_chunk()))
+                done, reason, guess = stepping.run_mapped(k, last_step, cls, states[k + 1],
+                                                          guess, y, current, active, used, use)
+                choice.record(use, wallclock.perf_counter() - entered, done - k)
+                # step `done` left the mode the loop continued with (same class and switch state
+                # as the step before): the MLCP solves it. After a change the loop tried the mode
+                # stored for the new state; the guess (the set last seen with it) may differ.
+                left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
+                                        and stepping.continues(done)) else -1
+                if done > k:
+                    finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
+                    if not finite.all():
+                        bad = k + 1 + int(np.argmin(finite))
+                        raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
+                                       residual, active, states, stats, so_far(bad - 1))
+                    states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
+                    if stepping.scheduled.size:
+                        states[k + 1:done + 1, stepping.scheduled] = stepping.schedule[k:done]
+                    last_active[states[done].tobytes()] = guess
+                    stats["mapped_steps"] += done - k
+                    k, charge = done, None
+                    _report()
+                    continue  # the next step decides its states and mode afresh
+            if charge is None:
+                charge = mlcs.E @ y[k]
+            try:
+                result = stepping.solve_step(k, cls, states[k + 1], charge, y[k], guess)
+            except SimulationError as exc:  # keep what was computed: the caller writes it
+                raise _stopped(exc, k, grid, y, current, residual, active, states, stats,
+                               so_far(k)) from None
+            y[k + 1] = result.u  # finite: the solver raises rather than return NaN or inf
+            current[k + 1] = result.z
+            residual[k + 1] = result.residual
+            active[k + 1] = guess = np.asarray(result.active, dtype=bool)
+            last_active[states[k + 1].tobytes()] = guess
+            stats["mlcp_steps"] += 1
+            charge = mlcs.E @ y[k + 1]
+            k += 1
+            _report()
 
-    if count > 1 and stepping.crossings(states[-1], y[-1]):
-        split(count - 1)  # a crossing in the last step is located too (a period's end)
+        if count > 1 and stepping.crossings(states[-1], y[-1]):
+            split(count - 1)  # a crossing in the last step is located too (a period's end)
+    except KeyboardInterrupt as exc:  # Ctrl-C: keep the points computed so far (grid points
+        # 0 .. k are complete whatever the loop was doing), as for a failed step
+        _stopped(exc, k, grid, y, current, residual, active, states, stats, so_far(k))
+        raise
     impulse = np.zeros((count, m))
     impulse[1:] = current[1:] * np.diff(grid)[:, None]
     for row, charge_of_step in split_impulses.items():
@@ -392,13 +410,13 @@ class _Split:
 
 
 def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
-                  initial_states: np.ndarray) -> _Stepping:
+                  initial_states: np.ndarray, continued: bool = False) -> _Stepping:
     """The :class:`_Stepping` of this grid and start, from ``cache`` when it holds one."""
     if cache is None:
-        return _Stepping(mlcs, grid, theta, tol, initial_states)
-    key = (id(mlcs), theta, tol, initial_states.tobytes(), grid.tobytes())
+        return _Stepping(mlcs, grid, theta, tol, initial_states, continued)
+    key = (id(mlcs), theta, tol, initial_states.tobytes(), grid.tobytes(), continued)
     if key not in cache:
-        cache[key] = _Stepping(mlcs, grid, theta, tol, initial_states)
+        cache[key] = _Stepping(mlcs, grid, theta, tol, initial_states, continued)
     cache["last"] = cache[key]  # what the caller reads the step maps from
     return cache[key]
 
@@ -423,19 +441,20 @@ class _Stepping:
     """
 
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
-                 initial_states: np.ndarray):
+                 initial_states: np.ndarray, continued: bool = False):
         self.mlcs, self.grid, self.theta, self.tol = mlcs, grid, theta, tol
         self.E = mlcs.E.tocsr()
         self.differential = mlcs.differential_rows
         self.sources = _source_values(mlcs, grid)
         steps = np.diff(grid)
-        quantum = 1e-9 * steps.max()
-        self.base_class = np.unique(np.round(steps / quantum), return_inverse=True)[1].astype(np.int64)
+        self.base_class = _step_classes(steps)
         self.sizes = int(self.base_class.max()) + 1
         self.scheduled, self.schedule, self.sched_state = _switch_schedule(
             mlcs, grid, self.sources, initial_states)
         restart = np.zeros(steps.size, dtype=bool)
-        restart[0] = True
+        # a continued run's first step restarts only if a scheduled switch changes there
+        restart[0] = not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
+            (self.schedule[0] != initial_states[self.scheduled]).any()))
         if theta != 1.0:
             restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
         self.step_class = self.base_class + self.sizes * restart
@@ -818,6 +837,19 @@ class _Stepping:
         return totals
 
 
+def _step_classes(steps: np.ndarray) -> np.ndarray:
+    """Class of each step: equal step sizes (to 1e-9 of the largest) share one, numbered
+    in increasing size. Most steps have the regular size: only the others are sorted."""
+    quantum = 1e-9 * steps.max()
+    rounded = np.round(steps / quantum)
+    common = rounded[steps.size // 2]
+    other = rounded != common
+    sizes = np.unique(np.append(rounded[other], common))
+    classes = np.full(steps.size, int(np.searchsorted(sizes, common)), dtype=np.int64)
+    classes[other] = np.searchsorted(sizes, rounded[other])
+    return classes
+
+
 def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
     """Every source's value at every grid point, shape ``(N, number of sources)``."""
     values = np.zeros((grid.size, len(mlcs.stimuli)))
@@ -900,12 +932,12 @@ def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> Simulati
         where=f"t = {grid[k]:.6g} s", time=float(grid[k]), cause=SimulationError.STATE_NOT_FINITE)
 
 
-def _stopped(error: SimulationError, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
+def _stopped(error: BaseException, k: int, grid: np.ndarray, y: np.ndarray, current: np.ndarray,
              residual: np.ndarray, active: np.ndarray, states: np.ndarray,
-             stats: dict, events: list[SwitchEvent]) -> SimulationError:
-    """``error`` with its ``trajectory`` field set to the trajectory up to grid point ``k``
-    (the last good one) and its switchings ``events``, so that the caller can still
-    write them."""
+             stats: dict, events: list[SwitchEvent]) -> BaseException:
+    """``error`` (a :class:`SimulationError`, or the ``KeyboardInterrupt`` of a Ctrl-C) with
+    its ``trajectory`` field set to the trajectory up to grid point ``k`` (the last good one)
+    and its switchings ``events``, so that the caller can still write them."""
     end = k + 1
     impulse = np.zeros((end, current.shape[1]))
     impulse[1:] = current[1:end] * np.diff(grid[:end])[:, None]

@@ -1,35 +1,198 @@
-"""Compile the engine's loops with numba when it is installed, and run the same code in Python.
+"""Compile the engine's loops with numba, on first use and cached per user; run the same code in Python.
 
 The mode loops (:mod:`circuitnsds.engine.dense_loop`, :mod:`circuitnsds.engine.sparse_loop`)
-are written once as plain Python over numpy arrays. :func:`jit` compiles such a function
-(cached on disk, no GIL); :func:`python_version` gives the same function object code run by
-the interpreter, with every compiled helper it calls replaced by its Python original (and
-any helper the caller names replaced by another, e.g. a numpy step instead of a scalar
-one). That is what ``stepping="numpy"`` runs, and what runs without numba.
+are written once as plain Python over numpy arrays. :func:`jit` wraps such a function in
+a :class:`Compiled`: numba is imported, and the function compiled (no GIL) or loaded
+from the cache, only when it is first called; :func:`python_version` gives the same
+function's code run by the interpreter, with every compiled helper it calls replaced
+by its Python original (and any helper the caller names replaced by another, e.g. a
+numpy step instead of a scalar one). That is what ``stepping="numpy"`` runs, and what
+runs without numba.
+
+**Where the machine code is cached.** numba's own cache (``@njit(cache=True)``) goes to
+the ``__pycache__`` folder next to the source when that folder is writable, that is
+inside the installed package. pip does not know these files: after ``pip uninstall``
+(or the reinstall of ``pip install -e``) the folder stays behind in ``site-packages``
+and becomes a namespace package ``circuitnsds`` that shadows the real one. So the loops
+get a cache of their own in a per-user folder (:func:`cache_root`), never in the
+package; where no folder is writable they are compiled again in each process (slower
+to start, still correct).
+
+numba costs ~0.2 s to import and ~0.4 s to load a cached loop (its LLVM context),
+~10 s to compile one; nothing here imports it before a loop is called compiled.
 """
 
 from __future__ import annotations
 
+import importlib.util
+import os
+import sys
+import tempfile
 import types
 from collections.abc import Callable
+from pathlib import Path
 
-try:  # numba makes the loops ~50x faster; nothing else depends on it
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency; the Python versions are tested
-    njit = None
+__all__ = ["AVAILABLE", "Compiled", "cache_root", "jit", "python_version", "ready_marker"]
 
-__all__ = ["AVAILABLE", "jit", "python_version"]
+AVAILABLE = importlib.util.find_spec("numba") is not None
+"""Whether numba is installed (the loops can run compiled); numba is not imported."""
+CACHE_ENV = "CIRCUITNSDS_CACHE_DIR"
+"""Environment variable naming the folder of circuitnsds's compiled code (overrides the default)."""
 
-AVAILABLE = njit is not None
-"""Whether numba is installed (the loops run compiled)."""
+
+def numba_available() -> bool:
+    """Whether numba can be imported (without importing it)."""
+    return AVAILABLE
+
+
+def _user_cache_home() -> Path:
+    """The platform's per-user cache folder (XDG on Linux and BSD)."""
+    if sys.platform == "win32":
+        return Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+    if sys.platform == "darwin":
+        return Path.home() / "Library" / "Caches"
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+    except OSError:
+        return False
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
+def cache_candidates() -> list[Path]:
+    """Folders for compiled code, in order of preference: ``$CIRCUITNSDS_CACHE_DIR``, then
+    numba's ``$NUMBA_CACHE_DIR`` (the user's choice for all numba code), then
+    ``<user cache>/circuitnsds/numba`` (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux), then
+    ``<temp>/circuitnsds-<user>/numba``."""
+    candidates = [Path(os.environ[name]) for name in (CACHE_ENV, "NUMBA_CACHE_DIR")
+                  if os.environ.get(name)]
+    try:
+        candidates.append(_user_cache_home() / "circuitnsds" / "numba")
+    except RuntimeError:  # no home directory
+        pass
+    user = os.environ.get("USER") or os.environ.get("USERNAME") or str(getattr(os, "getuid", int)())
+    candidates.append(Path(tempfile.gettempdir()) / f"circuitnsds-{user}" / "numba")
+    return candidates
+
+
+def cache_root() -> Path | None:
+    """The first writable folder of :func:`cache_candidates` (created), or ``None``."""
+    package = Path(__file__).resolve().parents[1]
+    for folder in cache_candidates():
+        resolved = folder.expanduser().resolve()
+        if resolved == package or package in resolved.parents:
+            continue  # never inside the package, whatever the environment says
+        if _writable(resolved):
+            return resolved
+    return None
+
+
+def ready_marker() -> Path | None:
+    """A file under :func:`cache_root` whose existence says that the loops of this very
+    source (the engine's loop modules), numba and Python were compiled and cached
+    (written by :mod:`circuitnsds.engine.warmup`); ``None`` without a cache folder."""
+    import hashlib
+    from importlib.metadata import PackageNotFoundError, version
+
+    root = cache_root()
+    if root is None:
+        return None
+    digest = hashlib.sha256(sys.version.encode())
+    try:
+        digest.update(version("numba").encode())
+    except PackageNotFoundError:
+        return None
+    folder = Path(__file__).resolve().parent
+    digest.update(str(folder).encode())  # numba's cache is per source path as well
+    for name in ("dense_loop.py", "sparse_loop.py", "jit.py"):
+        digest.update((folder / name).read_bytes())
+    return root / f"ready-{digest.hexdigest()[:20]}"
+
+
+def _cache_for(function: Callable, root: Path):
+    """A numba function cache for ``function`` that keeps its files under ``root`` only."""
+    from numba.core import caching
+
+    class Locator(caching.UserProvidedCacheLocator):
+        def __init__(self, py_func, py_file):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = str(root / self.get_suitable_cache_subpath(py_file))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            # the source-file locator's checks (file exists, folder writable), not the
+            # parent's test of numba's NUMBA_CACHE_DIR
+            return caching._SourceFileBackedLocatorMixin.from_function.__func__(cls, py_func, py_file)
+
+    class Impl(caching.CompileResultCacheImpl):
+        _locator_classes = [Locator]
+
+    class Cache(caching.FunctionCache):
+        _impl_class = Impl
+
+    return Cache(function)
+
+
+def _with_globals(function: Callable, namespace: dict) -> Callable:
+    """``function``'s code with the globals ``namespace`` (same name, qualname, module)."""
+    copy = types.FunctionType(function.__code__, namespace, function.__name__, function.__defaults__,
+                              function.__closure__)
+    copy.__qualname__, copy.__module__ = function.__qualname__, function.__module__
+    return copy
+
+
+class Compiled:
+    """A function compiled by numba (``nogil``) when first called, its machine code cached
+    under :func:`cache_root` (not cached when no folder is writable, or when this numba has
+    no such cache machinery). ``py_func`` is the Python original."""
+
+    def __init__(self, function: Callable):
+        self.py_func = function
+        self._dispatcher = None
+        self.__name__ = function.__name__
+        self.__doc__ = function.__doc__
+
+    @property
+    def loaded(self) -> bool:
+        """Whether numba has been imported for it in this process."""
+        return self._dispatcher is not None
+
+    def dispatcher(self):
+        """The numba dispatcher (imports numba; compiles or loads at its first call).
+
+        Raises:
+            ImportError: numba is not installed.
+        """
+        if self._dispatcher is None:
+            from numba import njit
+
+            # the compiled helpers it calls by global name, as numba dispatchers
+            called = set(self.py_func.__code__.co_names)
+            namespace = {name: value.dispatcher() if isinstance(value, Compiled) and name in called
+                         and value is not self else value
+                         for name, value in self.py_func.__globals__.items()}
+            function = _with_globals(self.py_func, namespace)
+            dispatcher = njit(nogil=True)(function)
+            root = cache_root()
+            if root is not None:
+                try:
+                    dispatcher._cache = _cache_for(function, root)
+                except Exception:  # noqa: BLE001 - another numba's internals: compile without a cache
+                    pass
+            self._dispatcher = dispatcher
+        return self._dispatcher
+
+    def __call__(self, *args):
+        return self.dispatcher()(*args)
 
 
 def jit(function: Callable) -> Callable:
-    """``function`` compiled by numba (``cache=True, nogil=True``), or itself without numba.
-
-    Structured arguments are passed as plain tuples (``tuple(named)``) and unpacked by
-    position inside: numba types a named tuple argument by its slow path at every call."""
-    return njit(cache=True, nogil=True)(function) if AVAILABLE else function
+    """``function`` as a :class:`Compiled` (compiled on first call), or itself without numba."""
+    return Compiled(function) if AVAILABLE else function
 
 
 def python_version(function: Callable, **replacements: Callable) -> Callable:

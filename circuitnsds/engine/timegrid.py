@@ -40,5 +40,7 @@ def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = 
             index = np.clip(nearest + offset, 0, points.size - 1)
             close |= np.abs(points[index] - regular) <= tolerance
         close[[0, -1]] = False
-        regular = np.union1d(regular[~close], points)
+        kept = regular[~close]
+        # both sorted and no value in common (the close ones are gone): a merge, not a sort
+        regular = np.insert(kept, np.searchsorted(kept, points), points)
     return regular

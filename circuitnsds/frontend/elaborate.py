@@ -49,7 +49,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     Raises:
         NetlistError: for malformed or unsupported statements (with file:line).
     """
-    circuit = Circuit(title=netlist.title, file=netlist.file)
+    circuit = Circuit(title=netlist.title, file=netlist.file, included=list(netlist.included))
     for block in netlist.control_blocks:
         warn_at(block.location, ".control ... .endc block skipped (ngspice scripting is not run "
                 f"by circuitnsds): {', '.join(block.commands) or 'empty'}")

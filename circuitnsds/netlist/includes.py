@@ -69,6 +69,7 @@ def _next_section_end(statements: list[Statement], start: int) -> int | None:
 class _Expander:
     def __init__(self) -> None:
         self.control_blocks: list[ControlBlock] = []
+        self.files: dict[str, None] = {}  # every file read, in order
 
     def expand(self, statements: list[Statement], directory: Path, stack: list[_Open]) -> list[Statement]:
         """``statements`` with every include replaced by what it names (recursively)."""
@@ -120,6 +121,7 @@ class _Expander:
                                f"({os.path.normpath(str(directory))}); check the name and its case, "
                                "or give an absolute path")
         key = (path.resolve(), section)
+        self.files[str(key[0])] = None
         opened = _Open(key, shown + (f" section {section}" if section else ""))
         if any(entry.key == key for entry in stack):
             chain = " -> ".join(entry.shown for entry in stack) + f" -> {opened.shown}"
@@ -178,4 +180,5 @@ def expand_includes(netlist: Netlist, directory: str | Path | None = None) -> Ne
     expander = _Expander()
     statements = expander.expand(netlist.statements, Path(directory), stack)
     return replace(netlist, statements=statements,
-                   control_blocks=netlist.control_blocks + expander.control_blocks)
+                   control_blocks=netlist.control_blocks + expander.control_blocks,
+                   included=netlist.included + tuple(expander.files))

@@ -84,6 +84,7 @@ class Netlist:
         file: the file name, or ``<text>`` for a string.
         ended: whether a ``.end`` line was found.
         control_blocks: the ``.control ... .endc`` scripts left out of ``statements``.
+        included: the files read by ``.include``/``.lib`` (resolved paths), in order.
     """
 
     title: str
@@ -91,6 +92,7 @@ class Netlist:
     file: str = "<text>"
     ended: bool = False
     control_blocks: list[ControlBlock] = field(default_factory=list)
+    included: tuple[str, ...] = ()
 
 
 def strip_comment(line: str) -> str:

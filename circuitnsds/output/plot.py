@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from circuitnsds.errors import CircuitnsdsError
+from circuitnsds.output.files import atomic_path
 from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.units import engineering_scale, time_unit
 
@@ -117,7 +118,7 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
     # write (ENOSPC on /dev/full reported success); closing our file raises it
     buffer = io.BytesIO()
     figure.savefig(buffer, format=file_format, dpi=dpi)
-    with open(path, "wb") as handle:
+    with atomic_path(path) as temporary, open(temporary, "wb") as handle:
         handle.write(buffer.getvalue())
 
 

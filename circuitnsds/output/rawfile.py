@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from circuitnsds.errors import CircuitnsdsError
+from circuitnsds.output.files import atomic_path
 from circuitnsds.output.waveforms import Waveforms
 
 PLOTNAME = "Transient Analysis"
@@ -88,7 +89,7 @@ def write_raw(
         "Variables:",
         *(f"\t{k}\t{name}\t{variable_type(name)}" for k, name in enumerate(variables)),
     ]
-    with open(path, "wb") as stream:
+    with atomic_path(path) as temporary, open(temporary, "wb") as stream:
         stream.write(("\n".join(header) + "\n").encode("ascii", "replace"))
         if binary:
             stream.write(b"Binary:\n")

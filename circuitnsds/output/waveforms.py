@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator, Mapping, MutableMapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -153,10 +154,22 @@ class Waveforms:
 
         write_raw(self, path, names, binary=binary)
 
-    def to_csv(self, path: str | Path, names: Iterable[str] | None = None) -> None:
-        """Write ``time`` and the signals (all by default) as CSV with a header row."""
+    def to_csv(self, path: str | Path | TextIO, names: Iterable[str] | None = None) -> None:
+        """Write ``time`` and the signals (all by default) as CSV with a header row, every
+        number to full precision (:mod:`circuitnsds.output.csvfile`).
+
+        ``path`` is a file name (written to a temporary file, then renamed over it: an
+        interrupted write leaves the previous file) or an open text stream.
+        """
+        from circuitnsds.output.csvfile import write_csv
+        from circuitnsds.output.files import atomic_path
+
         columns = list(names) if names is not None else self.names
-        data = np.column_stack([self.time] + [self[name] for name in columns])
-        header = ",".join(["time"] + [f'"{name}"' if "," in name else name  # v(a,b) quoted
-                                      for name in (n.strip().lower() for n in columns)])
-        np.savetxt(path, data, delimiter=",", header=header, comments="", fmt="%.10g")
+        labels = [f'"{name}"' if "," in name else name  # v(a,b) quoted
+                  for name in (n.strip().lower() for n in columns)]
+        values = [self[name] for name in columns]
+        if hasattr(path, "write"):
+            write_csv(path, self.time, labels, values)
+            return
+        with atomic_path(path) as temporary, open(temporary, "w", newline="\n") as stream:
+            write_csv(stream, self.time, labels, values)

@@ -32,11 +32,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from circuitnsds.system.stimuli import Stimulus, threshold_crossings
+
+if TYPE_CHECKING:  # scipy (~0.3 s to import) is needed to build the matrices, not to read a netlist
+    import scipy.sparse as sp
 
 Row = tuple[tuple[int, float], ...]
 """Sparse row: ``((column, value), ...)``."""
@@ -297,6 +300,8 @@ class MLCSBuilder:
         self._outputs.append((name, [t for t in y_terms if t[0] != self.GROUND], list(pair_terms)))
 
     def build(self) -> MLCS:
+        import scipy.sparse as sp
+
         n, m, k = len(self.unknowns), len(self.pairs), len(self.stimuli)
         shapes = {"E": (n, n), "A": (n, n), "B": (n, m), "C": (m, n), "D": (m, m), "S": (n, k)}
 

@@ -203,7 +203,7 @@ class Pulse(_TwoLevels):
                 pulses = min(pulses, math.ceil(self.count))
             starts = self.delay + self.period * np.arange(pulses)
         times = (starts[:, None] + corners[None, :]).ravel()
-        return sorted(float(t) for t in times if 0 < t < stop)
+        return np.sort(times[(times > 0) & (times < stop)]).tolist()
 
 
 @dataclass(frozen=True)

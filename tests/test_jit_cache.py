@@ -1,0 +1,109 @@
+"""Compiled code is cached per user, never inside the installed package (issue 19).
+
+numba's default cache writes ``__pycache__/*.nbi`` next to the source; after pip removes
+the package that folder stays and shadows the next install as a namespace package.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import circuitnsds
+from circuitnsds.engine import dense_loop, jit, sparse_loop
+from tests.conftest import NETLISTS
+
+PACKAGE = Path(circuitnsds.__file__).resolve().parent
+
+
+def _package_files_since(started: float) -> list[Path]:
+    """Files under the package written since ``started`` or that numba caches write
+    (``*.nbi``, ``*.nbc``), whenever they were written."""
+    found = []
+    for path in PACKAGE.rglob("*"):
+        if path.is_file() and (path.suffix in {".nbi", ".nbc"} or path.stat().st_mtime >= started):
+            found.append(path)
+    return found
+
+
+def test_a_compiled_run_writes_nothing_in_the_package():
+    started = time.time() - 1.0  # file systems with coarse timestamps
+    waves = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir").transient(stop=50e-6,
+                                                                                stepping="compiled")
+    assert waves.stats["mapped_steps"] > 0
+    # the loops' caches are where jit says, outside the package
+    root = jit.cache_root()
+    assert root is not None and PACKAGE not in root.parents
+    for loop in (dense_loop._compiled, sparse_loop._compiled):
+        cache_path = Path(loop.dispatcher()._cache.cache_path)
+        assert root in cache_path.parents
+    stray = [p for p in _package_files_since(started) if p.suffix != ".pyc"]
+    assert stray == [], f"written inside the package: {stray}"
+
+
+def test_cache_root_prefers_the_environment_and_never_the_package(tmp_path, monkeypatch):
+    monkeypatch.setenv(jit.CACHE_ENV, str(tmp_path / "mine"))
+    assert jit.cache_root() == (tmp_path / "mine").resolve()
+    monkeypatch.setenv(jit.CACHE_ENV, str(PACKAGE / "__pycache__"))  # refused: inside the package
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    root = jit.cache_root()
+    assert root is not None and PACKAGE not in root.parents and root != PACKAGE
+    if os.name == "posix":
+        assert root == (tmp_path / "xdg" / "circuitnsds" / "numba").resolve()
+
+
+def test_cache_root_falls_back_when_unwritable(tmp_path, monkeypatch):
+    blocker = tmp_path / "a file"  # no folder can be made under a file, even by root
+    blocker.write_text("")
+    monkeypatch.setenv(jit.CACHE_ENV, str(blocker / "numba"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    if os.name == "posix":
+        assert jit.cache_root() == (tmp_path / "xdg" / "circuitnsds" / "numba").resolve()
+
+
+def test_no_writable_folder_means_no_cache(monkeypatch):
+    monkeypatch.setattr(jit, "cache_candidates", lambda: [])
+    assert jit.cache_root() is None
+
+    def add(a, b):
+        return a + b
+
+    compiled = jit.jit(add)
+    assert type(compiled.dispatcher()._cache).__name__ == "NullCache"  # numba's: nothing written
+
+
+def test_a_short_run_does_not_load_numba():
+    code = ("import sys, circuitnsds; from tests.conftest import NETLISTS\n"
+            "w = circuitnsds.read_netlist(NETLISTS / 'bridge_rectifier.cir').transient()\n"
+            "assert w.stats['mapped_steps'] > 1000\n"
+            "print('numba' in sys.modules)")
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(PACKAGE.parent), str(root)]))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          cwd=root, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("dense", [True, False])
+def test_the_warmup_compiles_the_signature_a_run_uses(monkeypatch, dense):
+    """The background warm-up must compile the very version a run calls, or the run
+    would compile again (~10 s) after waiting for it."""
+    from circuitnsds.engine import integrate, warmup
+
+    (warmup.warm_dense if dense else warmup.warm_sparse)()
+    loop = (dense_loop._compiled if dense else sparse_loop._compiled).dispatcher()
+    assert len(loop.signatures) == 1
+    if not dense:
+        monkeypatch.setattr(integrate, "DENSE_MAP_LIMIT", 0)
+    for netlist in ("buck_converter.cir", "diode_clamp.cir"):
+        waves = circuitnsds.read_netlist(NETLISTS / netlist).transient(stop=20e-6, stepping="compiled")
+        assert waves.stats["mapped_steps"] > 0
+    assert len(loop.signatures) == 1, loop.signatures

@@ -1,0 +1,45 @@
+"""A run that keeps only some signals goes in segments: the same waveforms as one run, with
+memory bounded by what is kept (issue 19)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import circuitnsds
+import circuitnsds.analyses.transient as transient
+from tests.conftest import NETLISTS
+
+
+@pytest.mark.parametrize(("netlist", "stop", "theta", "start"), [
+    ("buck_converter.cir", 0.3e-3, 0.5, None),   # scheduled switch, restarts at θ < 1
+    ("buck_converter.cir", 0.3e-3, 1.0, 0.1e-3),  # TSTART inside the second segment
+    ("bridge_rectifier.cir", 30e-3, 1.0, None),  # diodes changing mode
+])
+def test_segments_give_the_waveforms_of_one_run(monkeypatch, netlist, stop, theta, start):
+    circuit = circuitnsds.read_netlist(NETLISTS / netlist)
+    whole = circuit.transient(stop=stop, theta=theta, start=start)
+    sizes = []
+    original = transient.integrate
+
+    def recording(mlcs, grid, *args, **kwargs):
+        sizes.append(grid.size)
+        return original(mlcs, grid, *args, **kwargs)
+
+    monkeypatch.setattr(transient, "integrate", recording)
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    kept = circuit.transient(stop=stop, theta=theta, start=start, signals=["V(out)", "i(d1)"])
+    assert len(sizes) >= 3 and max(sizes) == 701  # bounded segments, not one run
+    assert kept.names == ["v(out)", "i(d1)"]
+    np.testing.assert_array_equal(kept.time, whole.time)
+    assert kept.stats["steps"] == whole.stats["steps"]
+    for name in kept.names:
+        scale = np.abs(whole[name]).max()
+        np.testing.assert_allclose(kept[name], whole[name], rtol=0, atol=1e-9 * scale)
+    assert kept.residual.shape == whole.residual.shape
+
+
+def test_unknown_kept_signal_is_an_error():
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    with pytest.raises(circuitnsds.CircuitError, match=r"unknown signal\(s\) v\(nowhere\)"):
+        circuit.transient(stop=1e-5, signals=["v(nowhere)"])

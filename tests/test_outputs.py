@@ -1,0 +1,158 @@
+"""Outputs never destroy inputs or each other, are written whole or not at all, and
+survive Ctrl-C; ``-`` is standard input/output (issue 20, items 4, 5 and 9)."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.cli.main import main
+from circuitnsds.output import csvfile
+from circuitnsds.output.files import atomic_path
+from tests.conftest import NETLISTS
+
+RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 1m\n.end\n"
+
+
+def _refused(capsys, argv: list[str], fragment: str) -> None:
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert fragment in err and "Traceback" not in err
+
+
+def test_output_over_the_netlist_is_refused(tmp_path, capsys):
+    netlist = tmp_path / "hw.cir"
+    netlist.write_text(RC)
+    _refused(capsys, ["run", str(netlist), "-o", str(netlist)], "would overwrite the netlist input")
+    assert netlist.read_text() == RC
+    _refused(capsys, ["run", str(netlist), "-r", str(tmp_path / ".." / tmp_path.name / "hw.cir")],
+             "would overwrite the netlist input")
+    assert netlist.read_text() == RC
+
+
+def test_default_csv_named_like_the_netlist_is_refused(tmp_path, capsys, monkeypatch):
+    netlist = tmp_path / "net.csv"
+    netlist.write_text(RC)
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["run", "net.csv"], "-o net.csv would overwrite the netlist input")
+    assert netlist.read_text() == RC
+
+
+def test_output_over_an_included_file_is_refused(tmp_path, capsys):
+    (tmp_path / "parts.inc").write_text("R1 in out 1k\nC1 out 0 1u\n")
+    netlist = tmp_path / "top.cir"
+    netlist.write_text("top\nV1 in 0 1\n.include parts.inc\n.tran 10u 1m\n.end\n")
+    _refused(capsys, ["run", str(netlist), "--plot", str(tmp_path / "parts.inc")],
+             "would overwrite the netlist input")
+    assert (tmp_path / "parts.inc").read_text().startswith("R1")
+
+
+def test_two_outputs_in_one_file_are_refused(tmp_path, capsys):
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text(RC)
+    _refused(capsys, ["run", str(netlist), "-o", str(tmp_path / "a.csv"), "-r", str(tmp_path / "a.csv")],
+             "-o and -r name the same file")
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_csv_keeps_full_precision(tmp_path):
+    values = np.array([0.1, 1 / 3, -2.5e-300, 1e300, math.pi * 1e-9, 0.0, np.inf, -np.inf])
+    waves = circuitnsds.Waveforms(time=np.arange(values.size, dtype=float), signals={"v(x)": values})
+    path = tmp_path / "x.csv"
+    waves.to_csv(path)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "time,v(x)"
+    read = np.array([float(line.split(",")[1]) for line in lines[1:]])
+    np.testing.assert_array_equal(read, values)  # repr round-trips every double exactly
+
+
+def test_csv_blocks_join_seamlessly(tmp_path, monkeypatch):
+    monkeypatch.setattr(csvfile, "BLOCK_ROWS", 7)
+    time = np.linspace(0.0, 1.0, 50)
+    waves = circuitnsds.Waveforms(time=time, signals={"a": time ** 2, "b": -time})
+    waves.to_csv(tmp_path / "x.csv")
+    data = np.loadtxt(tmp_path / "x.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(data, np.column_stack([time, time ** 2, -time]))
+
+
+def test_an_interrupted_write_leaves_the_previous_file(tmp_path, monkeypatch):
+    path = tmp_path / "out.csv"
+    path.write_text("previous\n")
+    os.chmod(path, 0o640)
+    calls = []
+
+    def interrupted(stream, time, columns):
+        stream.write("1,2\n")
+        calls.append(1)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(csvfile, "write_rows", interrupted)
+    waves = circuitnsds.Waveforms(time=np.zeros(3), signals={"v(a)": np.zeros(3)})
+    with pytest.raises(KeyboardInterrupt):
+        waves.to_csv(path)
+    assert calls and path.read_text() == "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]  # no temporary left
+    monkeypatch.undo()
+    waves.to_csv(path)
+    assert path.read_text().startswith("time,v(a)\n") and (path.stat().st_mode & 0o777) == 0o640
+
+
+def test_atomic_path_writes_devices_directly():
+    with atomic_path(os.devnull) as target:
+        assert str(target) == os.devnull  # never a rename over /dev/null
+
+
+def test_dash_reads_stdin_and_writes_stdout(capsys, monkeypatch):
+    monkeypatch.setattr("sys.stdin", io.StringIO(RC))
+    assert main(["run", "-", "-q", "--signals", "v(out)", "--uic"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "time,v(out)"
+    data = np.array([[float(x) for x in line.split(",")] for line in out[1:]])
+    assert data[-1, 0] == pytest.approx(1e-3)
+    # implicit Euler on the RC: v_k = 1 - (1 + h/τ)^-k, τ = 1 ms, h = 10 µs
+    steps = np.arange(data.shape[0])
+    np.testing.assert_allclose(data[:, 1], 1 - 1.01 ** -steps, rtol=1e-9, atol=1e-12)
+
+
+def test_dash_output_with_a_netlist_file(tmp_path, capsys):
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text(RC)
+    assert main(["run", str(netlist), "-o", "-", "-q", "--measure", "mean(v(out))"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("time,")  # the CSV alone on stdout; the table on stderr
+    assert "mean" in captured.err
+    assert not (tmp_path / "rc.csv").exists() and not os.path.exists("-")
+
+
+def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monkeypatch):
+    from circuitnsds.engine import integrate as engine
+
+    netlist = NETLISTS / "half_wave_rectifier.cir"
+    calls = {"n": 0}
+    original = engine._Stepping.solve_step
+
+    def interrupt_later(self, k, *args, **kwargs):
+        calls["n"] += 1
+        if k == 120:
+            raise KeyboardInterrupt
+        return original(self, k, *args, **kwargs)
+
+    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    csv = tmp_path / "out.csv"
+    status = main(["run", str(netlist), "-o", str(csv), "--step", "100u", "--stop", "20m",
+                   "--signals", "v(out)"])
+    err = capsys.readouterr().err
+    assert status == 130
+    assert "wrote the results up to t = 0.012 s (when interrupted) to" in err
+    assert err.rstrip().endswith("circuitnsds: interrupted")
+    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert data.shape[0] == 121  # t_0 .. t_120: every step done before the interruption
+    assert data[-1, 0] == pytest.approx(120 * 100e-6)
+    np.testing.assert_allclose(data[:, 1], np.maximum(10 * np.sin(2 * np.pi * 50 * data[:, 0]), 0),
+                               atol=1e-6)
