@@ -29,8 +29,9 @@ def warm_dense() -> int:
     n, m, kstim, steps = 1, 1, 1, 3
     table = dense_loop.ModeTable(n, m, kstim)
     mode = dense_loop.ModeMap(P=np.array([[0.5], [0.0]]), Q1=np.array([[0.5], [1.0]]),
-                              Q0=np.zeros((2, 1)), c=np.zeros(2), W=np.zeros((0, 2)),
-                              e_w=np.zeros(0), active=np.array([0], dtype=np.int64))
+                              Q0=np.zeros((2, 1)), c=np.zeros(2), W=np.zeros((1, 2)),
+                              e_w=np.zeros(1), resistance=np.ones(1),
+                              active=np.array([0], dtype=np.int64))
     index = table.add((0, 0, 0, b"\x01"), mode)
     a = _run_arrays(steps, n, m, kstim)
     used = np.zeros(steps + 1, dtype=np.int64)
