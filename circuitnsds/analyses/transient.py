@@ -502,7 +502,8 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         residuals.append(trajectory.residual[first:])
         for name in names:
             kept[name].append(waves[name][first:])
-        events.extend(event for event in trajectory.events if not events or event.time > events[-1].time)
+        events.extend(event for event in trajectory.events  # a boundary's events once
+                      if not events or event.time > trajectory.time[0] or event not in events[-8:])
         for key, value in trajectory.stats.items():
             stats[key] = stats.get(key, 0) + value
 
