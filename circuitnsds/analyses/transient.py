@@ -22,34 +22,18 @@ from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
 from circuitnsds.theta import theta_in_range
 
 
-def run_transient(
-    circuit: Circuit,
-    *,
-    step: float | None,
-    stop: float | None,
-    start: float | None,
-    max_step: float | None,
-    theta: float,
-    uic: bool | None,
-    tol: float,
-    progress: Callable[[float, float], None] | None,
-    stepping: str = "auto",
-    signals: Sequence[str] | None = None,
-) -> Waveforms:
-    """See :meth:`Circuit.transient`. With ``.options pwlfit=auto`` a first run measures the
-    peak forward (and breakdown) current of every fitted diode model, the models are refitted
-    over ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
-    if circuit.options.get("pwlfit") == "auto":
-        settings = dict(step=step, stop=stop, start=start, max_step=max_step, theta=theta, uic=uic,
-                        tol=tol, progress=progress, stepping=stepping)
-        first = _run_transient(circuit, **settings)  # every signal: the diodes' currents
-        refitted = _refitted(circuit, first)
-        if refitted is not circuit:
-            return _run_transient(refitted, **settings, signals=signals)
-        return first if signals is None else first.select(signals)
-    return _run_transient(circuit, step=step, stop=stop, start=start, max_step=max_step,
-                          theta=theta, uic=uic, tol=tol, progress=progress, stepping=stepping,
-                          signals=signals)
+def run_transient(circuit: Circuit, *, signals: Sequence[str] | None = None, **settings) -> Waveforms:
+    """See :meth:`Circuit.transient` (``settings``: the keyword arguments of
+    :func:`_run_transient`). With ``.options pwlfit=auto`` a first run measures the peak
+    forward (and breakdown) current of every fitted diode model, the models are refitted over
+    ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
+    if circuit.options.get("pwlfit") != "auto":
+        return _run_transient(circuit, signals=signals, **settings)
+    first = _run_transient(circuit, **settings)  # every signal: the diodes' currents
+    refitted = _refitted(circuit, first)
+    if refitted is not circuit:
+        return _run_transient(refitted, signals=signals, **settings)
+    return first if signals is None else first.select(signals)
 
 
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
