@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
+from tests.sine_injection import injected_response
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 R, L, C = 10.0, 1e-3, 1e-6
@@ -166,23 +167,13 @@ def test_buck_line_to_output_matches_a_sine_injection_transient(frequency):
     # brute force: Vin + 10 mV·sin(ωt), a transient from the periodic steady state for 5 ms
     # (the injection's start-up decays as 0.99 per switching period), then the DFT of v(out)
     # over 1 ms (whole periods of the sine and of the switching)
-    from circuitnsds.engine.integrate import integrate
-    from circuitnsds.engine.timegrid import time_grid
-
     circuit = read(BUCK)
     settled = circuit.pss()
     ours = circuit.ac("vin", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
-    amplitude, settle, window = 10e-3, 5e-3, 1e-3
+    amplitude = 10e-3
     injected = read(BUCK.replace("Vin in 0 DC 24", f"Vin in 0 SIN(24 {amplitude} {frequency})"))
-    mlcs = injected.mlcs(injected.tran.step, settle + window)
-    grid = time_grid(injected.tran.step, settle + window, mlcs.breakpoints(settle + window))
-    start = settled.maps.trajectory
-    run = integrate(mlcs, grid, start.y[0], None, None, start.active[0], start.switches[0])
-    out = run.y[:, mlcs.unknowns.index("v(out)")]
-    inside = np.flatnonzero(grid > settle + 1e-12)
-    weights = (grid[inside] - grid[inside - 1]) / window
-    coefficient = np.sum(weights * out[inside] * np.exp(-2j * np.pi * frequency * grid[inside]))
-    theirs = 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
+    theirs = injected_response(injected, settled.maps.trajectory, injected.tran.step, frequency,
+                               amplitude, settle=5e-3, window=1e-3)
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
     assert abs(np.degrees(np.angle(ours / theirs))) < 2
 

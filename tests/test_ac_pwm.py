@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
-from circuitnsds.engine.integrate import integrate
-from circuitnsds.engine.timegrid import time_grid
+from tests.sine_injection import injected_response
 
 PERIOD, STEP = 10e-6, 0.2e-6
 RISE, WIDTH, FALL = 9.9e-6, 50e-9, 50e-9  # the ramp: 0 -> 1 V over RISE, back over FALL
@@ -124,17 +123,10 @@ def test_pwm_buck_control_to_output_matches_sine_injection(settled, frequency):
     # over 0.5 ms (whole periods of the sine and of the switching)
     circuit, result = settled
     ours = circuit.ac("vc", "v(out)", [frequency], pss=result).transfer["v(out)"][0]
-    amplitude, settle, window = 4e-3, 1.2e-3, 0.5e-3
+    amplitude = 4e-3
     injected = read(buck(f"SIN({VC} {amplitude} {frequency})"))
-    mlcs = injected.mlcs(STEP, settle + window)
-    grid = time_grid(STEP, settle + window, mlcs.breakpoints(settle + window))
-    start = result.maps.trajectory
-    run = integrate(mlcs, grid, start.y[0], None, None, start.active[0], start.switches[0])
-    out = run.y[:, mlcs.unknowns.index("v(out)")]
-    inside = np.flatnonzero(grid > settle + 1e-12)
-    weights = (grid[inside] - grid[inside - 1]) / window
-    coefficient = np.sum(weights * out[inside] * np.exp(-2j * np.pi * frequency * grid[inside]))
-    theirs = 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
+    theirs = injected_response(injected, result.maps.trajectory, STEP, frequency, amplitude,
+                               settle=1.2e-3, window=0.5e-3)
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
     assert abs(np.degrees(np.angle(ours / theirs))) < 2
 
