@@ -362,3 +362,24 @@ def test_malformed_behavioural_lines_name_the_line(lines, pattern):
 def test_unused_block_model_is_reported_with_its_kind():
     with pytest.warns(UserWarning, match=r"\.model g \(GAIN\) is not used"):
         circuit_from("V1 a 0 1\nR1 a 0 1k\n.model g gain(gain=2)\n.tran 1u 1m")
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("10-3-2", 5.0), ("64/4/2", 8.0), ("2^3^2", 64.0), ("2**-1", 0.5), ("-2^2", -4.0),
+    ("--3", 3.0), ("!!!0", 1.0), ("1<2==1", 1.0), ("0&&1||1", 1.0), ("1||0&&0", 1.0),
+    ("0?1:0?2:3", 3.0), ("max(1, 2*3, 4)-1", 5.0),
+])
+def test_behavioural_tree_keeps_the_order_of_the_shared_parser(text, value):
+    # behavioural.parse reuses netlist/expressions.py's parser and writes its chains of
+    # left-associative operators as nested binary nodes: the text written back must keep the
+    # meaning (hand-computed values, ngspice's precedence and left-associative ^).
+    from circuitnsds.netlist.behavioural import parse, to_text
+    from circuitnsds.netlist.expressions import evaluate
+
+    assert evaluate(to_text(parse(text))) == value
+
+
+def test_behavioural_probes_are_leaves_with_raw_names():
+    from circuitnsds.netlist.behavioural import parse
+
+    assert parse("V(X1.Mid, 1) - i(Vs)") == ("op", "-", ("v", "x1.mid", "1"), ("i", "vs"))

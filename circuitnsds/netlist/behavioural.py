@@ -7,21 +7,14 @@ it into a tree (plain tuples), substitutes the parameters it names, renames its 
 elements when a subcircuit is flattened, and writes it back as text. What the tree *means*
 (affine, a limiter, refused) is decided by :mod:`circuitnsds.frontend.cards.behavioural`.
 
-Grammar (ngspice's operators and precedence, case-insensitive)::
+The grammar, operators and precedence are those of :mod:`circuitnsds.netlist.expressions`
+(ngspice's, case-insensitive; its parser reads the text, with ``probes=True``), whose ``atom``
+may also be a probe::
 
-    expression  := disjunction ["?" expression ":" expression]
-    disjunction := conjunction ("||" conjunction)*
-    conjunction := comparison ("&&" comparison)*
-    comparison  := sum (("==" | "!=" | "<" | "<=" | ">" | ">=") sum)*
-    sum         := product (("+" | "-") product)*
-    product     := unary (("*" | "/") unary)*
-    unary       := ("+" | "-" | "!") unary | power
-    power       := atom (("^" | "**") signed)*       # left-associative, as the .param parser
-    signed      := ("+" | "-") signed | atom
-    atom        := NUMBER | PROBE | NAME | NAME "(" expression ("," expression)* ")" | "(" expression ")"
     PROBE       := "v(" NODE ["," NODE] ")" | "i(" ELEMENT ")"
 
 A probe's arguments are names as written in the netlist (``v(1)``, ``v(x1.mid)``).
+Repeated signs fold as there (``--x`` is ``x``, ``!!!x`` is ``!x``).
 
 Tree nodes: ``("num", value)``, ``("name", name)``, ``("neg", x)``, ``("not", x)``,
 ``("op", operator, left, right)``, ``("and" | "or", left, right)``, ``("if", c, a, b)``,
@@ -33,8 +26,8 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 
+from circuitnsds.netlist import expressions
 from circuitnsds.netlist.expressions import CONSTANTS, ExpressionError
-from circuitnsds.values import parse_value
 
 Node = tuple
 """An expression tree node (see the module docstring)."""
@@ -42,170 +35,33 @@ Node = tuple
 RESERVED_NAMES = frozenset({"time", "temper", "hertz"})
 """Names a behavioural expression may use that are not parameters (simulator variables)."""
 
-_TOKEN = re.compile(
-    r"""\s*(?:
-        (?P<probe>(?P<kind>[vi])\s*\(\s*(?P<first>[^\s(),]+)\s*(?:,\s*(?P<second>[^\s(),]+)\s*)?\))
-      | (?P<number>(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?[a-z%]*)
-      | (?P<name>[a-z_][a-z0-9_]*)
-      | (?P<op>\*\*|==|!=|<=|>=|&&|\|\||[-+*/^(),<>!?:])
-    )""",
-    re.VERBOSE,
-)
-
-
-def _tokens(text: str) -> list[tuple]:
-    """``(kind, value, position)`` triples; a probe's value is ``(kind, first, second)``."""
-    tokens: list[tuple] = []
-    position = 0
-    while text[position:].strip():
-        match = _TOKEN.match(text, position)
-        if match is None:
-            start = position + len(text[position:]) - len(text[position:].lstrip())
-            raise ExpressionError(f"unexpected character {text[start]!r} in {text!r}")
-        if match["probe"]:
-            tokens.append(("probe", (match["kind"], match["first"], match["second"]),
-                           match.start("probe")))
-        else:
-            kind = match.lastgroup
-            tokens.append((kind, match[kind], match.start(kind)))
-        position = match.end()
-    tokens.append(("end", "", len(text)))
-    return tokens
-
-
-class _Parser:
-    """One method per grammar rule; builds the tree."""
-
-    def __init__(self, text: str):
-        self.text = text
-        self.tokens = _tokens(text)
-        self.index = 0
-
-    @property
-    def current(self) -> tuple:
-        return self.tokens[self.index]
-
-    def accept(self, *ops: str) -> str | None:
-        kind, token, _ = self.current
-        if kind == "op" and token in ops:
-            self.index += 1
-            return token
-        return None
-
-    def expect(self, op: str) -> None:
-        if self.accept(op) is None:
-            raise self.unexpected(f"expected {op!r}")
-
-    def unexpected(self, expectation: str) -> ExpressionError:
-        kind, token, position = self.current
-        found = "the end" if kind == "end" else repr(token)
-        return ExpressionError(f"syntax error: {expectation}, found {found} after "
-                               f"{self.text[:position].strip()!r} in {self.text!r}")
-
-    def parse(self) -> Node:
-        if self.current[0] == "end":
-            raise ExpressionError("empty expression")
-        tree = self.expression()
-        if self.current[0] != "end":
-            raise self.unexpected("expected an operator")
-        return tree
-
-    def expression(self) -> Node:
-        condition = self.disjunction()
-        if self.accept("?") is None:
-            return condition
-        then = self.expression()
-        self.expect(":")
-        return ("if", condition, then, self.expression())
-
-    def disjunction(self) -> Node:
-        tree = self.conjunction()
-        while self.accept("||") is not None:
-            tree = ("or", tree, self.conjunction())
-        return tree
-
-    def conjunction(self) -> Node:
-        tree = self.comparison()
-        while self.accept("&&") is not None:
-            tree = ("and", tree, self.comparison())
-        return tree
-
-    def comparison(self) -> Node:
-        tree = self.sum()
-        while (op := self.accept("==", "!=", "<", "<=", ">", ">=")) is not None:
-            tree = ("op", op, tree, self.sum())
-        return tree
-
-    def sum(self) -> Node:
-        tree = self.product()
-        while (op := self.accept("+", "-")) is not None:
-            tree = ("op", op, tree, self.product())
-        return tree
-
-    def product(self) -> Node:
-        tree = self.unary()
-        while (op := self.accept("*", "/")) is not None:
-            tree = ("op", op, tree, self.unary())
-        return tree
-
-    def unary(self) -> Node:
-        if (op := self.accept("+", "-", "!")) is not None:
-            operand = self.unary()
-            return {"-": ("neg", operand), "!": ("not", operand)}.get(op, operand)
-        return self.power()
-
-    def power(self) -> Node:
-        tree = self.atom()
-        while self.accept("^", "**") is not None:
-            tree = ("op", "^", tree, self.signed())
-        return tree
-
-    def signed(self) -> Node:
-        if (op := self.accept("+", "-")) is not None:
-            operand = self.signed()
-            return ("neg", operand) if op == "-" else operand
-        return self.atom()
-
-    def atom(self) -> Node:
-        kind, token, _ = self.current
-        if kind == "probe":
-            self.index += 1
-            probe, first, second = token
-            if probe == "i":
-                if second is not None:
-                    raise ExpressionError(f"i({first}, {second}): i() takes one element name "
-                                          f"in {self.text!r}")
-                return ("i", first)
-            return ("v", first, second)
-        if kind == "number":
-            self.index += 1
-            try:
-                return ("num", parse_value(token))
-            except ValueError:
-                raise ExpressionError(f"{token!r} is not a number in {self.text!r}") from None
-        if kind == "name":
-            self.index += 1
-            if self.accept("("):
-                arguments = [self.expression()]
-                while self.accept(","):
-                    arguments.append(self.expression())
-                self.expect(")")
-                return ("call", token, tuple(arguments))
-            return ("name", token)
-        if self.accept("("):
-            tree = self.expression()
-            self.expect(")")
-            return tree
-        raise self.unexpected("expected a number, a name, v(...), i(...) or '('")
+_BINARY = {"&&": "and", "||": "or"}
 
 
 def parse(text: str) -> Node:
-    """The tree of a behavioural expression (lower-cased first).
+    """The tree of a behavioural expression (lower-cased first): the tree of
+    :func:`circuitnsds.netlist.expressions.parse` with its probe leaves, each of its chains
+    of left-associative operators written as nested binary ``op``/``and``/``or`` nodes.
 
     Raises:
-        ExpressionError: a syntax error, an unexpected character or a bad number.
+        ExpressionError: a syntax error, an unexpected character, a bad number, or nesting
+            deeper than :data:`circuitnsds.netlist.expressions.MAX_DEPTH`.
     """
-    return _Parser(text.lower()).parse()
+    def binary(item: Node) -> Node:
+        kind = item[0]
+        if kind in {"num", "name", "v", "i"}:
+            return item
+        if kind == "call":
+            return ("call", item[1], tuple(binary(a) for a in item[2]))
+        if kind == "chain":
+            tree = binary(item[1])
+            for op, operand in item[2]:
+                right = binary(operand)
+                tree = (_BINARY[op], tree, right) if op in _BINARY else ("op", op, tree, right)
+            return tree
+        return (kind, *(binary(a) for a in item[1:]))
+
+    return binary(expressions.parse(text, probes=True))
 
 
 def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,

@@ -13,6 +13,7 @@ the grammar (case-insensitive)::
     power       := atom (("^" | "**") signed)*     # left-associative, as ngspice-39: 2^3^2 = 64
     signed      := ("+" | "-") signed | atom
     atom        := NUMBER | NAME | NAME "(" expression ("," expression)* ")" | "(" expression ")"
+                 | PROBE              # v(node[, node]), i(element): only with parse(..., probes=True)
 
 So unary minus binds looser than the power: ``-2^2`` is ``-4`` and ``2^-1`` is ``0.5``;
 ``2^3^2`` is ``(2^3)^2 = 64`` as in ngspice-39 (which the same netlist must agree with).
@@ -151,14 +152,20 @@ class UndefinedNameError(ExpressionError):
         super().__init__(f"undefined parameter {name!r} in {excerpt(text)}")
 
 
-_TOKEN = re.compile(
-    r"""\s*(?:
+_TOKENS = r"""
         (?P<number>(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?[a-z%]*)
       | (?P<name>[a-z_][a-z0-9_]*)
       | (?P<op>\*\*|==|!=|<=|>=|&&|\|\||[-+*/^(),<>!?:])
-    )""",
+"""
+_TOKEN = re.compile(r"\s*(?:" + _TOKENS + ")", re.VERBOSE)
+_PROBE_TOKEN = re.compile(
+    r"""\s*(?:
+        (?P<probe>(?P<kind>[vi])\s*\(\s*(?P<first>[^\s(),]+)\s*(?:,\s*(?P<second>[^\s(),]+)\s*)?\))
+      | """ + _TOKENS + ")",
     re.VERBOSE,
 )
+"""With ``probes``: ``v(node)``, ``v(node1, node2)`` and ``i(element)`` are one token each,
+their arguments names as written in a netlist (``v(1)``, ``v(x1.mid)``), tried first."""
 
 Lookup = Callable[[str], "float | None"]
 
@@ -189,19 +196,25 @@ class Random(Protocol):
     def uniform(self, low: float, high: float) -> float: ...
 
 
-def _tokens(text: str) -> list[tuple[str, str, int]]:
-    """``(kind, text, position)`` triples, ending with ``("end", "", len(text))``."""
-    tokens: list[tuple[str, str, int]] = []
+def _tokens(text: str, probes: bool = False) -> list[tuple]:
+    """``(kind, text, position)`` triples, ending with ``("end", "", len(text))``; with
+    ``probes``, a probe is ``("probe", (kind, first, second_or_None), position)``."""
+    pattern = _PROBE_TOKEN if probes else _TOKEN
+    tokens: list[tuple] = []
     position = 0
     while position < len(text):
         if text[position:].isspace():
             break
-        match = _TOKEN.match(text, position)
+        match = pattern.match(text, position)
         if match is None or match.end() == position:
             start = position + len(text[position:]) - len(text[position:].lstrip())
             raise ExpressionError(f"unexpected character {text[start]!r} in {excerpt(text)}")
-        kind = match.lastgroup or "op"
-        tokens.append((kind, match[kind], match.start(kind)))
+        if probes and match["probe"]:
+            tokens.append(("probe", (match["kind"], match["first"], match["second"]),
+                           match.start("probe")))
+        else:
+            kind = match.lastgroup or "op"
+            tokens.append((kind, match[kind], match.start(kind)))
         position = match.end()
     tokens.append(("end", "", len(text)))
     return tokens
@@ -216,16 +229,18 @@ def _finite(value: float, what: str, text: str) -> float:
 # An expression tree: plain tuples, ("num", value) ("name", name) ("neg", x) ("not", x)
 # ("chain", first, ((operator, node), ...)) for a run of left-associative binary operators of
 # one precedence level (evaluated in a loop), ("if", condition, then, else),
-# ("call", name, (arguments...)).
+# ("call", name, (arguments...)); with probes also ("v", node, reference_or_None), ("i", element).
 Node = tuple
 
 
 class _Parser:
-    """Builds the expression tree: one method per grammar rule (nothing is evaluated)."""
+    """Builds the expression tree: one method per grammar rule (nothing is evaluated).
+    With ``probes``, ``v(...)`` and ``i(...)`` are leaves (a behavioural source's unknowns)."""
 
-    def __init__(self, text: str):
+    def __init__(self, text: str, probes: bool = False):
         self.text = text
-        self.tokens = _tokens(text)
+        self.probes = probes
+        self.tokens = _tokens(text, probes)
         self.index = 0
         self.depth = 0
 
@@ -337,6 +352,15 @@ class _Parser:
 
     def atom(self) -> Node:
         kind, token, _ = self.current
+        if kind == "probe":
+            self.index += 1
+            probe, first, second = token
+            if probe == "i":
+                if second is not None:
+                    raise ExpressionError(f"i({first}, {second}): i() takes one element name "
+                                          f"in {excerpt(self.text)}")
+                return ("i", first)
+            return ("v", first, second)
         if kind == "number":
             self.index += 1
             try:
@@ -352,7 +376,8 @@ class _Parser:
             tree = self.nested(self.expression)
             self.expect(")")
             return tree
-        raise self.unexpected("expected a number, a name or '('")
+        raise self.unexpected("expected a number, a name, v(...), i(...) or '('" if self.probes
+                              else "expected a number, a name or '('")
 
     def call(self, name: str) -> Node:
         arguments = [self.expression()]
@@ -386,27 +411,24 @@ def _stack() -> Iterator[None]:
         sys.setrecursionlimit(previous)
 
 
-def parse(text: str) -> Node:
+def parse(text: str, *, probes: bool = False) -> Node:
     """The expression tree of ``text`` (lower-cased first); cached, as a sweep evaluates the
-    same expressions at every point.
+    same expressions at every point. With ``probes``, ``v(node)``, ``v(node1, node2)`` and
+    ``i(element)`` are leaves (:mod:`circuitnsds.netlist.behavioural`); :func:`evaluate`
+    never reads them.
 
     Raises:
         ExpressionError: a syntax error, an unexpected character, a bad number, or nesting
             deeper than :data:`MAX_DEPTH`.
     """
     with _stack():
-        return _parse(text)
+        return _parse(text, probes)
 
 
 @functools.lru_cache(maxsize=4096)
-def _parse(text: str) -> Node:
-    """The expression tree of ``text`` (lower-cased first); cached, as a sweep evaluates the
-    same expressions at every point.
-
-    Raises:
-        ExpressionError: a syntax error, an unexpected character or a bad number.
-    """
-    return _Parser(text.lower()).parse()
+def _parse(text: str, probes: bool = False) -> Node:
+    """:func:`parse` without the recursion limit raised (cached)."""
+    return _Parser(text.lower(), probes).parse()
 
 
 MAX_CALL_DEPTH = 100
