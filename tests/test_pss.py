@@ -12,7 +12,7 @@ import pytest
 
 import circuitnsds
 from circuitnsds.engine.integrate import integrate
-from circuitnsds.engine.step_maps import run_with_maps
+from circuitnsds.engine.step_maps import StepMapper
 from circuitnsds.engine.timegrid import time_grid
 from tests.device_checks import assert_device_laws
 
@@ -185,7 +185,7 @@ def test_step_maps_reproduce_the_run():
     from circuitnsds.analyses.operating_point import operating_point
 
     start = operating_point(circuit, mlcs)
-    maps = run_with_maps(mlcs, grid, start.y, start.charge, start.active, start.switches)
+    maps = StepMapper(mlcs, grid).run(start.y, start.charge, start.active, start.switches)
     assert maps.map_error() < 1e-10
     phi, c = maps.composition()
     x = maps.trajectory.y[:, maps.state]
@@ -193,7 +193,7 @@ def test_step_maps_reproduce_the_run():
     Y, g = maps.full_map(5)  # every unknown from the state
     assert np.abs(Y[:mlcs.n] @ x[5] + g[:mlcs.n] - maps.trajectory.y[6]).max() < 1e-9
     with pytest.raises(ValueError, match="theta = 1"):
-        run_with_maps(mlcs, grid, start.y, theta=0.5)
+        StepMapper(mlcs, grid, theta=0.5).run(start.y)
 
 
 def test_period_from_the_sources_and_from_pss_line():

@@ -1,5 +1,4 @@
-"""Periodic steady state by shooting with the exact monodromy matrix (DESIGN.md §2,
-"Periodic steady state"; docs/pss.md).
+"""Periodic steady state by shooting with the exact monodromy matrix (docs/pss.md).
 
 On a grid over one period ``T`` (the same in every period, with the sources'
 breakpoints), each implicit Euler step in a fixed mode is affine on the state

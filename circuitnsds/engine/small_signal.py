@@ -1,5 +1,4 @@
-"""Small-signal responses of an MLCS (DESIGN.md §2, "Small-signal AC around the periodic
-steady state").
+"""Small-signal responses of an MLCS (docs/ac.md).
 
 Two cases, both linear in a source's value perturbed by ``Re(û e^{jωt})`` (``û = 1``: the
 results are transfer functions per unit of the source's value, V/V, A/V, V/A, ...):

@@ -1,7 +1,6 @@
-"""A trajectory together with each step's affine map on the state (DESIGN.md §2, "Periodic
-steady state").
+"""A trajectory together with each step's affine map on the state (docs/pss.md).
 
-:func:`run_with_maps` integrates an MLCS over a grid with full complementarity
+:meth:`StepMapper.run` integrates an MLCS over a grid with full complementarity
 (:func:`circuitnsds.engine.integrate.integrate`), then rebuilds, for the mode each
 step took (active set, switch states, step size), that mode's step map
 (:meth:`circuitnsds.engine.integrate._Stepping._build_mode`, the same map the
@@ -49,7 +48,7 @@ transient does.
 
 With θ < 1 the step also carries ``(1-θ)·A y_k`` on the differential rows, which
 involves algebraic unknowns: the map on the state alone does not exist, and
-:func:`run_with_maps` refuses θ ≠ 1.
+:class:`StepMapper` refuses θ ≠ 1.
 """
 
 from __future__ import annotations
@@ -308,28 +307,3 @@ class StepMapper:
                 "mode it took, so it has no step map", where=f"t = {t1:.6g} s", time=float(t1),
                 cause=SimulationError.STEP_MAP_SINGULAR)
         return mode
-
-
-def run_with_maps(
-    mlcs: MLCS,
-    grid: np.ndarray,
-    y0: np.ndarray,
-    charge0: np.ndarray | None = None,
-    active0: np.ndarray | None = None,
-    switches0: np.ndarray | None = None,
-    *,
-    theta: float = 1.0,
-    tol: float = 1e-9,
-    stepping: str = "compiled",
-) -> StepMaps:
-    """Integrate ``mlcs`` over ``grid`` from ``y0`` (arguments as for
-    :func:`~circuitnsds.engine.integrate.integrate`) and return the run with its step maps
-    (one run; :class:`StepMapper` keeps what it built for the next).
-
-    Raises:
-        ValueError: ``theta`` is not 1 (see module docstring).
-        SimulationError: from the integration, or a visited mode whose step matrix is
-            singular (no map: it names the step).
-    """
-    return StepMapper(mlcs, grid, theta=theta, tol=tol, stepping=stepping).run(
-        y0, charge0, active0, switches0)

@@ -18,12 +18,18 @@ from circuitnsds.system.stimuli import Dc, Stimulus
 
 
 @dataclass(frozen=True)
-class VoltageSource(Element):
-    """Independent voltage source with time function ``function`` [V] and AC stimulus ``ac``
-    (magnitude [V], phase [deg]) of the small-signal ``.ac``."""
+class IndependentSource(Element):
+    """What V and I sources share: the time function ``function`` [V or A] and the AC stimulus
+    ``ac`` (magnitude [V or A], phase [deg]) of the small-signal ``.ac``."""
 
     function: Stimulus = Dc(0.0)
     ac: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class VoltageSource(IndependentSource):
+    """Independent voltage source (``function`` in volts)."""
+
     topology: ClassVar[str] = "voltage"
 
     def stamp(self, builder: MLCSBuilder) -> None:
@@ -35,12 +41,10 @@ class VoltageSource(Element):
 
 
 @dataclass(frozen=True)
-class CurrentSource(Element):
-    """Independent current source with time function ``function`` [A] and AC stimulus ``ac``
-    (magnitude [A], phase [deg]) of the small-signal ``.ac``."""
+class CurrentSource(IndependentSource):
+    """Independent current source (``function`` in amperes, flowing from n+ through the
+    source to n-)."""
 
-    function: Stimulus = Dc(0.0)
-    ac: tuple[float, float] | None = None
     topology: ClassVar[str] = "current"
 
     def stamp(self, builder: MLCSBuilder) -> None:
