@@ -130,8 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="Bode table to write: frequency [Hz], then mag [dB] and phase [deg] per "
                     "output (default: NETLIST name with _ac.csv)")
     ac.add_argument("--plot", type=Path, metavar="PNG", help="also write a Bode plot")
-    ac.add_argument("-q", "--quiet", action="store_true", help="no summary on stderr")
-    ac.add_argument("--strict", action="store_true", help=STRICT_HELP)
+    _add_quiet_and_strict(ac, "no summary on stderr")
 
     info = commands.add_parser("info", help="print elements, nodes, MLCS size, breakpoints "
                                "and the circuit checks")
@@ -147,6 +146,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(commands)
     return parser
+
+
+def _add_quiet_and_strict(command: argparse.ArgumentParser, quiet: str) -> None:
+    """``-q`` (its help says what it silences) and ``--strict``, as every analysis takes them."""
+    command.add_argument("-q", "--quiet", action="store_true", help=quiet)
+    command.add_argument("--strict", action="store_true", help=STRICT_HELP)
 
 
 def _add_output_arguments(command: argparse.ArgumentParser) -> None:
@@ -176,8 +181,7 @@ def _add_output_arguments(command: argparse.ArgumentParser) -> None:
                          'syntax "tran vavg AVG v(out) from=1m to=2m"; repeatable; printed as a table')
     command.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
                          "(default: all)")
-    command.add_argument("-q", "--quiet", action="store_true", help="no progress or summary on stderr")
-    command.add_argument("--strict", action="store_true", help=STRICT_HELP)
+    _add_quiet_and_strict(command, "no progress or summary on stderr")
 
 
 def main(argv: list[str] | None = None) -> int:
