@@ -89,27 +89,35 @@ def test_hysteresis_written_as_feedback_of_the_output_gives_the_analytic_period(
         assert np.allclose(waves.switchings("s1", True)[1:], closings, rtol=0, atol=1e-15)
 
 
+def _agrees_with_ngspice(netlist, step: float, stop: float, output: str, start: float):
+    """Run ``netlist`` in both simulators (ngspice at N = 0.03) and assert that the mean of
+    ``output``, the switching frequency and the duty cycle of ``v(sw)`` after ``start`` [s]
+    agree within 1 %; returns ours."""
+    import warnings
+
+    from circuitnsds.compare import compare
+    from tests.test_behavioural import _converter_figures
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        comparison = compare(netlist, n=0.03, step=step, stop=stop, signals=[output, "v(sw)"])
+    assert comparison.run.ok, comparison.run.ngspice.message
+    ours, theirs = comparison.circuitnsds, comparison.run.ngspice.waveforms
+    mine = _converter_figures(ours.time, ours[output], ours["v(sw)"], start)
+    figures = _converter_figures(theirs.time, theirs[output], theirs["v(sw)"], start)
+    for name, value, reference in zip(("mean", "frequency", "duty"), mine, figures):
+        assert value == pytest.approx(reference, rel=0.01), name
+    return mine
+
+
 @pytest.mark.ngspice
 def test_hysteretic_buck_agrees_with_ngspice_running_the_same_netlist():
     # netlists/buck_hysteretic.cir at h = 40 ns for both, 100-400 µs: mean v(a), switching
     # frequency and duty within 1 % (measured 3.5e-5, 7.5e-4, 9.4e-4; at 20 ns 2.2e-5, 5.2e-4,
     # 2.7e-4); both near the analytic 26.242 kHz
-    import warnings
-
-    from circuitnsds.compare import compare
     from tests.conftest import NETLISTS
-    from tests.test_behavioural import _converter_figures
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        comparison = compare(NETLISTS / "buck_hysteretic.cir", n=0.03, step=4e-8, stop=400e-6,
-                             signals=["v(a)", "v(sw)"])
-    assert comparison.run.ok, comparison.run.ngspice.message
-    ours, theirs = comparison.circuitnsds, comparison.run.ngspice.waveforms
-    mine = _converter_figures(ours.time, ours["v(a)"], ours["v(sw)"], 100e-6)
-    figures = _converter_figures(theirs.time, theirs["v(a)"], theirs["v(sw)"], 100e-6)
-    for name, value, reference in zip(("mean", "frequency", "duty"), mine, figures):
-        assert value == pytest.approx(reference, rel=0.01), name
+    mine = _agrees_with_ngspice(NETLISTS / "buck_hysteretic.cir", 4e-8, 400e-6, "v(a)", 100e-6)
     assert mine[1] == pytest.approx(1 / hysteretic_period(), rel=2e-3)
 
 
@@ -159,19 +167,6 @@ def test_compensated_peak_current_buck_agrees_with_ngspice(tmp_path):
     # switching frequency and duty within 1 % (measured over 0.6-1 ms: 4.7e-5, 0, 1.1e-3).
     # Without compensation both are chaotic (skipped cycles; ngspice's peak ratios 0.90-1.11):
     # their means differ by 0.5 %, frequency and duty by 1.8 % and 1.2 %; not compared.
-    import warnings
-
-    from circuitnsds.compare import compare
-    from tests.test_behavioural import _converter_figures
-
     path = tmp_path / "pcm.cir"
     path.write_text(peak_current_buck(0.8))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        comparison = compare(path, n=0.03, step=2e-8, stop=0.6e-3, signals=["v(out)", "v(sw)"])
-    assert comparison.run.ok, comparison.run.ngspice.message
-    ours, theirs = comparison.circuitnsds, comparison.run.ngspice.waveforms
-    mine = _converter_figures(ours.time, ours["v(out)"], ours["v(sw)"], 0.4e-3)
-    figures = _converter_figures(theirs.time, theirs["v(out)"], theirs["v(sw)"], 0.4e-3)
-    for name, value, reference in zip(("mean", "frequency", "duty"), mine, figures):
-        assert value == pytest.approx(reference, rel=0.01), name
+    _agrees_with_ngspice(path, 2e-8, 0.6e-3, "v(out)", 0.4e-3)
