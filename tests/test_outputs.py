@@ -43,6 +43,25 @@ def test_default_csv_named_like_the_netlist_is_refused(tmp_path, capsys, monkeyp
     assert netlist.read_text() == RC
 
 
+@pytest.mark.parametrize("argv", [
+    ["run", "{net}", "--events", "{net}"],
+    ["pss", "{net}", "-o", "{net}"],
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "-o", "{net}"],
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "--plot", "{net}"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "-o", "{net}"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "--plot", "{net}"],
+])
+def test_every_command_refuses_to_write_over_the_netlist(tmp_path, capsys, argv):
+    netlist = tmp_path / "hw.cir"
+    text = ("rc\n.param R=1k\nV1 in 0 PULSE(0 1 0 1u 1u 0.5m 1m) AC 1\nR1 in out {R}\n"
+            "C1 out 0 1u\n.tran 10u 1m\n.end\n")
+    netlist.write_text(text)
+    _refused(capsys, [a.replace("{net}", str(netlist)) for a in argv], "would overwrite the netlist input")
+    assert netlist.read_text() == text
+
+
 def test_output_over_an_included_file_is_refused(tmp_path, capsys):
     (tmp_path / "parts.inc").write_text("R1 in out 1k\nC1 out 0 1u\n")
     netlist = tmp_path / "top.cir"

@@ -273,6 +273,8 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         outputs["-r"] = args.raw
     if args.plot:
         outputs["--plot"] = args.plot
+    if getattr(args, "events", None):
+        outputs["--events"] = args.events
     return outputs
 
 
@@ -389,6 +391,10 @@ def _ac(args: argparse.Namespace) -> int:
             raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
                                "(the injection source)", where="--loop-gain")
         outputs = list(dict.fromkeys([*(outputs or []), *loop]))
+    bode_outputs = {"-o": args.csv or Path(args.netlist.stem + "_ac.csv")}
+    if args.plot:
+        bode_outputs["--plot"] = args.plot
+    check_outputs(bode_outputs, [circuit.file, *circuit.included])  # never over the netlist
     started = time.perf_counter()
     result = circuit.ac(args.input, outputs, sweep.frequencies(), around=args.around)
     seconds = time.perf_counter() - started
@@ -402,7 +408,7 @@ def _ac(args: argparse.Namespace) -> int:
         print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
               f"{margin:.4g} deg" if np.isfinite(crossover) else
               f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep", flush=True)
-    written = [args.csv or Path(args.netlist.stem + "_ac.csv")]
+    written = [bode_outputs["-o"]]
     with _writing(written[0]):
         write_bode_csv(result, written[0])
     if args.plot:

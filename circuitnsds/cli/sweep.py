@@ -89,6 +89,11 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
             raise CircuitError(f"--param {step.name} is given twice", where="--param")
         params[step.name] = list(step.values)
     signals = [s.strip() for s in args.signals.split(",") if s.strip()] if args.signals else None
+    from circuitnsds.output.files import check_outputs
+
+    netlist = builder.netlist
+    check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot))
+                   if path}, [netlist.file, *netlist.included])  # never over the netlist
     if args.plot:
         from circuitnsds.output import sweep_plot  # noqa: F401  (matplotlib present before the run)
     progress = CountBar(sys.stderr, enabled=False if args.quiet else None)
@@ -105,9 +110,10 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     written = []
     if args.output:
         from circuitnsds.cli.main import _writing
+        from circuitnsds.output.files import atomic_path
 
-        with _writing(args.output):
-            table.to_csv(args.output, index=False, float_format="%.10g")
+        with _writing(args.output), atomic_path(args.output) as temporary:
+            table.to_csv(temporary, index=False, float_format="%.10g")
         written.append(args.output)
     shown = table.drop(columns=[c for c in ("warnings", "file") if c in table.columns])
     if not (table["error"] != "").any():

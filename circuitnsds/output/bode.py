@@ -6,6 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+from circuitnsds.output.files import atomic_path
+from circuitnsds.output.plot import save_figure
+
 
 def write_bode_csv(result, path: str | Path) -> None:
     """CSV: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg] per output."""
@@ -15,8 +18,9 @@ def write_bode_csv(result, path: str | Path) -> None:
     for name in names:
         columns += [result.magnitude_db(name), result.phase_deg(name)]
         header += [f"mag({name})", f"phase({name})"]
-    np.savetxt(path, np.column_stack(columns), delimiter=",", header=",".join(header), comments="",
-               fmt="%.10g")
+    with atomic_path(path) as temporary:
+        np.savetxt(temporary, np.column_stack(columns), delimiter=",", header=",".join(header),
+                   comments="", fmt="%.10g")
 
 
 def plot_bode(result, path: str | Path, marks: dict | None = None, dpi: int = 120) -> None:
@@ -45,4 +49,4 @@ def plot_bode(result, path: str | Path, marks: dict | None = None, dpi: int = 12
             phase.annotate(f"phase margin {margin:.3g}°", (crossover, margin - 180),
                            textcoords="offset points", xytext=(4, 4), fontsize=8)
     magnitude.legend()
-    figure.savefig(path, dpi=dpi)
+    save_figure(figure, path, dpi)

@@ -114,10 +114,20 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
     figure = Figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
                     layout="constrained")
     draw(figure, waves, chosen, events)
-    # rendered in memory, then written here: matplotlib's own writers can swallow a failed
-    # write (ENOSPC on /dev/full reported success); closing our file raises it
+    save_figure(figure, path, dpi, file_format)
+
+
+def save_figure(figure, path: str | Path, dpi: int = 120, file_format: str | None = None) -> None:
+    """Write a matplotlib ``figure`` to ``path`` (format from the extension) through a
+    temporary file and a rename. It is rendered in memory and written here: matplotlib's own
+    writers can swallow a failed write (ENOSPC on /dev/full reported success); closing our
+    file raises it.
+
+    Raises:
+        PlotError: the extension names no format matplotlib writes.
+    """
     buffer = io.BytesIO()
-    figure.savefig(buffer, format=file_format, dpi=dpi)
+    figure.savefig(buffer, format=file_format or plot_format(path), dpi=dpi)
     with atomic_path(path) as temporary, open(temporary, "wb") as handle:
         handle.write(buffer.getvalue())
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from circuitnsds.output.plot import PlotError
+from circuitnsds.output.plot import PlotError, save_figure
 
 MAX_LINES = 12
 """Most lines in one panel (more combinations of the other parameters is an error)."""
@@ -67,7 +67,7 @@ def plot_sweep(table, parameters: Sequence[str], measures: Sequence[str], path: 
             std = values.std(ddof=1) if values.size > 1 else 0.0
             axis.set_title(f"{measure}: mean {values.mean():.6g}, std {std:.3g}, "
                            f"{values.size} runs{note}", fontsize="medium")
-        figure.savefig(path, dpi=dpi)
+        save_figure(figure, path, dpi)
         return
     x, others = changing[0], [p for p in changing[1:] if p != run]
     groups = list(ok.groupby(others, sort=True)) if others else [((), ok)]
@@ -92,5 +92,5 @@ def plot_sweep(table, parameters: Sequence[str], measures: Sequence[str], path: 
         if others:
             axis.legend(fontsize="small")
     axes[0].set_title(f"{len(ok)} points{note}", fontsize="medium")
-    figure.savefig(path, dpi=dpi)
+    save_figure(figure, path, dpi)
 

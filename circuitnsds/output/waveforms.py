@@ -136,7 +136,9 @@ class Waveforms:
 
     def events_to_csv(self, path: str | Path) -> None:
         """Write the switchings as CSV: ``time,element,state`` (state 1 = closed, 0 = open)."""
-        with open(path, "w", encoding="utf-8") as handle:
+        from circuitnsds.output.files import atomic_path
+
+        with atomic_path(path) as temporary, open(temporary, "w", encoding="utf-8") as handle:
             handle.write("time,element,state\n")
             for time, element, state in self.events:
                 handle.write(f"{time:.12g},{element},{int(state)}\n")
