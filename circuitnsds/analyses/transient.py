@@ -28,12 +28,61 @@ def run_transient(circuit: Circuit, *, signals: Sequence[str] | None = None, **s
     forward (and breakdown) current of every fitted diode model, the models are refitted over
     ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
     if circuit.options.get("pwlfit") != "auto":
-        return _run_transient(circuit, signals=signals, **settings)
+        waves = _run_transient(circuit, signals=signals, **settings)
+        _note_fits_outside_their_range(circuit, waves)
+        return waves
     first = _run_transient(circuit, **settings)  # every signal: the diodes' currents
     refitted = _refitted(circuit, first)
     if refitted is not circuit:
         return _run_transient(refitted, signals=signals, **settings)
     return first if signals is None else first.select(signals)
+
+
+def _fitted_peaks(circuit: Circuit, waves: Waveforms) -> dict[str, tuple[float, float]]:
+    """Model name -> the largest forward and reverse current [A] per unit area that ``waves``
+    shows through the instances of each Shockley-fitted diode model (the models whose
+    instances' currents ``waves`` does not hold are left out)."""
+    from circuitnsds.circuit.elements import Diode
+
+    peaks: dict[str, tuple[float, float]] = {}
+    for element in circuit.elements:
+        if isinstance(element, Diode) and element.model.shockley is not None:
+            try:
+                current = np.asarray(waves[f"i({element.name})"]) / element.area
+            except KeyError:  # a run that kept only some signals
+                continue
+            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
+            peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
+                                         max(reverse, float(-current.min(initial=0.0))))
+    return peaks
+
+
+FIT_DROP_TOLERANCE = 0.02
+"""Forward-drop error [V] of a fitted line (against its Shockley curve) at a diode's peak
+current beyond which the run notes that the fit range misses the circuit's currents."""
+
+
+def _note_fits_outside_their_range(circuit: Circuit, waves: Waveforms) -> None:
+    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward
+    current lies outside the range its line was fitted over, where the line misses the curve
+    by more than :data:`FIT_DROP_TOLERANCE` (the answer is then the line's, not the model's)."""
+    from circuitnsds.circuit.elements import Diode
+
+    models = {e.model.name: e.model for e in circuit.elements
+              if isinstance(e, Diode) and e.model.fit_range is not None}
+    for name, (peak, _) in _fitted_peaks(circuit, waves).items():
+        model = models.get(name)
+        if model is None or peak <= 1e-12:
+            continue
+        low, high = model.fit_range
+        line = model.forward_drop + model.on_resistance * peak
+        error = abs(line - float(model.shockley.forward_voltage(peak)))
+        if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
+            warnings.warn(RunNote(
+                f"{circuit.file}: .model {name} was fitted over {low:.3g}..{high:.3g} A but its "
+                f"diodes carry up to {peak:.3g} A, where the fitted line misses the model's curve by "
+                f"{error * 1e3:.3g} mV: set .options pwlfit={peak:.3g} (or pwlfit=auto) to fit it "
+                "where the circuit works"), stacklevel=4)
 
 
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
@@ -44,13 +93,7 @@ def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
     from circuitnsds.circuit.elements import Diode
     from circuitnsds.circuit.elements.diode import fitted_model
 
-    peaks: dict[str, tuple[float, float]] = {}
-    for element in circuit.elements:
-        if isinstance(element, Diode) and element.model.shockley is not None:
-            current = np.asarray(waves[f"i({element.name})"]) / element.area
-            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
-            peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
-                                         max(reverse, float(-current.min(initial=0.0))))
+    peaks = _fitted_peaks(circuit, waves)
     if not peaks:
         return circuit
     models = {}

@@ -40,6 +40,8 @@ class DiodeModel:
             Shockley fit (:mod:`circuitnsds.circuit.elements.diode_fit`) with its figures.
         shockley: the Shockley curve a fitted model came from (``None`` otherwise), so that
             it can be refitted (``.options pwlfit=auto``).
+        fit_range: the forward currents ``(low, high)`` [A] the line was fitted over, for a
+            fitted model.
         location: where the card was written.
     """
 
@@ -51,6 +53,7 @@ class DiodeModel:
     breakdown_resistance: float = 0.0
     origin: str = "ideal"
     shockley: ShockleyDiode | None = None
+    fit_range: tuple[float, float] | None = None
     location: SourceLocation | None = None
 
     @property
@@ -73,7 +76,7 @@ def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float
     forward = fit_forward(diode, forward_current)
     origin = "Shockley fit: " + forward.describe("Vfwd", "Ron")
     model = replace(model, forward_drop=forward.drop, on_resistance=forward.resistance,
-                    shockley=diode)
+                    shockley=diode, fit_range=(forward.low, forward.high))
     if diode.breakdown_voltage is not None:
         reverse = fit_breakdown(diode, breakdown_current)
         origin += "; " + reverse.describe("Vrev", "Rrev")
