@@ -45,8 +45,9 @@ def injected(settled, source: str, frequency: float) -> tuple[complex, float]:
     line, sine, amplitude = CASES[source]
     circuit = circuitnsds.read_netlist(BASE.replace(line, sine.format(a=amplitude, f=frequency)))
     stop = SETTLE + WINDOW
-    mlcs = circuit.mlcs(circuit.tran.step, stop)
-    grid = time_grid(circuit.tran.step, stop, mlcs.breakpoints(stop))
+    step = circuit.analyses["tran"].step
+    mlcs = circuit.mlcs(circuitnsds.SourceDefaults(step, stop))
+    grid = time_grid(step, stop, mlcs.breakpoints(stop))
     start = settled.maps.trajectory
     started = time.perf_counter()
     run = integrate(mlcs, grid, start.y[0], None, None, start.active[0], start.switches[0])

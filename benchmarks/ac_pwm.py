@@ -61,7 +61,7 @@ def read(text: str):
 
 def injection(settled, frequency: float) -> tuple[complex, float]:
     circuit = read(netlist(f"SIN({VC} {AMPLITUDE} {frequency})"))
-    mlcs = circuit.mlcs(STEP, SETTLE + WINDOW)
+    mlcs = circuit.mlcs(circuitnsds.SourceDefaults(STEP, SETTLE + WINDOW))
     grid = time_grid(STEP, SETTLE + WINDOW, mlcs.breakpoints(SETTLE + WINDOW))
     start = settled.maps.trajectory
     began = time.perf_counter()

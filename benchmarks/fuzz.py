@@ -258,7 +258,7 @@ def run_case(data: bytes, directory: Path, cli: bool = False) -> str:
         try:
             circuit = circuitnsds.read_netlist(path)
             circuit.mlcs()
-            tran = circuit.tran
+            tran = circuit.analyses.get("tran")
             step = tran.step if tran is not None else 1e-6
             circuit.transient(step, TRANSIENT_STEPS * step)
         except CircuitnsdsError as exc:

@@ -89,7 +89,7 @@ def main() -> None:
             assert old in text, old
             text = text.replace(old, new)
         circuit = circuitnsds.read_netlist(text)
-        step = circuit.tran.step
+        step = circuit.analyses["tran"].step
         pss_seconds, pss = best_of(3, lambda circuit=circuit, step=step: circuit.pss(step=step))
         largest = float(np.abs(pss.multipliers).max())
         waves = circuit.transient(step, longest * pss.period)

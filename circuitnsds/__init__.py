@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from circuitnsds import _blas  # noqa: F401  (first: before numpy is imported)
-from circuitnsds.circuit.circuit import Circuit, TranSpec
+from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.compare import compare  # the function; the subpackage stays importable by name
 from circuitnsds.errors import (
     CircuitError,
@@ -30,6 +30,7 @@ from circuitnsds.errors import (
 )
 from circuitnsds.output import measure
 from circuitnsds.output.waveforms import Waveforms
+from circuitnsds.specs import AcSpec, PssSpec, SourceDefaults, TransientSpec, TranSpec
 from circuitnsds.system.mlcs import MLCS
 
 __version__ = "0.1.0"
@@ -79,7 +80,7 @@ def sweep(netlist, params=None, **options):
 
 
 __all__ = [
-    "MLCS", "Circuit", "CircuitError", "CircuitWarning", "CircuitnsdsError", "NetlistError",
-    "NetlistWarning",
-    "SimulationError", "TranSpec", "Waveforms", "compare", "measure", "read_netlist", "sweep",
+    "MLCS", "AcSpec", "Circuit", "CircuitError", "CircuitWarning", "CircuitnsdsError", "NetlistError",
+    "NetlistWarning", "PssSpec", "SimulationError", "SourceDefaults", "TransientSpec", "TranSpec",
+    "Waveforms", "compare", "measure", "read_netlist", "sweep",
 ]

@@ -8,6 +8,7 @@ import numpy as np
 
 from circuitnsds.engine.integrate import integrate
 from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.specs import SourceDefaults
 
 
 def injected_response(injected, start, step: float, frequency: float, amplitude: float,
@@ -23,7 +24,7 @@ def injected_response(injected, start, step: float, frequency: float, amplitude:
         settle: time [s] left for the injection's start-up to decay.
         window: length [s] of the DFT after ``settle``.
     """
-    mlcs = injected.mlcs(step, settle + window)
+    mlcs = injected.mlcs(SourceDefaults(step, settle + window))
     grid = time_grid(step, settle + window, mlcs.breakpoints(settle + window))
     run = integrate(mlcs, grid, start.y[0], None, None, start.active[0], start.switches[0])
     out = run.y[:, mlcs.unknowns.index(signal)]

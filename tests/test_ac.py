@@ -126,11 +126,11 @@ def test_ac_errors():
 
 def test_ac_line_and_source_magnitudes():
     circuit = read(RLC.replace("AC 1", "AC 2 90").replace(".ac dec 10 100 1meg", ".ac oct 3 1k 8k"))
-    assert circuit.ac_spec.frequencies() == pytest.approx(1e3 * 2 ** (np.arange(10) / 3))
+    assert circuit.analyses["ac"].frequencies() == pytest.approx(1e3 * 2 ** (np.arange(10) / 3))
     driven = circuit.ac(outputs="v(out)")
     unit = circuit.ac("v1", "v(out)")
     assert np.allclose(driven.transfer["v(out)"], 2j * unit.transfer["v(out)"], rtol=1e-12)
-    assert read(RLC.replace(".ac dec 10 100 1meg", ".ac lin 5 1k 2k")).ac_spec.frequencies() == \
+    assert read(RLC.replace(".ac dec 10 100 1meg", ".ac lin 5 1k 2k")).analyses["ac"].frequencies() == \
         pytest.approx([1000, 1250, 1500, 1750, 2000])
     for line, message in ((".ac dec 10 100", "three numbers"), (".ac log 10 1 10", "DEC, OCT or LIN"),
                           (".ac dec 0 1 10", "positive integer"), (".ac dec 10 10 1", "FSTART <= FSTOP")):
@@ -172,7 +172,7 @@ def test_buck_line_to_output_matches_a_sine_injection_transient(frequency):
     ours = circuit.ac("vin", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
     amplitude = 10e-3
     injected = read(BUCK.replace("Vin in 0 DC 24", f"Vin in 0 SIN(24 {amplitude} {frequency})"))
-    theirs = injected_response(injected, settled.maps.trajectory, injected.tran.step, frequency,
+    theirs = injected_response(injected, settled.maps.trajectory, injected.analyses["tran"].step, frequency,
                                amplitude, settle=5e-3, window=1e-3)
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
     assert abs(np.degrees(np.angle(ours / theirs))) < 2

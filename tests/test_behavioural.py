@@ -93,7 +93,7 @@ LIMITERS = [
 
 def _trajectory(circuit):
     mlcs = circuit.mlcs()
-    tran = circuit.tran
+    tran = circuit.analyses["tran"]
     grid = time_grid(tran.step, tran.stop, mlcs.breakpoints(tran.stop))
     state = uic_state(circuit, mlcs)
     return mlcs, integrate(mlcs, grid, state.y, state.charge, state.current, state.active,

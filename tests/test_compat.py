@@ -165,7 +165,7 @@ def test_two_tran_lines_run_the_first_with_a_warning():
     body = "V1 a 0 1\nR1 a 0 1k\n.tran 1u 1m\n.tran 2u 5m"
     with pytest.warns(circuitnsds.errors.NetlistWarning, match="second .tran line ignored"):
         circuit = circuit_from(body)
-    assert (circuit.tran.step, circuit.tran.stop) == (1e-6, 1e-3)
+    assert (circuit.analyses["tran"].step, circuit.analyses["tran"].stop) == (1e-6, 1e-3)
     assert circuit.transient().time[-1] == pytest.approx(1e-3)
 
 
@@ -173,7 +173,7 @@ def test_two_tran_lines_run_the_first_with_a_warning():
 def test_ltspice_tran_forms(line):
     with pytest.warns(circuitnsds.errors.NetlistWarning, match="TSTOP/1000"):
         circuit = circuit_from(f"V1 a 0 1\nR1 a 0 1k\n{line}")
-    assert circuit.tran.stop == 10e-3 and circuit.tran.step == pytest.approx(10e-6)
+    assert circuit.analyses["tran"].stop == 10e-3 and circuit.analyses["tran"].step == pytest.approx(10e-6)
 
 
 # source syntax of LTspice exports (spicelib's top_circuit.net has PULSE(... 1) and 1µ)

@@ -37,7 +37,7 @@ def pulse_switch_intervals(pulse, threshold: float, stop: float) -> list[tuple[f
 def grid_tolerance(circuit) -> float:
     """How far a grid point may sit from an instant computed here and still be that instant:
     far below the 5 ns between a crossing and its neighbours, far above rounding (~1e-16 s)."""
-    return 1e-12 * circuit.tran.stop
+    return 1e-12 * circuit.analyses["tran"].stop
 
 
 def assert_on_grid(times: np.ndarray, instants: np.ndarray, tolerance: float) -> None:
@@ -82,7 +82,7 @@ def buck():
 def test_buck_switch_changes_state_exactly_at_the_gate_crossings(buck):
     circuit, waves = buck
     switch = circuit.element("s1")
-    pulse = circuit.element("vgate").function.resolve(circuit.tran.step, circuit.tran.stop)
+    pulse = circuit.element("vgate").function.resolve(*circuit.analyses["tran"].source_defaults)
     threshold = switch.model.threshold
     assert switch.model.hysteresis == 0
     t = waves.time
@@ -110,7 +110,7 @@ def test_buck_steady_state_output_is_d_vin_minus_the_resistive_drops(buck):
     r = circuit.element("rload").resistance
     ron = circuit.element("s1").model.on_resistance
     rd = circuit.element("d1").model.on_resistance
-    pulse = circuit.element("vgate").function.resolve(circuit.tran.step, circuit.tran.stop)
+    pulse = circuit.element("vgate").function.resolve(*circuit.analyses["tran"].source_defaults)
     close, opens = pulse_switch_intervals(pulse, circuit.element("s1").model.threshold, 1e-9)[0]
     duty = (opens - close) / pulse.period
     assert duty == pytest.approx(0.5, abs=1e-12)
@@ -156,7 +156,7 @@ def boost():
 
 
 def boost_values(circuit):
-    pulse = circuit.element("vgate").function.resolve(circuit.tran.step, circuit.tran.stop)
+    pulse = circuit.element("vgate").function.resolve(*circuit.analyses["tran"].source_defaults)
     close, opens = pulse_switch_intervals(pulse, circuit.element("s1").model.threshold, 1e-9)[0]
     return dict(
         vin=circuit.element("vin").function.level, r=circuit.element("rload").resistance,

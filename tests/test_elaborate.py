@@ -35,7 +35,7 @@ DZ b 0 zen
     assert d1.model.forward_drop == 0.7 and d1.model.on_resistance == 10e-3
     assert dz.model.kind == "zener" and dz.model.breakdown_voltage == 5.1
     assert dz.model.breakdown_resistance == 2
-    tran = circuit.tran
+    tran = circuit.analyses["tran"]
     assert (tran.step, tran.stop, tran.start, tran.max_step, tran.uic) == (1e-6, 1e-3, 0, 2e-6, True)
 
 

@@ -157,7 +157,7 @@ def test_monodromy_is_the_decay_a_transient_shows():
     text, step, _ = CONVERTERS["boost_ccm"]
     circuit = circuitnsds.read_netlist(text)
     result = circuit.pss(step=step)
-    mlcs = circuit.mlcs(circuit.tran.step, circuit.tran.stop)
+    mlcs = circuit.mlcs(circuit.analyses["tran"].source_defaults)
     periods = 200
     grid = time_grid(step, periods * result.period, mlcs.breakpoints(periods * result.period))
     state = result.maps.state

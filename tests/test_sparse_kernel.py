@@ -342,10 +342,11 @@ def test_dense_mode_blocks_hold_the_numbers_of_the_sparse_ones(netlist, theta):
 
     import circuitnsds
     from circuitnsds.engine.step_system import mode_blocks, step_system
+    from circuitnsds.specs import SourceDefaults
     from tests.conftest import NETLISTS
 
     circuit = circuitnsds.read_netlist(NETLISTS / netlist)
-    mlcs = circuit.mlcs(1e-6, 1e-3)
+    mlcs = circuit.mlcs(SourceDefaults(1e-6, 1e-3))
     for states in itertools.product((False, True), repeat=len(mlcs.switches)):
         system = step_system(mlcs, 1e-6, states, theta)
         for active in itertools.product((False, True), repeat=min(mlcs.m, 6)):

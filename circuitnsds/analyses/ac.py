@@ -67,10 +67,11 @@ def run_ac(circuit: Circuit, input: str | None, outputs, frequencies, *, around:
            pss=None) -> ACResult:
     """See :meth:`Circuit.ac`."""
     if frequencies is None:
-        if circuit.ac_spec is None:
+        spec = circuit.analyses.get("ac")
+        if spec is None:
             raise CircuitError("no frequencies given and no .ac line", where=circuit.file,
                                hint="add '.ac DEC 20 10 1meg' to the netlist, or give frequencies")
-        frequencies = circuit.ac_spec.frequencies()
+        frequencies = spec.frequencies()
     frequencies = np.atleast_1d(np.asarray(frequencies, dtype=float))
     if not (frequencies > 0).all():
         raise CircuitError("AC frequencies must be positive", where=circuit.file)

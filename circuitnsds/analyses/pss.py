@@ -31,6 +31,7 @@ from circuitnsds.engine.step_maps import StepMapper, StepMaps
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import Waveforms
+from circuitnsds.specs import SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
 
@@ -171,7 +172,7 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
     the period, at least ``1e-9`` of the largest scale of its unit), ``|P(x_0)_i − x_{0,i}|
     <= tol · s_i``.
     """
-    spec = circuit.pss_spec
+    spec = circuit.analyses.get("pss")
     why = ("with theta < 1 a step depends on the algebraic unknowns too, so the period map is not "
            "a map of the state alone")
     if theta is not None and theta != 1.0:
@@ -205,7 +206,7 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
         t0 = _periodic_from(circuit)
     if not period > 0:
         raise CircuitError(f"the period must be positive, got {period:g} s", where=circuit.file)
-    tran = circuit.tran
+    tran = circuit.analyses.get("tran")
     if step is None:
         if spec is not None and spec.points:
             step = period / spec.points
@@ -223,13 +224,14 @@ def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None
         periods_warmup = math.ceil(spec.stabilisation / period - 1e-9)
     uic = uic if uic is not None else ((spec.uic if spec is not None else False)
                                        or (tran.uic if tran is not None else False))
-    # the sources' analysis-dependent defaults (PULSE TR = TSTEP, ...) as the transient has them
-    resolve_step = tran.step if tran is not None else step
-    resolve_stop = tran.stop if tran is not None else t0 + (periods_warmup + 1) * period
-    mlcs = circuit.mlcs(resolve_step, resolve_stop)
+    # the sources' analysis-dependent defaults (PULSE TR = TSTEP, ...): the transient's when the
+    # netlist has one (the same waveforms), else this analysis' step and time span
+    defaults = (tran.source_defaults if tran is not None
+                else SourceDefaults(step, t0 + (periods_warmup + 1) * period))
+    mlcs = circuit.mlcs(defaults)
     grid = _period_grid(mlcs, step, t0, period)
 
-    check_initial_conditions(circuit, circuit._resolved(resolve_step, resolve_stop), uic)
+    check_initial_conditions(circuit, circuit._resolved(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
     start_time = t0 + periods_warmup * period
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches

@@ -18,23 +18,45 @@ from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
+from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
 from circuitnsds.theta import theta_in_range
 
 
-def run_transient(circuit: Circuit, *, signals: Sequence[str] | None = None, **settings) -> Waveforms:
-    """See :meth:`Circuit.transient` (``settings``: the keyword arguments of
-    :func:`_run_transient`). With ``.options pwlfit=auto`` a first run measures the peak
-    forward (and breakdown) current of every fitted diode model, the models are refitted over
-    ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
+def transient_spec(circuit: Circuit, **given: float | bool | None) -> TransientSpec:
+    """The transient to run: the netlist's ``.tran`` line with the fields ``given`` (not
+    ``None``) replacing its own, θ from ``.options theta`` (else 1) when neither says.
+
+    Raises:
+        CircuitError: no ``.tran`` line, and no step and stop given.
+    """
+    tran = circuit.analyses.get("tran")
+    if tran is None:
+        if given.get("step") is None or given.get("stop") is None:
+            raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
+                               hint="add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or "
+                               "give --step and --stop (step= and stop= in Python)")
+        tran = TransientSpec(step=given["step"], stop=given["stop"])
+    spec = tran.overridden(**given)
+    if spec.theta is None:
+        spec = replace(spec, theta=circuit.options.get("theta", 1.0))
+    return spec
+
+
+def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[str] | None = None,
+                  **settings) -> Waveforms:
+    """Run the transient ``spec`` (see :meth:`Circuit.transient`; ``settings``: the other
+    keyword arguments of :func:`_run_transient`). With ``.options pwlfit=auto`` a first run
+    measures the peak forward (and breakdown) current of every fitted diode model, the models
+    are refitted over ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`)."""
     if circuit.options.get("pwlfit") != "auto":
-        waves = _run_transient(circuit, signals=signals, **settings)
+        waves = _run_transient(circuit, spec, signals=signals, **settings)
         _note_fits_outside_their_range(circuit, waves)
         return waves
-    first = _run_transient(circuit, **settings)  # every signal: the diodes' currents
+    first = _run_transient(circuit, spec, **settings)  # every signal: the diodes' currents
     refitted = _refitted(circuit, first)
     if refitted is not circuit:
-        return _run_transient(refitted, signals=signals, **settings)
+        return _run_transient(refitted, spec, signals=signals, **settings)
     return first if signals is None else first.select(signals)
 
 
@@ -113,29 +135,16 @@ def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
 
 def _run_transient(
     circuit: Circuit,
+    spec: TransientSpec,
     *,
-    step: float | None,
-    stop: float | None,
-    start: float | None,
-    max_step: float | None,
-    theta: float,
-    uic: bool | None,
-    tol: float,
-    progress: Callable[[float, float], None] | None,
+    tol: float = 1e-9,
+    progress: Callable[[float, float], None] | None = None,
     stepping: str = "auto",
     signals: Sequence[str] | None = None,
 ) -> Waveforms:
-    tran = circuit.tran
-    if (step is None or stop is None) and tran is None:
-        raise CircuitError("no .tran line and no step/stop given", where=circuit.file,
-                           hint="add '.tran TSTEP TSTOP' to the netlist (e.g. .tran 1u 10m), or give "
-                           "--step and --stop (step= and stop= in Python)")
-    explicit_step = step is not None
-    step = step if step is not None else tran.step
-    stop = stop if stop is not None else tran.stop
-    start = start if start is not None else (tran.start if tran else 0.0)
-    max_step = max_step if max_step is not None else (tran.max_step if tran else None)
-    uic = uic if uic is not None else (tran.uic if tran else False)
+    step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
+    theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
+    explicit_step = not spec.refine_step
     if step <= 0 or stop <= 0:
         raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
                            where=circuit.file)
@@ -149,8 +158,8 @@ def _run_transient(
     if not 0 <= start < stop:
         raise CircuitError(f"start = {start:g} s must lie in [0, stop)", where=circuit.file)
 
-    mlcs = circuit.mlcs(step, stop)
-    h = min(step, max_step) if max_step else step
+    mlcs = circuit.mlcs(spec.source_defaults)
+    h = spec.grid_step
     report_step = None
     needed = _resolving_step(circuit, step, stop)
     if needed is not None and h > needed[0] * (1 + 1e-9):
@@ -173,7 +182,7 @@ def _run_transient(
     except ValueError as exc:
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
-    check_initial_conditions(circuit, circuit._resolved(step, stop), uic)
+    check_initial_conditions(circuit, circuit._resolved(spec.source_defaults), uic)
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)

@@ -62,6 +62,7 @@ from circuitnsds.engine.step_system import step_system
 from circuitnsds.errors import CircuitError
 from circuitnsds.solvers.linalg import RCOND_MIN, factorise
 from circuitnsds.solvers.pivot_transform import PivotTransform, completion_mask
+from circuitnsds.specs import SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 
 EXACT_LIMIT = 12
@@ -423,9 +424,9 @@ def switch_configurations(switches: list, states=None) -> list[tuple[bool, ...]]
 def analyse_circuit(circuit, step: float | None = None, *, states=None,
                     theta: float = 1.0) -> list[WellPosedness]:
     """:func:`analyse` for each switch configuration, with the ideal-limit notes."""
-    step = step or (circuit.tran.step if circuit.tran else 1.0)
-    stop = circuit.tran.stop if circuit.tran else max(step, 1.0)
-    mlcs = circuit.mlcs(step, stop)
+    tran = circuit.analyses.get("tran")  # the step examined is the transient's, unless given
+    step = step or (tran.step if tran else 1.0)
+    mlcs = circuit.mlcs(SourceDefaults(step, tran.stop if tran else max(step, 1.0)))
     reports = []
     for configuration in switch_configurations(mlcs.switches, states):
         report = analyse(mlcs, step, configuration, theta)
@@ -438,7 +439,8 @@ def report_lines(circuit) -> list[str]:
     """Lines for ``circuitnsds info``: the verdict for each switch configuration examined."""
     from circuitnsds.units import format_si
 
-    step = circuit.tran.step if circuit.tran else 1.0
+    tran = circuit.analyses.get("tran")
+    step = tran.step if tran else 1.0
     reports = analyse_circuit(circuit, step)
     lines = [f"well-posedness of each step's LCP (h = {format_si(step, 's')}):"]
     for report in reports:

@@ -1,4 +1,9 @@
-"""A circuit: elements, models, analysis settings; the user's entry point to simulation."""
+"""A circuit: elements, nodes, models, initial conditions; the user's entry point to simulation.
+
+The analysis lines read with it (``.tran``, ``.pss``, ``.ac``) are plain specs
+(:mod:`circuitnsds.specs`) in :attr:`Circuit.analyses`; the circuit does not use them
+itself: each analysis takes the circuit and its spec.
+"""
 
 from __future__ import annotations
 
@@ -8,63 +13,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from circuitnsds.circuit.elements import Element
-from circuitnsds.errors import CircuitError, NetlistError, NetlistWarning, SourceLocation
+from circuitnsds.errors import CircuitError, NetlistError, SourceLocation
+from circuitnsds.specs import AcSpec, AnalysisSpec, PssSpec, SourceDefaults, TransientSpec, TranSpec
 from circuitnsds.system.mlcs import MLCS, MLCSBuilder
 
+__all__ = ["AcSpec", "Circuit", "PssSpec", "TranSpec", "TransientSpec"]  # the specs: old import path
 
-@dataclass(frozen=True)
-class TranSpec:
-    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]`` (times in seconds)."""
-
-    step: float
-    stop: float
-    start: float = 0.0
-    max_step: float | None = None
-    uic: bool = False
-    location: SourceLocation | None = None
-
-
-@dataclass(frozen=True)
-class PssSpec:
-    """``.pss GFREQ [TSTAB [OSCNOB [PSSPOINTS [HARMS [SCITER [STEADYCOEFF]]]]]] [UIC]``
-    (ngspice's field order; see docs/pss.md for what circuitnsds makes of each).
-
-    Attributes:
-        frequency: the fundamental frequency [Hz] (the period is its inverse).
-        stabilisation: transient time [s] run before the shooting starts.
-        points: grid steps per period (``None``: the ``.tran`` step, else 1000).
-        iterations: Newton iterations per round (``None``: the analysis' default).
-        tol: relative tolerance of the periodicity residual (``None``: default).
-        uic: start from initial conditions instead of the operating point.
-    """
-
-    frequency: float
-    stabilisation: float = 0.0
-    points: int | None = None
-    iterations: int | None = None
-    tol: float | None = None
-    uic: bool = False
-    location: SourceLocation | None = None
-
-
-@dataclass(frozen=True)
-class AcSpec:
-    """``.ac DEC|OCT|LIN N FSTART FSTOP`` (frequencies in Hz)."""
-
-    sweep: str
-    points: int
-    start: float
-    stop: float
-    location: SourceLocation | None = None
-
-    def frequencies(self) -> np.ndarray:
-        """The sweep's frequencies [Hz], as ngspice spaces them (DEC/OCT: N per decade/octave
-        from FSTART while <= FSTOP; LIN: N points from FSTART to FSTOP)."""
-        if self.sweep == "lin":
-            return np.linspace(self.start, self.stop, self.points)
-        base = 10.0 if self.sweep == "dec" else 2.0
-        count = int(np.floor(self.points * np.log(self.stop / self.start) / np.log(base) + 1e-9)) + 1
-        return self.start * base ** (np.arange(count) / self.points)
+NO_TRAN = SourceDefaults(1.0, 1.0)
+"""Source defaults without a ``.tran`` line: a 1 s time scale."""
 
 
 @dataclass
@@ -77,9 +33,10 @@ class Circuit:
         nodes: node names in order of first appearance, ground (``0``) excluded.
         models: model name -> :class:`~circuitnsds.circuit.elements.DiodeModel` (or the type
             letter of a model the engine does not use).
-        tran: the ``.tran`` line, if any.
-        pss_spec: the ``.pss`` line, if any.
-        ac_spec: the ``.ac`` line, if any.
+        analyses: the netlist's analysis lines as specs, by command without the dot:
+            ``"tran"`` (:class:`~circuitnsds.specs.TransientSpec`), ``"pss"``
+            (:class:`~circuitnsds.specs.PssSpec`), ``"ac"`` (:class:`~circuitnsds.specs.AcSpec`);
+            data for the analyses, which take them as their defaults.
         initial_voltages: ``.ic`` node voltages [V] with their netlist locations.
         file: the netlist file name.
         included: the files its ``.include``/``.lib`` lines read (resolved paths).
@@ -97,9 +54,7 @@ class Circuit:
     nodes: list[str] = field(default_factory=list)
     models: dict[str, object] = field(default_factory=dict)
     model_locations: dict[str, SourceLocation] = field(default_factory=dict)
-    tran: TranSpec | None = None
-    pss_spec: PssSpec | None = None
-    ac_spec: AcSpec | None = None
+    analyses: dict[str, AnalysisSpec] = field(default_factory=dict)
     initial_voltages: dict[str, tuple[float, SourceLocation | None]] = field(default_factory=dict)
     file: str = "<text>"
     included: list[str] = field(default_factory=list)
@@ -153,15 +108,27 @@ class Circuit:
                 self.nodes.append(node)
                 node_set.add(node)
 
-    def set_tran(self, tran: TranSpec, location: SourceLocation | None = None) -> None:
-        if self.tran is not None:  # ngspice runs the first .tran and warns
-            import warnings
+    @property
+    def tran(self) -> TransientSpec | None:
+        """Deprecated (one release): ``analyses.get("tran")``."""
+        return self._deprecated("tran", "tran")
 
-            warnings.warn(f"{location or self.file}: second .tran line ignored: the first one "
-                          f"(at {self.tran.location}) runs, as in ngspice", NetlistWarning,
-                          stacklevel=2)
-            return
-        self.tran = tran
+    @property
+    def pss_spec(self) -> PssSpec | None:
+        """Deprecated (one release): ``analyses.get("pss")``."""
+        return self._deprecated("pss_spec", "pss")
+
+    @property
+    def ac_spec(self) -> AcSpec | None:
+        """Deprecated (one release): ``analyses.get("ac")``."""
+        return self._deprecated("ac_spec", "ac")
+
+    def _deprecated(self, attribute: str, key: str) -> AnalysisSpec | None:
+        import warnings
+
+        warnings.warn(f"Circuit.{attribute} is deprecated: use circuit.analyses.get({key!r})",
+                      DeprecationWarning, stacklevel=3)
+        return self.analyses.get(key)
 
     def element(self, name: str) -> Element:
         """The element called ``name`` (case-insensitive)."""
@@ -170,12 +137,15 @@ class Circuit:
             raise KeyError(name)
         return element
 
-    def mlcs(self, step: float | None = None, stop: float | None = None) -> MLCS:
+    def mlcs(self, defaults: SourceDefaults | None = None) -> MLCS:
         """Stamp every element into the circuit's MLCS.
 
-        ``step`` and ``stop`` [s] fill in source defaults that ngspice ties to the
-        analysis (``PULSE`` rise time = TSTEP, ``SIN`` frequency = 1/TSTOP, ...);
-        they default to the ``.tran`` line, or 1 s.
+        ``defaults``: the TSTEP and TSTOP [s] of the analysis being run, which fill in the
+        source fields that ngspice ties to the analysis (``PULSE`` rise time = TSTEP, ``SIN``
+        frequency = 1/TSTOP, ...): every analysis passes its own (a transient:
+        ``spec.source_defaults``). Without them, the netlist's ``.tran`` line's, as ngspice
+        has them when it runs the netlist, else 1 s (for inspecting the equations; a source's
+        value at t = 0, all the operating point reads, depends on none of them).
 
         Raises:
             CircuitError: the circuit fails a check of :mod:`circuitnsds.checks.topology` or
@@ -191,10 +161,11 @@ class Circuit:
         check_connected(self.elements, self.nodes)
         check_source_loops(self.elements)
         check_current_cutsets(self.elements, self.nodes)
-        step = step or (self.tran.step if self.tran else 1.0)
-        stop = stop or (self.tran.stop if self.tran else 1.0)
-        resolved = self._resolved(step, stop)
-        check_source_timing(resolved, stop)
+        if defaults is None:
+            tran = self.analyses.get("tran")
+            defaults = tran.source_defaults if tran is not None else NO_TRAN
+        resolved = self._resolved(defaults)
+        check_source_timing(resolved, defaults.stop)
         builder = MLCSBuilder(self.nodes)
         with np.errstate(all="ignore"):
             for element in resolved:
@@ -227,13 +198,13 @@ class Circuit:
 
         return analyse_circuit(self, step, states=states, theta=theta)
 
-    def _resolved(self, step: float, stop: float) -> list[Element]:
+    def _resolved(self, defaults: SourceDefaults) -> list[Element]:
         """Elements with their source functions' analysis-dependent defaults filled in."""
         resolved = []
         for element in self.elements:
             function = getattr(element, "function", None)
             if function is not None:
-                element = replace(element, function=function.resolve(step, stop))
+                element = replace(element, function=function.resolve(*defaults))
             resolved.append(element)
         return resolved
 
@@ -285,14 +256,13 @@ class Circuit:
             SimulationError: a step has no solution or a value became non-finite; its
                 ``partial`` attribute holds the waveforms up to the last good step.
         """
-        from circuitnsds.analyses.transient import run_transient
+        from circuitnsds.analyses.transient import run_transient, transient_spec
 
-        if theta is None:
-            theta = self.options.get("theta", 1.0)
+        spec = transient_spec(self, step=step, stop=stop, start=start, max_step=max_step,
+                              theta=theta, uic=uic)
         with self._strictness():
-            return run_transient(self, step=step, stop=stop, start=start, max_step=max_step,
-                                 theta=theta, uic=uic, tol=tol, progress=progress,
-                                 stepping=stepping, signals=signals)
+            return run_transient(self, spec, tol=tol, progress=progress, stepping=stepping,
+                                 signals=signals)
 
     def pss(
         self,

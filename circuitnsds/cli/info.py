@@ -87,7 +87,8 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
         ("no node fed only by current sources",
          lambda: topology.check_current_cutsets(circuit.elements, circuit.nodes), True),
     ]
-    uic = bool(circuit.tran and circuit.tran.uic)
+    tran = circuit.analyses.get("tran")
+    uic = bool(tran and tran.uic)
     checks += [
         ("DC operating point: no loop of voltage sources and inductors",
          lambda: topology.check_source_loops(circuit.elements, operating_point=True), not uic),
@@ -124,8 +125,8 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
     if details:
         lines.append("devices:")
         lines += [f"  {e.name} {' '.join(e.nodes)}: {d}" for e, d in details]
-    if circuit.tran:
-        t = circuit.tran
+    t = circuit.analyses.get("tran")
+    if t:
         lines.append(f"tran:      step {format_si(t.step, 's')}, stop {format_si(t.stop, 's')}"
                      + (f", start {format_si(t.start, 's')}" if t.start else "")
                      + (f", max step {format_si(t.max_step, 's')}" if t.max_step else "")
@@ -156,7 +157,7 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
                  + f"; {len(mlcs.stimuli)} source function(s)")
     lines.append(f"  unknowns: {', '.join(mlcs.unknowns)}")
     lines.append(f"  pairs:    {', '.join(mlcs.pairs) if mlcs.pairs else '(none)'}")
-    stop = circuit.tran.stop if circuit.tran else None
+    stop = t.stop if t else None
     if stop is not None:
         points = mlcs.breakpoints(stop)
         shown = ", ".join(format_si(float(p), "s", 6) for p in points[:BREAKPOINTS_SHOWN])

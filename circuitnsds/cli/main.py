@@ -368,12 +368,12 @@ def _ac(args: argparse.Namespace) -> int:
     import numpy as np
 
     from circuitnsds import read_netlist
-    from circuitnsds.circuit.circuit import AcSpec
     from circuitnsds.errors import CircuitError
     from circuitnsds.output.bode import plot_bode, write_bode_csv
+    from circuitnsds.specs import AcSpec
 
     circuit = read_netlist(args.netlist)
-    spec = circuit.ac_spec
+    spec = circuit.analyses.get("ac")
     start = args.fstart if args.fstart is not None else (spec.start if spec else None)
     stop = args.fstop if args.fstop is not None else (spec.stop if spec else None)
     if start is None or stop is None:

@@ -216,8 +216,8 @@ def compare(
     off_resistance = 1.0 / float(circuit.options.get("gmin", 1e-12))
     ammeters = sorted({name[2:-1].split(".")[-1] for name in chosen if _element_letter(name) == "d"})
 
-    if step is None and circuit.tran is not None:
-        step = circuit.tran.step  # LTspice's .tran 0 TSTOP / .tran TSTOP: ngspice needs TSTEP > 0
+    if step is None and "tran" in circuit.analyses:
+        step = circuit.analyses["tran"].step  # LTspice's .tran 0 TSTOP / .tran TSTOP: ngspice needs TSTEP > 0
     runs, notes = [], []
     for override in overrides:
         with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-") as scratch:

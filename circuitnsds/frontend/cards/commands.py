@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import re
 
-from circuitnsds.circuit.circuit import AcSpec, Circuit, PssSpec, TranSpec
+from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.frontend.cards.meas import parse_four, parse_meas
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
+from circuitnsds.specs import AcSpec, PssSpec, TransientSpec
 from circuitnsds.theta import THETA_HINT, theta_in_range
 from circuitnsds.units import format_si
 
@@ -85,15 +86,19 @@ def command(circuit: Circuit, statement: Statement) -> None:
     keyword = statement.keyword
     reader = StatementReader(statement)
     if keyword == ".tran":
-        circuit.set_tran(_tran(reader), statement.location)
+        tran = _tran(reader)
+        first = circuit.analyses.setdefault("tran", tran)
+        if first is not tran:  # ngspice runs the first .tran and warns
+            reader.warn(f"second .tran line ignored: the first one (at {first.location}) runs, "
+                        "as in ngspice")
     elif keyword == ".pss":
-        if circuit.pss_spec is not None:
+        if "pss" in circuit.analyses:
             raise reader.error("more than one .pss line", hint="keep one .pss GFREQ ... line")
-        circuit.pss_spec = _pss(reader)
+        circuit.analyses["pss"] = _pss(reader)
     elif keyword == ".ac":
-        if circuit.ac_spec is not None:
+        if "ac" in circuit.analyses:
             raise reader.error("more than one .ac line", hint="keep one .ac DEC|OCT|LIN N FSTART FSTOP")
-        circuit.ac_spec = _ac(reader)
+        circuit.analyses["ac"] = _ac(reader)
     elif keyword == ".ic":
         _initial_conditions(circuit, reader)
     elif keyword == ".save":
@@ -141,7 +146,7 @@ DEFAULT_STEPS = 1000
 """``.tran 0 TSTOP`` and ``.tran TSTOP`` (LTspice) integrate with ``TSTOP/DEFAULT_STEPS``."""
 
 
-def _tran(reader: StatementReader) -> TranSpec:
+def _tran(reader: StatementReader) -> TransientSpec:
     numbers: list[float] = []
     uic = False
     while not reader.done():
@@ -171,7 +176,7 @@ def _tran(reader: StatementReader) -> TranSpec:
         raise reader.error(f".tran TSTART={start:g} must lie in [0, TSTOP)")
     if max_step is not None and max_step <= 0:
         raise reader.error(".tran TMAX must be positive")
-    return TranSpec(step=step, stop=stop, start=start, max_step=max_step, uic=uic,
+    return TransientSpec(step=step, stop=stop, start=start, max_step=max_step, uic=uic,
                     location=reader.location)
 
 
