@@ -19,33 +19,41 @@ from circuitnsds.system.mlcs import MLCSBuilder
 
 
 @dataclass(frozen=True)
-class VoltageControlledVoltageSource(Element):
-    """``E``: nodes are ``(n+, n-, nc+, nc-)``; ``gain`` is dimensionless."""
+class _VoltageControlled(Element):
+    """What ``E`` and ``G`` share: nodes ``(n+, n-, nc+, nc-)``, controlled by the voltage
+    ``v(nc+) - v(nc-)``."""
+
+    def add_control(self, builder: MLCSBuilder, row: int, coefficient: float) -> None:
+        """Add ``coefficient·(v(nc+) - v(nc-))`` to ``row`` of ``A``."""
+        cplus, cminus = (builder.node(n) for n in self.nodes[2:])
+        builder.add("A", row, cplus, coefficient)
+        builder.add("A", row, cminus, -coefficient)
+
+
+@dataclass(frozen=True)
+class VoltageControlledVoltageSource(_VoltageControlled):
+    """``E``: ``gain`` is dimensionless."""
 
     gain: float = 1.0
     topology: ClassVar[str] = "voltage"
 
     def stamp(self, builder: MLCSBuilder) -> None:
-        plus, minus, cplus, cminus = (builder.node(n) for n in self.nodes)
-        k = stamp_voltage_branch(builder, self.name, plus, minus)
-        builder.add("A", k, cplus, -self.gain)
-        builder.add("A", k, cminus, self.gain)
+        k = stamp_voltage_branch(builder, self.name, *(builder.node(n) for n in self.nodes[:2]))
+        self.add_control(builder, k, -self.gain)
 
 
 @dataclass(frozen=True)
-class VoltageControlledCurrentSource(Element):
-    """``G``: nodes are ``(n+, n-, nc+, nc-)``; ``transconductance`` in siemens."""
+class VoltageControlledCurrentSource(_VoltageControlled):
+    """``G``: ``transconductance`` in siemens; its current ``i(name)`` is an output."""
 
     transconductance: float = 1.0
     topology: ClassVar[str] = "current"
 
     def stamp(self, builder: MLCSBuilder) -> None:
-        plus, minus, cplus, cminus = (builder.node(n) for n in self.nodes)
         g = self.transconductance
-        builder.add("A", plus, cplus, -g)
-        builder.add("A", plus, cminus, g)
-        builder.add("A", minus, cplus, g)
-        builder.add("A", minus, cminus, -g)
+        plus, minus, cplus, cminus = (builder.node(n) for n in self.nodes)
+        self.add_control(builder, plus, -g)  # the current leaves n+ ...
+        self.add_control(builder, minus, g)  # ... and enters n-
         builder.output(f"i({self.name})", [(cplus, g), (cminus, -g)])
 
 
