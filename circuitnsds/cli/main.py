@@ -16,8 +16,6 @@ import argparse
 import os
 import sys
 import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 from circuitnsds.cli.progress import ProgressBar
@@ -30,6 +28,7 @@ from circuitnsds.errors import (
     for_terminal,
 )
 from circuitnsds.output.files import OutputError, check_outputs
+from circuitnsds.output.files import writing as _writing
 from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
@@ -239,16 +238,6 @@ def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
     for warning in caught:
         kind = "note" if issubclass(warning.category, RunNote) else "warning"
         print(f"circuitnsds: {kind}: {for_terminal(str(warning.message))}", file=sys.stderr)
-
-
-@contextmanager
-def _writing(path: Path) -> Iterator[None]:
-    """Turn a failure to write ``path`` into a clean error."""
-    try:
-        yield
-    except OSError as exc:
-        raise OutputError(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
-                          hint="check that the folder exists and is writable") from None
 
 
 def _read(path: Path):

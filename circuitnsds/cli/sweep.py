@@ -109,10 +109,9 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
                                                         "file")]
     written = []
     if args.output:
-        from circuitnsds.cli.main import _writing
-        from circuitnsds.output.files import atomic_path
+        from circuitnsds.output.files import atomic_path, writing
 
-        with _writing(args.output), atomic_path(args.output) as temporary:
+        with writing(args.output), atomic_path(args.output) as temporary:
             table.to_csv(temporary, index=False, float_format="%.10g")
         written.append(args.output)
     shown = table.drop(columns=[c for c in ("warnings", "file") if c in table.columns])
@@ -122,10 +121,10 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     for message in dict.fromkeys(m for text in table["warnings"] if text for m in text.split("; ")):
         print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
     if args.plot:
-        from circuitnsds.cli.main import _writing
+        from circuitnsds.output.files import writing
         from circuitnsds.output.sweep_plot import plot_sweep
 
-        with _writing(args.plot):
+        with writing(args.plot):
             plot_sweep(table, parameters, args.measure, args.plot)
         written.append(args.plot)
     failed = int((table["status"] != "ok").sum())

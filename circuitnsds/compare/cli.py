@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
+from circuitnsds.output.files import writing
 from circuitnsds.values import parse_value
 
 
@@ -74,15 +73,6 @@ def add_compare_parser(commands: argparse._SubParsersAction) -> argparse.Argumen
     return parser
 
 
-@contextmanager
-def _writing(path: Path) -> Iterator[None]:
-    try:
-        yield
-    except OSError as exc:
-        raise CompareError(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
-                           hint="check that the folder exists and is writable") from None
-
-
 def convergence_path(plot: Path) -> Path:
     """``cmp.png`` -> ``cmp-convergence.png``."""
     return plot.with_name(f"{plot.stem}-convergence{plot.suffix or '.png'}")
@@ -101,16 +91,16 @@ def run_compare(args: argparse.Namespace) -> int:
     print(comparison.table(), flush=True)
     written = []
     if args.json:
-        with _writing(args.json):
+        with writing(args.json, CompareError):
             comparison.to_json(args.json)
         written.append(args.json)
     if args.plot:
-        with _writing(args.plot):
+        with writing(args.plot, CompareError):
             comparison.plot(args.plot)
         written.append(args.plot)
         if len(comparison.runs) > 1 and all(run.overrides.n is not None for run in comparison.runs):
             path = convergence_path(args.plot)
-            with _writing(path):
+            with writing(path, CompareError):
                 comparison.plot_convergence(path)
             written.append(path)
     if written:

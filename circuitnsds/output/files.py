@@ -96,3 +96,14 @@ def check_outputs(outputs: Mapping[str, Path], inputs: Iterable[str | Path]) -> 
             if same_file(files[first], files[second]):
                 raise OutputError(f"{first} and {second} name the same file {files[first]}",
                                   where=str(files[first]), hint="give each output its own file")
+
+
+@contextmanager
+def writing(path: str | Path, error: type[CircuitnsdsError] = OutputError) -> Iterator[None]:
+    """Turn a failure to write ``path`` (an :class:`OSError` inside the block) into a clean
+    ``error`` naming the file (``OutputError`` unless the caller has its own class)."""
+    try:
+        yield
+    except OSError as exc:
+        raise error(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
+                    hint="check that the folder exists and is writable") from None
