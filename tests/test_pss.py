@@ -237,7 +237,7 @@ def test_theta_below_one_is_refused_and_the_netlist_option_warned():
 
     text = rc_square(0.1e-6)
     with pytest.raises(circuitnsds.CircuitError, match="implicit Euler"):
-        run_pss(circuitnsds.read_netlist(text), theta=0.5)
+        run_pss(circuitnsds.read_netlist(text), None, theta=0.5)
     with pytest.warns(circuitnsds.CircuitWarning, match=r"theta=0.5 applies to the transient"):
         result = circuitnsds.read_netlist(text.replace(".end", ".options theta=0.5\n.end")).pss()
     assert result.iterations == 1

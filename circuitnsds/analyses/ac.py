@@ -11,6 +11,7 @@ import numpy as np
 
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.errors import CircuitError, SimulationError
+from circuitnsds.specs import AcSpec
 from circuitnsds.system.stimuli import Dc, Pwl
 
 
@@ -63,11 +64,13 @@ def _constant(function) -> bool:
     return isinstance(function, Dc) or (isinstance(function, Pwl) and len(set(function.values)) == 1)
 
 
-def run_ac(circuit: Circuit, input: str | None, outputs, frequencies, *, around: str = "auto",
-           pss=None) -> ACResult:
-    """See :meth:`Circuit.ac`."""
+def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, frequencies, *,
+           around: str = "auto", pss=None) -> ACResult:
+    """The small-signal response of ``circuit`` at ``frequencies`` [Hz], else at those of
+    ``spec`` (an ``.ac`` line); see :meth:`Circuit.ac`. No time step is involved: around the
+    operating point every source is constant, around the periodic steady state the
+    :meth:`Circuit.pss` result brings its own grid and source defaults."""
     if frequencies is None:
-        spec = circuit.analyses.get("ac")
         if spec is None:
             raise CircuitError("no frequencies given and no .ac line", where=circuit.file,
                                hint="add '.ac DEC 20 10 1meg' to the netlist, or give frequencies")

@@ -31,7 +31,7 @@ from circuitnsds.engine.step_maps import StepMapper, StepMaps
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import Waveforms
-from circuitnsds.specs import SourceDefaults
+from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
 
@@ -163,16 +163,19 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
                        "commensurate")
 
 
-def run_pss(circuit: Circuit, period: float | None = None, *, step: float | None = None,
-            periods_warmup: int = 0, tol: float | None = None, max_iterations: int | None = None,
-            theta: float | None = None, uic: bool | None = None) -> PSSResult:
-    """See :meth:`Circuit.pss`.
+def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = None,
+            step: float | None = None, periods_warmup: int = 0, tol: float | None = None,
+            max_iterations: int | None = None, theta: float | None = None,
+            uic: bool | None = None) -> PSSResult:
+    """The periodic steady state of ``circuit`` described by ``spec`` (a ``.pss`` line, or
+    ``None``), the keyword arguments given winning over it; see :meth:`Circuit.pss`. The
+    sources' time defaults (``PULSE`` TR = TSTEP, ...) are the netlist's ``.tran`` line's
+    when it has one (the transient's waveforms), else this analysis' step and time span.
 
     Convergence: for each state unknown ``i`` with scale ``s_i`` (its largest magnitude over
     the period, at least ``1e-9`` of the largest scale of its unit), ``|P(x_0)_i − x_{0,i}|
     <= tol · s_i``.
     """
-    spec = circuit.analyses.get("pss")
     why = ("with theta < 1 a step depends on the algebraic unknowns too, so the period map is not "
            "a map of the state alone")
     if theta is not None and theta != 1.0:

@@ -298,7 +298,8 @@ class Circuit:
         from circuitnsds.analyses.pss import run_pss
 
         with self._strictness():
-            return run_pss(self, period, step=step, periods_warmup=periods_warmup, tol=tol,
+            return run_pss(self, self.analyses.get("pss"), period=period, step=step,
+                           periods_warmup=periods_warmup, tol=tol,
                            max_iterations=max_iterations, uic=uic)
 
     def ac(self, input: str | None = None, outputs=None, frequencies=None, *, around: str = "auto",
@@ -317,7 +318,8 @@ class Circuit:
         from circuitnsds.analyses.ac import run_ac
 
         with self._strictness():
-            return run_ac(self, input, outputs, frequencies, around=around, pss=pss)
+            return run_ac(self, self.analyses.get("ac"), input, outputs, frequencies, around=around,
+                          pss=pss)
 
     def operating_point(self) -> dict[str, float]:
         """DC operating point with ideal devices: every output signal's value [V or A]."""
