@@ -190,7 +190,7 @@ def test_every_refused_expression_names_its_term(expression, term, reason, form)
 @pytest.mark.parametrize(
     ("lines", "words"),
     [
-        ("A1 a o ff\n.model ff d_dff(clk_delay=1n)", ["a1", "d_dff", "not supported"]),
+        ("A1 a b c o ff\n.model ff d_jkff(clk_delay=1n)", ["a1", "d_jkff", "not supported"]),
         ("A1 a o h\n.model h hyst(in_low=0 in_high=1)", ["a1", "hyst", "not supported"]),
         ("A1 %i(a) o g\n.model g gain(gain=2)", ["a1", "%i", "not supported"]),
         ("A1 a o g\n.model g gain(gian=2)", ["unknown parameter 'gian'"]),

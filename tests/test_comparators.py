@@ -89,7 +89,8 @@ def test_hysteresis_written_as_feedback_of_the_output_gives_the_analytic_period(
         assert np.allclose(waves.switchings("s1", True)[1:], closings, rtol=0, atol=1e-15)
 
 
-def _agrees_with_ngspice(netlist, step: float, stop: float, output: str, start: float):
+def _agrees_with_ngspice(netlist, step: float, stop: float, output: str, start: float,
+                         **options):
     """Run ``netlist`` in both simulators (ngspice at N = 0.03) and assert that the mean of
     ``output``, the switching frequency and the duty cycle of ``v(sw)`` after ``start`` [s]
     agree within 1 %; returns ours."""
@@ -100,7 +101,8 @@ def _agrees_with_ngspice(netlist, step: float, stop: float, output: str, start: 
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        comparison = compare(netlist, n=0.03, step=step, stop=stop, signals=[output, "v(sw)"])
+        comparison = compare(netlist, n=0.03, step=step, stop=stop, signals=[output, "v(sw)"],
+                             **options)
     assert comparison.run.ok, comparison.run.ngspice.message
     ours, theirs = comparison.circuitnsds, comparison.run.ngspice.waveforms
     mine = _converter_figures(ours.time, ours[output], ours["v(sw)"], start)

@@ -97,6 +97,9 @@ SETTINGS = {
     # cycle and the switched waveforms; v(out) and i(l1) over the soft start (1.2 ms, h = 0.1 µs).
     "buck_voltage_mode": {"trend": ["v(out)", "i(l1)"], "grid": [1.0, 0.1], "stop": 1.2e-3,
                           "step": 1e-7},
+    # the same converter with an XSPICE adc_bridge PWM comparator and dac_bridge driver
+    "buck_voltage_mode_xspice": {"trend": ["v(out)", "i(l1)"], "grid": [1.0, 0.1], "stop": 1.2e-3,
+                                 "step": 1e-7},
 }
 # ngspice 39 cannot run these at any N of GRID (docs/compare.md): see test_bridge_failure_is_reported.
 NGSPICE_FAILS = {"bridge_rectifier"}
@@ -104,8 +107,9 @@ NGSPICE_FAILS = {"bridge_rectifier"}
 
 # No diode at all (ideal B-source half bridges): N changes nothing, so there is no trend to
 # check; their agreement with ngspice (mean, frequency, duty) is asserted in
-# tests/test_comparators.py.
-WITHOUT_DIODES = {"buck_hysteretic", "buck_peak_current"}
+# tests/test_comparators.py and tests/test_xspice_digital.py.
+WITHOUT_DIODES = {"buck_hysteretic", "buck_peak_current", "buck_hysteretic_xspice",
+                  "buck_peak_current_xspice"}
 
 
 def netlist_names():

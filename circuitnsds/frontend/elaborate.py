@@ -86,7 +86,9 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                                           circuit.options, off_resistance):
                 circuit.add(element, statement.location)
         else:
-            circuit.add(_element(statement, circuit.models, voltage_sources), statement.location)
+            made = _element(statement, circuit.models, voltage_sources)
+            for element in made if isinstance(made, list) else [made]:  # an A line: one per output
+                circuit.add(element, statement.location)
     _couple(circuit, couplings)
     _check_unused_models(circuit)
     _check_initial_conditions(circuit)
@@ -97,7 +99,8 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     return circuit
 
 
-def _element(statement: Statement, models: dict[str, object], voltage_sources: set[str]) -> Element:
+def _element(statement: Statement, models: dict[str, object],
+             voltage_sources: set[str]) -> Element | list[Element]:
     letter = element_letter(statement.keyword)
     reader = StatementReader(statement)
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator

@@ -93,8 +93,8 @@ def _rename_code_model(tokens: list[str], context: _Context) -> None:
     tokens[0] = context.prefixed(tokens[0])
     for index in range(1, len(tokens) - 1):
         token = tokens[index]
-        core = token.strip("[]")
-        if core and not core.startswith("%") and core not in _PUNCTUATION:
+        core = token.strip("[]").lstrip("~")  # ~node: an inverted digital port
+        if core and not core.startswith("%") and core not in _PUNCTUATION and core != "null":
             start = token.index(core)
             tokens[index] = token[:start] + context.node(core) + token[start + len(core):]
     if len(tokens) > 1:

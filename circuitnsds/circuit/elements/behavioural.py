@@ -86,6 +86,8 @@ class Select:
         off: value while ``control < 0``.
         name: the switch's name (``b1.cmp0``), as it appears in events.
         hysteresis: half-width of the band in which the state is kept (0: none).
+        initially_on: the state before the operating point (``control > 0`` assumed: a latch's
+            initial state; the operating point then follows the control, with hysteresis).
     """
 
     control: Affine
@@ -93,9 +95,10 @@ class Select:
     off: Affine
     name: str = ""
     hysteresis: float = 0.0
+    initially_on: bool = False
 
 
-def _stamp_row(builder: MLCSBuilder, row: int, value: Affine, auxiliary: list[int],
+def stamp_affine_row(builder: MLCSBuilder, row: int, value: Affine, auxiliary: list[int],
                sign: float) -> None:
     """Add ``sign·value`` to row ``row`` of ``0 = A y + B λ + s``."""
     for column, c in value.columns(builder, auxiliary):
@@ -138,7 +141,7 @@ def _stamp_select(builder: MLCSBuilder, name: str, select: Select, x: int,
         control=tuple(select.control.columns(builder, columns)),
         on_threshold=-select.control.constant + half_band,
         off_threshold=-select.control.constant - half_band,
-        initially_on=False,
+        initially_on=select.initially_on,
     ))
     builder.output(f"x({select.name})", [(x, 1.0)])
 
@@ -153,7 +156,7 @@ def stamp_auxiliaries(builder: MLCSBuilder, name: str,
             continue
         sign = 1.0 if auxiliary.kind == "max" else -1.0
         # 0 = b - x + sign·λ ;  w = sign·(x - a)
-        _stamp_row(builder, x, auxiliary.b, columns, 1.0)
+        stamp_affine_row(builder, x, auxiliary.b, columns, 1.0)
         builder.add("A", x, x, -1.0)
         pair = builder.pair(f"{name}.{auxiliary.kind}{k}", name, 0.0)
         builder.add("B", x, pair, sign)
@@ -191,12 +194,12 @@ class BehaviouralSource(Element):
             builder.add("A", minus, k, 1.0)
             builder.add("A", k, plus, 1.0)
             builder.add("A", k, minus, -1.0)
-            _stamp_row(builder, k, self.value, auxiliary, -1.0)
+            stamp_affine_row(builder, k, self.value, auxiliary, -1.0)
             builder.output(f"i({self.name})", [(k, 1.0)])
             return
         # the current as an unknown of its own, so that i(name) includes the constant term
         k = builder.branch(f"i({self.name})")
-        _stamp_row(builder, k, self.value, auxiliary, 1.0)
+        stamp_affine_row(builder, k, self.value, auxiliary, 1.0)
         builder.add("A", k, k, -1.0)
         builder.add("A", plus, k, -1.0)
         builder.add("A", minus, k, 1.0)
@@ -242,7 +245,7 @@ class Integrator(Element):
         builder.add("A", minus, k, 1.0)
         builder.add("E", k, plus, ROW_SCALE)
         builder.add("E", k, minus, -ROW_SCALE)
-        _stamp_row(builder, k, self.input, [], ROW_SCALE)
+        stamp_affine_row(builder, k, self.input, [], ROW_SCALE)
         # limits: out' = input + λ_lower - λ_upper, 0 <= λ_upper ⊥ upper - out >= 0 and
         # 0 <= λ_lower ⊥ out - lower >= 0 (the state stops at a limit and leaves it as soon as
         # the input turns back: no wind-up)

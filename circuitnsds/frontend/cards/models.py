@@ -11,7 +11,7 @@ from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_mo
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
 from circuitnsds.frontend.cards.mosfets import MOS_KINDS, read_mos_model
 from circuitnsds.frontend.cards.reader import StatementReader
-from circuitnsds.frontend.cards.xspice import ANALOG_BLOCKS, read_xspice_model
+from circuitnsds.frontend.cards.xspice import CODE_MODELS, read_xspice_model
 
 # Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
 SHOCKLEY_PARAMETERS = {
@@ -111,7 +111,7 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
                                hint=f"write .model NAME {kind.upper()}(param=value ...) with every "
                                "parameter inside the parentheses")
         reader.tokens = reader.tokens[:-1]
-    if kind in ANALOG_BLOCKS:
+    if kind in CODE_MODELS:
         return name, read_xspice_model(reader, name, kind)
     if kind in MOS_KINDS:
         return name, read_mos_model(name, kind, reader)

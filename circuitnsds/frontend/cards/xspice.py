@@ -17,8 +17,10 @@ are those of ngspice's code models (``src/xspice/icm/analog/*/ifspec.ifs``):
   1e10 V or more are no limit). Without UIC the operating point takes the integrator at
   equilibrium (its input zero); ngspice holds the output at ``out_ic`` there instead.
 
-Other code models (digital gates, latches, bridges, ``hyst``, ``s_xfer``, ...) are refused
-with a message naming the model.
+The digital parts ``d_inverter``, ``d_and``, ``d_or``, ``d_srlatch``, ``d_dff``,
+``adc_bridge`` and ``dac_bridge`` are read by :mod:`circuitnsds.frontend.cards.xspice_digital`.
+Other code models (``d_nand``, ``d_jkff``, ``hyst``, ``s_xfer``, ...) are refused with a
+message naming the model.
 """
 
 from __future__ import annotations
@@ -27,7 +29,9 @@ from dataclasses import dataclass, field
 
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
 from circuitnsds.errors import SourceLocation
-from circuitnsds.frontend.cards.reader import StatementReader, node_name
+from circuitnsds.frontend.cards.reader import StatementReader
+from circuitnsds.frontend.cards.xspice_digital import DIGITAL_PARTS, check_digital_model, digital_part
+from circuitnsds.frontend.cards.xspice_ports import Port, Ports, affine_sum, difference, split_brackets
 from circuitnsds.values import parse_value
 
 ANALOG_BLOCKS = {
@@ -38,13 +42,16 @@ ANALOG_BLOCKS = {
     "int": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
             "limit_range": 1e-6, "out_ic": 0.0},
 }
-"""Supported code models: parameter -> ngspice default (``None``: no default)."""
+"""Supported analog code models: parameter -> ngspice default (``None``: no default)."""
+
+CODE_MODELS = {**ANALOG_BLOCKS, **DIGITAL_PARTS}
+"""Every supported code model: parameter -> ngspice default."""
 
 REFUSED_MODELS = {
-    "d_and", "d_nand", "d_or", "d_nor", "d_xor", "d_xnor", "d_inverter", "d_buffer", "d_dff",
-    "d_jkff", "d_tff", "d_srff", "d_dlatch", "d_srlatch", "d_open_c", "d_open_e", "d_pullup",
+    "d_nand", "d_nor", "d_xor", "d_xnor", "d_buffer",
+    "d_jkff", "d_tff", "d_srff", "d_dlatch", "d_open_c", "d_open_e", "d_pullup",
     "d_pulldown", "d_fsm", "d_state", "d_ram", "d_source", "d_osc", "d_tristate", "d_pwm",
-    "d_lut", "d_genlut", "adc_bridge", "dac_bridge", "d_to_real", "real_to_v", "hyst", "slew",
+    "d_lut", "d_genlut", "d_to_real", "real_to_v", "hyst", "slew",
     "s_xfer", "mult", "divide", "d_dt", "cmeter", "lmeter", "climit", "pwl", "ilimit", "aswitch",
     "zener", "file_source", "sine", "square", "triangle", "oneshot", "core", "multi_input_pwl",
     "table2d", "table3d", "filesource", "pswitch", "sidiode", "delay", "astate", "seegen",
@@ -55,8 +62,8 @@ with the model's name rather than reported as an unknown model type)."""
 
 @dataclass(frozen=True)
 class XspiceModel:
-    """``.model NAME KIND(...)`` of an analog block: ``params`` holds what the card gives
-    (numbers, tuples for vectors, booleans)."""
+    """``.model NAME KIND(...)`` of a supported code model (:data:`CODE_MODELS`): ``params``
+    holds what the card gives (numbers, tuples for vectors, booleans)."""
 
     name: str
     kind: str
@@ -64,13 +71,13 @@ class XspiceModel:
     location: SourceLocation | None = None
 
     def get(self, key: str):
-        return self.params.get(key, ANALOG_BLOCKS[self.kind][key])
+        return self.params.get(key, CODE_MODELS[self.kind][key])
 
 
 def read_xspice_model(reader: StatementReader, name: str, kind: str) -> XspiceModel:
-    """The parameters of an analog block's ``.model`` card (reader after the ``(``)."""
-    tokens = _split_brackets(list(reader.tokens[reader.position:]))
-    known = ANALOG_BLOCKS[kind]
+    """The parameters of a code model's ``.model`` card (reader after the ``(``)."""
+    tokens = split_brackets(list(reader.tokens[reader.position:]))
+    known = CODE_MODELS[kind]
     params: dict = {}
     position = 0
     while position < len(tokens):
@@ -95,6 +102,8 @@ def read_xspice_model(reader: StatementReader, name: str, kind: str) -> XspiceMo
         if key in params:
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
         params[key] = value
+    if kind in DIGITAL_PARTS:
+        check_digital_model(reader, name, kind, params)
     return XspiceModel(name, kind, params, reader.location)
 
 
@@ -105,88 +114,10 @@ def _number(reader: StatementReader, name: str, key: str, text: str) -> float:
         raise reader.error(f".model {name}: {key}={text!r} is not a number") from None
 
 
-def _split_brackets(tokens: list[str]) -> list[str]:
-    """Tokens with ``[`` and ``]`` as tokens of their own (the parser keeps them in words)."""
-    out: list[str] = []
-    for token in tokens:
-        while token.startswith("["):
-            out.append("[")
-            token = token[1:]
-        closing = len(token) - len(token.rstrip("]"))
-        if token[:len(token) - closing]:
-            out.append(token[:len(token) - closing])
-        out.extend("]" * closing)
-    return out
-
-
-Port = tuple[str, str]
-"""A voltage port: ``(plus, minus)`` nodes (``minus`` is ``0`` for a single-ended port)."""
-
-
-class _Ports:
-    """Reads the port list of an ``A`` line."""
-
-    def __init__(self, reader: StatementReader, tokens: list[str]):
-        self.reader = reader
-        self.tokens = tokens
-        self.position = 0
-
-    def port(self) -> Port:
-        token = self.take("a port")
-        if token.startswith("%"):
-            kind = token[1:]
-            if kind not in {"v", "vd"}:
-                raise self.reader.error(f"{self.reader.name}: port type %{kind} is not supported",
-                                        hint="the analog blocks take voltage ports: node, %v(node) "
-                                        "or %vd(node+ node-)")
-            if self.take("'('") != "(":
-                raise self.reader.error(f"{self.reader.name}: expected '(' after %{kind}")
-            nodes = [node_name(self.take("a node"))]
-            if kind == "vd":
-                nodes.append(node_name(self.take("a node")))
-            if self.take("')'") != ")":
-                raise self.reader.error(f"{self.reader.name}: expected ')' after the nodes of %{kind}")
-            return (nodes[0], nodes[1] if kind == "vd" else "0")
-        if token in {"(", ")", "[", "]", "="}:
-            raise self.reader.error(f"{self.reader.name}: unexpected {token!r} in the port list")
-        return (node_name(token), "0")
-
-    def vector(self) -> list[Port]:
-        if self.tokens[self.position:self.position + 1] != ["["]:
-            return [self.port()]
-        self.position += 1
-        ports = []
-        while self.tokens[self.position:self.position + 1] != ["]"]:
-            ports.append(self.port())
-        self.position += 1
-        return ports
-
-    def take(self, what: str) -> str:
-        if self.position >= len(self.tokens):
-            raise self.reader.error(f"{self.reader.name}: missing {what}",
-                                    hint="write A1 in out MODEL (ports: node, %v(node), "
-                                    "%vd(n+ n-), [vector])")
-        self.position += 1
-        return self.tokens[self.position - 1]
-
-
-def _difference(port: Port, scale: float) -> Affine:
-    terms = tuple((n, s * scale) for n, s in ((port[0], 1.0), (port[1], -1.0)) if n != "0")
-    return Affine(voltages=terms)
-
-
-def _sum(*values: Affine, constant: float = 0.0) -> Affine:
-    terms: dict[str, float] = {}
-    for value in values:
-        for node, c in value.voltages:
-            terms[node] = terms.get(node, 0.0) + c
-    return Affine(voltages=tuple((n, c) for n, c in terms.items() if c != 0.0), constant=constant)
-
-
 def analog_block(reader: StatementReader, models: dict[str, object]):
-    """An ``A`` line whose model is one of :data:`ANALOG_BLOCKS`."""
+    """An ``A`` line whose model is one of :data:`CODE_MODELS`."""
     name = reader.name
-    tokens = _split_brackets(list(reader.tokens[1:]))
+    tokens = split_brackets(list(reader.tokens[1:]))
     if len(tokens) < 3:
         raise reader.error(f"{name}: expected A{name[1:]} in out MODEL",
                            hint="write A1 in out MODEL with .model MODEL gain(...)")
@@ -201,8 +132,10 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
             else f"the {kind!s}"
         raise reader.error(f"{name}: code model {kind!s} ({what} model {model_name!r}) is not "
                            "supported by the ideal engine",
-                           hint="supported A models: " + ", ".join(ANALOG_BLOCKS))
-    ports = _Ports(reader, tokens[:-1])
+                           hint="supported A models: " + ", ".join(CODE_MODELS))
+    if model.kind in DIGITAL_PARTS:
+        return digital_part(reader, model, tokens[:-1])
+    ports = Ports(reader, tokens[:-1])
     inputs = ports.vector()
     output = ports.port()
     if ports.position != len(ports.tokens):
@@ -250,13 +183,13 @@ def _block_value(reader: StatementReader, model: XspiceModel,
                 raise reader.error(f"{reader.name}: {key} of {model.name!r} has {len(values)} "
                                    f"values for {count} inputs")
         out_gain = model.get("out_gain")
-        terms = [_difference(port, out_gain * g) for port, g in zip(inputs, gains)]
+        terms = [difference(port, out_gain * g) for port, g in zip(inputs, gains)]
         constant = out_gain * sum(g * o for g, o in zip(gains, offsets)) + model.get("out_offset")
-        return _sum(*terms, constant=constant), ()
+        return affine_sum(*terms, constant=constant), ()
     gain = model.get("gain")
-    value = _sum(_difference(inputs[0], gain), constant=gain * model.get("in_offset"))
+    value = affine_sum(difference(inputs[0], gain), constant=gain * model.get("in_offset"))
     if kind == "gain":
-        return _sum(value, constant=value.constant + model.get("out_offset")), ()
+        return affine_sum(value, constant=value.constant + model.get("out_offset")), ()
     if kind == "int":
         return value, ()
     low, high = model.get("out_lower_limit"), model.get("out_upper_limit")
