@@ -336,3 +336,55 @@ def test_xspice_voltage_mode_buck_agrees_with_ngspice():
 
     _agrees_with_ngspice(NETLISTS / "buck_voltage_mode_xspice.cir", 4e-8, 1.8e-3, "v(out)", 1.4e-3,
                          ngspice_options="method=gear")
+
+
+def _no_unknowns(rng: np.random.Generator, n: int) -> dict[str, list[int]]:
+    """Random 0/1 sequences without the input patterns on which ngspice's output is UNKNOWN
+    (s = r = 1 enabled, set = reset = 1) and without data and clock changing together."""
+    seq = {name: rng.integers(0, 2, n) for name in ("a", "b", "s", "r", "en")}
+    seq["set"], seq["reset"] = ((rng.random(n) < 0.15).astype(int) for _ in range(2))
+    seq["r"] &= 1 - seq["s"]
+    seq["reset"] &= 1 - seq["set"]
+    seq["clk"] = (np.arange(n) // 2) % 2   # a clock of 4 slots
+    for k in range(1, n):
+        if seq["clk"][k] != seq["clk"][k - 1] and seq["a"][k] != seq["a"][k - 1]:
+            seq["a"][k] = seq["a"][k - 1]
+    return {name: [int(x) for x in values] for name, values in seq.items()}
+
+
+@pytest.mark.ngspice
+def test_digital_parts_agree_with_ngspice_slot_by_slot(tmp_path):
+    # the same netlist in both: gates, an SR latch and a D flip-flop with set/reset, driven by
+    # random 0/1 sequences (1 ns edges, 1 µs slots) through an adc_bridge and read through a
+    # dac_bridge; in the middle of every slot every output is the same 0/1 value (ngspice's
+    # 1 ns delays are over by then)
+    from circuitnsds.compare import compare
+
+    inputs = _no_unknowns(np.random.default_rng(21), 24)
+    names = list(inputs)
+    body = ["digital parts against ngspice"] + [_pwl(n, b) for n, b in inputs.items()]
+    body += [f"Aadc [{' '.join(names)}] [{' '.join('d' + n for n in names)}] adc",
+             ".model adc adc_bridge(in_low=0.5 in_high=0.5)",
+             "Aand [da ~db ds] y1 and3\n.model and3 d_and",
+             "Aor %d [da db] ~y2 or2\n.model or2 d_or",
+             "Ainv %d(da) y3 inv\n.model inv d_inverter",
+             "Al ds dr den dset NULL y4 y5 lat\n.model lat d_srlatch",
+             "Af da dclk NULL dreset y6 NULL ff\n.model ff d_dff(ic=1)",
+             "Adac [y1 y2 y3 y4 y5 y6] [o1 o2 o3 o4 o5 o6] dac\n.model dac dac_bridge",
+             *(f"R{k} o{k} 0 1k" for k in range(1, 7)),
+             ".tran 0.1u 24u", ".end"]
+    path = tmp_path / "digital.cir"
+    path.write_text("\n".join(body) + "\n")
+    outputs = [f"v(o{k})" for k in range(1, 7)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        comparison = compare(path, n=1.0, signals=outputs)
+    assert comparison.run.ok, comparison.run.ngspice.message
+    ours, theirs = comparison.circuitnsds, comparison.run.ngspice.waveforms
+    middle = (np.arange(24) + 0.5) * SLOT
+    for signal in outputs:
+        mine = np.interp(middle, ours.time, ours[signal])
+        reference = np.interp(middle, theirs.time, theirs[signal])
+        assert set(np.unique(mine)) <= {0.0, 1.0}, signal
+        np.testing.assert_array_equal(mine, reference, err_msg=signal)
+    assert changes(np.interp(middle, ours.time, ours["v(o6)"])) >= 2   # the flip-flop moved

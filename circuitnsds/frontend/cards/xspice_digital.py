@@ -20,8 +20,9 @@ crossing), and every change is a switching in ``waves.events`` named after the p
 * **no UNKNOWN state**: where ngspice's output would be UNKNOWN, ours is a definite 0/1:
   an ``adc_bridge`` input between ``in_low`` and ``in_high`` keeps the output's state (a
   hysteresis band: it goes to 1 at ``max(in_low, in_high)`` and to 0 at ``min(in_low,
-  in_high)``; ngspice 39 outputs UNKNOWN there, newer versions hold when ``in_low >
-  in_high``, a Schmitt trigger); ``d_srlatch`` with ``s = r = 1`` and both latches with
+  in_high)``; ngspice outputs UNKNOWN there when ``in_low < in_high``; when ``in_low >
+  in_high`` its development sources (commit 0f0f80f, November 2024) hold, a Schmitt
+  trigger, and its releases 39 to 45 switch at ``in_low`` both ways); ``d_srlatch`` with ``s = r = 1`` and both latches with
   ``set = reset = 1`` are reset (reset dominant).
 
 The state functions (``x`` a state, inputs 0/1, ``min`` of 0/1 values is their ``and``):
@@ -100,6 +101,10 @@ def check_digital_model(reader: StatementReader, name: str, kind: str, params: d
                         "the output keeps its state here; ngspice's is UNKNOWN there (a "
                         "dac_bridge then gives out_undef): write in_low = in_high for a plain "
                         "threshold")
+        elif low > high:
+            reader.warn(f".model {name} adc_bridge: in_low={low:g} > in_high={high:g} is a Schmitt "
+                        "trigger here (as in ngspice's development sources since November 2024); "
+                        f"released ngspice (39 to 45) switches at in_low={low:g} both ways")
 
 
 def _combine(*terms: tuple[float, Affine], constant: float = 0.0) -> Affine:
