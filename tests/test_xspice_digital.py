@@ -214,6 +214,16 @@ def test_malformed_digital_lines_are_refused_with_their_line(lines, words):
         assert word in message, message
 
 
+def test_an_analog_node_on_a_digital_input_is_refused():
+    # ngspice refuses it too: a digital port needs a digital node (an adc_bridge converts)
+    with pytest.raises(NetlistError) as info:
+        circuit_from("V1 a 0 1\nA1 a y inv\n.model inv d_inverter\n"
+                     "A2 [y] [o] dac\n.model dac dac_bridge\nR1 o 0 1k\n.tran 1u 10u")
+    message = str(info.value)
+    assert "<text>:3:" in message and "node 'a' is a digital input" in message
+    assert "adc_bridge" in message
+
+
 def test_ignored_delays_and_loads_are_named_in_warnings():
     body = ("V1 a 0 1\nA1 [a] [d] adc\n.model adc adc_bridge(in_low=0.5 in_high=0.5 rise_delay=2n)\n"
             "A2 d y inv\n.model inv d_inverter(input_load=2p fall_delay=1n)\n"

@@ -24,7 +24,7 @@ _KINDS = {
     "CurrentControlledCurrentSource": "controlled sources (F)",
     "VoltageControlledCurrentSource": "controlled sources (G)",
     "CurrentControlledVoltageSource": "controlled sources (H)",
-    "BehaviouralSource": "behavioural sources and analog blocks (B, E/G VALUE/TABLE, A)",
+    "BehaviouralSource": "behavioural sources and XSPICE code models (B, E/G VALUE/TABLE, A)",
     "Integrator": "integrators (A int)",
 }
 

@@ -24,7 +24,15 @@ from circuitnsds.circuit.elements import (
 )
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import behavioural, commands, devices, mosfets, sources, xspice
+from circuitnsds.frontend.cards import (
+    behavioural,
+    commands,
+    devices,
+    mosfets,
+    sources,
+    xspice,
+    xspice_digital,
+)
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
 from circuitnsds.netlist import Netlist, Statement
@@ -91,6 +99,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                 circuit.add(element, statement.location)
     _couple(circuit, couplings)
     _check_unused_models(circuit)
+    xspice_digital.check_digital_inputs(circuit.elements, circuit.models)
     _check_initial_conditions(circuit)
     if not netlist.ended:
         last = netlist.statements[-1].location.line if netlist.statements else 1

@@ -22,8 +22,8 @@ crossing), and every change is a switching in ``waves.events`` named after the p
   hysteresis band: it goes to 1 at ``max(in_low, in_high)`` and to 0 at ``min(in_low,
   in_high)``; ngspice outputs UNKNOWN there when ``in_low < in_high``; when ``in_low >
   in_high`` its development sources (commit 0f0f80f, November 2024) hold, a Schmitt
-  trigger, and its releases 39 to 45 switch at ``in_low`` both ways); ``d_srlatch`` with ``s = r = 1`` and both latches with
-  ``set = reset = 1`` are reset (reset dominant).
+  trigger, and its releases 39 to 45 switch at ``in_low`` both ways); ``d_srlatch`` with
+  ``s = r = 1`` and both latches with ``set = reset = 1`` are reset (reset dominant).
 
 The state functions (``x`` a state, inputs 0/1, ``min`` of 0/1 values is their ``and``):
 
@@ -47,6 +47,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax, Select
+from circuitnsds.errors import NetlistError
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice_ports import HINT, DigitalPort, Ports, difference
 
@@ -289,3 +290,25 @@ def _dac(reader, model, ports: Ports):
     return [(_Output("" if len(inputs) == 1 else f".{k}", plus, minus,
                      _combine((high - low, port.level()), constant=low)), [], [port.node])
             for k, (port, (plus, minus)) in enumerate(zip(inputs, outs))]
+
+
+def check_digital_inputs(elements, models: dict[str, object]) -> None:
+    """Every digital input must be a node that a digital output drives (a gate, a latch or
+    an ``adc_bridge``), as in ngspice, where an analog node on a digital port is an error:
+    the parts' threshold functions assume 0/1 V inputs."""
+    def kind(element) -> str | None:
+        model = models.get(getattr(element, "model", None) or "")
+        return getattr(model, "kind", None) if isinstance(element, BehaviouralSource) else None
+
+    digital = [(element, kind(element)) for element in elements if kind(element) in DIGITAL_PARTS]
+    driven = {element.nodes[0] for element, k in digital if k != "dac_bridge"}
+    for element, k in digital:
+        if k == "adc_bridge":
+            continue
+        for node in element.nodes[2:]:
+            if node not in driven:
+                raise NetlistError(
+                    f"{element.name}: node {node!r} is a digital input of this {k} but no digital "
+                    "output drives it", where=element.location,
+                    hint="convert an analog voltage with an adc_bridge (.model M adc_bridge"
+                    "(in_low=0.5 in_high=0.5)), as ngspice requires")
