@@ -398,3 +398,45 @@ def test_digital_parts_agree_with_ngspice_slot_by_slot(tmp_path):
         assert set(np.unique(mine)) <= {0.0, 1.0}, signal
         np.testing.assert_array_equal(mine, reference, err_msg=signal)
     assert changes(np.interp(middle, ours.time, ours["v(o6)"])) >= 2   # the flip-flop moved
+
+
+# --- the port reader, property-based ---------------------------------------------------------
+
+PORT = st.tuples(st.sampled_from(["p", "q", "r", "s"]), st.booleans(),
+                 st.sampled_from(["plain", "%d", "%d()"]))
+
+
+def _spell(node: str, inverted: bool, style: str) -> str:
+    text = ("~" if inverted else "") + node
+    return {"plain": text, "%d": f"%d {text}", "%d()": f"%d({text})"}[style]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(PORT, min_size=2, max_size=5), st.sampled_from(["d_and", "d_or"]),
+       st.booleans(), st.booleans())
+def test_gate_inputs_are_read_with_their_inversions(ports, kind, vector_type, inverted_out):
+    # d_and/d_or with inputs spelled node, ~node, %d node, %d(node) (and %d before the
+    # vector): the comparator's control is Σ ±v(node) + (number of inversions) - threshold
+    from circuitnsds.circuit.elements.behavioural import Select
+
+    inputs = " ".join(_spell(*port) for port in ports)
+    line = (f"A1 {'%d ' if vector_type else ''}[{inputs}] {'~' if inverted_out else ''}y g\n"
+            f".model g {kind}")
+    body = ("V1 a 0 1\nAd [a a a a] [p q r s] adc\n.model adc adc_bridge(in_low=0.5 in_high=0.5)\n"
+            f"{line}\nAo [y] [o] dac\n.model dac dac_bridge\nR1 o 0 1k\n.tran 1u 10u")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuit_from(body)
+    gate = next(e for e in circuit.elements if e.name == "a1")
+    (select,) = gate.auxiliaries
+    assert isinstance(select, Select) and select.name == "a1"
+    expected: dict[str, float] = {}
+    for node, inverted, _ in ports:
+        expected[node] = expected.get(node, 0.0) + (-1.0 if inverted else 1.0)
+    assert dict(select.control.voltages) == {n: c for n, c in expected.items() if c != 0}
+    threshold = len(ports) - 0.5 if kind == "d_and" else 0.5
+    inversions = sum(inverted for _, inverted, _ in ports)
+    assert select.control.constant == pytest.approx(inversions - threshold, abs=1e-12)
+    # the output: the state, or 1 - state for ~y
+    assert gate.value.auxiliaries == ((0, -1.0 if inverted_out else 1.0),)
+    assert gate.value.constant == (1.0 if inverted_out else 0.0)
