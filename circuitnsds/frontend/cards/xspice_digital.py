@@ -19,10 +19,11 @@ crossing), and every change is a switching in ``waves.events`` named after the p
   as ignored (a warning naming them);
 * **no UNKNOWN state**: where ngspice's output would be UNKNOWN, ours is a definite 0/1:
   an ``adc_bridge`` input between ``in_low`` and ``in_high`` keeps the output's state (a
-  hysteresis band: it goes to 1 at ``max(in_low, in_high)`` and to 0 at ``min(in_low,
-  in_high)``; ngspice outputs UNKNOWN there when ``in_low < in_high``; when ``in_low >
-  in_high`` its development sources (commit 0f0f80f, November 2024) hold, a Schmitt
-  trigger, and its releases 39 to 45 switch at ``in_low`` both ways); ``d_srlatch`` with
+  hysteresis band: it goes to 1 when it reaches ``max(in_low, in_high)`` and to 0 when it
+  reaches ``min(in_low, in_high)``, both edges inclusive as in ngspice; ngspice outputs
+  UNKNOWN inside when ``in_low < in_high``; when ``in_low > in_high`` its development
+  sources (commit 0f0f80f, November 2024) hold, a Schmitt trigger, and its releases 39 to
+  45 switch at ``in_low`` both ways); ``d_srlatch`` with
   ``s = r = 1`` and both latches with ``set = reset = 1`` are reset (reset dominant).
 
 The state functions (``x`` a state, inputs 0/1, ``min`` of 0/1 values is their ``and``):
@@ -47,6 +48,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax, Select
+from circuitnsds.circuit.elements.switch import AT_THRESHOLD
 from circuitnsds.errors import NetlistError
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice_ports import HINT, DigitalPort, Ports, difference
@@ -262,6 +264,25 @@ def _expect_vector(reader, ports: Ports, what: str) -> None:
                            "[node ...] (ngspice requires the brackets)", hint=HINT)
 
 
+def adc_thresholds(in_low: float, in_high: float) -> tuple[float, float]:
+    """``(on, off)`` [V]: an ``adc_bridge`` output goes to 1 when its input exceeds ``on`` and
+    to 0 when it falls below ``off`` (a :class:`Select` switches strictly beyond its thresholds).
+
+    ngspice 39 (``src/xspice/icm/digital/adc_bridge/cfunc.mod``) tests ``in <= in_low`` (0)
+    first, then ``in >= in_high`` (1): both edges of the band are *inclusive*, so an input that
+    reaches exactly ``in_high`` (a 0/1 V pulse with ``in_high = 1``) switches to 1. The
+    thresholds therefore sit a round-off margin (:data:`AT_THRESHOLD` of the level, as for a
+    switch exactly at ``VT``) inside the band; with ``in_low = in_high = t`` both are
+    ``t + margin``, so an input exactly at ``t`` gives 0, as ngspice 39's order of tests does.
+    """
+    low, high = sorted((in_low, in_high))
+    on = high - AT_THRESHOLD * max(1.0, abs(high))
+    off = low + AT_THRESHOLD * max(1.0, abs(low))
+    if on <= off:
+        on = off = max(on, off)
+    return on, off
+
+
 def _adc(reader, model, ports: Ports):
     _expect_vector(reader, ports, "in")
     inputs = ports.vector()
@@ -269,12 +290,12 @@ def _adc(reader, model, ports: Ports):
     if len(inputs) != len(outs):
         raise reader.error(f"{reader.name}: adc_bridge has {len(inputs)} input(s) and "
                            f"{len(outs)} output(s)", hint="give one digital output per input")
-    low, high = sorted((model.get("in_low"), model.get("in_high")))
+    on, off = adc_thresholds(model.get("in_low"), model.get("in_high"))
     parts = []
     for k, (port, out) in enumerate(zip(inputs, outs)):
         suffix = "" if len(inputs) == 1 else f".{k}"
-        control = _combine((1.0, difference(port, 1.0)), constant=-(low + high) / 2)
-        select = Select(control, ONE, ZERO, name=reader.name + suffix, hysteresis=(high - low) / 2)
+        control = _combine((1.0, difference(port, 1.0)), constant=-(on + off) / 2)
+        select = Select(control, ONE, ZERO, name=reader.name + suffix, hysteresis=(on - off) / 2)
         parts.append((_output(out, _state(0), suffix)[0], [select], list(port)))
     return parts
 
