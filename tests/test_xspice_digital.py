@@ -208,6 +208,18 @@ def test_dff_divides_the_clock_by_two_with_its_inverted_output_as_data():
     np.testing.assert_array_equal(got["q"], [1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1])
 
 
+def test_dff_takes_the_data_from_just_before_a_simultaneous_clock_edge():
+    # documented difference (docs/control.md, "Delays: zero"): data and clock rise at the same
+    # instant (two bits of one adc_bridge on one source), q keeps the data of before the edge,
+    # 0; ngspice 39 (1 ns delays on both) gives 1 from the first edge on
+    parts = "Af dd dclk NULL NULL q NULL ff\n.model ff d_dff\n"
+    _, got = run_digital({"d": [0, 1, 0, 1, 0, 1], "clk": [0, 1, 0, 1, 0, 1]}, parts, ["q"])
+    np.testing.assert_array_equal(got["q"], [0, 0, 0, 0, 0, 0])
+    # one slot later the data is there before the edge and is taken
+    _, got = run_digital({"d": [0, 1, 1, 1, 0, 0], "clk": [0, 0, 1, 0, 0, 1]}, parts, ["q"])
+    np.testing.assert_array_equal(got["q"], [0, 0, 1, 1, 1, 0])
+
+
 # --- errors and warnings name the line and the parameter -------------------------------------
 
 @pytest.mark.parametrize(

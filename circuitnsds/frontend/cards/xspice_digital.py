@@ -16,7 +16,10 @@ crossing), and every change is a switching in ``waves.events`` named after the p
   ``clk_delay``, ``set_delay``, ... ; at least 1 ps, 1 ns by default) and ramps a
   ``dac_bridge`` output over ``t_rise``/``t_fall``; here a change propagates at the
   instant of its cause. Delay and load parameters given on a ``.model`` card are reported
-  as ignored (a warning naming them);
+  as ignored (a warning naming them). Hence a ``d_dff`` takes the data it had just before
+  the active clock edge: a data change at the very instant of the edge is not taken (what a
+  shift register of these parts needs), where ngspice, delaying data and clock alike, takes
+  the new data when both change together from outside;
 * **no UNKNOWN state**: where ngspice's output would be UNKNOWN, ours is a definite 0/1:
   an ``adc_bridge`` input between ``in_low`` and ``in_high`` keeps the output's state (a
   hysteresis band: it goes to 1 when it reaches ``max(in_low, in_high)`` and to 0 when it
