@@ -4,7 +4,7 @@ Analog (voltage) ports: a node, ``%v(node)``, ``%vd(node+ node-)`` (a differenti
 voltage). Digital ports: a node, ``%d node``, ``%d(node)``, ``~node`` (the inverted state)
 and ``NULL`` (an unconnected optional port). Vector ports: ``[port port ...]``, optionally
 preceded by the type (``%d [a b]``). Digital nodes carry 0/1 V in circuitnsds (see
-:mod:`circuitnsds.circuit.elements.digital`).
+:mod:`circuitnsds.frontend.cards.xspice_digital`).
 """
 
 from __future__ import annotations
