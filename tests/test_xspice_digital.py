@@ -240,6 +240,14 @@ def test_dff_takes_the_data_from_just_before_a_simultaneous_clock_edge():
         ("A1 [%i(a)] [c] l\n.model l adc_bridge", ["port type %i"]),
         ("A1 [a] [%d b] l\n.model l dac_bridge", ["port type %d"]),
         ("A1 [~null] y l\n.model l dac_bridge", ["cannot be NULL"]),
+        # a vector value for a single-valued parameter (an internal error before)
+        ("A1 [a] [b] l\n.model l adc_bridge(in_low=[0.1 0.2])", ["in_low is a single value"]),
+        ("A1 a b null null q null l\n.model l d_dff(ic=[1])", ["ic is a single value"]),
+        ("A1 [a] [b] l\n.model l dac_bridge(out_low=[0 1])", ["out_low is a single value"]),
+        ("A1 [a] b l\n.model l summer(in_gain=2)", ["in_gain is a vector", "[v1 v2 ...]"]),
+        ("A1 a b l\n.model l gain(gain=[2 3])", ["gain is a single value"]),
+        ("A1 a b l\n.model l limit(out_lower_limit=[0] out_upper_limit=1)",
+         ["out_lower_limit is a single value"]),
     ],
 )
 def test_malformed_digital_lines_are_refused_with_their_line(lines, words):

@@ -47,6 +47,11 @@ ANALOG_BLOCKS = {
 CODE_MODELS = {**ANALOG_BLOCKS, **DIGITAL_PARTS}
 """Every supported code model: parameter -> ngspice default."""
 
+VECTOR_PARAMETERS = {"summer": frozenset({"in_offset", "in_gain"})}
+"""The parameters written as vectors ``[v1 v2 ...]`` (one value per input); every other
+parameter of :data:`CODE_MODELS` is a single value (ngspice refuses either written as the
+other: "Array parameter expected", "Bad real value")."""
+
 REFUSED_MODELS = {
     "d_nand", "d_nor", "d_xor", "d_xnor", "d_buffer",
     "d_jkff", "d_tff", "d_srff", "d_dlatch", "d_open_c", "d_open_e", "d_pullup",
@@ -101,6 +106,13 @@ def read_xspice_model(reader: StatementReader, name: str, kind: str) -> XspiceMo
                                hint=f"{kind} takes {', '.join(known)}")
         if key in params:
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        vector = key in VECTOR_PARAMETERS.get(kind, ())
+        if vector and not isinstance(value, tuple):
+            raise reader.error(f".model {name} {kind}: {key} is a vector, one value per input",
+                               hint=f"write {key}=[v1 v2 ...] (brackets even for one input)")
+        if isinstance(value, tuple) and not vector:
+            raise reader.error(f".model {name} {kind}: {key} is a single value, not a vector",
+                               hint=f"write {key}=value")
         params[key] = value
     if kind in DIGITAL_PARTS:
         check_digital_model(reader, name, kind, params)
