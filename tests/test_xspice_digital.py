@@ -220,6 +220,29 @@ def test_dff_takes_the_data_from_just_before_a_simultaneous_clock_edge():
     np.testing.assert_array_equal(got["q"], [0, 0, 1, 1, 1, 0])
 
 
+def test_latch_initial_states_hold_under_uic():
+    # ic = 1 on a d_dff (clock low, data 0) and on a d_srlatch (enable low) under UIC: both
+    # hold 1 until the clock's first rising edge at 1 µs (then the flip-flop takes data 0),
+    # as without UIC; ngspice 39 on this netlist gives the same (v(o1) = 1, 1, 0, 0; v(o3) =
+    # 1 throughout). Before, the first step read every latch control at the all-zero UIC
+    # state and both latches dropped to 0.
+    body = ("V1 c 0 PULSE(0 1 1u 1n 1n 1u 2u)\nV2 d 0 0\nAad [c d] [dc dd] adc\n"
+            ".model adc adc_bridge(in_low=0.5 in_high=0.5)\n"
+            "Af dd dc NULL NULL q nq ff\n.model ff d_dff(ic=1)\n"
+            "Al dd dd dc NULL NULL s NULL lat\n.model lat d_srlatch(ic=1)\n"
+            "Ao [q nq s] [o1 o2 o3] dac\n.model dac dac_bridge\n"
+            "R1 o1 0 1k\nR2 o2 0 1k\nR3 o3 0 1k\n.tran 10n 3u uic")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuit_from(body).transient()
+    middle = np.array([0.05, 0.5, 1.5, 2.5]) * 1e-6
+    np.testing.assert_array_equal(np.interp(middle, waves.time, waves["v(o1)"]), [1, 1, 0, 0])
+    np.testing.assert_array_equal(np.interp(middle, waves.time, waves["v(o2)"]), [0, 0, 1, 1])
+    np.testing.assert_array_equal(np.interp(middle, waves.time, waves["v(o3)"]), [1, 1, 1, 1])
+    assert [(e.element, e.state) for e in waves.events if e.element in ("af", "al")] == \
+        [("af", False)]
+
+
 # --- errors and warnings name the line and the parameter -------------------------------------
 
 @pytest.mark.parametrize(

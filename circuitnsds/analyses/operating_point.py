@@ -21,7 +21,14 @@ import scipy.sparse as sp
 from circuitnsds.checks.rules import ill_conditioning
 from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import Capacitor, Inductor, Integrator
+from circuitnsds.circuit.elements import (
+    Affine,
+    BehaviouralSource,
+    Capacitor,
+    Inductor,
+    Integrator,
+    MinMax,
+)
 from circuitnsds.errors import NetlistWarning, SimulationError
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -214,9 +221,43 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
             plus, minus = element.nodes[:2]
             if minus == "0" and plus != "0" and plus not in known:
                 y[_index(circuit, plus)] = element.initial_output
+    _consistent_auxiliaries(circuit, mlcs, y)
     switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
     return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
                         switches=switches)
+
+
+def _consistent_auxiliaries(circuit: Circuit, mlcs: MLCS, y: np.ndarray) -> None:
+    """Set the auxiliary unknowns ``x(name.k)`` of behavioural sources in ``y`` (in place)
+    from the other entries of ``y`` and each comparator's initial state: a comparator's
+    ``on``/``off`` value, ``min``/``max`` of their arguments.
+
+    The first step decides every comparator's state from its control at ``y``; a latch's
+    control contains its own state (through these auxiliaries), so with all of them 0 a
+    latch started at 1 (``ic=1`` of ``d_dff``/``d_srlatch``) would drop to 0 at once. The
+    auxiliaries are algebraic unknowns (no charge), so nothing else of the start changes.
+    """
+    index = {name: k for k, name in enumerate(mlcs.unknowns)}
+
+    def value(affine: Affine, columns: list[int]) -> float:
+        total = affine.constant
+        total += sum(c * y[index[f"v({node})"]] for node, c in affine.voltages if node != "0")
+        total += sum(c * y[index[f"i({source})"]] for source, c in affine.currents)
+        return total + sum(c * y[columns[k]] for k, c in affine.auxiliaries)
+
+    for element in circuit.elements:
+        auxiliaries = getattr(element, "auxiliaries", ())
+        if not isinstance(element, BehaviouralSource) or not auxiliaries:
+            continue
+        columns = [index[f"x({element.name}.{k})"] for k in range(len(auxiliaries))]
+        for _ in range(len(auxiliaries)):  # enough passes for any order of definition
+            for auxiliary, column in zip(auxiliaries, columns):
+                if isinstance(auxiliary, MinMax):
+                    pick = max if auxiliary.kind == "max" else min
+                    y[column] = pick(value(auxiliary.a, columns), value(auxiliary.b, columns))
+                else:  # a comparator, in its initial state
+                    y[column] = value(auxiliary.on if auxiliary.initially_on else auxiliary.off,
+                                      columns)
 
 
 def _voltage(circuit: Circuit, y: np.ndarray, node: str) -> float:
