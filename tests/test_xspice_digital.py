@@ -293,6 +293,28 @@ def test_an_analog_node_on_a_digital_input_is_refused():
     assert "adc_bridge" in message
 
 
+@pytest.mark.parametrize(("line", "element"), [
+    ("R2 d 0 1k", "r2"),                                       # a load on a digital node
+    ("A3 d g gn\n.model gn gain(gain=2)\nR3 g 0 1k", "a3"),   # an analog block reads it
+    ("A3 [d] [e] adc2\n.model adc2 adc_bridge(in_low=0.5 in_high=0.5)\nA4 [e] [f] dac\n"
+     "R3 f 0 1k", "a3"),                                        # an adc_bridge reads it
+])
+def test_an_analog_element_on_a_digital_node_is_refused(line, element):
+    # ngspice 39 inserts a dac_bridge with out_high = vcc (3.3 V unless .param vcc) between
+    # a digital node and an analog element (src/xspice/evt/evtcheck_nodes.c; ngspice 39 on
+    # "A1 [a] [o] adc ... R1 o 0 1k" gives v(o) = 3.3 V); circuitnsds would give the digital
+    # node's 0/1 V: refused, naming the element, its line and the bridge to write
+    body = ("V1 a 0 PULSE(0 1 1u 1n 1n 1u 2u)\nA1 [a] [d] adc\n"
+            ".model adc adc_bridge(in_low=0.5 in_high=0.5)\nA2 [d] [o] dac\n.model dac dac_bridge\n"
+            f"R1 o 0 1k\n{line}\n.tran 10n 4u")
+    with pytest.raises(NetlistError) as info, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit_from(body)
+    message = str(info.value)
+    assert f"{element}: node 'd' is a digital node" in message and "<text>:8:" in message, message
+    assert "dac_bridge" in message and "3.3 V" in message, message
+
+
 def test_ignored_delays_and_loads_are_named_in_warnings():
     body = ("V1 a 0 1\nA1 [a] [d] adc\n.model adc adc_bridge(in_low=0.5 in_high=0.5 rise_delay=2n)\n"
             "A2 d y inv\n.model inv d_inverter(input_load=2p fall_delay=1n)\n"

@@ -99,7 +99,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                 circuit.add(element, statement.location)
     _couple(circuit, couplings)
     _check_unused_models(circuit)
-    xspice_digital.check_digital_inputs(circuit.elements, circuit.models)
+    xspice_digital.check_digital_nodes(circuit.elements, circuit.models)
     _check_initial_conditions(circuit)
     if not netlist.ended:
         last = netlist.statements[-1].location.line if netlist.statements else 1

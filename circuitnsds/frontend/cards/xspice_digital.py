@@ -316,16 +316,20 @@ def _dac(reader, model, ports: Ports):
             for k, (port, (plus, minus)) in enumerate(zip(inputs, outs))]
 
 
-def check_digital_inputs(elements, models: dict[str, object]) -> None:
-    """Every digital input must be a node that a digital output drives (a gate, a latch or
-    an ``adc_bridge``), as in ngspice, where an analog node on a digital port is an error:
-    the parts' threshold functions assume 0/1 V inputs."""
+def check_digital_nodes(elements, models: dict[str, object]) -> None:
+    """Digital and analog nodes stay apart, as the parts' threshold functions need 0/1 V
+    inputs: every digital input must be a node that a digital output drives (a gate, a
+    latch or an ``adc_bridge``), and a digital node may touch no analog element (nor the
+    analog side of a bridge). ngspice 39 would insert a bridge there by itself
+    (``src/xspice/evt/evtcheck_nodes.c``: an ``adc_bridge`` at ``vcc/2``, a ``dac_bridge``
+    of ``0``/``vcc``, ``vcc`` = 3.3 V unless ``.param vcc``), where circuitnsds would read or
+    give the digital node's 0/1 V: both are refused, naming the bridge to write."""
     def kind(element) -> str | None:
         model = models.get(getattr(element, "model", None) or "")
         return getattr(model, "kind", None) if isinstance(element, BehaviouralSource) else None
 
     digital = [(element, kind(element)) for element in elements if kind(element) in DIGITAL_PARTS]
-    driven = {element.nodes[0] for element, k in digital if k != "dac_bridge"}
+    driven = {element.nodes[0]: element for element, k in digital if k != "dac_bridge"}
     for element, k in digital:
         if k == "adc_bridge":
             continue
@@ -334,5 +338,21 @@ def check_digital_inputs(elements, models: dict[str, object]) -> None:
                 raise NetlistError(
                     f"{element.name}: node {node!r} is a digital input of this {k} but no digital "
                     "output drives it", where=element.location,
-                    hint="convert an analog voltage with an adc_bridge (.model M adc_bridge"
-                    "(in_low=0.5 in_high=0.5)), as ngspice requires")
+                    hint="convert the analog voltage with an adc_bridge (.model M adc_bridge("
+                    "in_low=1.65 in_high=1.65) is the one ngspice 39 inserts by itself for "
+                    "vcc = 3.3 V)")
+    digital_ports = {id(element): set(element.nodes[:1] if k == "adc_bridge" else
+                                      element.nodes[2:] if k == "dac_bridge" else element.nodes)
+                     for element, k in digital}
+    for element in elements:
+        ports = digital_ports.get(id(element), set())
+        for node in element.nodes:
+            if node in driven and node not in ports:
+                driver = driven[node]
+                raise NetlistError(
+                    f"{element.name}: node {node!r} is a digital node (the output of "
+                    f"{driver.name}) but {element.name} connects to it as an analog element",
+                    where=element.location,
+                    hint="read the node through a dac_bridge into an analog node (ngspice 39 "
+                    "inserts one by itself, .model M dac_bridge(out_low=0 out_high=3.3) for "
+                    "vcc = 3.3 V, where circuitnsds would give the digital 0/1 V)")
