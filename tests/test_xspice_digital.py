@@ -263,6 +263,10 @@ def test_latch_initial_states_hold_under_uic():
         ("A1 [%i(a)] [c] l\n.model l adc_bridge", ["port type %i"]),
         ("A1 [a] [%d b] l\n.model l dac_bridge", ["port type %d"]),
         ("A1 [~null] y l\n.model l dac_bridge", ["cannot be NULL"]),
+        # an unclosed bracket was read as "model 'y' is not defined"
+        ("A1 [a y\n.model and2 d_and", ["unbalanced brackets"]),
+        ("A1 [a b]] y and2\n.model and2 d_and", ["unbalanced brackets"]),
+        ("A1 a y inv2\n.model inv d_inverter", ["model 'inv2' is not defined", "d_inverter"]),
         # a vector value for a single-valued parameter (an internal error before)
         ("A1 [a] [b] l\n.model l adc_bridge(in_low=[0.1 0.2])", ["in_low is a single value"]),
         ("A1 a b null null q null l\n.model l d_dff(ic=[1])", ["ic is a single value"]),

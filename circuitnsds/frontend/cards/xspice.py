@@ -31,7 +31,14 @@ from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, 
 from circuitnsds.errors import SourceLocation
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice_digital import DIGITAL_PARTS, check_digital_model, digital_part
-from circuitnsds.frontend.cards.xspice_ports import Port, Ports, affine_sum, difference, split_brackets
+from circuitnsds.frontend.cards.xspice_ports import (
+    HINT,
+    Port,
+    Ports,
+    affine_sum,
+    difference,
+    split_brackets,
+)
 from circuitnsds.values import parse_value
 
 ANALOG_BLOCKS = {
@@ -133,10 +140,14 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
     if len(tokens) < 3:
         raise reader.error(f"{name}: expected A{name[1:]} in out MODEL",
                            hint="write A1 in out MODEL with .model MODEL gain(...)")
+    if tokens.count("[") != tokens.count("]"):
+        raise reader.error(f"{name}: unbalanced brackets in the port list: every '[' needs its ']'",
+                           hint=HINT)
     model_name = tokens[-1]
     if model_name not in models:
         raise reader.error(f"{name}: model {model_name!r} is not defined",
-                           hint=f"add .model {model_name} gain(gain=...) (or summer, limit, int)")
+                           hint=f"add .model {model_name} KIND(...), KIND one of "
+                           f"{', '.join(CODE_MODELS)}")
     model = models[model_name]
     if not isinstance(model, XspiceModel):
         kind = model if isinstance(model, str) else type(model).__name__
