@@ -76,3 +76,8 @@ def test_the_old_attributes_read_the_specs_with_a_deprecation_warning():
     with pytest.deprecated_call():
         assert circuit.pss_spec is None
     assert circuitnsds.TranSpec is TransientSpec
+
+
+def test_the_removed_step_stop_form_of_mlcs_is_refused_with_the_new_form():
+    with pytest.raises(TypeError, match=r"mlcs\(SourceDefaults\(step=TSTEP, stop=TSTOP\)\)"):
+        read().mlcs(2e-6)

@@ -164,6 +164,12 @@ class Circuit:
         if defaults is None:
             tran = self.analyses.get("tran")
             defaults = tran.source_defaults if tran is not None else NO_TRAN
+        elif not isinstance(defaults, SourceDefaults):
+            raise TypeError(
+                f"Circuit.mlcs takes the analysis's SourceDefaults, not {defaults!r}: "
+                "write circuit.mlcs(SourceDefaults(step=TSTEP, stop=TSTOP)) "
+                "(the mlcs(step, stop) form was removed)"
+            )
         resolved = self._resolved(defaults)
         check_source_timing(resolved, defaults.stop)
         builder = MLCSBuilder(self.nodes)
