@@ -118,7 +118,8 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
 
 class TableArrays(NamedTuple):
     """The arrays of a :class:`ModeTable` as the loop takes them (one argument; see there):
-    the stacked maps and, per mode, its sizes, class and switch states, and last use."""
+    the stacked maps and, per mode, its sizes, class and switch states, last use, whether
+    its step's LCP is certified to have one solution, and the mode that followed it."""
 
     maps: ModeMap
     rows: np.ndarray
@@ -127,6 +128,8 @@ class TableArrays(NamedTuple):
     mode_sched: np.ndarray
     mode_free: np.ndarray
     last_used: np.ndarray
+    unique: np.ndarray
+    successor: np.ndarray
 
 
 class FreeSwitches(NamedTuple):
@@ -170,6 +173,7 @@ class ModeTable:
             "rows": np.zeros(size, dtype=np.int64), "nw": np.zeros(size, dtype=np.int64),
             "mode_class": np.zeros(size, dtype=np.int64), "mode_sched": np.zeros(size, dtype=np.int64),
             "mode_free": np.zeros(size, dtype=np.int64), "last_used": np.zeros(size, dtype=np.int64),
+            "unique": np.zeros(size, dtype=bool), "successor": np.full(size, -1, dtype=np.int64),
         }
         for name, array in fresh.items():
             old = getattr(self, name, None)
@@ -186,8 +190,12 @@ class ModeTable:
         """Index of the mode ``key`` (``(class, sched, free, active bytes)``), if stored."""
         return self.index.get(key)
 
-    def add(self, key: tuple, mode: ModeMap) -> int:
-        """Store ``mode`` under ``key`` = ``(class, sched, free, active bytes)``; returns its index."""
+    def add(self, key: tuple, mode: ModeMap, unique: bool = False) -> int:
+        """Store ``mode`` under ``key`` = ``(class, sched, free, active bytes)``; returns its index.
+
+        ``unique``: the step's LCP (its class and switch states) is certified to have one
+        solution for every state (:meth:`circuitnsds.solvers.MLCPSolver.unique_solutions`),
+        so that the loop may look for the next mode among the stored ones."""
         if self.count == self.capacity:
             self.count = 0
             self.index.clear()
@@ -201,6 +209,8 @@ class ModeTable:
         self.rows[i], self.nw[i] = mode.P.shape[0], self.m - mode.active.size
         self.mode_class[i], self.mode_sched[i], self.mode_free[i] = key[0], key[1], key[2]
         self.last_used[i] = -1
+        self.unique[i] = unique
+        self.successor[i] = -1
         self.index[key] = i
         self.count += 1
         return i
@@ -278,6 +288,76 @@ def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x
     return True
 
 
+def _clear_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+    """Whether the step ``x`` of ``mode`` (from :func:`_try_mode_scalar`) is strictly
+    complementary: every active pair's current and every inactive pair's ``w`` is positive by
+    more than :data:`SIGN_TOL` times the magnitudes of its terms. Otherwise a pair sits at
+    zero on both sides within the tolerance, another mode may be as good, and the MLCP
+    solver must decide (it compares them componentwise)."""
+    n = y.shape[1]
+    size = rows[mode]
+    kstim = F.shape[1]
+    for r in range(n, size):
+        magnitude = abs(c[mode, r])
+        for j in range(n):
+            magnitude += abs(P[mode, r, j] * y[k, j])
+        for j in range(kstim):
+            magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
+        if not x[r] > SIGN_TOL * magnitude:
+            return False
+    for r in range(nw[mode]):
+        acc = e_w[mode, r]
+        magnitude = abs(acc)
+        for j in range(size):
+            term = W[mode, r, j] * x[j]
+            acc += term
+            magnitude += abs(term)
+        if not acc > SIGN_TOL * magnitude:
+            return False
+    return True
+
+
+def _clear_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+    """:func:`_clear_scalar` with numpy products (the loop without numba)."""
+    n, size, q = y.shape[1], rows[mode], nw[mode]
+    magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
+                 + np.abs(Q0[mode, n:size]) @ np.abs(F[k]) + np.abs(c[mode, n:size]))
+    if not (x[n:size] > SIGN_TOL * magnitude).all():
+        return False
+    w = W[mode, :q, :size] @ x[:size] + e_w[mode, :q]
+    magnitude = np.abs(W[mode, :q, :size]) @ np.abs(x[:size]) + np.abs(e_w[mode, :q])
+    return bool((w > SIGN_TOL * magnitude).all())
+
+
+def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, mode_class, mode_sched,
+               mode_free, unique, successor, count, x):
+    """The stored mode that solves step ``k``, whose mode ``failed`` left its signs, or -1.
+
+    Only for a step whose LCP is certified to have exactly one solution (``unique``, a
+    P-matrix): then a mode of the same class and switch states whose signs hold *is* that
+    solution, whichever is tried first. Tried first: the mode that followed ``failed``
+    the last time (a ringing circuit repeats its sequence), then every other of its class
+    and switch states. The first that passes :func:`_try_mode_scalar` is returned when it
+    passes :func:`_clear_scalar` too, and -1 otherwise (a pair at zero on both sides: the
+    MLCP solver decides, as it does when no stored mode passes). ``x`` then holds its step.
+    """
+    if not unique[failed]:
+        return -1
+    first = successor[failed]
+    for attempt in range(count + 1):
+        i = first if attempt == 0 else attempt - 1
+        if i < 0 or i == failed or (attempt > 0 and i == first):
+            continue
+        if (mode_class[i] != mode_class[failed] or mode_sched[i] != mode_sched[failed]
+                or mode_free[i] != mode_free[failed]):
+            continue
+        if _try_mode(i, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
+            if _clear(i, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
+                return i
+            return -1
+    return -1
+
+
 def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_id, table, count,
                 free, used, x):
     """Step from ``k0`` over the modes of ``table`` (the fields of :class:`TableArrays`), watching
@@ -292,7 +372,7 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     """
     # plain tuples in the order of TableArrays (its maps: of ModeMap) and FreeSwitches (named
     # tuples would be typed by numba's slow path at every call, ~0.1 ms)
-    maps, rows, nw, mode_class, mode_sched, mode_free, last_used = table
+    maps, rows, nw, mode_class, mode_sched, mode_free, last_used, unique, successor = table
     P, Q1, Q0, c, W, e_w, resistance, active = maps
     controls, on_threshold, off_threshold, switch_on = free
     n = y.shape[1]
@@ -312,7 +392,12 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
             if mode < 0:
                 return k, STOP_NO_MODE, last
         if not _try_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
-            return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
+            found = _find_mode(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, mode_class,
+                               mode_sched, mode_free, unique, successor, count, x)
+            if found < 0:
+                return k, STOP_LEFT_MODE, last  # the caller's MLCP finds the new mode
+            successor[mode] = found
+            mode = found
         y[k + 1, :] = x[:n]
         for r in range(n, rows[mode]):
             z[k + 1, active[mode, r - n]] = x[r]
@@ -333,9 +418,13 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
 
 
 _try_mode = jit(_try_mode_scalar)
+_clear = jit(_clear_scalar)
+_find_mode = jit(_find_mode_scalar)
 _compiled = jit(_table_loop)
 # the same loop in Python with the numpy step: one copy of the loop's logic, two step kernels
-_python_loop = python_version(_table_loop, _try_mode=_try_mode_numpy)
+_python_loop = python_version(
+    _table_loop, _try_mode=_try_mode_numpy,
+    _find_mode=python_version(_find_mode_scalar, _try_mode=_try_mode_numpy, _clear=_clear_numpy))
 
 
 def _plain(arrays: TableArrays) -> tuple:

@@ -796,7 +796,8 @@ class _Stepping:
         if mode is None:
             self.unmappable.add(key)
             return None
-        return self.table.add(key, mode)
+        unique = self._step_solver(k, cls, states).solver.unique_solutions()
+        return self.table.add(key, mode, unique=unique)
 
     def sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                     ) -> CompiledSparseMap | None:

@@ -68,6 +68,7 @@ from .pivot_transform import PivotTransform, completion_mask
 from .pivoting import TRIALS, BlockPivoting
 from .residual import componentwise_residual, evaluate, kappa_of, mlcp_residual, scaled_column_max
 from .result import LCPError, LCPNoSolution, LCPSolverFailure, MLCPResult
+from .uniqueness import certified_p_matrix
 
 __all__ = ["MLCPSolver", "negative_current_harmless", "solve_mlcp"]
 
@@ -249,6 +250,7 @@ class MLCPSolver:
         self._start_order: list[np.ndarray] | None = None
         self._rcond_a: float | None = None
         self._absK: np.ndarray | None = None
+        self._unique: bool | None = None
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -417,6 +419,21 @@ class MLCPSolver:
             else:
                 self._rcond_a = factorise(self._K[: self.n, : self.n]).rcond
         return self._rcond_a
+
+    def unique_solutions(self) -> bool:
+        """Whether every right-hand side has exactly one solution, certified: the LCP of the
+        pairs at the first start basis (a principal pivot transform of ``B - D A⁻¹ C``,
+        which keeps P-matrices P) passes :func:`~circuitnsds.solvers.uniqueness.certified_p_matrix`,
+        its error bounded by ``eps / rcond`` of the start basis's factorisation. Computed
+        once. ``False`` for a problem kept sparse or without a usable start basis."""
+        if self._unique is None:
+            self._unique = False
+            if not self.sparse_only:
+                sb = next(iter(self._start_bases()), None)
+                if sb is not None:
+                    error = np.finfo(float).eps / max(sb.lu.rcond, np.finfo(float).tiny)
+                    self._unique = certified_p_matrix(sb.M, error)
+        return self._unique
 
     # ------------------------------------------------------------ start bases
     def _completion_mask(self) -> np.ndarray | None:
