@@ -48,6 +48,7 @@ import json
 import os
 import platform
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -211,14 +212,18 @@ def _median_process(command: list[str], cwd: Path, repeats: int, env: dict | Non
                     fresh: Path | None = None) -> tuple[float, subprocess.CompletedProcess]:
     """Median wall time of ``repeats`` runs (a new empty cache folder under ``fresh`` for each
     run when given: the first run after an install)."""
-    times, done = [], None
+    times, cpu, done = [], [], None
     for index in range(repeats):
         run_env = dict(os.environ if env is None else env)
         if fresh is not None:
             run_env["CIRCUITNSDS_CACHE_DIR"] = str(fresh / f"cache{index}")
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         started = time.perf_counter()
         done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, check=False, env=run_env)
         times.append(time.perf_counter() - started)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    done.cpu_s = float(np.median(cpu))  # user + system CPU seconds (children: a background warm-up too)
     return float(np.median(times)), done
 
 
@@ -229,10 +234,13 @@ def _quick_tran(text: str, factor: float) -> str:
     return with_tran(text, f".tran {step} {stop * factor!r}")
 
 
-def issue19(workdir: Path, repeats: int, scale: float) -> list[dict]:
-    """The rows of the issue 19 table (see the module docstring)."""
+def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) -> list[dict]:
+    """The rows of the issue 19 table (see the module docstring); ``only``: the cases whose
+    label contains it (and no CSV rows)."""
     rows = []
     for label, netlist, extra in ISSUE19_CASES:
+        if only is not None and only.lower() not in label.lower():
+            continue
         text = netlist.read_text() if scale == 1.0 else _quick_tran(netlist.read_text(), scale)
         name = re.sub(r"\W+", "_", label)
         path = workdir / f"{name}.cir"
@@ -247,6 +255,7 @@ def issue19(workdir: Path, repeats: int, scale: float) -> list[dict]:
         inproc = ours_in_process(text, theta=theta)
         rows.append({"case": label, "steps": inproc["steps"], "pairs": inproc["pairs"],
                      "ours_process_s": ours if done.returncode == 0 else float("nan"),
+                     "ours_cpu_s": done.cpu_s,
                      "ours_note": "" if done.returncode == 0 else done.stderr.strip()[-120:],
                      "us_per_step": inproc["us_per_step"], "mapped_share": inproc["mapped_share"],
                      "ngspice_process_s": float(np.median([r["wall_s"] for r in ng])),
@@ -259,7 +268,8 @@ def issue19(workdir: Path, repeats: int, scale: float) -> list[dict]:
             reading, _ = _median_process([sys.executable, "-c", code], workdir, repeats)
             rows.append({"case": "import + read netlist", "steps": 0, "pairs": inproc["pairs"],
                          "ours_process_s": reading})
-    rows.extend(csv_rows(workdir, 1_000_000 if scale == 1.0 else 100_000))
+    if only is None:
+        rows.extend(csv_rows(workdir, 1_000_000 if scale == 1.0 else 100_000))
     for row in rows:
         ok = row.get("ngspice_ok", True) and row.get("ngspice_process_s") == row.get("ngspice_process_s")
         row["ratio"] = (row["ngspice_process_s"] / row["ours_process_s"]
@@ -305,7 +315,7 @@ def print_issue19(rows: list[dict]) -> None:
     def f(value, spec):
         return format(value, spec) if isinstance(value, (int, float)) and value == value else "-"
 
-    print(f"{'case':<36}{'steps':>9}{'pairs':>6}{'ours[s]':>9}{'us/step':>9}{'mapped':>8}"
+    print(f"{'case':<36}{'steps':>9}{'pairs':>6}{'ours[s]':>9}{'cpu[s]':>8}{'us/step':>9}{'mapped':>8}"
           f"{'ngspice[s]':>11}{'ng/ours':>8}  note")
     for r in rows:
         note = r.get("ours_note", "")
@@ -313,10 +323,11 @@ def print_issue19(rows: list[dict]) -> None:
             note = (note + " ngspice: " + (r.get("ngspice_note") or "failed")[:40]).strip()
         share = r.get("mapped_share")
         print(f"{r['case']:<36}{r['steps']:>9}{r['pairs']:>6}{f(r.get('ours_process_s'), '9.2f'):>9}"
-              f"{f(r.get('us_per_step'), '9.2f'):>9}"
+              f"{f(r.get('ours_cpu_s'), '8.2f'):>8}{f(r.get('us_per_step'), '9.2f'):>9}"
               f"{(f(100 * share, '7.1f') + '%') if share is not None else '-':>8}"
               f"{f(r.get('ngspice_process_s'), '11.2f'):>11}{f(r.get('ratio'), '8.2f'):>8}  {note}")
-    print("ours[s], ngspice[s]: whole processes (median of the repeats); us/step: in-process stepping "
+    print("ours[s], ngspice[s]: whole processes (median of the repeats); cpu[s]: their user + system "
+          "CPU time (median); us/step: in-process stepping "
           "time per step; mapped: share of steps taken by the compiled mode loop.")
 
 
@@ -326,12 +337,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, default=HERE / "results" / "performance.json")
     parser.add_argument("--part", choices=["all", "issue19", "issue8"], default="all")
     parser.add_argument("--repeats", type=int, default=3, help="runs per case of the issue 19 table")
+    parser.add_argument("--case", help="issue 19 table: only the cases whose label contains this")
     args = parser.parse_args(argv)
     scale = 0.05 if args.quick else 1.0
     rows = []
     if args.part in ("all", "issue19"):
         with tempfile.TemporaryDirectory() as tmp:
-            table = issue19(Path(tmp), args.repeats, scale)
+            table = issue19(Path(tmp), args.repeats, scale, args.case)
         print_issue19(table)
         print()
         rows.extend(table)

@@ -54,6 +54,14 @@ STOP_END = 3
 STOP_SCHEDULE = 2
 """(Sparse loop only) the step size class or a scheduled switch state changes at step ``k``."""
 
+CLEAR_TOL = 1e-10
+"""A mode found in the table for a step whose mode changed (:func:`_find_mode_scalar`) is
+taken only when every pair's value (active current, inactive ``w``) is positive by more
+than this times the magnitudes of its terms: far above the products' rounding (~1e-15),
+and at the tie tolerance of the MLCP solver's Lemke pivoting, so that a pair this clearly
+on one side is on that side in the solver's answer too. Below it a pair is at zero on both
+sides for all the arithmetic can tell, and the MLCP solver decides."""
+
 TABLE_BYTES = 64 * 2**20
 """Memory the padded arrays of a :class:`ModeTable` may take [bytes]."""
 
@@ -291,9 +299,9 @@ def _try_mode_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x
 def _clear_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     """Whether the step ``x`` of ``mode`` (from :func:`_try_mode_scalar`) is strictly
     complementary: every active pair's current and every inactive pair's ``w`` is positive by
-    more than :data:`SIGN_TOL` times the magnitudes of its terms. Otherwise a pair sits at
-    zero on both sides within the tolerance, another mode may be as good, and the MLCP
-    solver must decide (it compares them componentwise)."""
+    more than :data:`CLEAR_TOL` times the magnitudes of its terms. Otherwise a pair sits at
+    zero on both sides as far as the arithmetic can tell, another mode may be as good, and
+    the MLCP solver must decide (it compares them componentwise)."""
     n = y.shape[1]
     size = rows[mode]
     kstim = F.shape[1]
@@ -303,7 +311,7 @@ def _clear_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
             magnitude += abs(P[mode, r, j] * y[k, j])
         for j in range(kstim):
             magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
-        if not x[r] > SIGN_TOL * magnitude:
+        if not x[r] > CLEAR_TOL * magnitude:
             return False
     for r in range(nw[mode]):
         acc = e_w[mode, r]
@@ -312,7 +320,7 @@ def _clear_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
             term = W[mode, r, j] * x[j]
             acc += term
             magnitude += abs(term)
-        if not acc > SIGN_TOL * magnitude:
+        if not acc > CLEAR_TOL * magnitude:
             return False
     return True
 
@@ -322,11 +330,11 @@ def _clear_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     n, size, q = y.shape[1], rows[mode], nw[mode]
     magnitude = (np.abs(P[mode, n:size]) @ np.abs(y[k]) + np.abs(Q1[mode, n:size]) @ np.abs(F[k + 1])
                  + np.abs(Q0[mode, n:size]) @ np.abs(F[k]) + np.abs(c[mode, n:size]))
-    if not (x[n:size] > SIGN_TOL * magnitude).all():
+    if not (x[n:size] > CLEAR_TOL * magnitude).all():
         return False
     w = W[mode, :q, :size] @ x[:size] + e_w[mode, :q]
     magnitude = np.abs(W[mode, :q, :size]) @ np.abs(x[:size]) + np.abs(e_w[mode, :q])
-    return bool((w > SIGN_TOL * magnitude).all())
+    return bool((w > CLEAR_TOL * magnitude).all())
 
 
 def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, mode_class, mode_sched,
