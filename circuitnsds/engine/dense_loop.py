@@ -19,12 +19,19 @@ settle a pair on different sides within that tolerance.
 A :class:`ModeTable` keeps the maps of every mode seen so far, padded into
 arrays indexed by mode. :func:`run_table` applies them step after step. When
 the step size class or the state of the source-scheduled switches changes, it
-continues with the mode that class and switch state had the last time. It
-returns to the caller when a step's signs fail with that mode (the caller solves
-that step as an MLCP, which decides the new mode), when no mode is stored for
-the step's class and switch state, when a state-controlled switch must change,
-or at the end. A converter thus runs its thousands of periods in one
-call once both phases' modes are known.
+continues with the mode that class and switch state had the last time. When a
+step's signs fail, the loop looks for the step's mode among the stored modes of the
+same class and switch states (:func:`_find_mode_scalar`), and takes the first whose
+signs hold if the step's LCP is certified to have one solution for every state (a
+P-matrix, :meth:`circuitnsds.solvers.MLCPSolver.unique_solutions`, stored per mode as
+``unique``) and every pair of that mode is off zero by more than :data:`CLEAR_TOL` of
+its terms: then it is the step's solution, the one the MLCP solver would find. It
+returns to the caller when a step's signs fail and no stored mode is certain (the
+caller solves that step as an MLCP, which decides the new mode, and the table grows by
+it), when no mode is stored for the step's class and switch state, when a
+state-controlled switch must change, or at the end. A converter thus runs its
+thousands of periods in one call once both phases' modes are known, and a ringing
+circuit its thousands of mode changes once it has seen its modes.
 
 The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`: on its
 first compiled call, cached per user);

@@ -28,8 +28,9 @@ Switch states for a step are decided before it is solved:
 
 Steps whose mode (active pairs, switch states, step class) is already known run
 through :mod:`circuitnsds.engine.dense_loop` (one affine map per step, checked for
-complementarity, the modes kept in a table); a step that leaves its mode is
-solved as a full MLCP, which decides the next mode.
+complementarity, the modes kept in a table; a step that leaves its mode continues
+there in another stored mode when that is certainly its solution); a step that leaves
+its mode otherwise is solved as a full MLCP, which decides the next mode.
 
 This module knows nothing about netlists: it takes an :class:`MLCS`, a grid
 and a starting point.
