@@ -72,11 +72,13 @@ def test_certificate_only_for_p_matrices(m: int, seed: int, kind: str) -> None:
         assert not certified_p_matrix(M)
 
 
-def lcp_table(M: np.ndarray, unique: bool) -> tuple[ModeTable, dict[bytes, int]]:
-    """``LCP(M, q)`` as a mode table: unknowns ``y = q`` (the source values of the step's end),
-    one mode per active set ``α``: ``z_α = -M_αα⁻¹ q_α``, ``w = q + M[:, α] z_α``."""
+def lcp_table(M: np.ndarray, unique: bool, table: ModeTable | None = None,
+              cls: int = 0) -> tuple[ModeTable, dict[bytes, int]]:
+    """``LCP(M, q)`` as a mode table (of step class ``cls``): unknowns ``y = q`` (the source
+    values of the step's end), one mode per active set ``α``: ``z_α = -M_αα⁻¹ q_α``,
+    ``w = q + M[:, α] z_α``."""
     m = M.shape[0]
-    table = ModeTable(m, m, m)
+    table = ModeTable(m, m, m) if table is None else table
     index = {}
     for bits in range(2**m):
         mask = np.array([(bits >> j) & 1 for j in range(m)], dtype=bool)
@@ -93,7 +95,7 @@ def lcp_table(M: np.ndarray, unique: bool) -> tuple[ModeTable, dict[bytes, int]]
         resistance = 1.0 / np.diagonal(inverse) if a else np.zeros(0)
         mode = ModeMap(P=np.zeros((m + a, m)), Q1=Q1, Q0=np.zeros((m + a, m)), c=np.zeros(m + a), W=W,
                        e_w=np.zeros(m), resistance=resistance, active=act.astype(np.int64))
-        index[mask.tobytes()] = table.add((0, 0, 0, mask.tobytes()), mode, unique=unique)
+        index[mask.tobytes()] = table.add((cls, 0, 0, mask.tobytes()), mode, unique=unique)
     return table, index
 
 
@@ -132,6 +134,24 @@ def test_loop_finds_the_unique_solution(m: int, seed: int, kind: str, frac: floa
         return
     assert (done, reason) == (1, STOP_END)
     np.testing.assert_allclose(z, z_enum, rtol=1e-9, atol=1e-12 * (1 + np.abs(z_star).max()))
+
+
+@SETTINGS
+@given(m=st.integers(1, 4), seed=st.integers(0, 2**32 - 1), compiled=st.booleans())
+def test_search_stays_in_the_step_class(m: int, seed: int, compiled: bool) -> None:
+    """Modes of another step class (another step size: another LCP) are never taken, even
+    when stored first and when their signs would hold."""
+    rng = np.random.default_rng(seed)
+    M, other = p_matrix(m, rng, "pd"), p_matrix(m, rng, "pd")
+    q, z_star, active = lcp_with_solution(M, rng, frac_active=0.5)
+    table, _ = lcp_table(other, unique=True, cls=1)
+    table, index = lcp_table(M, unique=True, table=table, cls=0)
+    wrong = active.copy()
+    wrong[rng.integers(m)] ^= True
+    done, reason, z = step_once(table, index[wrong.tobytes()], q, compiled)
+    if certified_p_matrix(M):
+        assert (done, reason) == (1, STOP_END)
+        np.testing.assert_allclose(z, z_star, rtol=1e-9, atol=1e-12 * (1 + np.abs(z_star).max()))
 
 
 @SETTINGS

@@ -352,9 +352,10 @@ def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, n
     P-matrix): then a mode of the same class and switch states whose signs hold *is* that
     solution, whichever is tried first. Tried first: the mode that followed ``failed``
     the last time (a ringing circuit repeats its sequence), then every other of its class
-    and switch states. The first that passes :func:`_try_mode_scalar` is returned when it
-    passes :func:`_clear_scalar` too, and -1 otherwise (a pair at zero on both sides: the
-    MLCP solver decides, as it does when no stored mode passes). ``x`` then holds its step.
+    and switch states. The first that passes :func:`_try_mode_scalar` and
+    :func:`_clear_scalar` (strictly complementary: the exact solution, whatever was tried
+    before it) is returned, with ``x`` holding its step; -1 when none does (a new mode, or
+    a pair at zero on both sides: the MLCP solver decides).
     """
     if not unique[failed]:
         return -1
@@ -366,10 +367,9 @@ def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, n
         if (mode_class[i] != mode_class[failed] or mode_sched[i] != mode_sched[failed]
                 or mode_free[i] != mode_free[failed]):
             continue
-        if _try_mode(i, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
-            if _clear(i, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
-                return i
-            return -1
+        if (_try_mode(i, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x)
+                and _clear(i, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x)):
+            return i
     return -1
 
 
