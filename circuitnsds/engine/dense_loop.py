@@ -344,13 +344,13 @@ def _clear_numpy(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     return bool((w > CLEAR_TOL * magnitude).all())
 
 
-def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, mode_class, mode_sched,
-               mode_free, unique, successor, count, x):
+def _find_mode_scalar(failed, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, mode_class,
+                      mode_sched, mode_free, unique, successor, count, x):
     """The stored mode that solves step ``k``, whose mode ``failed`` left its signs, or -1.
 
     Only for a step whose LCP is certified to have exactly one solution (``unique``, a
-    P-matrix): then a mode of the same class and switch states whose signs hold *is* that
-    solution, whichever is tried first. Tried first: the mode that followed ``failed``
+    P-matrix): then a mode of the same class and switch states that is strictly
+    complementary *is* that solution, whichever is tried first. Tried first: the mode that followed ``failed``
     the last time (a ringing circuit repeats its sequence), then every other of its class
     and switch states. The first that passes :func:`_try_mode_scalar` and
     :func:`_clear_scalar` (strictly complementary: the exact solution, whatever was tried

@@ -6,7 +6,8 @@ Complementarity Problem*, Theorem 3.3.7). Checking every minor costs ``2^m``
 determinants; a cheap sufficient condition is that the symmetric part of
 ``S M S`` is positive definite for some positive diagonal ``S`` (then every principal
 submatrix of ``S M S`` is positive definite in the same sense, hence has a positive
-determinant, and a positive diagonal similarity keeps the minors' signs). With
+determinant, and scaling both sides by a positive diagonal multiplies each principal
+minor by a positive number). With
 ``S = diag(M_ii)^(-1/2)`` the symmetric part has a unit diagonal, so its smallest
 eigenvalue is a margin in [0, 1].
 
