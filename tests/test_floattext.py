@@ -1,0 +1,79 @@
+"""The compiled float -> text formatter writes exactly Python's ``repr``: the shortest
+decimal that reads back to the same double (circuitnsds/output/floattext.py)."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from circuitnsds.output import floattext
+
+
+def _texts(values: np.ndarray) -> list[str]:
+    text = floattext.csv_bytes(np.asarray(values, dtype=float).reshape(-1, 1)).decode("ascii")
+    return text.split("\n")[:-1]
+
+
+def _check(values) -> None:
+    values = np.asarray(values, dtype=float)
+    for x, text in zip(values.tolist(), _texts(values)):
+        assert text == repr(x), (x.hex(), text)
+        if not math.isnan(x):  # reads back bit for bit (the sign of zero included)
+            assert struct.pack("<d", float(text)) == struct.pack("<d", x)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=200))
+def test_any_doubles_read_back_and_equal_repr(values):
+    _check(values)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 2**64 - 1), min_size=1, max_size=200))
+def test_any_bit_patterns(patterns):
+    _check(np.array(patterns, dtype=np.uint64).view(np.float64))
+
+
+def test_random_bit_patterns():
+    """Every exponent and significand (nan and inf patterns included) against ``repr``."""
+    bits = np.random.default_rng(19).integers(0, 2**64, size=300_000, dtype=np.uint64, endpoint=False)
+    values = bits.view(np.float64).reshape(-1, 3)
+    expected = ("%r,%r,%r\n" * values.shape[0]) % tuple(values.ravel().tolist())
+    assert floattext.csv_bytes(values).decode("ascii") == expected
+
+
+def test_edge_values():
+    tiny = np.arange(1, 3000, dtype=np.uint64).view(np.float64)  # the smallest subnormals
+    largest_subnormals = (np.uint64(2**52) - np.arange(1, 1000, dtype=np.uint64)).view(np.float64)
+    powers = np.ldexp(1.0, np.arange(-1074, 1024))  # c = 2^52: the asymmetric rounding interval
+    around_powers = np.concatenate([np.nextafter(powers, 0), np.nextafter(powers, np.inf)])
+    integers = np.arange(-10_000, 10_000, dtype=float)
+    decimals = np.array([k / 10.0**j for j in range(1, 25) for k in (1, 3, 7, 9, 11, 123)])
+    special = [0.0, -0.0, math.inf, -math.inf, math.nan, 1e16, 1e15, 9999999999999998.0, 1e-4,
+               1e-5, 0.0001234, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308, 2.0**53 + 2,
+               0.1 + 0.2, 1 / 3, 2 / 3, 123456789012345678.0, 1e22, 1e23, 5e-310, 9.5367431640625e-07]
+    for values in (tiny, largest_subnormals, powers[np.isfinite(powers)], around_powers, integers,
+                   decimals, special, -decimals):
+        _check(values)
+
+
+def test_exponent_tables_are_exact():
+    q = np.arange(floattext.Q_MIN, floattext.Q_MAX + 1)
+    for fast, exact in zip(floattext.exponent_tables(q), floattext.exact_exponent_tables(q)):
+        np.testing.assert_array_equal(fast, exact)
+
+
+def test_python_version_matches():
+    values = np.array([[0.1, -3.5e-310], [1e300, 12.0]])
+    assert floattext.csv_bytes(values, compiled=False) == floattext.csv_bytes(values)
+
+
+def test_raw_block_layout():
+    bits = np.array([[0.5, -1e-5], [1.0, 2.0]]).view(np.uint64)
+    buffer = np.empty(256, dtype=np.uint8)
+    end = floattext.kernel("raw")(bits, 9, buffer, *floattext.tables())
+    assert buffer[:end].tobytes() == b" 9\t0.5\n\t-1e-05\n\n 10\t1.0\n\t2.0\n\n"
