@@ -3,14 +3,16 @@ decimal that reads back to the same double (circuitnsds/output/floattext.py)."""
 
 from __future__ import annotations
 
+import io
 import math
 import struct
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from circuitnsds.output import floattext
+from circuitnsds.output import csvfile, floattext
 
 
 def _texts(values: np.ndarray) -> list[str]:
@@ -77,3 +79,32 @@ def test_raw_block_layout():
     buffer = np.empty(256, dtype=np.uint8)
     end = floattext.kernel("raw")(bits, 9, buffer, *floattext.tables())
     assert buffer[:end].tobytes() == b" 9\t0.5\n\t-1e-05\n\n 10\t1.0\n\t2.0\n\n"
+
+
+@pytest.mark.parametrize("block_rows", [3, 65_536])
+def test_both_csv_writers_write_the_same_bytes(monkeypatch, block_rows):
+    monkeypatch.setattr(csvfile, "BLOCK_ROWS", block_rows)
+    rng = np.random.default_rng(7)
+    time = np.cumsum(rng.random(1000) * 1e-7)
+    columns = [rng.normal(size=1000) * 10.0 ** rng.integers(-30, 30, size=1000),
+               np.round(rng.normal(size=1000), 3), np.full(1000, np.nan)]
+    written = []
+    for compiled, stream in ((True, io.BytesIO()), (False, io.BytesIO()), (True, io.StringIO())):
+        csvfile.write_csv(stream, time, ["v(a)", "i(l1)", "x"], columns, compiled=compiled)
+        value = stream.getvalue()
+        written.append(value.encode("ascii") if isinstance(value, str) else value)
+    assert written[0] == written[1] == written[2]
+    lines = written[0].decode("ascii").splitlines()
+    assert lines[0] == "time,v(a),i(l1),x" and len(lines) == 1001
+    assert lines[1] == ",".join(repr(float(v)) for v in (time[0], columns[0][0], columns[1][0], math.nan))
+
+
+def test_the_formatter_is_chosen_by_size(monkeypatch):
+    """Small files never load numba; large ones do only when the formatter is cached."""
+    monkeypatch.setattr(floattext, "loaded", lambda: False)
+    monkeypatch.setattr(csvfile, "_numba_in_use", lambda: False)
+    assert not csvfile.compiled_pays(csvfile.COLD_VALUES - 1)
+    monkeypatch.setattr(csvfile, "_numba_in_use", lambda: True)
+    assert not csvfile.compiled_pays(csvfile.LOADED_VALUES - 1)
+    monkeypatch.setattr("circuitnsds.engine.jit.ready_marker", lambda: None)
+    assert not csvfile.compiled_pays(10**9)  # nothing cached: never compiled while writing

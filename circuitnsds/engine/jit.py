@@ -92,7 +92,7 @@ def cache_root() -> Path | None:
 
 def ready_marker() -> Path | None:
     """A file under :func:`cache_root` whose existence says that the loops of this very
-    source (the engine's loop modules), numba and Python were compiled and cached
+    source (the engine's loop modules and the CSV formatter), numba and Python were compiled and cached
     (written by :mod:`circuitnsds.engine.warmup`); ``None`` without a cache folder."""
     import hashlib
     from importlib.metadata import PackageNotFoundError, version
@@ -107,8 +107,9 @@ def ready_marker() -> Path | None:
         return None
     folder = Path(__file__).resolve().parent
     digest.update(str(folder).encode())  # numba's cache is per source path as well
-    for name in ("dense_loop.py", "sparse_loop.py", "jit.py"):
-        digest.update((folder / name).read_bytes())
+    for path in (folder / "dense_loop.py", folder / "sparse_loop.py", folder / "jit.py",
+                 folder.parent / "output" / "floattext.py"):  # the CSV formatter is warmed too
+        digest.update(path.read_bytes())
     return root / f"ready-{digest.hexdigest()[:20]}"
 
 
