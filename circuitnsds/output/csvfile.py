@@ -19,6 +19,7 @@ from __future__ import annotations
 import io
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import BinaryIO, TextIO
 
 import numpy as np
@@ -105,3 +106,145 @@ def write_csv(stream: TextIO | BinaryIO, time: np.ndarray, names: Sequence[str],
     write_header(stream, names)
     write_rows(stream, np.asarray(time, dtype=float), [np.asarray(c, dtype=float) for c in columns],
                compiled=compiled)
+
+
+class CsvStream:
+    """A CSV written as a run goes: the header at once, then each segment's rows as the run
+    hands them over (:meth:`append`), so the rows need not be held in memory.
+
+    A file is written through :func:`~circuitnsds.output.files.atomic_path`: only
+    :meth:`commit` puts it in place (a run that fails or is interrupted commits the rows it
+    completed, as the writers do with a partial result); :meth:`abort` leaves the previous
+    file untouched. An open stream (standard output) gets the rows directly.
+
+    With the compiled formatter, each chunk is formatted and written in a background thread
+    (the formatter holds no GIL) while the run computes the next segment; at most one chunk
+    is in flight. ``keep``: also hold the rows (for the outputs that need whole signals:
+    raw file, figure); :meth:`waveforms` returns them.
+
+    Args:
+        target: file path, or an open text or binary stream.
+        names: the signals' column labels, in the order of the columns given to :meth:`append`.
+    """
+
+    def __init__(self, target: str | Path | TextIO | BinaryIO, names: Sequence[str], *,
+                 keep: bool = False, background: bool = True):
+        from contextlib import ExitStack
+
+        from circuitnsds.output.files import atomic_path
+
+        self.target = target
+        self.names = list(names)
+        self.keep = keep
+        self.background = background
+        self.rows = 0
+        self.last_time = float("nan")
+        self.max_residual = 0.0
+        self.compiled: bool | None = None
+        self._chunks: list[tuple[np.ndarray, list[np.ndarray], np.ndarray | None]] = []
+        self._pending = None
+        self._executor = None
+        self._stack = ExitStack()
+        try:
+            if hasattr(target, "write"):
+                self._stream = target
+            else:
+                temporary = self._stack.enter_context(atomic_path(target))
+                self._stream = self._stack.enter_context(open(temporary, "wb"))
+            labels = [f'"{name}"' if "," in name else name for name in self.names]
+            write_header(self._stream, labels)
+        except OSError as exc:
+            self._stack.close()
+            raise self._error(exc) from None
+
+    def _error(self, exc: OSError):
+        from circuitnsds.output.files import OutputError
+
+        return OutputError(f"cannot write {self.target}: {exc.strerror or exc}", where=str(self.target),
+                           hint="check that the folder exists, is writable and has room")
+
+    def expect(self, rows: int) -> None:
+        """The rows the run will hand over (chooses the formatter for the whole file)."""
+        if self.compiled is None:
+            self.compiled = compiled_pays(rows * (1 + len(self.names)))
+
+    def append(self, time: np.ndarray, columns: Sequence[np.ndarray],
+               residual: np.ndarray | None = None) -> None:
+        """Write the rows of one segment (arrays of equal length, not modified afterwards)."""
+        if time.size == 0:
+            return
+        self._wait()
+        if self.compiled is None:
+            self.compiled = compiled_pays(time.size * (1 + len(self.names)))
+        time = np.asarray(time, dtype=float)
+        columns = [np.asarray(column, dtype=float) for column in columns]
+        if self.keep:
+            self._chunks.append((time, columns, residual))
+        if self.compiled and self.background:
+            if self._executor is None:
+                from concurrent.futures import ThreadPoolExecutor
+
+                self._executor = ThreadPoolExecutor(1, thread_name_prefix="csv")
+            self._pending = self._executor.submit(write_rows, self._stream, time, columns,
+                                                  compiled=True)
+        else:
+            try:
+                write_rows(self._stream, time, columns, compiled=self.compiled)
+            except OSError as exc:
+                raise self._error(exc) from None
+        self.rows += time.size
+        self.last_time = float(time[-1])
+        if residual is not None and residual.size:
+            self.max_residual = max(self.max_residual, float(np.max(residual)))
+
+    def _wait(self) -> None:
+        """Let the chunk in flight be written (its write error raised here)."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            try:
+                pending.result()
+            except OSError as exc:
+                raise self._error(exc) from None
+
+    def commit(self) -> None:
+        """Finish writing and put the file in place (an open stream is flushed)."""
+        try:
+            self._wait()
+        except BaseException:
+            self.abort()
+            raise
+        self._shutdown()
+        try:
+            if hasattr(self.target, "write"):
+                self._stream.flush()
+            self._stack.close()
+        except OSError as exc:
+            raise self._error(exc) from None
+
+    def abort(self) -> None:
+        """Stop writing; the file being written is removed, the previous one kept."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.exception()  # wait; the run's own failure is what gets reported
+        self._shutdown()
+        aborted = KeyboardInterrupt()
+        self._stack.__exit__(KeyboardInterrupt, aborted, None)
+
+    def _shutdown(self) -> None:
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+            self._executor = None
+
+    def waveforms(self, template):
+        """The rows kept (``keep``) as :class:`~circuitnsds.output.waveforms.Waveforms`, with
+        the title, stats and events of ``template`` (the run's result)."""
+        from dataclasses import replace
+
+        def joined(arrays):
+            return np.concatenate(arrays) if arrays else np.zeros(0)
+
+        residuals = [r for _, _, r in self._chunks if r is not None]
+        return replace(template, time=joined([t for t, _, _ in self._chunks]),
+                       signals={name: joined([c[j] for _, c, _ in self._chunks])
+                                for j, name in enumerate(self.names)},
+                       residual=joined(residuals) if residuals else template.residual)
