@@ -487,7 +487,10 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
                   and f"i({e.name})" not in rows}
 
     def voltage(node: str) -> np.ndarray:
-        return np.zeros(time.size) if node == "0" else signal(f"v({node})")
+        # (_row, not signal: closures calling each other would be a reference cycle that
+        # keeps the trajectory alive until the garbage collector runs, a segment's worth of
+        # memory each time in a run that keeps only some signals)
+        return np.zeros(time.size) if node == "0" else _row(f"v({node})", y, current)
 
     def signal(name: str) -> np.ndarray:
         if name in capacitors:
@@ -530,6 +533,12 @@ SEGMENT_BYTES = 256 * 2**20
 [bytes] (see :func:`_kept_signals`)."""
 
 
+SINK_SEGMENT_STEPS = 2**18
+"""Steps per segment at most when the rows go to a sink: the sink (a CSV file) formats one
+segment in a background thread while the next is computed (measured on the 1M-step buck:
+no slower than one segment of 1M steps, see docs/performance.md)."""
+
+
 def segment_steps(mlcs) -> int:
     """Steps per segment of :func:`_kept_signals`: :data:`SEGMENT_BYTES` over the bytes
     the integrator stores per step (unknowns, pair currents, impulses, active flags,
@@ -556,7 +565,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     if unknown:
         raise CircuitError(f"unknown signal(s) {', '.join(unknown)}", where="signals",
                            hint=f"available: {', '.join(mlcs.output_names)}")
-    rows = segment_steps(mlcs)
+    rows = segment_steps(mlcs) if sink is None else min(segment_steps(mlcs), SINK_SEGMENT_STEPS)
     kept: dict[str, list[np.ndarray]] = {name: [] for name in names}
     times: list[np.ndarray] = []
     residuals: list[np.ndarray] = []
@@ -616,7 +625,9 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
             exc.partial = result()
             raise
         keep(trajectory, 0 if first == 0 else 1)
-        y, current = trajectory.y[-1], trajectory.current[-1]
-        active, switches, charge = trajectory.active[-1], trajectory.switches[-1], None
+        # the last state, copied: views would keep the segment's arrays alive during the next
+        y, current = trajectory.y[-1].copy(), trajectory.current[-1].copy()
+        active, switches, charge = trajectory.active[-1].copy(), trajectory.switches[-1].copy(), None
+        del trajectory  # freed before the next segment's arrays are allocated
         first = last
     return result()

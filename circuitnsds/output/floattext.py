@@ -331,11 +331,14 @@ def kernel(name: str, *, compiled: bool = True):
     versions at the first request (an import of :mod:`circuitnsds.engine.jit` inside the
     function: ``output/`` imports no other layer at module level)."""
     if not _KERNELS:
-        from circuitnsds.engine.jit import jit, python_version
+        from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 
         namespace = globals()
-        for helper in _HELPERS:
-            namespace[helper] = jit(namespace[helper])
+        if AVAILABLE:  # inlined into the kernels (a call per number costs the arrays' reference counts)
+            from numba import njit
+
+            for helper in _HELPERS:
+                namespace[helper] = njit(inline="always")(namespace[helper])
         for key, function in (("csv", _csv_block), ("raw", _raw_block)):
             _KERNELS[key] = jit(function)
             _KERNELS[key + "-python"] = python_version(_KERNELS[key])
