@@ -70,6 +70,7 @@ def test_exponent_tables_are_exact():
 
 
 def test_python_version_matches():
+    """The kernel's loop and layout run by the interpreter write the same bytes."""
     values = np.array([[0.1, -3.5e-310], [1e300, 12.0]])
     assert floattext.csv_bytes(values, compiled=False) == floattext.csv_bytes(values)
 

@@ -141,6 +141,7 @@ class CsvStream:
         self.last_time = float("nan")
         self.max_residual = 0.0
         self.compiled: bool | None = None
+        self.expected = 0
         self._chunks: list[tuple[np.ndarray, list[np.ndarray], np.ndarray | None]] = []
         self._pending = None
         self._executor = None
@@ -164,9 +165,9 @@ class CsvStream:
                            hint="check that the folder exists, is writable and has room")
 
     def expect(self, rows: int) -> None:
-        """The rows the run will hand over (chooses the formatter for the whole file)."""
-        if self.compiled is None:
-            self.compiled = compiled_pays(rows * (1 + len(self.names)))
+        """The rows the run will hand over: the formatter is chosen for the whole file at the
+        first :meth:`append` (by then a long run has loaded its compiled loop, and numba with it)."""
+        self.expected = rows
 
     def append(self, time: np.ndarray, columns: Sequence[np.ndarray],
                residual: np.ndarray | None = None) -> None:
@@ -175,7 +176,7 @@ class CsvStream:
             return
         self._wait()
         if self.compiled is None:
-            self.compiled = compiled_pays(time.size * (1 + len(self.names)))
+            self.compiled = compiled_pays(max(self.expected, time.size) * (1 + len(self.names)))
         time = np.asarray(time, dtype=float)
         columns = [np.asarray(column, dtype=float) for column in columns]
         if self.keep:

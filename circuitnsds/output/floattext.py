@@ -122,7 +122,7 @@ def tables() -> tuple[np.ndarray, ...]:
 _M32 = np.uint64(0xFFFFFFFF)
 _M52 = np.uint64((1 << 52) - 1)
 _M63 = np.uint64((1 << 63) - 1)
-_U0, _U1, _U2, _U4, _U10 = (np.uint64(v) for v in (0, 1, 2, 4, 10))
+_U0, _U1, _U2, _U10, _U100, _U1E8 = (np.uint64(v) for v in (0, 1, 2, 10, 100, 10**8))
 _S32, _S52, _S63 = np.uint64(32), np.uint64(52), np.uint64(63)
 
 
@@ -211,13 +211,26 @@ def _put_text(bits, buffer, position, g_high, g_low, ks, hs, ka, ha, digits):
         buffer[position], buffer[position + 1], buffer[position + 2] = 48, 46, 48
         return position + 3
     f, e = _shortest(magnitude, g_high, g_low, ks, hs, ka, ha)
+    while f % _U1E8 == _U0:  # trailing zeros dropped, eight at a time, then one
+        f //= _U1E8
+        e += 8
     while f % _U10 == _U0:
         f //= _U10
         e += 1
     n = 0
-    while f != _U0:  # digits, last first
-        digits[n] = np.uint8(48 + np.int64(f % _U10))
-        f //= _U10
+    while f >= _U100:  # digits, last first, two per division
+        pair = np.int64(f % _U100)
+        f //= _U100
+        digits[n] = 48 + pair % 10
+        digits[n + 1] = 48 + pair // 10
+        n += 2
+    last = np.int64(f)
+    if last >= 10:
+        digits[n] = 48 + last % 10
+        digits[n + 1] = 48 + last // 10
+        n += 2
+    else:
+        digits[n] = 48 + last
         n += 1
     point = n + e  # value = 0.d1..dn × 10^point
     if -4 < point <= 16:
