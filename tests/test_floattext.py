@@ -107,5 +107,19 @@ def test_the_formatter_is_chosen_by_size(monkeypatch):
     assert not csvfile.compiled_pays(csvfile.COLD_VALUES - 1)
     monkeypatch.setattr(csvfile, "_numba_in_use", lambda: True)
     assert not csvfile.compiled_pays(csvfile.LOADED_VALUES - 1)
-    monkeypatch.setattr("circuitnsds.engine.jit.ready_marker", lambda: None)
+    monkeypatch.setattr(floattext, "ready_marker", lambda: None)
     assert not csvfile.compiled_pays(10**9)  # nothing cached: never compiled while writing
+
+
+def test_an_uncached_formatter_is_compiled_in_the_background(monkeypatch, tmp_path):
+    """A large file with the formatter not cached: written in Python, and the warm-up started."""
+    from circuitnsds.engine import loop_choice
+
+    started = []
+    monkeypatch.setattr(floattext, "loaded", lambda: False)
+    monkeypatch.setattr(csvfile, "_numba_in_use", lambda: True)
+    monkeypatch.setattr(floattext, "ready_marker", lambda: tmp_path / "ready-missing")
+    monkeypatch.setattr(loop_choice, "start_warmup", lambda: started.append(1))
+    assert not csvfile.compiled_pays(10**7) and started == [1]
+    (tmp_path / "ready-missing").touch()
+    assert csvfile.compiled_pays(10**7) and started == [1]

@@ -61,15 +61,18 @@ def warm_sparse() -> int:
 
 
 def main() -> None:
-    """Compile or load both loops and the CSV formatter, then mark the cache ready for this
-    source."""
+    """Compile or load both loops, mark the cache ready for them, then the same for the CSV
+    formatter."""
     from circuitnsds.engine.jit import ready_marker
     from circuitnsds.output import floattext  # every compiled kernel of the package is warmed here
 
     warm_dense()
     warm_sparse()
-    floattext.warm()
     marker = ready_marker()
+    if marker is not None:  # the loops first: a run waiting for them switches at once
+        marker.touch()
+    floattext.warm()
+    marker = floattext.ready_marker()
     if marker is not None:
         marker.touch()
 

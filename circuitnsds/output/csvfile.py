@@ -49,16 +49,24 @@ def compiled_pays(values: int) -> bool:
     """Whether to write ``values`` numbers with the compiled formatter: numba installed,
     enough numbers for its load to pay (:data:`LOADED_VALUES` or :data:`COLD_VALUES`), and
     the formatter already loaded or cached for this source (the warm-up's marker,
-    :func:`~circuitnsds.engine.jit.ready_marker`; compiling it takes ~4 s, more than the
-    Python writer needs for most files, so an uncached formatter is never compiled here)."""
+    :func:`~circuitnsds.output.floattext.ready_marker`; compiling it takes ~5-10 s, more than
+    the Python writer needs for most files, so an uncached formatter is never compiled here:
+    the warm-up process compiles it in the background for the next runs)."""
     if floattext.loaded():
         return True
-    from circuitnsds.engine.jit import numba_available, ready_marker
+    from circuitnsds.engine.jit import numba_available
 
     if not numba_available() or values < (LOADED_VALUES if _numba_in_use() else COLD_VALUES):
         return False
-    marker = ready_marker()
-    return marker is not None and marker.exists()
+    marker = floattext.ready_marker()
+    if marker is None:
+        return False
+    if not marker.exists():  # compiled in the background for the next runs (the loops' warm-up)
+        from circuitnsds.engine.loop_choice import start_warmup
+
+        start_warmup()
+        return False
+    return True
 
 
 def write_header(stream: TextIO | BinaryIO, names: Sequence[str]) -> None:

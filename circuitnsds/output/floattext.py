@@ -378,6 +378,16 @@ def loaded() -> bool:
     return bool(_KERNELS) and getattr(_KERNELS["csv"], "loaded", False)
 
 
+def ready_marker():
+    """The file whose existence says that the kernels of this very source are in the per-user
+    cache (written by :mod:`circuitnsds.engine.warmup` after :func:`warm`), or ``None``."""
+    from pathlib import Path
+
+    from circuitnsds.engine.jit import ready_marker as marker
+
+    return marker((Path(__file__).resolve(),))
+
+
 def warm() -> None:
     """Compile (or load from the cache) both kernels, for the types the writers pass."""
     csv_bytes(np.array([[0.1, -2.5e-300]]))
