@@ -131,22 +131,27 @@ def whole_processes(rows: int, repeats: int, folder: Path) -> list[tuple[str, fl
     os.environ["CIRCUITNSDS_CACHE_DIR"] = warm
     warm_everything()  # compiled loops and formatter in the warm cache, marker set
     table = []
-    for label, force, cold in (("to_csv, formatter cached (warm)", "", False),
-                               ("to_csv, empty cache (cold: Python writer)", "", True),
-                               ("to_csv, forced Python writer", "csvfile.COLD_VALUES = 10**12", False)):
+
+    def write(label: str, force: str, cold: bool) -> None:
         code = WRITE.format(root=root, rows=rows, path=path, force=force)
         cache = tempfile.mkdtemp(dir=folder) if cold else warm
-        wall, writing, printed = process(code, cache, repeats)
+        wall, writing, printed = process(code, cache, 1 if cold else repeats)
         table.append((label, wall, writing, "compiled" if printed.endswith("True") else "Python"))
-    for label, before, cold in (
-            ("load formatter, fresh process (numba import + load)", "", False),
-            ("load formatter after the stepping loop", "from circuitnsds.engine.warmup import warm_dense; "
-             "warm_dense()", False),
-            ("compile formatter (empty cache)", "", True)):
+
+    def load(label: str, before: str, cold: bool) -> None:
         code = LOAD.format(root=root, before=before)
         cache = tempfile.mkdtemp(dir=folder) if cold else warm
         wall, seconds, _ = process(code, cache, 1 if cold else repeats)
         table.append((label, wall, seconds, ""))
+
+    write("to_csv, formatter cached (warm)", "", False)
+    write("to_csv, forced Python writer", "csvfile.COLD_VALUES = 10**12", False)
+    load("load formatter, fresh process (numba import + load)", "", False)
+    load("load formatter after the stepping loop",
+         "from circuitnsds.engine.warmup import warm_dense; warm_dense()", False)
+    load("compile formatter (empty cache)", "", True)
+    # last: it starts the warm-up process, which goes on compiling after this one ends
+    write("to_csv, empty cache (cold: Python writer, warm-up started)", "", True)
     return table
 
 
