@@ -75,13 +75,6 @@ def test_python_version_matches():
     assert floattext.csv_bytes(values, compiled=False) == floattext.csv_bytes(values)
 
 
-def test_raw_block_layout():
-    bits = np.array([[0.5, -1e-5], [1.0, 2.0]]).view(np.uint64)
-    buffer = np.empty(256, dtype=np.uint8)
-    end = floattext.kernel("raw")(bits, 9, buffer, *floattext.tables())
-    assert buffer[:end].tobytes() == b" 9\t0.5\n\t-1e-05\n\n 10\t1.0\n\t2.0\n\n"
-
-
 @pytest.mark.parametrize("block_rows", [3, 65_536])
 def test_both_csv_writers_write_the_same_bytes(monkeypatch, block_rows):
     monkeypatch.setattr(csvfile, "BLOCK_ROWS", block_rows)

@@ -91,7 +91,7 @@ def write_rows(stream: TextIO | BinaryIO, time: np.ndarray, columns: Sequence[np
     width = 1 + len(columns)
     if compiled is None:
         compiled = compiled_pays(time.size * width)
-    kernel = floattext.kernel("csv") if compiled else None
+    kernel = floattext.kernel() if compiled else None
     buffer = np.empty(min(time.size, BLOCK_ROWS) * width * (floattext.MAX_CHARS + 1), dtype=np.uint8) \
         if compiled else None
     row = ",".join(["%r"] * width) + "\n"

@@ -33,9 +33,10 @@ with Python's exact integers at first use (~5 ms), not copied from anywhere.
 before and 16 digits after the first digit (``0.0001`` .. ``1234567890123456.0``, a
 ``.0`` for integers), otherwise ``d.ddde±XX`` (at least two exponent digits).
 
-The kernels (:func:`kernel`: :func:`_csv_block`, :func:`_raw_block`) write a whole
-block of rows into a byte buffer without the GIL. They are numba functions cached per
-user (:mod:`circuitnsds.engine.jit`); the tables are passed as arguments.
+The kernel (:func:`kernel`, :func:`_csv_block`) writes a whole block of rows into a byte
+buffer without the GIL; it is a numba function cached per user
+(:mod:`circuitnsds.engine.jit`), the tables passed as arguments. (Raw files' ASCII values
+keep ngspice's ``%.15e``, whose files they reproduce byte for byte: not this text.)
 """
 
 from __future__ import annotations
@@ -300,62 +301,28 @@ def _csv_block(bits, buffer, g_high, g_low, ks, hs, ka, ha):
     return position
 
 
-def _raw_block(bits, first, buffer, g_high, g_low, ks, hs, ka, ha):
-    """Rows of ``bits`` (as for :func:`_csv_block`) as a raw file's ASCII points: `` <index>\\t<v0>\\n`` then
-    ``\\t<vj>\\n`` for every other column and an empty line, indices from ``first``;
-    ``buffer`` at least ``bits.size · (MAX_CHARS + 2) + rows · 24`` long. Returns the
-    bytes written."""
-    digits = np.empty(20, dtype=np.uint8)
-    position = 0
-    rows, columns = bits.shape
-    for i in range(rows):
-        buffer[position] = 32
-        position += 1
-        index = first + i
-        n = 0
-        while True:
-            digits[n] = np.uint8(48 + index % 10)
-            index //= 10
-            n += 1
-            if index == 0:
-                break
-        for j in range(n - 1, -1, -1):
-            buffer[position] = digits[j]
-            position += 1
-        for j in range(columns):
-            buffer[position] = 9
-            position = _put_text(bits[i, j], buffer, position + 1, g_high, g_low, ks, hs, ka,
-                                 ha, digits)
-            buffer[position] = 10
-            position += 1
-        buffer[position] = 10
-        position += 1
-    return position
-
-
-_KERNELS: dict[str, object] = {}
+_KERNELS: dict[bool, object] = {}
 _HELPERS = ("_multiply_high", "_round_odd", "_shortest", "_put_text")
 
 
-def kernel(name: str, *, compiled: bool = True):
-    """The block kernel ``"csv"`` (:func:`_csv_block`) or ``"raw"`` (:func:`_raw_block`),
-    compiled (numba, no GIL, cached per user; compiled or loaded at its first call) or its
-    Python original calling the Python helpers. The helpers are bound to their compiled
-    versions at the first request (an import of :mod:`circuitnsds.engine.jit` inside the
-    function: ``output/`` imports no other layer at module level)."""
+def kernel(*, compiled: bool = True):
+    """:func:`_csv_block` compiled (numba, no GIL, cached per user; compiled or loaded at its
+    first call), or its Python original (the loop and layout run by the interpreter). The
+    helpers are bound at the first request, inlined into the compiled kernel (a call per
+    number would cost the arrays' reference counts); :mod:`circuitnsds.engine.jit` is
+    imported here because ``output/`` imports no other layer at module level."""
     if not _KERNELS:
         from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 
-        namespace = globals()
-        if AVAILABLE:  # inlined into the kernels (a call per number costs the arrays' reference counts)
+        if AVAILABLE:
             from numba import njit
 
+            namespace = globals()
             for helper in _HELPERS:
                 namespace[helper] = njit(inline="always")(namespace[helper])
-        for key, function in (("csv", _csv_block), ("raw", _raw_block)):
-            _KERNELS[key] = jit(function)
-            _KERNELS[key + "-python"] = python_version(_KERNELS[key])
-    return _KERNELS[name if compiled else name + "-python"]
+        _KERNELS[True] = jit(_csv_block)
+        _KERNELS[False] = python_version(_KERNELS[True])
+    return _KERNELS[compiled]
 
 
 def csv_bytes(values: np.ndarray, *, compiled: bool = True) -> bytes:
@@ -364,7 +331,7 @@ def csv_bytes(values: np.ndarray, *, compiled: bool = True) -> bytes:
     if values.ndim != 2:
         raise ValueError("values must be 2-D (rows × columns)")
     buffer = np.empty(values.size * (MAX_CHARS + 1), dtype=np.uint8)
-    end = kernel("csv", compiled=compiled)(values.view(np.uint64), buffer, *tables())
+    end = kernel(compiled=compiled)(values.view(np.uint64), buffer, *tables())
     return buffer[:end].tobytes()
 
 
@@ -375,7 +342,7 @@ def text(value: float, *, compiled: bool = True) -> str:
 
 def loaded() -> bool:
     """Whether the compiled kernels have been loaded in this process."""
-    return bool(_KERNELS) and getattr(_KERNELS["csv"], "loaded", False)
+    return bool(_KERNELS) and getattr(_KERNELS[True], "loaded", False)
 
 
 def ready_marker():
@@ -389,7 +356,5 @@ def ready_marker():
 
 
 def warm() -> None:
-    """Compile (or load from the cache) both kernels, for the types the writers pass."""
+    """Compile (or load from the cache) the kernel, for the types the writers pass."""
     csv_bytes(np.array([[0.1, -2.5e-300]]))
-    buffer = np.empty(256, dtype=np.uint8)
-    kernel("raw")(np.array([[0.1, 1.0]]).view(np.uint64), 0, buffer, *tables())
