@@ -61,10 +61,11 @@ def compiled_pays(values: int) -> bool:
     marker = floattext.ready_marker()
     if marker is None:
         return False
-    if not marker.exists():  # compiled in the background for the next runs (the loops' warm-up)
-        from circuitnsds.engine.loop_choice import start_warmup
+    if not marker.exists():
+        if values >= COLD_VALUES:  # worth compiling for the next runs: the loops' warm-up does it
+            from circuitnsds.engine.loop_choice import start_warmup
 
-        start_warmup()
+            start_warmup()
         return False
     return True
 
