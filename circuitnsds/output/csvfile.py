@@ -200,6 +200,8 @@ class CsvStream:
         else:
             try:
                 write_rows(self._stream, time, columns, compiled=self.compiled)
+            except BrokenPipeError:  # standard output piped into `head`: the caller's to decide
+                raise
             except OSError as exc:
                 raise self._error(exc) from None
         self.rows += time.size
@@ -213,6 +215,8 @@ class CsvStream:
         if pending is not None:
             try:
                 pending.result()
+            except BrokenPipeError:
+                raise
             except OSError as exc:
                 raise self._error(exc) from None
 
