@@ -112,3 +112,15 @@ def test_a_write_error_is_a_clean_error_and_keeps_the_previous_file(tmp_path, ca
     assert csv.read_text() == "previous\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
     assert not any(name.startswith(".out.csv") for name in os.listdir(tmp_path))
+
+
+def test_a_stream_that_cannot_start_leaves_nothing(tmp_path, monkeypatch):
+    def refused(stream, names):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(csvfile, "write_header", refused)
+    path = tmp_path / "out.csv"
+    path.write_text("previous\n")
+    with pytest.raises(circuitnsds.CircuitnsdsError, match="No space left"):
+        CsvStream(path, ["v(out)"])
+    assert path.read_text() == "previous\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]

@@ -164,7 +164,7 @@ class CsvStream:
             labels = [f'"{name}"' if "," in name else name for name in self.names]
             write_header(self._stream, labels)
         except OSError as exc:
-            self._stack.close()
+            self._stack.__exit__(type(exc), exc, exc.__traceback__)  # no file left behind
             raise self._error(exc) from None
 
     def _error(self, exc: OSError):
