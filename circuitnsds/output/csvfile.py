@@ -25,6 +25,7 @@ from typing import BinaryIO, TextIO
 import numpy as np
 
 from circuitnsds.output import floattext
+from circuitnsds.output.files import atomic_path, writing
 
 BLOCK_ROWS = 65_536
 """Rows formatted at once (bounds the memory of the text in flight: ~3 MB for 2 columns)."""
@@ -140,8 +141,6 @@ class CsvStream:
                  keep: bool = False, background: bool = True):
         from contextlib import ExitStack
 
-        from circuitnsds.output.files import atomic_path
-
         self.target = target
         self.names = list(names)
         self.keep = keep
@@ -156,22 +155,17 @@ class CsvStream:
         self._executor = None
         self._stack = ExitStack()
         try:
-            if hasattr(target, "write"):
-                self._stream = target
-            else:
-                temporary = self._stack.enter_context(atomic_path(target))
-                self._stream = self._stack.enter_context(open(temporary, "wb"))
-            labels = [f'"{name}"' if "," in name else name for name in self.names]
-            write_header(self._stream, labels)
-        except OSError as exc:
+            with writing(target):
+                if hasattr(target, "write"):
+                    self._stream = target
+                else:
+                    temporary = self._stack.enter_context(atomic_path(target))
+                    self._stream = self._stack.enter_context(open(temporary, "wb"))
+                labels = [f'"{name}"' if "," in name else name for name in self.names]
+                write_header(self._stream, labels)
+        except BaseException as exc:
             self._stack.__exit__(type(exc), exc, exc.__traceback__)  # no file left behind
-            raise self._error(exc) from None
-
-    def _error(self, exc: OSError):
-        from circuitnsds.output.files import OutputError
-
-        return OutputError(f"cannot write {self.target}: {exc.strerror or exc}", where=str(self.target),
-                           hint="check that the folder exists, is writable and has room")
+            raise
 
     def expect(self, rows: int) -> None:
         """The rows the run will hand over: the formatter is chosen for the whole file at the
@@ -198,12 +192,8 @@ class CsvStream:
             self._pending = self._executor.submit(write_rows, self._stream, time, columns,
                                                   compiled=True)
         else:
-            try:
+            with writing(self.target):
                 write_rows(self._stream, time, columns, compiled=self.compiled)
-            except BrokenPipeError:  # standard output piped into `head`: the caller's to decide
-                raise
-            except OSError as exc:
-                raise self._error(exc) from None
         self.rows += time.size
         self.last_time = float(time[-1])
         if residual is not None and residual.size:
@@ -213,12 +203,8 @@ class CsvStream:
         """Let the chunk in flight be written (its write error raised here)."""
         pending, self._pending = self._pending, None
         if pending is not None:
-            try:
+            with writing(self.target):
                 pending.result()
-            except BrokenPipeError:
-                raise
-            except OSError as exc:
-                raise self._error(exc) from None
 
     def commit(self) -> None:
         """Finish writing and put the file in place (an open stream is flushed)."""
@@ -228,12 +214,10 @@ class CsvStream:
             self.abort()
             raise
         self._shutdown()
-        try:
+        with writing(self.target):
             if hasattr(self.target, "write"):
                 self._stream.flush()
             self._stack.close()
-        except OSError as exc:
-            raise self._error(exc) from None
 
     def abort(self) -> None:
         """Stop writing; the file being written is removed, the previous one kept."""
