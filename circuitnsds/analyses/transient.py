@@ -535,8 +535,8 @@ SEGMENT_BYTES = 256 * 2**20
 
 SINK_SEGMENT_STEPS = 2**18
 """Steps per segment at most when the rows go to a sink: the sink (a CSV file) formats one
-segment in a background thread while the next is computed (measured on the 1M-step buck:
-no slower than one segment of 1M steps, see docs/performance.md)."""
+segment in a background thread while the next is computed (the 1M-step buck's whole run:
+2.49 s against 2.86 s in one segment, and 95 MB less; docs/performance.md)."""
 
 
 def segment_steps(mlcs) -> int:
