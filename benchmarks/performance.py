@@ -36,7 +36,8 @@ issue, as a user runs it, whole processes, the median of ``--repeats`` runs each
   θ = 0.5 and θ = 1;
 * boost in discontinuous conduction, 60 ms at 0.05 µs (1.2M steps);
 * 4-stage full-wave RF voltage multiplier, 16 diodes;
-* the CSV writer on 1M rows × 2 columns, against ``numpy.savetxt`` and pandas;
+* the CSV writers on 1M rows × 2 columns (compiled and Python), against ``numpy.savetxt``
+  and pandas (``benchmarks/csv_writers.py`` has the whole-process side);
 
 ngspice runs the same netlists in batch mode (``wrdata v(out)``).
 """
@@ -285,8 +286,19 @@ def csv_rows(workdir: Path, rows: int) -> list[dict]:
     waves = circuitnsds.Waveforms(time=time_column, signals={"v(out)": signal})
     data = np.column_stack([time_column, signal])
     path = workdir / "speed.csv"
+    from circuitnsds.output import csvfile
+
+    def ours(compiled: bool):
+        def write():
+            with open(path, "wb") as stream:
+                csvfile.write_csv(stream, time_column, ["v(out)"], [signal], compiled=compiled)
+        return write
+
+    ours(True)()  # the compiled formatter loaded (or compiled) before timing
     writers = {
-        "CSV ours (repr, full)": lambda: waves.to_csv(path),
+        "CSV ours (repr, full), compiled": ours(True),
+        "CSV ours (repr, full), Python": ours(False),
+        "CSV ours, Waveforms.to_csv (writer chosen by size)": lambda: waves.to_csv(path),
         "CSV numpy.savetxt %.10g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.10g"),
         "CSV numpy.savetxt %.17g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.17g"),
     }

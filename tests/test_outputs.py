@@ -105,8 +105,8 @@ def test_an_interrupted_write_leaves_the_previous_file(tmp_path, monkeypatch):
     os.chmod(path, 0o640)
     calls = []
 
-    def interrupted(stream, time, columns):
-        stream.write("1,2\n")
+    def interrupted(stream, time, columns, **options):
+        stream.write(b"1,2\n")
         calls.append(1)
         raise KeyboardInterrupt
 

@@ -227,6 +227,7 @@ class Circuit:
         progress: Callable[[float, float], None] | None = None,
         stepping: str = "auto",
         signals: Sequence[str] | None = None,
+        sink=None,
     ):
         """Run a transient analysis with ideal devices; returns :class:`~circuitnsds.Waveforms`.
 
@@ -256,6 +257,10 @@ class Circuit:
                 unknowns are dropped as it goes: memory is bounded by what is kept (a
                 million steps of one signal: 16 MB with the time), however large the
                 circuit. No impulses are kept.
+            sink: with ``signals``, where their rows go as the run proceeds instead of being
+                kept, e.g. a :class:`~circuitnsds.output.csvfile.CsvStream` (a CSV file
+                written segment by segment; memory bounded by one segment); the waveforms
+                returned then hold no rows.
 
         Raises:
             CircuitError: the circuit or the analysis settings are ill-posed.
@@ -268,7 +273,7 @@ class Circuit:
                               theta=theta, uic=uic)
         with self._strictness():
             return run_transient(self, spec, tol=tol, progress=progress, stepping=stepping,
-                                 signals=signals)
+                                 signals=signals, sink=sink)
 
     def pss(
         self,

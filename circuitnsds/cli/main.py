@@ -321,23 +321,46 @@ def _run(args: argparse.Namespace) -> int:
     needs_all = args.measure or getattr(args, "losses", None) is not None or circuit.measurements \
         or circuit.fourier
     kept = names if plain and not needs_all else None
+    stream = _csv_stream(args, kept)  # the CSV written as the run goes
     try:
-        waves = circuit.transient(args.step, args.stop, theta=args.theta,
-                                  uic=True if args.uic else None, progress=progress, signals=kept)
+        waves = circuit.transient(args.step, args.stop, theta=args.theta, uic=True if args.uic else None,
+                                  progress=progress, signals=kept, sink=stream)
     except SimulationError as exc:
         progress.close()
-        _write_partial(args, exc.partial, "before the failure")
+        _write_partial(args, exc.partial, "before the failure", stream)
         raise
     except KeyboardInterrupt as exc:  # Ctrl-C: keep what was computed, as for a failed step
         progress.close()
-        _write_partial(args, getattr(exc, "partial", None), "when interrupted")
+        _write_partial(args, getattr(exc, "partial", None), "when interrupted", stream)
+        raise
+    except BaseException:
+        if stream is not None:
+            stream.abort()
         raise
     finally:
         progress.close()
     stats = waves.stats
+    residual = stream.max_residual if stream is not None else waves.residual.max()
+    if stream is not None:
+        waves = stream.waveforms(waves)  # the rows kept for the raw file and figure, if any
     return _finish(args, circuit, waves, f"{stats['steps']} steps in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-                   f"max residual {waves.residual.max():.1e}")
+                   f"max residual {residual:.1e}", stream)
+
+
+def _csv_stream(args: argparse.Namespace, kept: list[str] | None):
+    """A :class:`~circuitnsds.output.csvfile.CsvStream` for ``-o`` when the CSV's rows are
+    exactly the kept signals' (no ``--tstart``/``--tstop``/``--every``), else ``None``. It
+    also holds the rows when the raw file or the figure needs them."""
+    output = _outputs(args).get("-o")
+    if kept is None or output is None or getattr(args, "every", 1) != 1 \
+            or getattr(args, "tstart", None) is not None or getattr(args, "tstop", None) is not None:
+        return None
+    from circuitnsds.output.csvfile import CsvStream
+
+    with _writing(output):
+        return CsvStream(sys.stdout if str(output) == "-" else output, kept,
+                         keep=bool(args.raw or args.plot or args.show))
 
 
 def _pss(args: argparse.Namespace) -> int:
@@ -412,9 +435,11 @@ def _ac(args: argparse.Namespace) -> int:
     return 0
 
 
-def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
-    """Write the files asked for, print the measurements and the summary, show the figure."""
-    names, written = _write_outputs(args, _selected(args, waves))
+def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None) -> int:
+    """Write the files asked for (``stream``: the CSV written during the run, put in place
+    here), print the measurements and the summary, show the figure."""
+    names, written = _write_outputs(args, waves if stream is not None else _selected(args, waves),
+                                    stream)
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
@@ -441,20 +466,36 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str) -> int:
     return 0
 
 
-def _write_partial(args: argparse.Namespace, partial, when: str) -> None:
+def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) -> None:
     """Write the waveforms computed before a failed step or an interruption (``partial``,
-    ``None`` if nothing was computed) to the files asked for (the error itself is reported
-    by the caller); a failure to write them is only mentioned."""
-    if partial is None or partial.time.size == 0:
+    ``None`` if nothing was computed; ``stream``: the CSV written so far) to the files asked
+    for (the error itself is reported by the caller); a failure to write them is only
+    mentioned."""
+    if stream is not None and stream.rows:
+        partial, last = stream.waveforms(partial or _no_rows(stream.names)), stream.last_time
+    elif partial is None or partial.time.size == 0:
+        if stream is not None:
+            stream.abort()
         print(f"circuitnsds: no results to write ({when} before the first step)", file=sys.stderr)
         return
+    else:
+        last = partial.time[-1]
     try:
-        _, written = _write_outputs(args, partial)
+        _, written = _write_outputs(args, partial, stream)
     except CircuitnsdsError as exc:
         print(f"circuitnsds: the results {when} were not written: {exc.message}", file=sys.stderr)
         return
-    print(f"circuitnsds: wrote the results up to t = {partial.time[-1]:.6g} s "
+    print(f"circuitnsds: wrote the results up to t = {last:.6g} s "
           f"({when}) to {_shown(written)}", file=sys.stderr)
+
+
+def _no_rows(names: list[str]):
+    """Waveforms of ``names`` without a row (what a streamed run leaves in memory)."""
+    import numpy as np
+
+    from circuitnsds.output.waveforms import Waveforms
+
+    return Waveforms(time=np.zeros(0), signals={name: np.zeros(0) for name in names})
 
 
 def _signal_names(text: str) -> list[str]:
@@ -505,9 +546,10 @@ def _selected(args: argparse.Namespace, waves):
                      residual=None if waves.residual is None else waves.residual[index])
 
 
-def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, list[Path]]:
-    """Write the CSV (and the raw file and figure asked for); returns the signal names
-    chosen with ``--signals`` (``None``: all) and the files written."""
+def _write_outputs(args: argparse.Namespace, waves, stream=None) -> tuple[list[str] | None, list[Path]]:
+    """Write the CSV (``stream``: put in place the one written during the run) and the raw
+    file and figure asked for; returns the signal names chosen with ``--signals`` (``None``:
+    all) and the files written."""
     from circuitnsds.errors import CircuitError
 
     names = None
@@ -519,7 +561,10 @@ def _write_outputs(args: argparse.Namespace, waves) -> tuple[list[str] | None, l
                                where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
     written = []
     output = _outputs(args).get("-o")
-    if output is not None and str(output) == "-":
+    if stream is not None:
+        stream.commit()
+        written.append(output)
+    elif output is not None and str(output) == "-":
         waves.to_csv(sys.stdout, names)
         sys.stdout.flush()
         written.append(output)

@@ -90,10 +90,12 @@ def cache_root() -> Path | None:
     return None
 
 
-def ready_marker() -> Path | None:
+def ready_marker(sources: tuple[Path, ...] = ()) -> Path | None:
     """A file under :func:`cache_root` whose existence says that the loops of this very
     source (the engine's loop modules), numba and Python were compiled and cached
-    (written by :mod:`circuitnsds.engine.warmup`); ``None`` without a cache folder."""
+    (written by :mod:`circuitnsds.engine.warmup`); ``None`` without a cache folder.
+    ``sources``: the marker of other compiled modules instead (the CSV formatter's), keyed
+    by their source and this module's."""
     import hashlib
     from importlib.metadata import PackageNotFoundError, version
 
@@ -106,9 +108,12 @@ def ready_marker() -> Path | None:
     except PackageNotFoundError:
         return None
     folder = Path(__file__).resolve().parent
-    digest.update(str(folder).encode())  # numba's cache is per source path as well
-    for name in ("dense_loop.py", "sparse_loop.py", "jit.py"):
-        digest.update((folder / name).read_bytes())
+    files = [*sources, folder / "jit.py"] if sources else \
+        [folder / name for name in ("dense_loop.py", "sparse_loop.py", "jit.py")]
+    digest.update((str(folder) if not sources else "|".join(map(str, sources))).encode())  # numba's
+    # cache is per source path as well
+    for path in files:
+        digest.update(Path(path).read_bytes())
     return root / f"ready-{digest.hexdigest()[:20]}"
 
 

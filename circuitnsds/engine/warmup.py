@@ -1,4 +1,5 @@
-"""Compile (or load from the per-user cache) the stepping loops, for the signatures a run uses.
+"""Compile (or load from the per-user cache) the stepping loops and the CSV formatter
+(:mod:`circuitnsds.output.floattext`), for the signatures a run uses.
 
 Run in a background process by :func:`circuitnsds.engine.loop_choice.start_warmup`:
 each loop is called once on a tiny problem whose arguments have the types, shapes and
@@ -60,12 +61,18 @@ def warm_sparse() -> int:
 
 
 def main() -> None:
-    """Compile or load both loops, then mark the cache ready for this source."""
+    """Compile or load both loops, mark the cache ready for them, then the same for the CSV
+    formatter."""
     from circuitnsds.engine.jit import ready_marker
+    from circuitnsds.output import floattext  # every compiled kernel of the package is warmed here
 
     warm_dense()
     warm_sparse()
     marker = ready_marker()
+    if marker is not None:  # the loops first: a run waiting for them switches at once
+        marker.touch()
+    floattext.warm()
+    marker = floattext.ready_marker()
     if marker is not None:
         marker.touch()
 

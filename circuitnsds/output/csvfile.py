@@ -1,32 +1,101 @@
 """CSV of waveforms: a header row ``time,v(out),...`` then one row per instant.
 
-Numbers are written as Python's ``repr`` of the float64: the shortest decimal that
-reads back to the same double (full precision, ``inf``/``nan`` as such). The rows
-are formatted a block at a time by one ``%``-format of a repeated row template over
-the block's values (C loops, no per-row Python code): measured on 1M rows × 2
-columns (``benchmarks/performance.py``), ~3x faster than ``numpy.savetxt`` with
-10 digits and ~4x faster than ``pandas.DataFrame.to_csv``, with 17.
+Every number is written as Python's ``repr`` of the float64: the shortest decimal that
+reads back to the same double (full precision, ``inf``/``-inf``/``nan`` as such, which
+Python's ``float``, numpy and pandas read). Two writers produce the same bytes:
+
+* the compiled formatter (:mod:`circuitnsds.output.floattext`, numba, ~0.1-0.2 µs per
+  number), a block of :data:`BLOCK_ROWS` rows at a time into one byte buffer;
+* the Python one, one ``%``-format of a repeated ``%r`` row template over a block's
+  values (C loops, ~0.6 µs per number), for small files: loading numba costs ~0.6 s in a
+  process that has not loaded it yet (~0.02 s when the stepping loop already has).
+
+:func:`compiled_pays` chooses by the count of numbers (measured thresholds, see
+``benchmarks/csv_writers.py``).
 """
 
 from __future__ import annotations
 
+import io
+import sys
 from collections.abc import Sequence
-from typing import TextIO
+from pathlib import Path
+from typing import BinaryIO, TextIO
 
 import numpy as np
 
+from circuitnsds.output import floattext
+from circuitnsds.output.files import atomic_path, writing
+
 BLOCK_ROWS = 65_536
 """Rows formatted at once (bounds the memory of the text in flight: ~3 MB for 2 columns)."""
+LOADED_VALUES = 50_000
+"""Numbers from which the compiled formatter pays when numba is in use in the process (it
+loads in ~0.02 s from the cache, and saves ~0.45 µs per number)."""
+COLD_VALUES = 1_500_000
+"""Numbers from which it pays when numba must first be imported (~0.65 s in all)."""
 
 
-def write_header(stream: TextIO, names: Sequence[str]) -> None:
+def _numba_in_use() -> bool:
+    """Whether a compiled stepping loop has been loaded in this process (numba imported and
+    its compiler context set up), without importing anything."""
+    for name in ("circuitnsds.engine.dense_loop", "circuitnsds.engine.sparse_loop"):
+        compiled = getattr(sys.modules.get(name), "_compiled", None)
+        if getattr(compiled, "loaded", False):
+            return True
+    return False
+
+
+def compiled_pays(values: int) -> bool:
+    """Whether to write ``values`` numbers with the compiled formatter: numba installed,
+    enough numbers for its load to pay (:data:`LOADED_VALUES` or :data:`COLD_VALUES`), and
+    the formatter already loaded or cached for this source (the warm-up's marker,
+    :func:`~circuitnsds.output.floattext.ready_marker`; compiling it takes ~5-10 s, more than
+    the Python writer needs for most files, so an uncached formatter is never compiled here:
+    the warm-up process compiles it in the background for the next runs)."""
+    if floattext.loaded():
+        return True
+    from circuitnsds.engine.jit import numba_available
+
+    if not numba_available() or values < (LOADED_VALUES if _numba_in_use() else COLD_VALUES):
+        return False
+    marker = floattext.ready_marker()
+    if marker is None:
+        return False
+    if not marker.exists():
+        if values >= COLD_VALUES:  # worth compiling for the next runs: the loops' warm-up does it
+            from circuitnsds.engine.loop_choice import start_warmup
+
+            start_warmup()
+        return False
+    return True
+
+
+def write_header(stream: TextIO | BinaryIO, names: Sequence[str]) -> None:
     """Write the header row: ``time`` and the signal names."""
-    stream.write(",".join(["time", *names]) + "\n")
+    _emit(stream, ",".join(["time", *names]) + "\n")
 
 
-def write_rows(stream: TextIO, time: np.ndarray, columns: Sequence[np.ndarray]) -> None:
-    """Write one row per element of ``time`` (all arrays of the same length)."""
+def _emit(stream: TextIO | BinaryIO, text: str | bytes) -> None:
+    """Write ``text`` to a text or a binary stream (ASCII either way)."""
+    if isinstance(stream, io.TextIOBase):
+        stream.write(text if isinstance(text, str) else text.decode("ascii"))
+    else:
+        stream.write(text.encode("utf-8") if isinstance(text, str) else text)
+
+
+def write_rows(stream: TextIO | BinaryIO, time: np.ndarray, columns: Sequence[np.ndarray], *,
+               compiled: bool | None = None) -> None:
+    """Write one row per element of ``time`` (all arrays of the same length).
+
+    ``compiled``: the compiled formatter (``True``), the Python one (``False``), or chosen
+    by :func:`compiled_pays` (``None``); both write the same bytes."""
     width = 1 + len(columns)
+    if compiled is None:
+        compiled = compiled_pays(time.size * width)
+    kernel = floattext.kernel() if compiled else None
+    buffer = np.empty(min(time.size, BLOCK_ROWS) * width * (floattext.MAX_CHARS + 1), dtype=np.uint8) \
+        if compiled else None
     row = ",".join(["%r"] * width) + "\n"
     for start in range(0, time.size, BLOCK_ROWS):
         stop = min(start + BLOCK_ROWS, time.size)
@@ -34,11 +103,146 @@ def write_rows(stream: TextIO, time: np.ndarray, columns: Sequence[np.ndarray]) 
         block[:, 0] = time[start:stop]
         for j, column in enumerate(columns, start=1):
             block[:, j] = column[start:stop]
-        stream.write((row * (stop - start)) % tuple(block.ravel().tolist()))
+        if compiled:
+            end = kernel(block.view(np.uint64), buffer, *floattext.tables())
+            _emit(stream, buffer[:end].tobytes())
+        else:
+            _emit(stream, (row * (stop - start)) % tuple(block.ravel().tolist()))
 
 
-def write_csv(stream: TextIO, time: np.ndarray, names: Sequence[str],
-              columns: Sequence[np.ndarray]) -> None:
+def write_csv(stream: TextIO | BinaryIO, time: np.ndarray, names: Sequence[str],
+              columns: Sequence[np.ndarray], *, compiled: bool | None = None) -> None:
     """Header and rows (see the module docstring)."""
     write_header(stream, names)
-    write_rows(stream, np.asarray(time, dtype=float), [np.asarray(c, dtype=float) for c in columns])
+    write_rows(stream, np.asarray(time, dtype=float), [np.asarray(c, dtype=float) for c in columns],
+               compiled=compiled)
+
+
+class CsvStream:
+    """A CSV written as a run goes: the header at once, then each segment's rows as the run
+    hands them over (:meth:`append`), so the rows need not be held in memory.
+
+    A file is written through :func:`~circuitnsds.output.files.atomic_path`: only
+    :meth:`commit` puts it in place (a run that fails or is interrupted commits the rows it
+    completed, as the writers do with a partial result); :meth:`abort` leaves the previous
+    file untouched. An open stream (standard output) gets the rows directly.
+
+    With the compiled formatter, each chunk is formatted and written in a background thread
+    (the formatter holds no GIL) while the run computes the next segment; at most one chunk
+    is in flight. ``keep``: also hold the rows (for the outputs that need whole signals:
+    raw file, figure); :meth:`waveforms` returns them.
+
+    Args:
+        target: file path, or an open text or binary stream.
+        names: the signals' column labels, in the order of the columns given to :meth:`append`.
+    """
+
+    def __init__(self, target: str | Path | TextIO | BinaryIO, names: Sequence[str], *,
+                 keep: bool = False, background: bool = True):
+        from contextlib import ExitStack
+
+        self.target = target
+        self.names = list(names)
+        self.keep = keep
+        self.background = background
+        self.rows = 0
+        self.last_time = float("nan")
+        self.max_residual = 0.0
+        self.compiled: bool | None = None
+        self.expected = 0
+        self._chunks: list[tuple[np.ndarray, list[np.ndarray], np.ndarray | None]] = []
+        self._pending = None
+        self._executor = None
+        self._stack = ExitStack()
+        try:
+            with writing(target):
+                if hasattr(target, "write"):
+                    self._stream = target
+                else:
+                    temporary = self._stack.enter_context(atomic_path(target))
+                    self._stream = self._stack.enter_context(open(temporary, "wb"))
+                labels = [f'"{name}"' if "," in name else name for name in self.names]
+                write_header(self._stream, labels)
+        except BaseException as exc:
+            self._stack.__exit__(type(exc), exc, exc.__traceback__)  # no file left behind
+            raise
+
+    def expect(self, rows: int) -> None:
+        """The rows the run will hand over: the formatter is chosen for the whole file at the
+        first :meth:`append` (by then a long run has loaded its compiled loop, and numba with it)."""
+        self.expected = rows
+
+    def append(self, time: np.ndarray, columns: Sequence[np.ndarray],
+               residual: np.ndarray | None = None) -> None:
+        """Write the rows of one segment (arrays of equal length, not modified afterwards)."""
+        if time.size == 0:
+            return
+        self._wait()
+        if self.compiled is None:
+            self.compiled = compiled_pays(max(self.expected, time.size) * (1 + len(self.names)))
+        time = np.asarray(time, dtype=float)
+        columns = [np.asarray(column, dtype=float) for column in columns]
+        if self.keep:
+            self._chunks.append((time, columns, residual))
+        if self.compiled and self.background:
+            if self._executor is None:
+                from concurrent.futures import ThreadPoolExecutor
+
+                self._executor = ThreadPoolExecutor(1, thread_name_prefix="csv")
+            self._pending = self._executor.submit(write_rows, self._stream, time, columns,
+                                                  compiled=True)
+        else:
+            with writing(self.target):
+                write_rows(self._stream, time, columns, compiled=self.compiled)
+        self.rows += time.size
+        self.last_time = float(time[-1])
+        if residual is not None and residual.size:
+            self.max_residual = max(self.max_residual, float(np.max(residual)))
+
+    def _wait(self) -> None:
+        """Let the chunk in flight be written (its write error raised here)."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            with writing(self.target):
+                pending.result()
+
+    def commit(self) -> None:
+        """Finish writing and put the file in place (an open stream is flushed)."""
+        try:
+            self._wait()
+        except BaseException:
+            self.abort()
+            raise
+        self._shutdown()
+        with writing(self.target):
+            if hasattr(self.target, "write"):
+                self._stream.flush()
+            self._stack.close()
+
+    def abort(self) -> None:
+        """Stop writing; the file being written is removed, the previous one kept."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.exception()  # wait; the run's own failure is what gets reported
+        self._shutdown()
+        aborted = KeyboardInterrupt()
+        self._stack.__exit__(KeyboardInterrupt, aborted, None)
+
+    def _shutdown(self) -> None:
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+            self._executor = None
+
+    def waveforms(self, template):
+        """The rows kept (``keep``) as :class:`~circuitnsds.output.waveforms.Waveforms`, with
+        the title, stats and events of ``template`` (the run's result)."""
+        from dataclasses import replace
+
+        def joined(arrays):
+            return np.concatenate(arrays) if arrays else np.zeros(0)
+
+        residuals = [r for _, _, r in self._chunks if r is not None]
+        return replace(template, time=joined([t for t, _, _ in self._chunks]),
+                       signals={name: joined([c[j] for _, c, _ in self._chunks])
+                                for j, name in enumerate(self.names)},
+                       residual=joined(residuals) if residuals else template.residual)

@@ -101,9 +101,12 @@ def check_outputs(outputs: Mapping[str, Path], inputs: Iterable[str | Path]) -> 
 @contextmanager
 def writing(path: str | Path, error: type[CircuitnsdsError] = OutputError) -> Iterator[None]:
     """Turn a failure to write ``path`` (an :class:`OSError` inside the block) into a clean
-    ``error`` naming the file (``OutputError`` unless the caller has its own class)."""
+    ``error`` naming the file (``OutputError`` unless the caller has its own class). A broken
+    pipe (standard output piped into ``head``) is not turned: the command ends quietly."""
     try:
         yield
+    except BrokenPipeError:
+        raise
     except OSError as exc:
         raise error(f"cannot write {path}: {exc.strerror or exc}", where=str(path),
                     hint="check that the folder exists and is writable") from None

@@ -173,5 +173,5 @@ class Waveforms:
         if hasattr(path, "write"):
             write_csv(path, self.time, labels, values)
             return
-        with atomic_path(path) as temporary, open(temporary, "w", newline="\n") as stream:
+        with atomic_path(path) as temporary, open(temporary, "wb") as stream:
             write_csv(stream, self.time, labels, values)

@@ -1,0 +1,126 @@
+"""``run -o out.csv --signals ...`` writes each segment's rows to the file as the run goes
+(memory bounded by one segment), atomically: the same bytes as a run kept whole, the
+rows done so far on Ctrl-C, the previous file on a failure (issue 19, outputs)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import circuitnsds
+import circuitnsds.analyses.transient as transient
+from circuitnsds.cli.main import main
+from circuitnsds.output import csvfile
+from circuitnsds.output.csvfile import CsvStream
+from circuitnsds.output.rawfile import read_raw
+from tests.conftest import NETLISTS
+
+BUCK = NETLISTS / "buck_converter.cir"
+
+
+@pytest.mark.parametrize("compiled", [True, False])  # True: formatted in a background thread
+def test_streamed_csv_is_the_file_of_a_run_kept_whole(tmp_path, monkeypatch, compiled):
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(csvfile, "compiled_pays", lambda values: compiled)
+    streamed, whole = tmp_path / "streamed.csv", tmp_path / "whole.csv"
+    assert main(["run", str(BUCK), "-o", str(streamed), "--signals", "v(out),i(l1)", "--stop", "0.3m",
+                 "--theta", "0.5", "-q"]) == 0
+    circuit = circuitnsds.read_netlist(BUCK)
+    kept = circuit.transient(stop=0.3e-3, theta=0.5, signals=["v(out)", "i(l1)"])
+    kept.to_csv(whole)
+    assert streamed.read_bytes() == whole.read_bytes()
+    assert kept.time.size > 2 * 700  # several segments
+    # the analysis hands the rows over and keeps none of them
+    stream = CsvStream(tmp_path / "python.csv", ["v(out)", "i(l1)"])
+    result = circuit.transient(stop=0.3e-3, theta=0.5, signals=["v(out)", "i(l1)"], sink=stream)
+    stream.commit()
+    assert result.time.size == 0 and result.stats["rows"] == kept.time.size == stream.rows
+    assert (tmp_path / "python.csv").read_bytes() == whole.read_bytes()
+
+
+def test_streamed_csv_with_tstart_and_a_figure(tmp_path, monkeypatch):
+    """Rows before TSTART are not written; the figure gets the kept rows."""
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    netlist = tmp_path / "buck.cir"
+    netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.3m 0.1m"))
+    csv, raw = tmp_path / "out.csv", tmp_path / "out.raw"
+    assert main(["run", str(netlist), "-o", str(csv), "-r", str(raw), "--signals", "v(out)", "-q"]) == 0
+    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    back = read_raw(raw)
+    whole = circuitnsds.read_netlist(netlist).transient()
+    np.testing.assert_array_equal(data[:, 0], whole.time)
+    assert data[0, 0] == pytest.approx(0.1e-3)
+    np.testing.assert_allclose(data[:, 1], whole["v(out)"], atol=1e-9 * np.abs(whole["v(out)"]).max())
+    np.testing.assert_array_equal(back["v(out)"], data[:, 1])
+    np.testing.assert_array_equal(back.time, data[:, 0])
+
+
+def test_ctrl_c_in_a_later_segment_keeps_the_rows_done(tmp_path, capsys, monkeypatch):
+    from circuitnsds.engine import integrate as engine
+
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(csvfile, "compiled_pays", lambda values: True)
+    calls = {"n": 0}
+    original = engine._Stepping.solve_step
+
+    def interrupt_later(self, k, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 1000:
+            raise KeyboardInterrupt
+        return original(self, k, *args, **kwargs)
+
+    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    csv = tmp_path / "out.csv"
+    csv.write_text("previous\n")
+    status = main(["run", str(NETLISTS / "half_wave_rectifier.cir"), "-o", str(csv), "--step", "10u",
+                   "--stop", "20m", "--signals", "v(out)"])
+    err = capsys.readouterr().err
+    assert status == 130 and "(when interrupted) to" in err
+    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert 700 < data.shape[0] < 2001  # past the first segment, not the whole run
+    assert f"up to t = {data[-1, 0]:.6g} s" in err
+    np.testing.assert_allclose(data[:, 1], np.maximum(10 * np.sin(2 * np.pi * 50 * data[:, 0]), 0),
+                               atol=1e-6)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+
+
+def test_a_run_that_fails_before_any_row_leaves_the_previous_file(tmp_path, capsys):
+    csv = tmp_path / "out.csv"
+    csv.write_text("previous\n")
+    assert main(["run", str(BUCK), "-o", str(csv), "--signals", "v(nowhere)", "--stop", "10u"]) == 1
+    assert "unknown signal(s) v(nowhere)" in capsys.readouterr().err
+    assert csv.read_text() == "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_write_error_is_a_clean_error_and_keeps_the_previous_file(tmp_path, capsys, monkeypatch,
+                                                                    compiled):
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(csvfile, "compiled_pays", lambda values: compiled)
+    monkeypatch.setattr(csvfile, "write_rows", full)
+    csv = tmp_path / "out.csv"
+    csv.write_text("previous\n")
+    assert main(["run", str(BUCK), "-o", str(csv), "--signals", "v(out)", "--stop", "20u"]) == 1
+    err = capsys.readouterr().err
+    assert "cannot write" in err and "No space left on device" in err and "Traceback" not in err
+    assert csv.read_text() == "previous\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    assert not any(name.startswith(".out.csv") for name in os.listdir(tmp_path))
+
+
+def test_a_stream_that_cannot_start_leaves_nothing(tmp_path, monkeypatch):
+    def refused(stream, names):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(csvfile, "write_header", refused)
+    path = tmp_path / "out.csv"
+    path.write_text("previous\n")
+    with pytest.raises(circuitnsds.CircuitnsdsError, match="No space left"):
+        CsvStream(path, ["v(out)"])
+    assert path.read_text() == "previous\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
