@@ -282,11 +282,12 @@ C1 out 0 100n
 .tran 1u 3m
 .end
 """
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        circuitnsds.read_netlist(text).transient()
-    notes = [str(w.message) for w in caught if issubclass(w.category, RunNote)]
-    assert any("fitted over 0.1..1 A" in note and "pwlfit=" in note for note in notes), notes
+    for signals in (None, ["v(out)"]):  # also when only v(out) is kept (segments, no i(d1))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            circuitnsds.read_netlist(text).transient(signals=signals)
+        notes = [str(w.message) for w in caught if issubclass(w.category, RunNote)]
+        assert any("fitted over 0.1..1 A" in note and "pwlfit=" in note for note in notes), (signals, notes)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         circuitnsds.read_netlist(text.replace(".tran", ".options pwlfit=auto\n.tran")).transient()

@@ -57,11 +57,8 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     if sink is not None and signals is None:
         raise ValueError("a sink needs the signals it is to get")
     if circuit.options.get("pwlfit") != "auto":
-        waves = _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
-        if sink is None:
-            _note_fits_outside_their_range(circuit, waves)
-        return waves
-    first = _run_transient(circuit, spec, **settings)  # every signal: the diodes' currents
+        return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
+    first = _run_transient(circuit, spec, note_fits=False, **settings)  # every signal: the diodes' currents
     refitted = _refitted(circuit, first)
     if refitted is not circuit:
         return _run_transient(refitted, spec, signals=signals, sink=sink, **settings)
@@ -83,13 +80,15 @@ def _drained(waves: Waveforms, sink) -> Waveforms:
                    stats=dict(waves.stats, rows=waves.time.size))
 
 
-def _fitted_peaks(circuit: Circuit, waves: Waveforms) -> dict[str, tuple[float, float]]:
+def _fitted_peaks(circuit: Circuit, waves: Waveforms,
+                  peaks: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
     """Model name -> the largest forward and reverse current [A] per unit area that ``waves``
     shows through the instances of each Shockley-fitted diode model (the models whose
-    instances' currents ``waves`` does not hold are left out)."""
+    instances' currents ``waves`` does not hold are left out), taken together with ``peaks``
+    (those of earlier segments of the same run), which is updated and returned."""
     from circuitnsds.circuit.elements import Diode
 
-    peaks: dict[str, tuple[float, float]] = {}
+    peaks = {} if peaks is None else peaks
     for element in circuit.elements:
         if isinstance(element, Diode) and element.model.shockley is not None:
             try:
@@ -107,15 +106,16 @@ FIT_DROP_TOLERANCE = 0.02
 current beyond which the run notes that the fit range misses the circuit's currents."""
 
 
-def _note_fits_outside_their_range(circuit: Circuit, waves: Waveforms) -> None:
+def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
     """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward
-    current lies outside the range its line was fitted over, where the line misses the curve
-    by more than :data:`FIT_DROP_TOLERANCE` (the answer is then the line's, not the model's)."""
+    current (``peaks``: :func:`_fitted_peaks`) lies outside the range its line was fitted over,
+    where the line misses the curve by more than :data:`FIT_DROP_TOLERANCE` (the answer is then
+    the line's, not the model's)."""
     from circuitnsds.circuit.elements import Diode
 
     models = {e.model.name: e.model for e in circuit.elements
               if isinstance(e, Diode) and e.model.fit_range is not None}
-    for name, (peak, _) in _fitted_peaks(circuit, waves).items():
+    for name, (peak, _) in peaks.items():
         model = models.get(name)
         if model is None or peak <= 1e-12:
             continue
@@ -165,7 +165,11 @@ def _run_transient(
     stepping: str = "auto",
     signals: Sequence[str] | None = None,
     sink=None,
+    note_fits: bool = True,
 ) -> Waveforms:
+    """The transient ``spec`` of ``circuit``; ``note_fits``: note fitted diode models whose
+    currents leave their fit range (:func:`_note_fits_outside_their_range`), from every step's
+    currents, also when only some signals are kept."""
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
@@ -212,8 +216,8 @@ def _run_transient(
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         return _kept_signals(circuit, mlcs, grid, state, [name.strip().lower() for name in signals],
-                             start, stop, sink=sink, theta=theta, tol=tol, progress=progress,
-                             stepping=stepping)
+                             start, stop, sink=sink, note_fits=note_fits, theta=theta, tol=tol,
+                             progress=progress, stepping=stepping)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                                state.switches, theta=theta, tol=tol, progress=progress,
@@ -237,6 +241,8 @@ def _run_transient(
     waves = _waveforms(circuit, mlcs, trajectory, start, stop)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
+    if note_fits:
+        _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -548,7 +554,7 @@ def segment_steps(mlcs) -> int:
 
 
 def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[str], start: float,
-                  stop: float, sink=None, **options) -> Waveforms:
+                  stop: float, sink=None, note_fits: bool = True, **options) -> Waveforms:
     """A transient that keeps only the signals ``names`` (and the time and each step's residual):
     memory bounded by what is kept, not by the circuit's size times the steps.
 
@@ -571,6 +577,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     residuals: list[np.ndarray] = []
     events: list = []
     stats: dict[str, float] = {}
+    peaks: dict[str, tuple[float, float]] = {}  # of the fitted diode models, over every segment
     progress = options.pop("progress")
     total = grid[-1]
     report = None if progress is None else (lambda t, _end: progress(t, total))
@@ -582,6 +589,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
 
     def keep(trajectory, first: int) -> None:
         waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
+        _fitted_peaks(circuit, waves, peaks)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
             sink.append(trajectory.time[first:], [waves[name][first:] for name in names],
@@ -630,4 +638,6 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         active, switches, charge = trajectory.active[-1].copy(), trajectory.switches[-1].copy(), None
         del trajectory  # freed before the next segment's arrays are allocated
         first = last
+    if note_fits:
+        _note_fits_outside_their_range(circuit, peaks)
     return result()
