@@ -54,7 +54,6 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-import networkx as nx
 import numpy as np
 import scipy.linalg as sla
 
@@ -328,10 +327,10 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
     """Node groups joined to the rest, over one step, only by current sources and devices
     that can block (diodes, open switches): the current sources force their current
     through those devices (see the module docstring, "Ideal limit")."""
+    from circuitnsds.checks.topology import connected_components
     from circuitnsds.circuit.elements import Capacitor, Diode, Switch
 
-    graph = nx.MultiGraph()
-    graph.add_nodes_from(["0", *circuit.nodes])
+    edges = []
     for element in circuit.elements:
         if len(element.nodes) < 2:
             continue
@@ -341,9 +340,9 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
             continue
         if isinstance(element, Capacitor) and element.capacitance == 0:
             continue
-        graph.add_edge(*element.nodes[:2])
+        edges.append(element.nodes[:2])
     notes = []
-    for group in nx.connected_components(graph):
+    for group in connected_components(["0", *circuit.nodes], edges):
         if "0" in group:
             continue
         crossing = [e for e in circuit.elements

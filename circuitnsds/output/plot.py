@@ -31,6 +31,12 @@ KINDS = (("v(", "voltage", "V"), ("i(", "current", "A"))
 
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
+FIGURE_FORMATS = frozenset({"avif", "eps", "gif", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw",
+                            "rgba", "svg", "svgz", "tif", "tiff", "webp"})
+"""The file extensions matplotlib 3.11 writes (``FigureCanvasBase.get_supported_filetypes()``):
+known without importing matplotlib (~0.4 s), so a command checks ``--plot`` before its run
+at no cost; another extension is looked up in matplotlib itself."""
+
 
 class PlotError(CircuitnsdsError):
     """A figure cannot be written (unknown format) or shown (no display, no interactive
@@ -139,12 +145,14 @@ def plot_format(path: str | Path) -> str:
         PlotError: the extension names no format matplotlib writes (``x.xyz``); a name
             without extension is a PNG.
     """
-    from matplotlib.backend_bases import FigureCanvasBase
-
-    supported = FigureCanvasBase.get_supported_filetypes()
     suffix = Path(path).suffix.lower().lstrip(".")
     if not suffix:
         return "png"  # as matplotlib does for a name without extension
+    if suffix in FIGURE_FORMATS:
+        return suffix
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    supported = FigureCanvasBase.get_supported_filetypes()
     if suffix not in supported:
         raise PlotError(f"cannot plot to {path}: '.{suffix}' is not a figure format",
                         hint="use one of " + ", ".join(f".{k}" for k in sorted(supported))
