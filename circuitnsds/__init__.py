@@ -17,9 +17,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from circuitnsds import _blas  # noqa: F401  (first: before numpy is imported)
+from circuitnsds import (
+    _blas,  # noqa: F401  (first: before numpy is imported)
+    compare,  # the subpackage; called, it is compare.api.compare (imported then)
+)
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.compare import compare  # the function; the subpackage stays importable by name
 from circuitnsds.errors import (
     CircuitError,
     CircuitnsdsError,
