@@ -93,3 +93,25 @@ def test_step_classes_number_equal_sizes_in_increasing_order(regular, count, oth
     quantum = 1e-9 * steps.max()
     expected = np.unique(np.round(steps / quantum), return_inverse=True)[1].reshape(-1)
     np.testing.assert_array_equal(_step_classes(steps), expected)
+
+
+@given(step=st.floats(1e-7, 1.0), count=st.integers(1, 300),
+       near=st.lists(st.tuples(st.integers(0, 300), st.floats(-2e-9, 2e-9)), max_size=15),
+       points=st.lists(st.floats(0.0, 1.0), max_size=10))
+def test_grid_drops_exactly_the_regular_points_next_to_a_breakpoint(step, count, near, points):
+    """Breakpoints at and around regular points (within and just beyond the merge tolerance)
+    against the definition: the grid is the regular points ``k·step`` (``stop`` last) with
+    those closer than ``MERGE_FRACTION·step`` to a breakpoint in (0, stop) replaced by it."""
+    stop = step * count
+    breakpoints = np.array([(k + offset) * step for k, offset in near if k <= count]
+                           + [p * stop for p in points])
+    grid = time_grid(step, stop, breakpoints)
+    regular = np.arange(count + 1) * step
+    regular[-1] = stop
+    tolerance = MERGE_FRACTION * step
+    inside = np.unique(breakpoints[(breakpoints > tolerance) & (breakpoints < stop - tolerance)])
+    if inside.size > 1:
+        inside = inside[np.concatenate([[True], np.diff(inside) > tolerance])]
+    dropped = [k for k in range(1, count) if np.any(np.abs(inside - regular[k]) <= tolerance)]
+    expected = np.sort(np.concatenate([np.delete(regular, dropped), inside]))
+    np.testing.assert_array_equal(grid, expected)

@@ -34,11 +34,13 @@ def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = 
     if points.size > 1:  # breakpoints within rounding noise of each other are one
         points = points[np.concatenate([[True], np.diff(points) > tolerance])]
     if points.size:
-        nearest = np.searchsorted(points, regular)
+        # only the regular points next to a breakpoint's index can be within the tolerance:
+        # index arithmetic per breakpoint, not a search per regular point (1M points: ~10x)
+        nearest = np.rint(points / step).astype(np.int64)
         close = np.zeros(regular.size, dtype=bool)
-        for offset in (-1, 0):
-            index = np.clip(nearest + offset, 0, points.size - 1)
-            close |= np.abs(points[index] - regular) <= tolerance
+        for offset in (-1, 0, 1):
+            index = np.clip(nearest + offset, 0, count)
+            close[index[np.abs(regular[index] - points) <= tolerance]] = True
         close[[0, -1]] = False
         kept = regular[~close]
         # both sorted and no value in common (the close ones are gone): a merge, not a sort

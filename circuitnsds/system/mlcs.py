@@ -155,17 +155,16 @@ class MLCS:
     def breakpoints(self, stop: float) -> np.ndarray:
         """Sorted instants in ``(0, stop)`` where a source's slope jumps or a source-driven
         switch changes state (so that both fall on the time grid)."""
-        points: set[float] = set()
-        for stimulus in self.stimuli:
-            points.update(stimulus.breakpoints(stop))
+        points = [np.asarray(stimulus.breakpoints(stop), dtype=float) for stimulus in self.stimuli]
         for switch in self.switches:
             if switch.control_stimulus is not None:
                 column, sign = switch.control_stimulus
                 levels = ({switch.crossing} if switch.crossing is not None
                           else {switch.on_threshold, switch.off_threshold})
                 for level in levels:
-                    points.update(threshold_crossings(self.stimuli[column], sign * level, stop))
-        return np.array(sorted(points))
+                    points.append(np.asarray(threshold_crossings(self.stimuli[column], sign * level,
+                                                                 stop), dtype=float))
+        return np.unique(np.concatenate([np.zeros(0), *points]))  # sorted, each instant once
 
     def system_matrix(self, closed: tuple[bool, ...] = ()) -> sp.csr_matrix:
         """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere)."""
