@@ -39,6 +39,18 @@ def test_child_draws_the_figure(tmp_path):
     assert (tmp_path / "z.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert (tmp_path / "z.csv").stat().st_size > 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["z.csv", "z.png"]  # no temporary left
+    # the same figure as drawn in-process from the same results (read back from the CSV)
+    import numpy as np
+
+    from circuitnsds.output.plot import plot_waveforms
+    from circuitnsds.output.waveforms import Waveforms
+
+    data = np.genfromtxt(tmp_path / "z.csv", delimiter=",", names=True, deletechars="")
+    header = (tmp_path / "z.csv").read_text().splitlines()[0].split(",")
+    title = NETLISTS.joinpath("zener_regulator.cir").read_text().splitlines()[0]
+    waves = Waveforms(data[header[0]], {name: data[name] for name in header[1:]}, title=title)
+    plot_waveforms(waves, tmp_path / "here.png")
+    assert (tmp_path / "here.png").read_bytes() == (tmp_path / "z.png").read_bytes()
 
 
 def test_failed_child_falls_back_to_the_usual_error(tmp_path):
