@@ -39,10 +39,16 @@ BRIDGE = ROOT / "netlists" / "bridge_rectifier.cir"
 BUCK = HERE / "netlists" / "buck_100ms.cir"
 
 
+def _environment() -> dict[str, str]:
+    """This environment with this checkout's circuitnsds first on the path."""
+    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    return dict(os.environ, PYTHONPATH=path)
+
+
 def process(command: list[str], repeats: int, cwd: Path) -> dict:
     """Median wall and CPU seconds of ``command`` (CPU: the process and its waited children)."""
     walls, cpus = [], []
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    env = _environment()
     for _ in range(repeats):
         started = time.perf_counter()
         child = subprocess.Popen(command, cwd=cwd, env=env, stdout=subprocess.DEVNULL,
@@ -126,7 +132,7 @@ def setup_rows(repeats: int) -> list[dict]:
     rows.append({"case": "step classes", "s": seconds})
     seconds, _ = _best(lambda: engine._Stepping(mlcs, grid, 1.0, 1e-9, initial), repeats)
     rows.append({"case": "all of the stepping's set-up (_Stepping)", "s": seconds})
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    env = _environment()
     loads = [subprocess.run([sys.executable, "-c", NUMBA_LOAD], capture_output=True, text=True,
                             env=env, check=True).stdout.split() for _ in range(repeats)]
     rows.append({"case": "numba import (fresh process)", "s": min(float(a) for a, _ in loads)})

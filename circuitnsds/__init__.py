@@ -14,14 +14,15 @@ Typical use::
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from circuitnsds import (
     _blas,  # noqa: F401  (first: before numpy is imported)
     compare,  # the subpackage; called, it is compare.api.compare (imported then)
 )
-from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.errors import (
     CircuitError,
     CircuitnsdsError,
@@ -30,10 +31,38 @@ from circuitnsds.errors import (
     NetlistWarning,
     SimulationError,
 )
-from circuitnsds.output import measure
-from circuitnsds.output.waveforms import Waveforms
-from circuitnsds.specs import AcSpec, PssSpec, SourceDefaults, TransientSpec, TranSpec
-from circuitnsds.system.mlcs import MLCS
+
+if TYPE_CHECKING:
+    from circuitnsds.circuit.circuit import Circuit  # noqa: F401
+    from circuitnsds.output import measure  # noqa: F401
+    from circuitnsds.output.waveforms import Waveforms  # noqa: F401
+    from circuitnsds.specs import AcSpec, PssSpec, SourceDefaults, TransientSpec, TranSpec  # noqa: F401
+    from circuitnsds.system.mlcs import MLCS  # noqa: F401
+
+_LAZY = {"Circuit": "circuitnsds.circuit.circuit", "Waveforms": "circuitnsds.output.waveforms",
+         "MLCS": "circuitnsds.system.mlcs", "AcSpec": "circuitnsds.specs", "PssSpec": "circuitnsds.specs",
+         "SourceDefaults": "circuitnsds.specs", "TransientSpec": "circuitnsds.specs",
+         "TranSpec": "circuitnsds.specs"}
+"""Public names imported on first use (PEP 562), so that ``import circuitnsds`` and the
+command line's start (``--help``, argument errors, starting the figure's process) do not
+wait for numpy and the circuit modules."""
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+    elif name == "measure":
+        value = importlib.import_module("circuitnsds.output.measure")
+    else:  # a subpackage or module not imported yet (circuitnsds.values, circuitnsds.units, ...)
+        try:
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
 
 __version__ = "0.1.0"
 
