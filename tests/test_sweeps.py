@@ -203,6 +203,9 @@ V1 a 0 DC 1
     assert [again.element(f"r{k}").resistance for k in range(1, 5)] == r
     other = circuitnsds.read_netlist(text, random=point_generator(1, 1))
     assert other.element("r1").resistance != r[0]
+    # the default (created only when first drawn from) is point 0 of the default seed 1
+    point0 = circuitnsds.read_netlist(text, random=point_generator(1, 0))
+    assert [point0.element(f"r{k}").resistance for k in range(1, 5)] == r
 
 
 # ---------------------------------------------------------------- .step and --param

@@ -30,7 +30,7 @@ from circuitnsds.netlist.parser import (
     parse_netlist,
     read_netlist_file,
 )
-from circuitnsds.netlist.steps import DEFAULT_SEED, Step, options_seed, point_generator, split_steps
+from circuitnsds.netlist.steps import DEFAULT_SEED, LazyGenerator, Step, options_seed, split_steps
 from circuitnsds.netlist.subcircuits import flatten
 
 
@@ -148,7 +148,7 @@ class CircuitBuilder:
                         "run`, or give the parameters' values)")
                 given.update({s.name.lower(): s.values[0] for s in missing})
             if random is None:
-                random = point_generator(self.default_seed, 0)
+                random = LazyGenerator(self.default_seed, 0)  # numpy.random only if drawn from
             circuit = elaborate(flatten(self.netlist, given, random), options)
         circuit.strict = strict
         return circuit

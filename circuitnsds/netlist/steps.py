@@ -228,6 +228,22 @@ def point_generator(seed: int, index: int):
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(int(seed), spawn_key=(int(index),))))
 
 
+class LazyGenerator:
+    """:func:`point_generator` ``(seed, index)``, created at its first use: most netlists draw
+    no random number, and ``numpy.random`` costs 0.01-0.04 s to import."""
+
+    def __init__(self, seed: int, index: int):
+        if seed < 0 or index < 0:
+            raise ValueError("the seed and the point index are non-negative integers")
+        self._arguments = (seed, index)
+        self._generator = None
+
+    def __getattr__(self, name: str):
+        if self._generator is None:
+            self._generator = point_generator(*self._arguments)
+        return getattr(self._generator, name)
+
+
 def grid(steps: Sequence[Step]) -> list[dict[str, float]]:
     """The outer product of the sweeps: one ``{name as written: value}`` per point, the first
     sweep outermost."""
