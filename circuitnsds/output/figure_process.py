@@ -7,8 +7,8 @@ this process reads the netlist and simulates. After the run, :meth:`FigureProces
 it the plotted signals (pickled, through its standard input) and the CSV is written while the
 child draws; :meth:`FigureProcess.wait` says whether the child wrote the figure.
 
-The child is only a shortcut: whenever it cannot be used (one core, no child started, any
-error or warning in the child, which then exits non-zero) the caller draws the figure itself
+The child is only a shortcut: whenever it cannot be used (one core, no idle core, no child
+started, any error or warning in the child, which then exits non-zero) the caller draws the figure itself
 with :func:`circuitnsds.output.plot.plot_waveforms`, so messages, warnings and errors are
 exactly those of drawing in-process. The child ignores Ctrl-C (the parent may still send it
 the partial results) and ends when the parent closes or dies (end of its input).
@@ -34,16 +34,32 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def worth_starting() -> bool:
+    """Whether a second process would run beside this one: two cores or more, and one of
+    them idle on average over the last minute (the load average; taken as idle where the
+    system has none). A child competing for a busy core only adds its start (~0.1 s of
+    CPU) to the command."""
+    cores = _cores()
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):
+        load = 0.0
+    return cores >= 2 and load <= cores - 1
+
+
 class FigureProcess:
     """A child process ready to draw one figure (see the module docstring).
 
     Use as a context manager: leaving it ends a child that was never used or is still
     drawing (the figure then comes from the caller, see :meth:`wait`).
+
+    Args:
+        start: start the child; default :func:`worth_starting`.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, start: bool | None = None) -> None:
         self._child: subprocess.Popen | None = None
-        if _cores() < 2:  # nothing to overlap with: drawing in-process is cheaper
+        if not (worth_starting() if start is None else start):  # drawing in-process is cheaper
             return
         package_root = str(Path(__file__).resolve().parents[2])  # the same circuitnsds as ours
         env = dict(os.environ)
