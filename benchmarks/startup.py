@@ -116,8 +116,9 @@ def setup_rows(repeats: int) -> list[dict]:
     from circuitnsds.engine.timegrid import time_grid
 
     circuit = circuitnsds.read_netlist(BUCK)
-    step, stop = circuit.tran.step, circuit.tran.stop
-    mlcs = circuit.mlcs(step, stop)
+    spec = circuit.analyses["tran"]
+    step, stop = spec.step, spec.stop
+    mlcs = circuit.mlcs(spec.source_defaults)
     rows = []
     seconds, points = _best(lambda: mlcs.breakpoints(stop), repeats)
     rows.append({"case": f"source breakpoints ({points.size:,})", "s": seconds})
