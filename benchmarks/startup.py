@@ -14,9 +14,9 @@ Two tables:
    numba's import and its loading of the cached loop (a fresh process), against the stepping
    itself (``Waveforms.stats["seconds"]`` of a run that loaded the loop before).
 
-Usage: ``python benchmarks/startup.py [--repeats 5] [--json out.json]``. The package's
-``.pyc`` files should exist (an install writes them; ``PYTHONDONTWRITEBYTECODE`` would make
-every process compile the package's source again, ~0.15 s).
+Usage: ``python benchmarks/startup.py [--repeats 5] [--json out.json]``. The processes run
+without ``PYTHONDONTWRITEBYTECODE`` (as after an install, which writes the ``.pyc`` files;
+with it every process compiles the package's source again, ~0.15 s).
 """
 
 from __future__ import annotations
@@ -40,9 +40,12 @@ BUCK = HERE / "netlists" / "buck_100ms.cir"
 
 
 def _environment() -> dict[str, str]:
-    """This environment with this checkout's circuitnsds first on the path."""
+    """This environment with this checkout's circuitnsds first on the path, as an install
+    runs (``.pyc`` files written and used: no ``PYTHONDONTWRITEBYTECODE``)."""
     path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
-    return dict(os.environ, PYTHONPATH=path)
+    env = dict(os.environ, PYTHONPATH=path)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
 
 
 def process(command: list[str], repeats: int, cwd: Path) -> dict:
