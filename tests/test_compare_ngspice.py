@@ -285,10 +285,15 @@ def test_cli_missing_ngspice_library_says_how_to_install(tmp_path):
     assert "Traceback" not in result.stderr
 
 
-def test_api_is_exported():
+def test_api_is_exported(monkeypatch):
     import circuitnsds.compare.report  # importing a submodule must not replace the function
 
-    assert circuitnsds.compare is compare and "compare" in circuitnsds.__all__
+    # circuitnsds.compare is the subpackage (its names load on first use) and, called, the
+    # function compare.api.compare
+    assert circuitnsds.compare.compare is compare and "compare" in circuitnsds.__all__
+    calls = []
+    monkeypatch.setattr(circuitnsds.compare, "compare", lambda *a, **k: calls.append((a, k)) or "ran")
+    assert circuitnsds.compare("x.cir", n=1) == "ran" and calls == [(("x.cir",), {"n": 1})]
 
 
 def test_convergence_example_fast(tmp_path):
