@@ -62,12 +62,10 @@ class FigureProcess:
         if not (worth_starting() if start is None else start):  # drawing in-process is cheaper
             return
         package_root = str(Path(__file__).resolve().parents[2])  # the same circuitnsds as ours
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_root, env.get("PYTHONPATH")]))
+        code = f"import sys; sys.path.insert(0, {package_root!r}); {_CHILD}"
         try:
-            self._child = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
-                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                           env=env)
+            self._child = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
+                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         except OSError:
             self._child = None
 
