@@ -105,3 +105,16 @@ def test_import_loads_no_heavy_dependency():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == ""
+
+
+def test_command_line_starts_without_numpy_or_scipy():
+    """``import circuitnsds`` and the command's module load no numpy (its names load on first
+    use), so ``--help``, argument errors and starting the figure's process are immediate; a
+    run's numerical work brings in numpy and scipy, a reading of a netlist no scipy."""
+    code = ("import sys, circuitnsds, circuitnsds.cli.main; "
+            "print(','.join(m for m in ('numpy', 'scipy') if m in sys.modules)); "
+            "circuitnsds.read_netlist('v1 a 0 DC 1\\nr1 a 0 1k\\n.tran 1u 1m\\n'); "
+            "print(','.join(m for m in ('scipy', 'numpy.random') if m in sys.modules))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["", ""]
