@@ -108,8 +108,12 @@ class FigureProcess:
     def close(self) -> None:
         """End the child if it still runs (unused, or its figure no longer wanted)."""
         if self._child is not None:
-            if self._child.poll() is None:
-                self._child.kill()
+            if self._child.poll() is None:  # SIGTERM: its temporary file is removed
+                self._child.terminate()
+                try:
+                    self._child.wait(timeout=2.0)
+                except subprocess.TimeoutExpired:
+                    self._child.kill()
             self._child.wait()
             if self._child.stdin is not None:
                 try:
@@ -127,6 +131,7 @@ def serve() -> None:
     import warnings
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))  # ended by the parent: clean up
     received: list[bytes] = []
     reader = threading.Thread(target=lambda: received.append(sys.stdin.buffer.read()), daemon=True)
     reader.start()  # drains the pipe at once: the parent never waits for our imports
