@@ -160,13 +160,11 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
             circuit.add(coupling, statement.location)
     if not couplings:
         return
-    import networkx as nx
     import numpy as np
 
-    graph = nx.Graph()
-    for coupling in couplings:
-        graph.add_edge(*coupling.inductors, element=coupling)
-    for group in nx.connected_components(graph):
+    from circuitnsds.checks.topology import connected_components
+
+    for group in connected_components((), (c.inductors for c in couplings)):
         members = [inductors[name] for name in sorted(group)]
         related = [c for c in couplings if c.inductors[0] in group]
         matrix = devices.inductance_matrix(members, related)
