@@ -21,6 +21,7 @@ from circuitnsds.errors import CircuitError, NetlistError, NetlistWarning
 from circuitnsds.frontend.build import CircuitBuilder
 from circuitnsds.netlist.expressions import ExpressionError, evaluate
 from circuitnsds.netlist.steps import (
+    LazyGenerator,
     StepSyntaxError,
     count_values,
     linear_values,
@@ -206,6 +207,21 @@ V1 a 0 DC 1
     # the default (created only when first drawn from) is point 0 of the default seed 1
     point0 = circuitnsds.read_netlist(text, random=point_generator(1, 0))
     assert [point0.element(f"r{k}").resistance for k in range(1, 5)] == r
+
+
+@pytest.mark.parametrize("drawn_first", [False, True])
+def test_lazy_generator_copies_and_pickles_as_the_generator_it_stands_for(drawn_first):
+    """The default Monte Carlo generator (numpy.random created on first use) survives
+    copy.deepcopy and pickle (a dask worker, a copied scope) and keeps drawing what
+    point_generator(seed, index) draws."""
+    import copy
+    import pickle
+
+    lazy, reference = LazyGenerator(3, 2), point_generator(3, 2)
+    if drawn_first:
+        assert lazy.standard_normal() == reference.standard_normal()
+    for clone in (copy.deepcopy(lazy), pickle.loads(pickle.dumps(lazy))):
+        assert clone.standard_normal(4).tolist() == copy.deepcopy(reference).standard_normal(4).tolist()
 
 
 # ---------------------------------------------------------------- .step and --param

@@ -239,6 +239,8 @@ class LazyGenerator:
         self._generator = None
 
     def __getattr__(self, name: str):
+        if name.startswith("_"):  # not set yet (copy, pickle create us without __init__)
+            raise AttributeError(name)
         if self._generator is None:
             self._generator = point_generator(*self._arguments)
         return getattr(self._generator, name)
