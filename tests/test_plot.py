@@ -96,3 +96,26 @@ def test_show_opens_a_window_when_it_can(monkeypatch, zener):
     show_waveforms(zener, ["v(out)"])
     assert len(shown) == 1 and shown[0].axes[0].get_ylabel() == "voltage [V]"
     plt.close(shown[0])
+
+
+# the formats matplotlib 3.7-3.10 write, as its own error lists them (matplotlib PR #30363,
+# "ValueError: Format 'avif' is not supported (supported formats: eps, jpeg, ...)"):
+# .gif came back in 3.11 and .avif is newer still
+MATPLOTLIB_3_10_FORMATS = ("eps", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw", "rgba", "svg",
+                           "svgz", "tif", "tiff", "webp")
+
+
+@pytest.mark.parametrize("suffix", ["gif", "avif"])
+def test_plot_format_asks_the_installed_matplotlib_for_newer_formats(monkeypatch, suffix):
+    """``--plot`` is checked before the run; with a matplotlib the package accepts
+    (>= 3.7) that cannot write .gif or .avif the check must say so then, not after the run
+    (where savefig raises a ValueError)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from circuitnsds.output.plot import plot_format
+
+    monkeypatch.setattr(FigureCanvasBase, "get_supported_filetypes",
+                        classmethod(lambda cls: {k: k.upper() for k in MATPLOTLIB_3_10_FORMATS}))
+    with pytest.raises(PlotError, match="not a figure format"):
+        plot_format(f"x.{suffix}")
+    assert [plot_format(f"x.{k}") for k in MATPLOTLIB_3_10_FORMATS] == list(MATPLOTLIB_3_10_FORMATS)

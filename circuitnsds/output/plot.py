@@ -31,11 +31,13 @@ KINDS = (("v(", "voltage", "V"), ("i(", "current", "A"))
 
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
 
-FIGURE_FORMATS = frozenset({"avif", "eps", "gif", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw",
-                            "rgba", "svg", "svgz", "tif", "tiff", "webp"})
-"""The file extensions matplotlib 3.11 writes (``FigureCanvasBase.get_supported_filetypes()``):
-known without importing matplotlib (~0.4 s), so a command checks ``--plot`` before its run
-at no cost; another extension is looked up in matplotlib itself."""
+FIGURE_FORMATS = frozenset({"eps", "jpeg", "jpg", "pdf", "pgf", "png", "ps", "raw", "rgba", "svg",
+                            "svgz", "tif", "tiff", "webp"})
+"""The file extensions every matplotlib this package accepts (>= 3.7) writes
+(``FigureCanvasBase.get_supported_filetypes()``): known without importing matplotlib
+(~0.4 s), so a command checks ``--plot`` before its run at no cost. Another extension
+(``.gif`` and ``.avif``, written from matplotlib 3.11 on) is looked up in the installed
+matplotlib itself."""
 
 
 class PlotError(CircuitnsdsError):
