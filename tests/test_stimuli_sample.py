@@ -210,3 +210,45 @@ def test_pulse_breakpoints_are_sorted_and_inside(pulse):
     points = pulse.breakpoints(stop)
     assert points == sorted(points)
     assert all(0 < p < stop for p in points)
+
+
+@st.composite
+def long_pulse_runs(draw):
+    """A PULSE (zero ramps, ramps longer than the period, a delay, a pulse count) and instants
+    over up to 10^6 periods: a coarse grid, every corner of some far periods and their
+    floating-point neighbours (the period index of a late instant carries rounding)."""
+    period = draw(st.floats(1e-8, 1e-3))
+    fraction = st.one_of(st.just(0.0), st.floats(1e-9, 1.5))
+    pulse = Pulse(draw(levels), draw(levels),
+                  delay=draw(st.one_of(st.just(0.0), st.floats(0, 50))) * period,
+                  rise=draw(fraction) * period, fall=draw(fraction) * period,
+                  width=draw(fraction) * period, period=period,
+                  count=draw(st.one_of(st.none(), st.integers(1, 10**6).map(float)))
+                  ).resolve(period / 100, period)
+    periods = draw(st.integers(1, 10**6))
+    stop = pulse.delay + periods * period
+    corners = np.array([0.0, pulse.rise, pulse.rise + pulse.width,
+                        pulse.rise + pulse.width + pulse.fall, period])
+    far = np.array(draw(st.lists(st.integers(0, periods), min_size=1, max_size=20)))
+    times = np.concatenate([np.linspace(0.0, stop, 2001),
+                            (pulse.delay + far[:, None] * period + corners[None, :]).ravel()])
+    return pulse, np.concatenate([times, np.nextafter(times, np.inf), np.nextafter(times, -np.inf)])
+
+
+@settings(max_examples=150, deadline=None)
+@given(long_pulse_runs())
+def test_pulse_flat_parts_shortcut_is_the_corner_by_corner_sampling(run):
+    """``Pulse.sample`` settles the instants on a flat part at once (V1 or V2) and sends the
+    others through the corner-by-corner evaluation: the two give the same bits everywhere,
+    and each instant at V1 or V2 is ``value(t)`` (to an ulp: where two corners are within the
+    snapping distance of each other the two snap in a different order, and V1 + (V2 - V1)
+    may stand for V2)."""
+    pulse, times = run
+    times = times[times >= 0]
+    fast, full = pulse.sample(times), pulse._sample_corners(times)
+    np.testing.assert_array_equal(fast, full)
+    flat = (fast == pulse.initial) | (fast == pulse.pulsed)
+    picked = times[flat][:: max(1, int(flat.sum()) // 300)]
+    ulp = np.spacing(max(abs(pulse.initial), abs(pulse.pulsed), abs(pulse.pulsed - pulse.initial)))
+    np.testing.assert_allclose([pulse.value(float(t)) for t in picked], pulse.sample(picked),
+                               rtol=0, atol=2 * ulp)
