@@ -67,3 +67,23 @@ def test_unused_child_ends():
         process = child._child
     assert process is not None and process.poll() is not None
     assert not figure_process.FigureProcess(start=False).send(None, "x.png", None)
+
+
+def test_command_with_its_child_forced(tmp_path, monkeypatch):
+    """The command's own use of the child, whatever the machine's load (the gate keeps it
+    off on a busy machine, and then the test above never sees it): the child takes the
+    figure and draws the one the command would draw itself."""
+    from circuitnsds.cli.main import main
+
+    monkeypatch.setattr(figure_process, "worth_starting", lambda: True)
+    sent = []
+    original = figure_process.FigureProcess.send
+    monkeypatch.setattr(figure_process.FigureProcess, "send",
+                        lambda self, *a, **k: sent.append(original(self, *a, **k)) or sent[-1])
+    netlist = NETLISTS / "zener_regulator.cir"
+    assert main(["run", str(netlist), "-o", str(tmp_path / "z.csv"), "--plot",
+                 str(tmp_path / "z.png"), "-q"]) == 0
+    assert sent == [True]  # the child took the figure
+    plot_waveforms(circuitnsds.read_netlist(netlist).transient(), tmp_path / "here.png")
+    assert (tmp_path / "here.png").read_bytes() == (tmp_path / "z.png").read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["here.png", "z.csv", "z.png"]
