@@ -87,3 +87,18 @@ def test_command_with_its_child_forced(tmp_path, monkeypatch):
     plot_waveforms(circuitnsds.read_netlist(netlist).transient(), tmp_path / "here.png")
     assert (tmp_path / "here.png").read_bytes() == (tmp_path / "z.png").read_bytes()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["here.png", "z.csv", "z.png"]
+
+
+def test_child_does_not_run_the_users_files(tmp_path, monkeypatch):
+    """``python -c`` puts the current folder first on the child's path: a user's own
+    ``pickle.py`` (or ``numpy.py``, ``threading.py`` ...) in the folder the command runs
+    in must not be executed in place of the module (the command itself, an installed
+    script, never looks there)."""
+    waves = circuitnsds.read_netlist(NETLISTS / "zener_regulator.cir").transient()
+    marker = tmp_path / "ran"
+    (tmp_path / "pickle.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    monkeypatch.chdir(tmp_path)
+    with figure_process.FigureProcess(start=True) as child:
+        assert child.send(waves, tmp_path / "z.png", None)
+        assert child.wait()
+    assert not marker.exists()

@@ -64,7 +64,9 @@ class FigureProcess:
         package_root = str(Path(__file__).resolve().parents[2])  # the same circuitnsds as ours
         code = f"import sys; sys.path.insert(0, {package_root!r}); {_CHILD}"
         try:
-            self._child = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
+            # -P: not the current folder first on the path (a user's pickle.py, numpy.py ...
+            # there would be run instead of the module)
+            self._child = subprocess.Popen([sys.executable, "-P", "-c", code], stdin=subprocess.PIPE,
                                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         except OSError:
             self._child = None
