@@ -124,3 +124,50 @@ def test_a_stream_that_cannot_start_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(circuitnsds.CircuitnsdsError, match="No space left"):
         CsvStream(path, ["v(out)"])
     assert path.read_text() == "previous\n" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+
+
+def test_streamed_run_writes_the_switchings_from_tstart_on(tmp_path, monkeypatch):
+    """``--events`` of a streamed run with a TSTART holds the switchings from TSTART on, as
+    the run that keeps every signal: the buck's gate switches s1 twice per 10 us period, 20
+    times in 0.1..0.2 ms (before, a streamed run also wrote the 20 switchings before TSTART)."""
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    netlist = tmp_path / "buck.cir"
+    netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.2m 0.1m"))
+    events = tmp_path / "events.csv"
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv"), "--signals", "v(out)",
+                 "--events", str(events), "-q"]) == 0
+    times = np.loadtxt(events, delimiter=",", skiprows=1, usecols=0, ndmin=1)
+    assert times.min() >= 0.1e-3 and times.size == 20
+    whole = circuitnsds.read_netlist(netlist).transient()
+    np.testing.assert_allclose(times, [event.time for event in whole.events], rtol=1e-9)  # as written
+
+
+@pytest.mark.parametrize("extra", [[], ["--tstop", "0.2m"]])  # streamed / kept (no stream)
+def test_ctrl_c_before_tstart_is_no_traceback(tmp_path, capsys, monkeypatch, extra):
+    """Interrupted before TSTART, a run that keeps some signals has no row to write; its
+    switchings before TSTART are not shown either (before: an IndexError in the partial
+    result of a run with switchings, reported as an internal error)."""
+    from circuitnsds.engine import integrate as engine
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    calls = {"n": 0}
+    original = engine._Stepping.solve_step
+
+    def interrupt_later(self, k, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 300:  # at 30 us, in the first segment, before TSTART = 0.1 ms
+            raise KeyboardInterrupt
+        return original(self, k, *args, **kwargs)
+
+    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    netlist = tmp_path / "buck.cir"
+    netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.2m 0.1m"))
+    csv = tmp_path / "out.csv"
+    csv.write_text("previous\n")
+    status = main(["run", str(netlist), "-o", str(csv), "--signals", "v(out)", *extra])
+    err = capsys.readouterr().err
+    assert status == 130 and "internal error" not in err and "Traceback" not in err
+    assert "no results to write" in err
+    assert csv.read_text() == "previous\n"

@@ -583,6 +583,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     report = None if progress is None else (lambda t, _end: progress(t, total))
 
     threshold = start - 1e-12 * stop  # rows before TSTART are not written
+    shown_from = grid[int(np.searchsorted(grid, threshold))]  # the first row's time: events from it on
     if sink is not None and hasattr(sink, "expect"):
         sink.expect(grid.size - int(np.searchsorted(grid, threshold)))
     written = [0]
@@ -614,7 +615,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         extra = {} if sink is None else {"rows": written[0]}
         return Waveforms(time=time[begin:], signals=signals, residual=residual, title=circuit.title,
                          stats=dict(stats, unknowns=mlcs.n, pairs=mlcs.m, **extra),
-                         events=[event for event in events if not time.size or event.time >= time[begin]])
+                         events=[event for event in events if event.time >= shown_from])
 
     y, charge, current, active, switches = state.y, state.charge, state.current, state.active, \
         state.switches
