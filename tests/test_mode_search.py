@@ -222,3 +222,22 @@ def test_mode_changes_in_the_loop_match_the_mlcp_solver(netlist: str, stop: floa
     assert (np.abs(loop.y - other.y).max(axis=0) / scale).max() < 1e-9
     current_scale = np.abs(other.current).max() + 1e-300
     assert np.abs(loop.current - other.current).max() / current_scale < 1e-9
+
+
+def test_solver_certificate_is_not_fooled_by_its_noise_filter() -> None:
+    """The MLCP solver zeroes the entries of ``M̂`` below ``1e3·eps`` of its largest (noise
+    for Lemke); the certificate must judge the matrix as computed. Three pairs whose block
+    ``[[a, b, b], [b, a, b], [b, b, a]]`` (``a = 2.3e-13``, ``b = -2.1e-13``, so
+    ``a + 2b < 0``: not a P-matrix, its 3x3 minor is negative) sit beside a pair of size 1;
+    the block's off-diagonal entries fall under the filter, leaving a positive diagonal.
+    With ``q = (1, 1, 1, 1)·1e-13`` both ``z = 0`` and ``z_{1..3} = 1e-13/|a + 2b|`` solve
+    it (before, ``unique_solutions`` certified it and the loop would pick either)."""
+    a, b = 2.3e-13, -2.1e-13
+    M = np.array([[a, b, b, 0.0], [b, a, b, 0.0], [b, b, a, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    assert not all_minors_positive(M)
+    q = np.full(4, 1e-13)
+    for z in (np.zeros(4), np.array([1, 1, 1, 0]) * 1e-13 / abs(a + 2 * b)):
+        w = M @ z + q
+        assert (z >= 0).all() and (w >= -1e-25).all() and abs(z @ w) < 1e-25  # two solutions
+    solver = MLCPSolver(np.zeros((0, 0)), np.zeros((0, 4)), np.zeros((4, 0)), M)
+    assert not solver.unique_solutions()

@@ -127,13 +127,15 @@ def negative_current_harmless(lu: Any, sel: np.ndarray, n: int, z: np.ndarray,
 
 class _StartBasis(PivotTransform):
     """:class:`~circuitnsds.solvers.pivot_transform.PivotTransform` at a start basis ``α0``,
-    with the rounding noise of the elimination removed from ``M̂`` and ``q̂``."""
+    with the rounding noise of the elimination removed from ``M̂`` (as ``Mhat``; ``M`` keeps
+    the values computed, which the certificate of :meth:`MLCPSolver.unique_solutions` judges)
+    and ``q̂``."""
 
     __slots__ = ("Mhat",)
 
     def __init__(self, K: np.ndarray, n: int, mask: np.ndarray, lu: LU) -> None:
         super().__init__(K, n, mask, lu)
-        Mhat = self.M
+        Mhat = self.M.copy()
         # entries at rounding level are noise of the elimination; zero them so that
         # Lemke's scaling cannot blow them up into pivot candidates
         if self.m:
