@@ -116,3 +116,33 @@ def test_an_uncached_formatter_is_compiled_in_the_background(monkeypatch, tmp_pa
     assert not csvfile.compiled_pays(10**7) and started == [1]
     (tmp_path / "ready-missing").touch()
     assert csvfile.compiled_pays(10**7) and started == [1]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_any_text_stream_gets_text(compiled):
+    """``Waveforms.to_csv`` takes "an open text stream": also one that is not an
+    ``io.TextIOBase`` (a text-mode ``SpooledTemporaryFile``, an object with ``write(str)``);
+    before, those got bytes and raised TypeError."""
+    import tempfile
+
+    from circuitnsds.output.waveforms import Waveforms
+
+    waves = Waveforms(time=np.array([0.0, 0.5]), signals={"v(a)": np.array([1.0, -2.5e-300])})
+    expected = "time,v(a)\n0.0,1.0\n0.5,-2.5e-300\n"
+
+    class Collect:
+        def __init__(self):
+            self.parts = []
+
+        def write(self, text):
+            self.parts.append(text)
+
+    collect = Collect()
+    csvfile.write_csv(collect, waves.time, ["v(a)"], [waves["v(a)"]], compiled=compiled)
+    assert "".join(collect.parts) == expected
+    with tempfile.SpooledTemporaryFile(mode="w+") as text, tempfile.SpooledTemporaryFile(mode="w+b") as raw:
+        waves.to_csv(text)
+        waves.to_csv(raw)
+        text.seek(0)
+        raw.seek(0)
+        assert text.read() == expected and raw.read() == expected.encode("ascii")

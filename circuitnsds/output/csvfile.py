@@ -76,9 +76,17 @@ def write_header(stream: TextIO | BinaryIO, names: Sequence[str]) -> None:
     _emit(stream, ",".join(["time", *names]) + "\n")
 
 
+def _binary(stream: TextIO | BinaryIO) -> bool:
+    """Whether ``stream`` takes bytes: a binary file or buffer (``open(..., "wb")``,
+    ``BytesIO``, a ``"b"`` mode); anything else with a ``write`` is taken for a text stream."""
+    if isinstance(stream, io.TextIOBase):
+        return False
+    return isinstance(stream, (io.RawIOBase, io.BufferedIOBase)) or "b" in str(getattr(stream, "mode", ""))
+
+
 def _emit(stream: TextIO | BinaryIO, text: str | bytes) -> None:
     """Write ``text`` to a text or a binary stream (ASCII either way)."""
-    if isinstance(stream, io.TextIOBase):
+    if not _binary(stream):
         stream.write(text if isinstance(text, str) else text.decode("ascii"))
     else:
         stream.write(text.encode("utf-8") if isinstance(text, str) else text)
