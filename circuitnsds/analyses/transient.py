@@ -14,7 +14,7 @@ from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor
-from circuitnsds.engine.integrate import STEPPINGS, integrate, trajectory_bytes
+from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import LazySignals, Waveforms
@@ -560,9 +560,11 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
 
     The grid is integrated in segments of at most :data:`SEGMENT_BYTES` of per-step arrays;
     each segment starts from the state the previous one ended with (``continued``: no
-    restart step), its chosen signals are kept and the rest is dropped. The arithmetic is
-    that of one run, up to rounding: a segment's first step is solved as a complementarity
-    problem where one run would apply the mode's step map. Impulses are not kept.
+    restart step), its chosen signals are kept and the rest is dropped. The segments share
+    one stepping state (:class:`~circuitnsds.engine.integrate.Segments`: step solvers, mode
+    maps and table built once, the loop choice counting the whole run), and a segment's
+    first step is taken by the mode loop as in one run: the arithmetic is that of one run.
+    Impulses are not kept.
 
     With a ``sink`` (see :func:`run_transient`) each segment's rows from ``start`` on go to
     it as soon as the segment is done and are not kept: memory is bounded by one segment.
@@ -620,11 +622,13 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     y, charge, current, active, switches = state.y, state.charge, state.current, state.active, \
         state.switches
     first = 0
+    segments = Segments(grid)
     while first < grid.size - 1:
         last = min(first + rows, grid.size - 1)
         try:
             trajectory = integrate(mlcs, grid[first:last + 1], y, charge, current, active, switches,
-                                   progress=report, continued=first > 0, **options)
+                                   progress=report, continued=first > 0, segments=segments,
+                                   **options)
         except (SimulationError, KeyboardInterrupt) as exc:
             if isinstance(exc, SimulationError):
                 _word(exc)

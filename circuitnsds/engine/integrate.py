@@ -152,6 +152,7 @@ def integrate(
     stepping: str = "auto",
     cache: dict | None = None,
     continued: bool = False,
+    segments: Segments | None = None,
 ) -> Trajectory:
     """Integrate ``mlcs`` over ``grid`` from ``y0``.
 
@@ -182,6 +183,10 @@ def integrate(
             runs one period again and again): the step solvers and mode maps built for
             this grid are kept in it and reused (``stats`` then count since it was made);
             ``cache["last"]`` is the stepping state of the last run.
+        segments: a :class:`Segments` of the whole grid when ``grid`` is one of its parts,
+            integrated in order (``continued`` for all but the first): the step solvers,
+            mode maps and table built by the earlier parts are reused, and a continued
+            part's first step is taken by the mode loop like any other (one run's arithmetic).
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -192,7 +197,7 @@ def integrate(
     if stepping not in STEPPINGS:
         raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {stepping!r}")
     mapped = stepping != "mlcp"
-    choice = LoopChoice({"auto": None, "compiled": True}.get(stepping, False))
+    stepping_name = stepping
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
@@ -207,7 +212,14 @@ def integrate(
     states[0] = (switches0 if switches0 is not None
                  else [switch.initially_on for switch in switches])
 
-    stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0], continued)
+    loop = {"auto": None, "compiled": True}.get(stepping_name, False)
+    if segments is not None and _segmentable(mlcs):
+        stepping, choice = segments.enter(mlcs, grid, theta, tol, states[0], continued, loop)
+        offset, total = segments.offset, segments.total
+    else:
+        stepping = _stepping_for(cache, mlcs, grid, theta, tol, states[0], continued)
+        choice = LoopChoice(loop, unknowns=n, watched=stepping.free.size)
+        offset, total = 0, count - 1
     started = wallclock.perf_counter()
     clock = {"last": started, "reported": False}
 
@@ -269,13 +281,13 @@ def integrate(
                 # time the switches were in this state (the other phase of a converter)
                 guess = last_active.get(states[k + 1].tobytes(), guess)
             cls = stepping.restart_class(k) if changed else int(stepping.step_class[k])
-            if k > 0 and guess is not None and k != left_mode_at and mapped:
-                use = choice.compiled(k, count - 1 - k) if stepping.dense else choice.mode is not False
-                entered = wallclock.perf_counter()
+            if (k > 0 or continued) and guess is not None and k != left_mode_at and mapped:
+                use = (choice.compiled(offset + k, total - offset - k) if stepping.dense
+                       else choice.mode is not False)
                 last_step = min(count - 1, k + (CHUNK if use else choice.python_chunk()))
                 done, reason, guess = stepping.run_mapped(k, last_step, cls, states[k + 1],
                                                           guess, y, current, active, used, use)
-                choice.record(use, wallclock.perf_counter() - entered, done - k)
+                choice.record(use, done - k, stepping.searches)
                 # step `done` left the mode the loop continued with (same class and switch state
                 # as the step before): the MLCP solves it. After a change the loop tried the mode
                 # stored for the new state; the guess (the set last seen with it) may differ.
@@ -328,6 +340,8 @@ def integrate(
     events = sorted(events + stepping.scheduled_events(states))
     stats.update(events=len(events), event_solves=stepping.event_solves)
     stats["seconds"] = wallclock.perf_counter() - started
+    if segments is not None:
+        segments.offset += count - 1
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
     return Trajectory(grid, y, current, impulse, residual, active, states, stats, events)
@@ -422,6 +436,38 @@ def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float
     return cache[key]
 
 
+class Segments:
+    """What the segments of one run keep between them (:func:`integrate`'s ``segments``).
+
+    A run integrated part by part (:func:`circuitnsds.analyses.transient._kept_signals`:
+    each part a slice of ``grid``, in order, each ``continued`` from the last state of the
+    one before) builds its step solvers, their factorisations, the mode maps and the mode
+    table once, not once per part: the step classes are numbered from the whole grid's
+    step sizes, so that a class (and the table's keys) mean the same in every part. The
+    loop choice (:class:`~circuitnsds.engine.loop_choice.LoopChoice`) counts the whole
+    run's steps. The parts of a run must share ``mlcs``, ``theta``, ``tol`` and ``stepping``.
+    """
+
+    def __init__(self, grid: np.ndarray):
+        steps = np.diff(np.asarray(grid, dtype=float))
+        self.sizes = _step_sizes(steps)
+        self.total = steps.size  # steps of the whole run
+        self.offset = 0  # steps of the parts done
+        self.stepping: _Stepping | None = None
+        self.choice: LoopChoice | None = None
+
+    def enter(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
+              initial_states: np.ndarray, continued: bool, loop: bool | None
+              ) -> tuple[_Stepping, LoopChoice]:
+        """The stepping state and loop choice for the next part, ``grid``."""
+        if self.stepping is None or self.stepping.mlcs is not mlcs:
+            self.stepping = _Stepping(mlcs, grid, theta, tol, initial_states, continued, self.sizes)
+            self.choice = LoopChoice(loop, unknowns=mlcs.n, watched=self.stepping.free.size)
+        else:
+            self.stepping.target(grid, initial_states, continued)
+        return self.stepping, self.choice
+
+
 @dataclass
 class _StepSolver:
     """The MLCP solver of one step size and switch state, with its step system."""
@@ -442,23 +488,14 @@ class _Stepping:
     """
 
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
-                 initial_states: np.ndarray, continued: bool = False):
-        self.mlcs, self.grid, self.theta, self.tol = mlcs, grid, theta, tol
+                 initial_states: np.ndarray, continued: bool = False,
+                 sizes: tuple[float, np.ndarray] | None = None):
+        self.mlcs, self.theta, self.tol = mlcs, theta, tol
         self.E = mlcs.E.tocsr()
         self.differential = mlcs.differential_rows
-        self.sources = _source_values(mlcs, grid)
-        steps = np.diff(grid)
-        self.base_class = _step_classes(steps)
-        self.sizes = int(self.base_class.max()) + 1
-        self.scheduled, self.schedule, self.sched_state = _switch_schedule(
-            mlcs, grid, self.sources, initial_states)
-        restart = np.zeros(steps.size, dtype=bool)
-        # a continued run's first step restarts only if a scheduled switch changes there
-        restart[0] = not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
-            (self.schedule[0] != initial_states[self.scheduled]).any()))
-        if theta != 1.0:
-            restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
-        self.step_class = self.base_class + self.sizes * restart
+        self.step_sizes = _step_sizes(np.diff(grid)) if sizes is None else sizes
+        self.sizes = self.step_sizes[1].size
+        self.target(grid, initial_states, continued)
         free = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is None]
         self.free = np.array(free, dtype=np.int64)
         controls = np.zeros((len(free), mlcs.n))
@@ -481,8 +518,35 @@ class _Stepping:
         self.built = 0
         self.mapped_seconds = 0.0
         self.event_solves = 0
+        self.searches = 0  # mode changes found by searching the table in the last run_mapped
         self._dense_cache: dict[tuple, _DenseMode] = {}
         self.splits: dict[int, list[SplitPart]] = {}  # the last run's split steps
+        self._counted = self.counters(absolute=True)  # the solvers' counters before this grid
+
+    def target(self, grid: np.ndarray, initial_states: np.ndarray, continued: bool) -> None:
+        """Aim at ``grid`` (a part of the grid whose step sizes :attr:`step_sizes` numbers, or
+        the whole of it): the sources' values, step classes and switch schedule of its steps.
+        The step solvers, maps and mode table, keyed by class and switch states, stay:
+        a run continued in segments builds each of them once (see :class:`Segments`)."""
+        mlcs, theta = self.mlcs, self.theta
+        self.grid = grid
+        self.sources = _source_values(mlcs, grid)
+        steps = np.diff(grid)
+        self.base_class = _step_classes(steps, self.step_sizes)
+        self.scheduled, self.schedule, self.sched_state = _switch_schedule(
+            mlcs, grid, self.sources, initial_states)
+        restart = np.zeros(steps.size, dtype=bool)
+        # a continued run's first step restarts only if a scheduled switch changes there
+        restart[0] = not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
+            (self.schedule[0] != initial_states[self.scheduled]).any()))
+        if theta != 1.0:
+            restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
+        self.step_class = self.base_class + self.sizes * restart
+        if hasattr(self, "_counted"):  # a new part: the counters start again
+            self._counted = self.counters(absolute=True)
+            self.built = 0
+            self.mapped_seconds = 0.0
+            self.event_solves = 0
 
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
@@ -754,6 +818,7 @@ class _Stepping:
         Returns ``(done, reason, guess)``: the first step not done, the loop's ``STOP_*``
         code (``None`` when the mode has no map) and the active set of the last step done.
         """
+        self.searches = 0
         if self.dense:
             mode = self.dense_mode(k, cls, states, guess)
         else:
@@ -767,6 +832,7 @@ class _Stepping:
                                            self.step_class, self.sched_state, self.free_id(states),
                                            free, used, use_compiled=compiled)
             active[k + 1:done + 1] = self.table.mask[used[k + 1:done + 1]]
+            self.searches = self._searches(mode, used[k + 1:done + 1]) if done > k else 0
             if done > k:
                 guess = self.table.mask[last].copy()
         else:
@@ -779,6 +845,16 @@ class _Stepping:
             active[k + 1:done + 1] = guess
         self.mapped_seconds += wallclock.perf_counter() - entered
         return done, reason, guess
+
+    def _searches(self, mode: int, modes: np.ndarray) -> int:
+        """How many of the steps taken in table ``modes`` (``mode`` before them) changed to a
+        mode of the same class and switch states: mode changes the loop found by searching
+        the table (the others follow a change of step size or scheduled switch states)."""
+        before = np.concatenate(([mode], modes[:-1]))
+        table = self.table
+        same = ((table.mode_class[before] == table.mode_class[modes])
+                & (table.mode_sched[before] == table.mode_sched[modes]))
+        return int(np.count_nonzero((before != modes) & same))
 
     def continues(self, k: int) -> bool:
         """Whether step ``k`` has the class and scheduled switch states of step ``k - 1``."""
@@ -829,27 +905,36 @@ class _Stepping:
         blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
         return sparse_mode_map(blocks, self.mlcs.n)
 
-    def counters(self) -> dict[str, int]:
+    def counters(self, absolute: bool = False) -> dict[str, int]:
+        """The solvers' counters and the modes built, since the last :meth:`target`
+        (``absolute``: since this object was made; ``modes`` always since the last target)."""
         totals = dict.fromkeys(("factorisations", "cache_hits", "fallbacks", "pivoting_solves",
                                 "lemke_fallbacks"), 0)
         for step in list(self.solvers.values()) + self.retired:
             for key in totals:
                 totals[key] += step.solver.stats.get(key, 0)
+        if not absolute and hasattr(self, "_counted"):
+            totals = {key: value - self._counted[key] for key, value in totals.items()}
         totals["modes"] = self.built
         return totals
 
 
-def _step_classes(steps: np.ndarray) -> np.ndarray:
-    """Class of each step: equal step sizes (to 1e-9 of the largest) share one, numbered
-    in increasing size. Most steps have the regular size: only the others are sorted."""
+def _step_sizes(steps: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(quantum, sizes)``: the distinct step sizes of ``steps`` as integers of the quantum
+    1e-9 of the largest step (equal to that precision: one class), sorted. Most steps have
+    the regular size: only the others are sorted."""
     quantum = 1e-9 * steps.max()
     rounded = np.round(steps / quantum)
     common = rounded[steps.size // 2]
-    other = rounded != common
-    sizes = np.unique(np.append(rounded[other], common))
-    classes = np.full(steps.size, int(np.searchsorted(sizes, common)), dtype=np.int64)
-    classes[other] = np.searchsorted(sizes, rounded[other])
-    return classes
+    return quantum, np.unique(np.append(rounded[rounded != common], common))
+
+
+def _step_classes(steps: np.ndarray, sizes: tuple[float, np.ndarray] | None = None) -> np.ndarray:
+    """Class of each step: equal step sizes (to 1e-9 of the largest) share one, numbered
+    in increasing size; ``sizes`` (:func:`_step_sizes` of a whole grid) numbers the steps of
+    a part of it as the whole grid's."""
+    quantum, table = _step_sizes(steps) if sizes is None else sizes
+    return np.searchsorted(table, np.round(steps / quantum)).astype(np.int64)
 
 
 def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
@@ -896,6 +981,12 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
     else:
         ids = np.unique(states, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
     return np.array(scheduled, dtype=np.int64), states, ids
+
+
+def _segmentable(mlcs: MLCS) -> bool:
+    """Whether the parts of a grid can share one stepping state: the ids of the scheduled
+    switches' states are their bits (:func:`_switch_schedule`), the same in every part."""
+    return sum(s.control_stimulus is not None for s in mlcs.switches) < 63
 
 
 def _step_failure(mlcs: MLCS, t0: float, t1: float, exc: LCPError,
