@@ -230,7 +230,8 @@ def integrate(
 
     charge = charge0 if charge0 is not None else mlcs.E @ y[0]
     guess = active0
-    last_active: dict[bytes, np.ndarray] = {}
+    # the active set last seen with each switch state (kept across the parts of a run)
+    last_active: dict[bytes, np.ndarray] = {} if segments is None else segments.last_active
     stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0}
     used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
     left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
@@ -455,6 +456,7 @@ class Segments:
         self.offset = 0  # steps of the parts done
         self.stepping: _Stepping | None = None
         self.choice: LoopChoice | None = None
+        self.last_active: dict[bytes, np.ndarray] = {}  # active set last seen per switch state
 
     def enter(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
               initial_states: np.ndarray, continued: bool, loop: bool | None
