@@ -595,14 +595,16 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         _fitted_peaks(circuit, waves, peaks)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
-            sink.append(trajectory.time[first:], [waves[name][first:] for name in names],
-                        trajectory.residual[first:])
+            # (copies: the next segment reuses the trajectory's arrays while the sink may
+            # still be formatting this one's rows in its background thread)
+            sink.append(trajectory.time[first:], [np.array(waves[name][first:]) for name in names],
+                        trajectory.residual[first:].copy())
             written[0] += trajectory.time.size - min(first, trajectory.time.size)
         else:
             times.append(trajectory.time[first:])
-            residuals.append(trajectory.residual[first:])
+            residuals.append(trajectory.residual[first:].copy())  # (its array is reused)
             for name in names:
-                kept[name].append(waves[name][first:])
+                kept[name].append(np.array(waves[name][first:]))
         events.extend(event for event in trajectory.events  # a boundary's events once
                       if not events or event.time > trajectory.time[0] or event not in events[-8:])
         for key, value in trajectory.stats.items():

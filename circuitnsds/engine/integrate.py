@@ -187,6 +187,8 @@ def integrate(
             integrated in order (``continued`` for all but the first): the step solvers,
             mode maps and table built by the earlier parts are reused, and a continued
             part's first step is taken by the mode loop like any other (one run's arithmetic).
+            The per-step arrays are reused too: the returned trajectory's arrays (but
+            ``time``) are overwritten by the next part; copy what must outlive it.
 
     Raises:
         SimulationError: a source value or the state is not finite, or a step has no
@@ -201,11 +203,12 @@ def integrate(
     grid = np.asarray(grid, dtype=float)
     count, n, m = grid.size, mlcs.n, mlcs.m
     switches = mlcs.switches
-    y = np.empty((count, n))
-    current = np.zeros((count, m))
-    residual = np.zeros(count)
-    active = np.zeros((count, m), dtype=bool)
-    states = np.zeros((count, len(switches)), dtype=bool)
+    kept = None if segments is None else segments.buffers  # the per-step arrays of the parts
+    y = _work(kept, "y", (count, n), float, zero=False)
+    current = _work(kept, "current", (count, m), float)
+    residual = _work(kept, "residual", (count,), float)
+    active = _work(kept, "active", (count, m), bool)
+    states = _work(kept, "states", (count, len(switches)), bool)
     y[0] = y0
     if active0 is not None:
         active[0] = active0
@@ -233,7 +236,7 @@ def integrate(
     # the active set last seen with each switch state (kept across the parts of a run)
     last_active: dict[bytes, np.ndarray] = {} if segments is None else segments.last_active
     stats = {"steps": count - 1, "mapped_steps": 0, "mlcp_steps": 0, "modes": 0}
-    used = np.zeros(count, dtype=np.int64)  # the table mode of each mapped step
+    used = _work(kept, "used", (count,), np.int64)  # the table mode of each mapped step
     left_mode_at = -1  # a step the mode loop found leaving its mode (the MLCP takes it)
 
     events: list[SwitchEvent] = []
@@ -331,8 +334,9 @@ def integrate(
         # 0 .. k are complete whatever the loop was doing), as for a failed step
         _stopped(exc, k, grid, y, current, residual, active, states, stats, so_far(k))
         raise
-    impulse = np.zeros((count, m))
-    impulse[1:] = current[1:] * np.diff(grid)[:, None]
+    impulse = _work(kept, "impulse", (count, m), float, zero=False)
+    impulse[0] = 0.0
+    np.multiply(current[1:], np.diff(grid)[:, None], out=impulse[1:])
     for row, charge_of_step in split_impulses.items():
         impulse[row] = charge_of_step
     if current0 is not None:
@@ -457,6 +461,7 @@ class Segments:
         self.stepping: _Stepping | None = None
         self.choice: LoopChoice | None = None
         self.last_active: dict[bytes, np.ndarray] = {}  # active set last seen per switch state
+        self.buffers: dict[str, np.ndarray] = {}  # per-step arrays, reused by the next part
 
     def enter(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
               initial_states: np.ndarray, continued: bool, loop: bool | None
@@ -983,6 +988,22 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
     else:
         ids = np.unique(states, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
     return np.array(scheduled, dtype=np.int64), states, ids
+
+
+def _work(buffers: dict | None, name: str, shape: tuple, dtype, zero: bool = True) -> np.ndarray:
+    """A per-step array of ``shape`` (zeros if ``zero``): new, or, with ``buffers`` (the
+    parts of one run, :class:`Segments`), the first rows of the array ``name`` an earlier part
+    used, so that a long run does not map and zero fresh memory for every part (page faults:
+    ~0.1 s per part of a 1,000-section ladder)."""
+    if buffers is None:
+        return np.zeros(shape, dtype) if zero else np.empty(shape, dtype)
+    kept = buffers.get(name)
+    if kept is None or kept.shape[0] < shape[0] or kept.shape[1:] != shape[1:] or kept.dtype != dtype:
+        kept = buffers[name] = np.empty(shape, dtype)
+    array = kept[:shape[0]]
+    if zero:
+        array.fill(0)
+    return array
 
 
 def _segmentable(mlcs: MLCS) -> bool:
