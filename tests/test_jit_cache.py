@@ -107,3 +107,27 @@ def test_the_warmup_compiles_the_signature_a_run_uses(monkeypatch, dense):
         waves = circuitnsds.read_netlist(NETLISTS / netlist).transient(stop=20e-6, stepping="compiled")
         assert waves.stats["mapped_steps"] > 0
     assert len(loop.signatures) == 1, loop.signatures
+
+
+def test_the_warmup_process_does_not_run_the_users_files(tmp_path, monkeypatch):
+    """The background compilation is a ``python -c`` child: without ``-P`` it would put the
+    folder the command runs in first on its path, and a user's ``numpy.py`` there would be
+    imported (run) in place of numpy."""
+    from circuitnsds.engine import loop_choice
+
+    marker = tmp_path / "ran"
+    (tmp_path / "numpy.py").write_text(f"open({str(marker)!r}, 'w').close()\nraise SystemExit(0)\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CIRCUITNSDS_CACHE_DIR", str(tmp_path / "cache"))  # a stopped child harms no cache
+    monkeypatch.setattr(loop_choice, "_warmup", [])
+    loop_choice.start_warmup()
+    child = loop_choice._warmup[0]
+    assert child is not None
+    try:
+        deadline = time.monotonic() + 3.0  # the child imports numpy within a fraction of this
+        while child.poll() is None and time.monotonic() < deadline and not marker.exists():
+            time.sleep(0.05)
+        assert not marker.exists()
+    finally:
+        child.kill()
+        child.wait()

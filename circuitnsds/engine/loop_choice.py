@@ -94,7 +94,9 @@ def start_warmup() -> None:
             "from circuitnsds.engine.warmup import main; main()")
     try:
         _warmup.append(subprocess.Popen(
-            [sys.executable, "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            # -P: not the current folder first on the path (a user's numpy.py or pickle.py
+            # there would be imported and run in place of the module)
+            [sys.executable, "-P", "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL, close_fds=True))
     except OSError:  # no process can be started here: stay in Python
         _warmup.append(None)
