@@ -231,6 +231,29 @@ class ModeTable:
         return i
 
 
+def _pair_magnitude_scalar(mode, r, k, y, F, P, Q1, Q0, c):
+    """The sum of the magnitudes of the terms that make up row ``r`` (a pair current) of
+    ``mode``'s step map at step ``k``: the scale against which its sign is judged."""
+    magnitude = abs(c[mode, r])
+    for j in range(y.shape[1]):
+        magnitude += abs(P[mode, r, j] * y[k, j])
+    for j in range(F.shape[1]):
+        magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
+    return magnitude
+
+
+def _inactive_w_scalar(mode, r, size, W, e_w, x):
+    """``(w, magnitude)``: the ``w`` of ``mode``'s ``r``-th inactive pair (row ``r`` of ``W``,
+    ``e_w``) for the step ``x``, and the sum of the magnitudes of its terms."""
+    acc = e_w[mode, r]
+    magnitude = abs(acc)
+    for j in range(size):
+        term = W[mode, r, j] * x[j]
+        acc += term
+        magnitude += abs(term)
+    return acc, magnitude
+
+
 def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, x):
     """Step ``k`` with mode ``mode`` into ``x``; whether its complementarity signs hold.
 
@@ -256,27 +279,14 @@ def _try_mode_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, resistance, rows, nw, 
         x[r] = acc
     for r in range(n, size):
         if x[r] < 0.0:
-            magnitude = abs(c[mode, r])
-            for j in range(n):
-                magnitude += abs(P[mode, r, j] * y[k, j])
-            for j in range(kstim):
-                magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
-            if x[r] < -SIGN_TOL * magnitude:
+            if x[r] < -SIGN_TOL * _pair_magnitude(mode, r, k, y, F, P, Q1, Q0, c):
                 return False
-            row = inactive + r - n
-            scale = abs(e_w[mode, row])
-            for j in range(size):
-                scale += abs(W[mode, row, j] * x[j])
+            _, scale = _inactive_w(mode, inactive + r - n, size, W, e_w, x)
             if -x[r] * resistance[mode, r - n] > SIGN_TOL * scale:
                 return False
     for r in range(inactive):
-        acc = e_w[mode, r]
-        magnitude = abs(acc)
-        for j in range(size):
-            term = W[mode, r, j] * x[j]
-            acc += term
-            magnitude += abs(term)
-        if acc < -SIGN_TOL * magnitude:
+        w, magnitude = _inactive_w(mode, r, size, W, e_w, x)
+        if w < -SIGN_TOL * magnitude:
             return False
     return True
 
@@ -309,25 +319,13 @@ def _clear_scalar(mode, k, y, F, P, Q1, Q0, c, W, e_w, rows, nw, x):
     more than :data:`CLEAR_TOL` times the magnitudes of its terms. Otherwise a pair sits at
     zero on both sides as far as the arithmetic can tell, another mode may be as good, and
     the MLCP solver must decide (it compares them componentwise)."""
-    n = y.shape[1]
     size = rows[mode]
-    kstim = F.shape[1]
-    for r in range(n, size):
-        magnitude = abs(c[mode, r])
-        for j in range(n):
-            magnitude += abs(P[mode, r, j] * y[k, j])
-        for j in range(kstim):
-            magnitude += abs(Q1[mode, r, j] * F[k + 1, j]) + abs(Q0[mode, r, j] * F[k, j])
-        if not x[r] > CLEAR_TOL * magnitude:
+    for r in range(y.shape[1], size):
+        if not x[r] > CLEAR_TOL * _pair_magnitude(mode, r, k, y, F, P, Q1, Q0, c):
             return False
     for r in range(nw[mode]):
-        acc = e_w[mode, r]
-        magnitude = abs(acc)
-        for j in range(size):
-            term = W[mode, r, j] * x[j]
-            acc += term
-            magnitude += abs(term)
-        if not acc > CLEAR_TOL * magnitude:
+        w, magnitude = _inactive_w(mode, r, size, W, e_w, x)
+        if not w > CLEAR_TOL * magnitude:
             return False
     return True
 
@@ -432,6 +430,8 @@ def _table_loop(k0, k_end, mode, class0, y, z, F, step_class, sched_state, free_
     return k, STOP_END, last
 
 
+_pair_magnitude = jit(_pair_magnitude_scalar)
+_inactive_w = jit(_inactive_w_scalar)
 _try_mode = jit(_try_mode_scalar)
 _clear = jit(_clear_scalar)
 _find_mode = jit(_find_mode_scalar)
