@@ -524,12 +524,23 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
                 values += weight * unknowns[:, column]
         return values
 
-    impulses: dict[str, np.ndarray] = {}
+    # each device's impulse (the signed sum of its pairs'), computed when first read: a run
+    # that keeps some signals reads none (0.09 s per segment of the 1,000-pair ladder)
+    pairs_of: dict[str, list[tuple[int, float]]] = {}
     for j, (device, sign) in enumerate(zip(mlcs.pair_devices, mlcs.pair_signs)):
-        impulses[device] = impulses.get(device, 0.0) + sign * trajectory.impulse[first:, j]
+        pairs_of.setdefault(device, []).append((j, sign))
+    impulse = trajectory.impulse[first:]
+
+    def impulse_of(device: str) -> np.ndarray:
+        total = 0.0
+        for j, sign in pairs_of[device]:
+            total = total + sign * impulse[:, j]
+        return total
+
     stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
     return Waveforms(time=time, signals=LazySignals([*mlcs.output_names, *capacitors], signal),
-                     impulses=impulses, residual=trajectory.residual[first:], title=circuit.title,
+                     impulses=LazySignals(pairs_of, impulse_of), residual=trajectory.residual[first:],
+                     title=circuit.title,
                      stats=stats, events=[event for event in trajectory.events
                                           if event.time >= trajectory.time[first]])
 

@@ -72,8 +72,9 @@ class Waveforms:
         signals: name -> values (a dict, or a :class:`LazySignals` that computes each
             signal when first read).
         impulses: device name -> charge [C] that passed in the step ending at each
-            instant (``μ`` of the scheme). Where a state jumps, the current is a
-            Dirac: its weight is this charge, which does not shrink with the step.
+            instant (``μ`` of the scheme; a dict, or a :class:`LazySignals`). Where a
+            state jumps, the current is a Dirac: its weight is this charge, which does not
+            shrink with the step.
         residual: scaled complementarity residual of every step.
         flux_impulses: inductor name -> flux [V·s] of a Dirac voltage across it in the step
             ending at each instant, ``L·Δi`` where its current was cut in one step (an opening
@@ -90,7 +91,7 @@ class Waveforms:
 
     time: np.ndarray
     signals: Mapping[str, np.ndarray]
-    impulses: dict[str, np.ndarray] = field(default_factory=dict)
+    impulses: Mapping[str, np.ndarray] = field(default_factory=dict)
     residual: np.ndarray | None = None
     title: str = ""
     stats: dict[str, float] = field(default_factory=dict)
