@@ -63,7 +63,9 @@ def in_process(rows: int, repeats: int, folder: Path) -> list[tuple[str, float, 
                 csvfile.write_csv(stream, time_column, ["v(out)"], [signal], compiled=compiled)
         return write
 
+    waves = Waveforms(time=time_column, signals={"v(out)": signal})
     writers = {"ours, compiled (repr)": ours(True), "ours, Python (repr)": ours(False),
+               "ours, Waveforms.to_csv (writer chosen by size)": lambda: waves.to_csv(path),
                "numpy.savetxt %.10g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.10g"),
                "numpy.savetxt %.17g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.17g")}
     try:

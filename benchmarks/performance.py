@@ -289,48 +289,14 @@ def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) 
 
 
 def csv_rows(workdir: Path, rows: int) -> list[dict]:
-    """Seconds to write ``rows`` × 2 columns (time, a signal) as CSV: ours (full precision)
-    against numpy.savetxt (10 and 17 digits) and pandas (full precision)."""
-    time_column = np.linspace(0.0, 0.1, rows)
-    signal = 12.0 + 0.3 * np.sin(1e5 * time_column) + 1e-3 * np.random.default_rng(0).random(rows)
-    waves = circuitnsds.Waveforms(time=time_column, signals={"v(out)": signal})
-    data = np.column_stack([time_column, signal])
-    path = workdir / "speed.csv"
-    from circuitnsds.output import csvfile
+    """Seconds to write ``rows`` × 2 columns (time, a signal) as CSV: the writers of
+    ``csv_writers.py`` (ours compiled, ours in Python, ``Waveforms.to_csv``'s choice,
+    numpy.savetxt with 10 and 17 digits, pandas), medians of 3."""
+    from csv_writers import in_process  # this script's sibling (run as a script)
 
-    def ours(compiled: bool):
-        def write():
-            with open(path, "wb") as stream:
-                csvfile.write_csv(stream, time_column, ["v(out)"], [signal], compiled=compiled)
-        return write
-
-    ours(True)()  # the compiled formatter loaded (or compiled) before timing
-    writers = {
-        "CSV ours (repr, full), compiled": ours(True),
-        "CSV ours (repr, full), Python": ours(False),
-        "CSV ours, Waveforms.to_csv (writer chosen by size)": lambda: waves.to_csv(path),
-        "CSV numpy.savetxt %.10g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.10g"),
-        "CSV numpy.savetxt %.17g": lambda: np.savetxt(path, data, delimiter=",", fmt="%.17g"),
-    }
-    try:
-        import pandas as pd
-
-        frame = pd.DataFrame(data)
-        writers["CSV pandas %.17g"] = lambda: frame.to_csv(path, index=False, float_format="%.17g")
-    except ImportError:
-        pass
-    result = []
-    for label, write in writers.items():
-        seconds = []
-        for _ in range(3):
-            started = time.perf_counter()
-            write()
-            seconds.append(time.perf_counter() - started)
-        best = float(np.median(seconds))
-        size = path.stat().st_size
-        result.append({"case": f"{label}, {rows // 1000}k rows", "steps": rows, "pairs": 0,
-                       "ours_process_s": best, "ours_note": f"{size / 1e6 / best:.0f} MB/s"})
-    return result
+    return [{"case": f"CSV {label}, {rows // 1000}k rows", "steps": rows, "pairs": 0,
+             "ours_process_s": seconds, "ours_note": f"{rate:.0f} MB/s"}
+            for label, seconds, rate in in_process(rows, 3, workdir)]
 
 
 def print_issue19(rows: list[dict]) -> None:
