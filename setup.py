@@ -1,0 +1,27 @@
+"""The package's C loops (circuitnsds/native.py): compiled at install when a C compiler is
+there, skipped (with pip's warning) when not; the loops then run compiled by numba.
+
+Everything else about the package is in pyproject.toml."""
+
+import hashlib
+import sys
+from pathlib import Path
+
+from setuptools import Extension, setup
+
+NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_native")
+"""The C sources (without .c), each built into a library beside it."""
+
+# the same floating-point arithmetic as the Python and numba loops: no fused multiply-adds,
+# no reassociation (gcc and clang; MSVC's defaults are strict already)
+FLAGS = [] if sys.platform == "win32" else ["-O2", "-ffp-contract=off", "-fno-fast-math"]
+
+
+def extension(stem: str) -> Extension:
+    source = Path(stem + ".c")
+    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]  # as circuitnsds.native.source_digest
+    return Extension(stem.replace("/", "."), [str(source)], optional=True, extra_compile_args=FLAGS,
+                     define_macros=[("CIRCUITNSDS_SOURCE_DIGEST", f'"{digest}"')])
+
+
+setup(ext_modules=[extension(stem) for stem in NATIVE if Path(stem + ".c").is_file()])
