@@ -33,19 +33,28 @@ state-controlled switch must change, or at the end. A converter thus runs its
 thousands of periods in one call once both phases' modes are known, and a ringing
 circuit its thousands of mode changes once it has seen its modes.
 
-The loop is compiled with numba when it is installed (:mod:`circuitnsds.engine.jit`: on its
-first compiled call, cached per user);
-``use_compiled=False`` runs the same loop in Python with a numpy step (same arithmetic up to the summation
-order of the products: results agree to rounding, not bit for bit).
+The loop exists three times, one logic: ``stepping="compiled"`` (and ``auto`` once it
+pays) runs it compiled, **in C** when the library ``_dense_native`` was built at install
+(``_dense_native.c``, loaded with ctypes by :mod:`circuitnsds.native`: nothing to load or
+compile at run time, so a run goes compiled from its first step and never imports numba
+for it), **else compiled by numba** (:mod:`circuitnsds.engine.jit`: on its first compiled
+call, cached per user; ~0.6 s to load in each process). The two give the same numbers bit
+for bit (the C source keeps every floating-point operation of the scalar functions here,
+in the same order, built without contraction or reassociation; edit them together).
+``use_compiled=False`` runs the same loop in Python with a numpy step (same arithmetic up
+to the summation order of the products: results agree to rounding, not bit for bit).
 """
 
 from __future__ import annotations
 
+import ctypes
+import weakref
 from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import lapack
 
+from circuitnsds import native
 from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 from circuitnsds.engine.step_system import ModeBlocks
 from circuitnsds.solvers.linalg import SIGN_TOL, factorise
@@ -175,6 +184,7 @@ class ModeTable:
         self.capacity = int(max(1, min(most, budget // per_mode)))
         self.count = 0
         self.index: dict[tuple, int] = {}
+        self.native_arguments = None  # the C loop's arguments (dense_loop._run_native)
         self._allocate(min(self.capacity, 4))
 
     def _allocate(self, size: int) -> None:
@@ -447,17 +457,162 @@ def _plain(arrays: TableArrays) -> tuple:
     return (tuple(arrays.maps), *arrays[1:])
 
 
+# The C loop (_dense_native.c): the order of its arguments' entries (its A_*, S_* enums)
+NATIVE_ARRAYS = ("P", "Q1", "Q0", "c", "W", "e_w", "resistance", "active", "rows", "nw", "mode_class",
+                 "mode_sched", "mode_free", "last_used", "unique", "successor", "y", "z", "F", "step_class",
+                 "sched_state", "used", "controls", "on", "off", "switch_on", "x")
+"""The arrays whose addresses the C loop takes, in its order."""
+NATIVE_SIZES = ("k0", "k_end", "mode", "class0", "free_id", "count", "n", "m", "kstim", "width", "switches",
+                "y_row", "z_row", "F_row", "controls_row", "stop_left_mode", "stop_no_mode", "stop_switch",
+                "stop_end")
+"""The integers the C loop takes, in its order."""
+_TABLE_NATIVE = 16  # the first 16 of NATIVE_ARRAYS are the table's
+_WRITTEN = frozenset({"last_used", "successor", "y", "z", "used", "x"})
+_DTYPES = {"active": np.int64, "rows": np.int64, "nw": np.int64, "mode_class": np.int64,
+           "mode_sched": np.int64, "mode_free": np.int64, "last_used": np.int64, "unique": np.bool_,
+           "successor": np.int64, "step_class": np.int64, "sched_state": np.int64, "used": np.int64,
+           "switch_on": np.bool_}
+_native_loop: list = []  # [the C function or None], once looked up
+
+
+def _native_function():
+    """The C loop's function (argument types declared), or ``None``: no library built, or
+    disabled (:mod:`circuitnsds.native`)."""
+    if not _native_loop:
+        function = None
+        library = native.library("engine/_dense_native")
+        if library is not None:
+            function = library.circuitnsds_table_loop
+            function.argtypes = [ctypes.c_void_p] * 4
+            function.restype = None
+        _native_loop.append(function)
+    return _native_loop[0]
+
+
+def native_loaded() -> bool:
+    """Whether the C loop is built and loaded (the compiled loop without numba)."""
+    return _native_function() is not None
+
+
+def _row_stride(array: np.ndarray) -> int | None:
+    """The row stride of a 2-D array in elements, or ``None`` if its rows are not contiguous."""
+    if array.size == 0:
+        return 0  # nothing is read (numpy gives such arrays any strides)
+    rows, columns = array.strides
+    size = array.itemsize
+    if (columns != size and array.shape[1] > 1) or rows % size or rows < 0:
+        return None
+    return rows // size
+
+
+def _laid_out(name: str, array: np.ndarray) -> bool:
+    """Whether ``array`` can be handed to the C loop as its argument ``name``: the dtype, a
+    contiguous row (rows anywhere for the 2-D run arrays), aligned, writeable if written."""
+    dtype = _DTYPES.get(name, np.float64)
+    if array.dtype != dtype or not array.flags.aligned or (name in _WRITTEN and not array.flags.writeable):
+        return False
+    if name in ("y", "z", "F", "controls"):
+        return array.ndim == 2 and _row_stride(array) is not None
+    return array.flags.c_contiguous
+
+
+class _NativeArguments:
+    """The arguments of one table's calls of the C loop: the arrays' addresses (each taken, and
+    its layout checked, when a new array comes: most calls of a run pass the same ones) and
+    the integers. Kept on the :class:`ModeTable`."""
+
+    def __init__(self, width: int):
+        self.addresses = np.zeros(len(NATIVE_ARRAYS), dtype=np.uintp)
+        self.refs: list = [None] * len(NATIVE_ARRAYS)
+        self.rows = [0] * len(NATIVE_ARRAYS)  # row strides [elements] of the 2-D arrays
+        self.copies: list = []  # read-only arrays converted for the call
+        self.sizes = np.zeros(len(NATIVE_SIZES), dtype=np.int64)
+        self.tolerances = np.array([SIGN_TOL, CLEAR_TOL])
+        self.out = np.zeros(3, dtype=np.int64)
+        self.x = np.empty(width)
+        self.pointers = tuple(a.__array_interface__["data"][0]
+                              for a in (self.addresses, self.sizes, self.tolerances, self.out))
+
+    def set(self, arrays: tuple[np.ndarray, ...]) -> bool:
+        """Take the addresses of ``arrays`` (in the order of :data:`NATIVE_ARRAYS`); a read-only
+        one laid out otherwise is copied as the loop needs it. ``False``: an array the loop
+        writes is laid out otherwise (the caller then runs another loop)."""
+        for i, array in enumerate(arrays):
+            ref = self.refs[i]
+            if ref is not None and ref() is array:
+                continue
+            name = NATIVE_ARRAYS[i]
+            if not _laid_out(name, array):
+                if name in _WRITTEN:
+                    return False
+                array = np.array(array, dtype=_DTYPES.get(name, np.float64), order="C")
+                self.copies.append(array)
+            if array.ndim == 2:
+                self.rows[i] = _row_stride(array)
+            self.addresses[i] = array.__array_interface__["data"][0]
+            self.refs[i] = weakref.ref(array)
+        return True
+
+
+_Y, _Z, _F, _CONTROLS = (NATIVE_ARRAYS.index(name) for name in ("y", "z", "F", "controls"))
+
+
+def _run_native(function, table: ModeTable, mode: int, class0: int, k0: int, k_end: int,
+                y: np.ndarray, current: np.ndarray, F: np.ndarray, step_class: np.ndarray,
+                sched_state: np.ndarray, free_id: int, free: FreeSwitches, used: np.ndarray
+                ) -> tuple[int, int, int] | None:
+    """:func:`_table_loop` by the C loop; ``None`` when an array it writes is not laid out for it."""
+    n, m, kstim = table.n, table.m, table.kstim
+    controls, on, off, switch_on = free
+    switches = len(switch_on)
+    # the bounds the loop relies on (it checks none): a caller's error, whichever loop runs
+    if (y.ndim != 2 or y.shape[1] != n or current.ndim != 2 or current.shape[1] != m
+            or F.ndim != 2 or F.shape[1] != kstim or controls.shape != (switches, n)
+            or len(on) != switches or len(off) != switches or not 0 <= k0
+            or (k_end > k0 and (min(y.shape[0], current.shape[0], F.shape[0], len(used)) <= k_end
+                                or min(len(step_class), len(sched_state)) < k_end))
+            or not -1 <= mode < table.count <= table.P.shape[0]):
+        raise ValueError(f"run_table: arrays of other sizes than the table's (n {n}, m {m}, {kstim} "
+                         f"sources) or steps {k0}..{k_end} beyond them")
+    arguments = table.native_arguments
+    if arguments is None:
+        arguments = table.native_arguments = _NativeArguments(n + m)
+    if not arguments.set((table.P, table.Q1, table.Q0, table.c, table.W, table.e_w, table.resistance,
+                          table.active, table.rows, table.nw, table.mode_class, table.mode_sched,
+                          table.mode_free, table.last_used, table.unique, table.successor, y, current,
+                          F, step_class, sched_state, used, controls, on, off, switch_on, arguments.x)):
+        return None
+    rows = arguments.rows
+    arguments.sizes[:] = (k0, k_end, mode, class0, free_id, table.count, n, m, kstim, n + m, switches,
+                          rows[_Y], rows[_Z], rows[_F], rows[_CONTROLS], STOP_LEFT_MODE, STOP_NO_MODE,
+                          STOP_SWITCH, STOP_END)
+    function(*arguments.pointers)
+    arguments.copies.clear()
+    k, reason, last = arguments.out.tolist()
+    return k, reason, last
+
+
 def compiled_loaded() -> bool:
-    """Whether the compiled loop has been loaded (numba imported) in this process."""
-    return AVAILABLE and _compiled.loaded
+    """Whether the compiled loop runs in this process without a load to wait for: the C loop
+    is built (:func:`native_loaded`), or numba's loop has been loaded (numba imported)."""
+    return native_loaded() or (AVAILABLE and _compiled.loaded)
 
 
 def run_table(table: ModeTable, mode: int, class0: int, k0: int, k_end: int, y: np.ndarray,
               current: np.ndarray, F: np.ndarray, step_class: np.ndarray, sched_state: np.ndarray,
-              free_id: int, free: FreeSwitches, used: np.ndarray, use_compiled: bool = True
-              ) -> tuple[int, int, int]:
-    """Run the loop of :func:`_table_loop` over ``table`` (compiled if numba is installed and
-    ``use_compiled``; else the same loop in Python with a numpy step)."""
+              free_id: int, free: FreeSwitches, used: np.ndarray, use_compiled: bool = True,
+              use_native: bool = True) -> tuple[int, int, int]:
+    """Run the loop of :func:`_table_loop` over ``table``: with ``use_compiled``, the C loop when
+    it is built (and ``use_native``), else numba's when numba is installed; otherwise (or
+    without either) the same loop in Python with a numpy step. The C and numba loops give
+    the same numbers bit for bit; the Python loop agrees with them to rounding."""
+    if use_compiled and use_native:
+        function = _native_function()
+        if function is not None:
+            done = _run_native(function, table, mode, class0, k0, k_end, y, current, F, step_class,
+                               sched_state, free_id, free, used)
+            if done is not None:
+                return done
     loop = _compiled if use_compiled and AVAILABLE else _python_loop
     x = np.empty(table.n + table.m)
     k, reason, last = loop(k0, k_end, mode, class0, y, current, F, step_class, sched_state, free_id,

@@ -171,10 +171,12 @@ def integrate(
         stepping: how steps whose mode is known are taken (one of :data:`STEPPINGS`):
             ``"auto"`` (the default) by the mode loops, in Python until the steps left
             are worth loading the compiled loop (:mod:`circuitnsds.engine.loop_choice`;
-            the sparse loop of large circuits always compiled), ``"compiled"`` by the
-            loops compiled with numba from the start (the same loops in Python when numba
-            is missing), ``"numpy"`` by the same loops in Python, ``"mlcp"`` by no loop:
-            every step is solved as an MLCP. One scheme all four: the results agree to
+            the sparse loop of large circuits always compiled; with the C loop built at
+            install, compiled from the start), ``"compiled"`` by the compiled loops from
+            the start (the table loop in C when it was built at install, else by numba,
+            bit for bit the same; the same loops in Python when neither is there),
+            ``"numpy"`` by the same loops in Python, ``"mlcp"`` by no loop: every step
+            is solved as an MLCP. One scheme all four: the results agree to
             rounding.
         continued: ``grid[0]`` is not the start of the analysis but a point of a run
             continued from there (``y0`` etc. its state): the first step is a θ-step

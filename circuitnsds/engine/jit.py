@@ -20,6 +20,11 @@ to start, still correct).
 
 numba costs ~0.2 s to import and ~0.4 s to load a cached loop (its LLVM context),
 ~10 s to compile one; nothing here imports it before a loop is called compiled.
+
+The dense table loop, the one every small circuit runs, also exists in C, built at install
+(:mod:`circuitnsds.native`); where it was built, numba compiles only the sparse loop of
+large circuits (and the CSV formatter, :mod:`circuitnsds.output.floattext`, until it has a
+C twin), and the dense loop's numba version serves only installs without a C compiler.
 """
 
 from __future__ import annotations

@@ -1,5 +1,13 @@
 """Whether the mode table's steps run in Python or compiled: numba only when it pays.
 
+Where the C loop was built at install (:mod:`circuitnsds.engine.dense_loop`,
+``_dense_native.c``) there is nothing to weigh: it costs nothing to load, so
+:meth:`LoopChoice.compiled` answers yes from the first step
+(:func:`~circuitnsds.engine.dense_loop.compiled_loaded`), numba is never imported for the
+table loop and no warm-up process is started for it. What follows is the choice where it
+was not built (no C compiler at install, or ``CIRCUITNSDS_NATIVE=0``) and the compiled loop
+is numba's.
+
 The compiled table loop takes ~0.3-1 µs per step, the same loop in Python with numpy
 ~20 µs and far more for some circuits. But numba costs ~0.2 s to import and ~0.4 s to
 load a cached loop (its LLVM context), and ~10 s to compile it when nothing is cached

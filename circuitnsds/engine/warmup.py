@@ -26,7 +26,9 @@ def _run_arrays(steps: int, n: int, m: int, kstim: int) -> dict[str, np.ndarray]
 
 
 def warm_dense() -> int:
-    """Run the compiled table loop on a one-unknown, one-pair mode; returns the steps done."""
+    """Run numba's table loop on a one-unknown, one-pair mode; returns the steps done. (numba's,
+    even where the C loop is built: the cache's ready marker says that numba's loops are
+    cached, for a process that runs without the C library, ``CIRCUITNSDS_NATIVE=0``.)"""
     n, m, kstim, steps = 1, 1, 1, 3
     table = dense_loop.ModeTable(n, m, kstim)
     mode = dense_loop.ModeMap(P=np.array([[0.5], [0.0]]), Q1=np.array([[0.5], [1.0]]),
@@ -39,7 +41,7 @@ def warm_dense() -> int:
     free = dense_loop.FreeSwitches(a["controls"], a["on"], a["off"], a["switch_on"])
     done, _, _ = dense_loop.run_table(table, index, 0, 0, steps, a["y"], a["current"], a["F"],
                                       a["step_class"], a["sched_state"], 0, free, used,
-                                      use_compiled=True)
+                                      use_compiled=True, use_native=False)
     return done
 
 
