@@ -39,7 +39,10 @@ issue, as a user runs it, whole processes, the median of ``--repeats`` runs each
 * the CSV writers on 1M rows × 2 columns (compiled and Python), against ``numpy.savetxt``
   and pandas (``benchmarks/csv_writers.py`` has the whole-process side);
 
-ngspice runs the same netlists in batch mode (``wrdata v(out)``).
+ngspice runs the same netlists in batch mode (``wrdata v(out)``). Each whole-process case
+also runs with ``CIRCUITNSDS_NATIVE=0`` (column ``numba[s]``): the mode-table loop compiled by
+numba instead of the C loop built at install (``circuitnsds/engine/_dense_native.c``; the two
+give the same numbers bit for bit), what an install without a C compiler gets.
 """
 
 from __future__ import annotations
@@ -219,6 +222,10 @@ ISSUE19_CASES = [
 ]
 
 
+NUMBA_LOOP = {**os.environ, "CIRCUITNSDS_NATIVE": "0"}
+"""The environment of a run whose mode-table loop is numba's, not the C loop's (circuitnsds.native)."""
+
+
 def _median_process(command: list[str], cwd: Path, repeats: int, env: dict | None = None,
                     fresh: Path | None = None) -> tuple[float, subprocess.CompletedProcess]:
     """Median wall time of ``repeats`` runs (a new empty cache folder under ``fresh`` for each
@@ -260,6 +267,7 @@ def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) 
         command = [sys.executable, "-m", "circuitnsds", "run", str(path), "-o", str(workdir / f"{name}.csv"),
                    "-q", *arguments]
         ours, done = _median_process(command, workdir, repeats)
+        numba, numba_done = _median_process(command, workdir, repeats, env=NUMBA_LOOP)
         tran = re.search(r"(?im)^\.tran.*$", text).group(0)
         ng = [ngspice_process(text, tran, workdir, name) for _ in range(repeats)]
         theta = float(arguments[arguments.index("--theta") + 1]) if "--theta" in arguments else 1.0
@@ -267,6 +275,8 @@ def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) 
         rows.append({"case": label, "steps": inproc["steps"], "pairs": inproc["pairs"],
                      "ours_process_s": ours if done.returncode == 0 else float("nan"),
                      "ours_cpu_s": done.cpu_s,
+                     "numba_process_s": numba if numba_done.returncode == 0 else float("nan"),
+                     "numba_cpu_s": numba_done.cpu_s,
                      "ours_note": "" if done.returncode == 0 else done.stderr.strip()[-120:],
                      "us_per_step": inproc["us_per_step"], "mapped_share": inproc["mapped_share"],
                      "ngspice_process_s": float(np.median([r["wall_s"] for r in ng])),
@@ -303,7 +313,8 @@ def print_issue19(rows: list[dict]) -> None:
     def f(value, spec):
         return format(value, spec) if isinstance(value, (int, float)) and value == value else "-"
 
-    print(f"{'case':<36}{'steps':>9}{'pairs':>6}{'ours[s]':>9}{'cpu[s]':>8}{'us/step':>9}{'mapped':>8}"
+    print(f"{'case':<36}{'steps':>9}{'pairs':>6}{'ours[s]':>9}{'cpu[s]':>8}{'numba[s]':>9}{'cpu[s]':>8}"
+          f"{'us/step':>9}{'mapped':>8}"
           f"{'ngspice[s]':>11}{'ng/ours':>8}  note")
     for r in rows:
         note = r.get("ours_note", "")
@@ -311,11 +322,13 @@ def print_issue19(rows: list[dict]) -> None:
             note = (note + " ngspice: " + (r.get("ngspice_note") or "failed")[:40]).strip()
         share = r.get("mapped_share")
         print(f"{r['case']:<36}{r['steps']:>9}{r['pairs']:>6}{f(r.get('ours_process_s'), '9.2f'):>9}"
-              f"{f(r.get('ours_cpu_s'), '8.2f'):>8}{f(r.get('us_per_step'), '9.2f'):>9}"
+              f"{f(r.get('ours_cpu_s'), '8.2f'):>8}{f(r.get('numba_process_s'), '9.2f'):>9}"
+              f"{f(r.get('numba_cpu_s'), '8.2f'):>8}{f(r.get('us_per_step'), '9.2f'):>9}"
               f"{(f(100 * share, '7.1f') + '%') if share is not None else '-':>8}"
               f"{f(r.get('ngspice_process_s'), '11.2f'):>11}{f(r.get('ratio'), '8.2f'):>8}  {note}")
     print("ours[s], ngspice[s]: whole processes (median of the repeats); cpu[s]: their user + system "
-          "CPU time (median); us/step: in-process stepping "
+          "CPU time (median); numba[s]: ours with CIRCUITNSDS_NATIVE=0 (the mode-table loop compiled by "
+          "numba, not the C loop built at install); us/step: in-process stepping "
           "time per step; mapped: share of steps taken by the compiled mode loop.")
 
 
