@@ -300,8 +300,8 @@ def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) 
 
 def csv_rows(workdir: Path, rows: int) -> list[dict]:
     """Seconds to write ``rows`` × 2 columns (time, a signal) as CSV: the writers of
-    ``csv_writers.py`` (ours compiled, ours in Python, ``Waveforms.to_csv``'s choice,
-    numpy.savetxt with 10 and 17 digits, pandas), medians of 3."""
+    ``csv_writers.py`` (ours: the C and the numba kernels, compiled as chosen, in Python,
+    ``Waveforms.to_csv``'s choice; numpy.savetxt with 10 and 17 digits, pandas), medians of 3."""
     from csv_writers import in_process  # this script's sibling (run as a script)
 
     return [{"case": f"CSV {label}, {rows // 1000}k rows", "steps": rows, "pairs": 0,

@@ -1,5 +1,6 @@
-"""Compile (or load from the per-user cache) the stepping loops and the CSV formatter
-(:mod:`circuitnsds.output.floattext`), for the signatures a run uses.
+"""Compile (or load from the per-user cache) the stepping loops and the CSV formatter's numba
+kernel (:mod:`circuitnsds.output.floattext`; not when its C kernel is built), for the
+signatures a run uses.
 
 Run in a background process by :func:`circuitnsds.engine.loop_choice.start_warmup`:
 each loop is called once on a tiny problem whose arguments have the types, shapes and
@@ -64,7 +65,8 @@ def warm_sparse() -> int:
 
 def main() -> None:
     """Compile or load both loops, mark the cache ready for them, then the same for the CSV
-    formatter."""
+    formatter's numba kernel unless its C kernel is there (built at install: the writers then
+    never use numba's)."""
     from circuitnsds.engine.jit import ready_marker
     from circuitnsds.output import floattext  # every compiled kernel of the package is warmed here
 
@@ -73,6 +75,8 @@ def main() -> None:
     marker = ready_marker()
     if marker is not None:  # the loops first: a run waiting for them switches at once
         marker.touch()
+    if floattext.has_native():
+        return
     floattext.warm()
     marker = floattext.ready_marker()
     if marker is not None:

@@ -4,14 +4,16 @@ Every number is written as Python's ``repr`` of the float64: the shortest decima
 reads back to the same double (full precision, ``inf``/``-inf``/``nan`` as such, which
 Python's ``float``, numpy and pandas read). Two writers produce the same bytes:
 
-* the compiled formatter (:mod:`circuitnsds.output.floattext`, numba, ~0.1-0.2 µs per
-  number), a block of :data:`BLOCK_ROWS` rows at a time into one byte buffer;
+* the compiled formatter (:mod:`circuitnsds.output.floattext`), a block of
+  :data:`BLOCK_ROWS` rows at a time into one byte buffer: its C kernel (the library built
+  at install, ~0.05 µs per number, nothing to load) whenever that library is there, else
+  its numba kernel (~0.07-0.15 µs per number, but loading numba costs ~1 s in a process
+  that has not loaded it yet, ~0.02 s when the stepping loop already has);
 * the Python one, one ``%``-format of a repeated ``%r`` row template over a block's
-  values (C loops, ~0.6 µs per number), for small files: loading numba costs ~0.6 s in a
-  process that has not loaded it yet (~0.02 s when the stepping loop already has).
+  values (C loops, ~0.6 µs per number): without the C library, for the files too small to
+  pay for numba's load.
 
-:func:`compiled_pays` chooses by the count of numbers (measured thresholds, see
-``benchmarks/csv_writers.py``).
+:func:`compiled_pays` chooses (measured thresholds, see ``benchmarks/csv_writers.py``).
 """
 
 from __future__ import annotations
@@ -30,10 +32,11 @@ from circuitnsds.output.files import atomic_path, writing
 BLOCK_ROWS = 65_536
 """Rows formatted at once (bounds the memory of the text in flight: ~3 MB for 2 columns)."""
 LOADED_VALUES = 50_000
-"""Numbers from which the compiled formatter pays when numba is in use in the process (it
-loads in ~0.02 s from the cache, and saves ~0.45 µs per number)."""
+"""Numbers from which the numba formatter pays (without the C one) when numba is in use in the
+process (it loads in ~0.02 s from the cache, and saves ~0.45 µs per number)."""
 COLD_VALUES = 1_500_000
-"""Numbers from which it pays when numba must first be imported (~0.65 s in all)."""
+"""Numbers from which the numba formatter pays (without the C one) when numba must first be
+imported (~0.65-1 s in all)."""
 
 
 def _numba_in_use() -> bool:
@@ -47,13 +50,15 @@ def _numba_in_use() -> bool:
 
 
 def compiled_pays(values: int) -> bool:
-    """Whether to write ``values`` numbers with the compiled formatter: numba installed,
-    enough numbers for its load to pay (:data:`LOADED_VALUES` or :data:`COLD_VALUES`), and
-    the formatter already loaded or cached for this source (the warm-up's marker,
+    """Whether to write ``values`` numbers with the compiled formatter: always when its C
+    kernel is there (:func:`~circuitnsds.output.floattext.has_native`: no load cost). Else
+    the numba kernel when numba is installed, enough numbers for its load to pay
+    (:data:`LOADED_VALUES` or :data:`COLD_VALUES`), and that kernel already loaded or cached
+    for this source (the warm-up's marker,
     :func:`~circuitnsds.output.floattext.ready_marker`; compiling it takes ~5-10 s, more than
     the Python writer needs for most files, so an uncached formatter is never compiled here:
     the warm-up process compiles it in the background for the next runs)."""
-    if floattext.loaded():
+    if floattext.has_native() or floattext.loaded():
         return True
     from circuitnsds.engine.jit import numba_available
 
@@ -96,8 +101,9 @@ def write_rows(stream: TextIO | BinaryIO, time: np.ndarray, columns: Sequence[np
                compiled: bool | None = None) -> None:
     """Write one row per element of ``time`` (all arrays of the same length).
 
-    ``compiled``: the compiled formatter (``True``), the Python one (``False``), or chosen
-    by :func:`compiled_pays` (``None``); both write the same bytes."""
+    ``compiled``: the compiled formatter (``True``: its C kernel if built, else numba's), the
+    Python one (``False``), or chosen by :func:`compiled_pays` (``None``); all write the same
+    bytes."""
     width = 1 + len(columns)
     if compiled is None:
         compiled = compiled_pays(time.size * width)
@@ -136,7 +142,8 @@ class CsvStream:
     file untouched. An open stream (standard output) gets the rows directly.
 
     With the compiled formatter, each chunk is formatted and written in a background thread
-    (the formatter holds no GIL) while the run computes the next segment; at most one chunk
+    (the formatter holds no GIL: ctypes releases it for the C kernel, numba's is ``nogil``)
+    while the run computes the next segment; at most one chunk
     is in flight. ``keep``: also hold the rows (for the outputs that need whole signals:
     raw file, figure); :meth:`waveforms` returns them.
 

@@ -33,15 +33,29 @@ with Python's exact integers at first use (~5 ms), not copied from anywhere.
 before and 16 digits after the first digit (``0.0001`` .. ``1234567890123456.0``, a
 ``.0`` for integers), otherwise ``d.ddde±XX`` (at least two exponent digits).
 
-The kernel (:func:`kernel`, :func:`_csv_block`) writes a whole block of rows into a byte
-buffer without the GIL; it is a numba function cached per user
-(:mod:`circuitnsds.engine.jit`), the tables passed as arguments. (Raw files' ASCII values
-keep ngspice's ``%.15e``, whose files they reproduce byte for byte: not this text.)
+**What runs where.** The kernel (:func:`kernel`, :func:`_csv_block`) writes a whole block
+of rows into a byte buffer without the GIL, the tables passed as arguments. It exists
+three times, writing the same bytes (the tests check each against ``repr``):
+
+* in C, ``_floattext_native.c`` beside this module: the same steps in the same 64-bit
+  integer arithmetic, compiled into a shared library when the package is installed with a
+  C compiler, loaded with ctypes (:mod:`circuitnsds.native`; ~0.05 µs per number, nothing
+  to load but the library). Used whenever it is there;
+* compiled by numba (:mod:`circuitnsds.engine.jit`, cached per user; ~0.07-0.15 µs per
+  number, but importing numba and loading the code costs ~1 s in a fresh process): used
+  without the C library, for files large enough to pay for that
+  (:func:`circuitnsds.output.csvfile.compiled_pays`);
+* this module's Python code, run by the interpreter (tests, and numba's absence).
+
+(Raw files' ASCII values keep ngspice's ``%.15e``, whose files they reproduce byte for
+byte: not this text.)
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from circuitnsds import native
 
 E_MIN, E_MAX = -292, 324
 """Range of the decimal exponent ``e = -k`` of the table ``g`` (doubles need no more)."""
@@ -301,52 +315,122 @@ def _csv_block(bits, buffer, g_high, g_low, ks, hs, ka, ha):
     return position
 
 
-_KERNELS: dict[bool, object] = {}
+KINDS = ("native", "numba", "python")
+"""The kernels: C (the library built at install), numba, the interpreter."""
+NATIVE = "output/_floattext_native"
+"""The C kernel's library (:func:`circuitnsds.native.library`), built from ``_floattext_native.c``."""
+
+_KERNELS: dict[str, object] = {}
 _HELPERS = ("_multiply_high", "_round_odd", "_shortest", "_put_text")
 
 
-def kernel(*, compiled: bool = True):
-    """:func:`_csv_block` compiled (numba, no GIL, cached per user; compiled or loaded at its
-    first call), or its Python original (the loop and layout run by the interpreter). The
-    helpers are bound at the first request, inlined into the compiled kernel (a call per
-    number would cost the arrays' reference counts); :mod:`circuitnsds.engine.jit` is
-    imported here because ``output/`` imports no other layer at module level."""
-    if not _KERNELS:
-        from circuitnsds.engine.jit import AVAILABLE, jit, python_version
+def _native_kernel():
+    """The C kernel with :func:`_csv_block`'s arguments, or ``None`` (library not built,
+    disabled or stale: :func:`circuitnsds.native.library`)."""
+    import ctypes
 
-        if AVAILABLE:
-            from numba import njit
+    library = native.library(NATIVE)
+    if library is None:
+        return None
+    function = library.circuitnsds_csv_block
+    function.restype = ctypes.c_int64
+    function.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p,
+                         *[ctypes.c_void_p] * 6, ctypes.c_int64, ctypes.c_int64]
+    table_types = (np.uint64, np.uint64, np.int64, np.int64, np.int64, np.int64)
+    table_sizes = (E_MAX - E_MIN + 1,) * 2 + (Q_MAX - Q_MIN + 1,) * 4
 
-            namespace = globals()
-            for helper in _HELPERS:
-                namespace[helper] = njit(inline="always")(namespace[helper])
-        _KERNELS[True] = jit(_csv_block)
-        _KERNELS[False] = python_version(_KERNELS[True])
-    return _KERNELS[compiled]
+    def native_block(bits, buffer, g_high, g_low, ks, hs, ka, ha):
+        """:func:`_csv_block` run by the C library (ctypes releases the GIL for the call). The
+        C code trusts its arguments: the types, layouts and sizes are checked here."""
+        bits = np.ascontiguousarray(bits, dtype=np.uint64)
+        if bits.ndim != 2:
+            raise ValueError("bits must be 2-D (rows × columns)")
+        if buffer.dtype != np.uint8 or not buffer.flags.c_contiguous or not buffer.flags.writeable \
+                or buffer.size < bits.size * (MAX_CHARS + 1):
+            raise ValueError(f"buffer must be a writable contiguous uint8 array of at least "
+                             f"{bits.size * (MAX_CHARS + 1)} bytes")
+        arrays = (g_high, g_low, ks, hs, ka, ha)
+        for array, dtype, size in zip(arrays, table_types, table_sizes):
+            if array.dtype != dtype or array.shape != (size,) or not array.flags.c_contiguous:
+                raise ValueError("the tables must be floattext.tables()")
+        return int(function(bits.ctypes.data, bits.shape[0], bits.shape[1], buffer.ctypes.data,
+                            *[array.ctypes.data for array in arrays], E_MIN, Q_MIN))
+
+    return native_block
 
 
-def csv_bytes(values: np.ndarray, *, compiled: bool = True) -> bytes:
-    """CSV lines of the rows of ``values`` (2-D float64), each number as ``repr`` writes it."""
+def _bind_numba() -> None:
+    """Bind the numba kernel and the Python one (the helpers inlined into the compiled
+    kernel: a call per number would cost the arrays' reference counts)."""
+    from circuitnsds.engine.jit import AVAILABLE, jit, python_version
+
+    if AVAILABLE:
+        from numba import njit
+
+        namespace = globals()
+        for helper in _HELPERS:
+            namespace[helper] = njit(inline="always")(namespace[helper])
+    _KERNELS["numba"] = jit(_csv_block)
+    _KERNELS["python"] = python_version(_KERNELS["numba"])
+
+
+def has_native() -> bool:
+    """Whether the C kernel is there (loads its library: a few ms, no compiler)."""
+    if "native" not in _KERNELS:
+        _KERNELS["native"] = _native_kernel()
+    return _KERNELS["native"] is not None
+
+
+def kernel(kind: str | None = None):
+    """:func:`_csv_block` as the ``kind`` of :data:`KINDS` runs it, all with its arguments
+    and the same bytes: ``"native"`` the C library built at install (no load cost beyond
+    opening it; releases the GIL); ``"numba"`` compiled by numba (no GIL, cached per user,
+    ~0.4 s to import numba and ~0.6 s to load the cached code at its first call in a
+    process; without numba installed, the Python code); ``"python"`` its Python original.
+    ``None``: the C kernel if its library is there, numba otherwise.
+    :mod:`circuitnsds.engine.jit` is imported only for numba's and Python's (``output/``
+    imports no other layer at module level).
+
+    Raises:
+        RuntimeError: ``"native"`` asked for and the library is not there.
+    """
+    if kind is None:
+        kind = "native" if has_native() else "numba"
+    if kind not in KINDS:
+        raise ValueError(f"kernel kind must be one of {KINDS}, not {kind!r}")
+    if kind == "native":
+        if not has_native():
+            raise RuntimeError(f"circuitnsds's C formatter {NATIVE} is not built or not loadable "
+                               f"(reinstall circuitnsds with a C compiler; {native.DISABLE_ENV}=0 "
+                               "disables it)")
+    elif kind not in _KERNELS:
+        _bind_numba()
+    return _KERNELS[kind]
+
+
+def csv_bytes(values: np.ndarray, *, kind: str | None = None) -> bytes:
+    """CSV lines of the rows of ``values`` (2-D float64), each number as ``repr`` writes it,
+    by the kernel ``kind`` (:func:`kernel`)."""
     values = np.ascontiguousarray(values, dtype=np.float64)
     if values.ndim != 2:
         raise ValueError("values must be 2-D (rows × columns)")
     buffer = np.empty(values.size * (MAX_CHARS + 1), dtype=np.uint8)
-    end = kernel(compiled=compiled)(values.view(np.uint64), buffer, *tables())
+    end = kernel(kind)(values.view(np.uint64), buffer, *tables())
     return buffer[:end].tobytes()
 
 
-def text(value: float, *, compiled: bool = True) -> str:
+def text(value: float, *, kind: str | None = None) -> str:
     """``repr(value)`` computed by this module's method (for tests and checks)."""
-    return csv_bytes(np.array([[value]]), compiled=compiled)[:-1].decode("ascii")
+    return csv_bytes(np.array([[value]]), kind=kind)[:-1].decode("ascii")
 
 
 def loaded() -> bool:
-    """Whether the compiled kernels have been loaded in this process."""
-    return bool(_KERNELS) and getattr(_KERNELS[True], "loaded", False)
+    """Whether the numba kernel has been loaded in this process."""
+    return getattr(_KERNELS.get("numba"), "loaded", False)
 
 
 def ready_marker():
-    """The file whose existence says that the kernels of this very source are in the per-user
+    """The file whose existence says that the numba kernel of this very source is in the per-user
     cache (written by :mod:`circuitnsds.engine.warmup` after :func:`warm`), or ``None``."""
     from pathlib import Path
 
@@ -356,5 +440,5 @@ def ready_marker():
 
 
 def warm() -> None:
-    """Compile (or load from the cache) the kernel, for the types the writers pass."""
-    csv_bytes(np.array([[0.1, -2.5e-300]]))
+    """Compile (or load from the cache) the numba kernel, for the types the writers pass."""
+    csv_bytes(np.array([[0.1, -2.5e-300]]), kind="numba")
