@@ -110,11 +110,11 @@ def nice_ticks(low: float, high: float, bins: int = 9) -> tuple[np.ndarray, floa
 
 def tick_labels(ticks: np.ndarray, step: float, minus: str = MINUS) -> list[str]:
     """Tick labels with the decimals the step needs (``0, 20, 40``; ``0.00, 0.25``;
-    ``1.5, 2.0``), negative values with ``minus``; very large or small values in
-    scientific notation."""
+    ``1.5, 2.0``; ``3.3000025``), negative values with ``minus``; labels that would need
+    more than 9 digits in scientific notation (``1.00000020e+09``, ``2.0e-10``)."""
     biggest = float(np.max(np.abs(ticks))) if ticks.size else 0.0
     decimals = next(d for d in range(0, 400) if abs(round(step, d) - step) <= 1e-9 * step)
-    if decimals <= 6 and biggest < 1e9:
+    if decimals + len(f"{biggest:.0f}") <= 9:  # up to 9 digits: fixed notation
         texts = [f"{0.0 if abs(value) < step / 2 else value:.{decimals}f}" for value in ticks]
     else:  # the digits from the largest value's down to the step's, in scientific notation
         digits = max(1, math.floor(math.log10(max(biggest, step))) - math.floor(math.log10(step)) + 2)
