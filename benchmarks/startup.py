@@ -75,6 +75,8 @@ def process_rows(repeats: int, workdir: Path) -> list[dict]:
         ("import networkx", [python, "-c", "import networkx"]),
         ("import matplotlib.figure (+ Agg)", [python, "-c", "import matplotlib.figure, "
                                               "matplotlib.backends.backend_agg"]),
+        ("import PIL (Image, ImageDraw, ImageFont: the PNG figure)",
+         [python, "-c", "import PIL.Image, PIL.ImageDraw, PIL.ImageFont"]),
         ("import circuitnsds", [python, "-c", "import circuitnsds"]),
         ("import circuitnsds + read the bridge", [python, "-c", "import circuitnsds; "
                                                   f"circuitnsds.read_netlist({str(BRIDGE)!r})"]),

@@ -47,6 +47,9 @@ def test_writes_png(tmp_path, zener):
     path = tmp_path / "z.png"
     plot_waveforms(zener, path, ["v(out)"])
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    plot_waveforms(zener, tmp_path / "z.pdf", ["v(out)"])  # other formats: matplotlib's
+    assert (tmp_path / "z.pdf").read_bytes()[:5] == b"%PDF-"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["z.pdf", "z.png"]  # no temporary left
 
 
 @pytest.mark.parametrize(("span", "factor", "unit"), [(2.0, 1.0, "s"), (0.1, 1e3, "ms"),

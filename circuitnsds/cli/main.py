@@ -304,24 +304,7 @@ def _prepare(args: argparse.Namespace, builder=None):
     return circuit
 
 
-def _figure_process(args: argparse.Namespace):
-    """A child process importing matplotlib while this one simulates, when a figure file is
-    asked for (see :mod:`circuitnsds.output.figure_process`); else an empty context."""
-    from contextlib import nullcontext
-
-    if not args.plot or str(args.plot) == "-":
-        return nullcontext()
-    from circuitnsds.output.figure_process import FigureProcess
-
-    return FigureProcess()
-
-
 def _run(args: argparse.Namespace) -> int:
-    with _figure_process(args) as figure:
-        return _run_transient(args, figure)
-
-
-def _run_transient(args: argparse.Namespace, figure) -> int:
     from circuitnsds.cli.sweep import run_steps
     from circuitnsds.frontend.build import CircuitBuilder
 
@@ -344,11 +327,11 @@ def _run_transient(args: argparse.Namespace, figure) -> int:
                                   progress=progress, signals=kept, sink=stream)
     except SimulationError as exc:
         progress.close()
-        _write_partial(args, exc.partial, "before the failure", stream, figure)
+        _write_partial(args, exc.partial, "before the failure", stream)
         raise
     except KeyboardInterrupt as exc:  # Ctrl-C: keep what was computed, as for a failed step
         progress.close()
-        _write_partial(args, getattr(exc, "partial", None), "when interrupted", stream, figure)
+        _write_partial(args, getattr(exc, "partial", None), "when interrupted", stream)
         raise
     except BaseException:
         if stream is not None:
@@ -362,7 +345,7 @@ def _run_transient(args: argparse.Namespace, figure) -> int:
         waves = stream.waveforms(waves)  # the rows kept for the raw file and figure, if any
     return _finish(args, circuit, waves, f"{stats['steps']} steps in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-                   f"max residual {residual:.1e}", stream, figure)
+                   f"max residual {residual:.1e}", stream)
 
 
 def _csv_stream(args: argparse.Namespace, kept: list[str] | None):
@@ -383,13 +366,12 @@ def _csv_stream(args: argparse.Namespace, kept: list[str] | None):
 def _pss(args: argparse.Namespace) -> int:
     import time
 
-    with _figure_process(args) as figure:
-        circuit = _prepare(args)
-        started = time.perf_counter()
-        result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup, tol=args.tol,
-                             max_iterations=args.max_iterations, uic=True if args.uic else None)
-        return _finish(args, circuit, result.waveforms,
-                       f"{result.summary()}; {time.perf_counter() - started:.3g} s", figure=figure)
+    circuit = _prepare(args)
+    started = time.perf_counter()
+    result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup, tol=args.tol,
+                         max_iterations=args.max_iterations, uic=True if args.uic else None)
+    return _finish(args, circuit, result.waveforms,
+                   f"{result.summary()}; {time.perf_counter() - started:.3g} s")
 
 
 def _ac(args: argparse.Namespace) -> int:
@@ -453,14 +435,11 @@ def _ac(args: argparse.Namespace) -> int:
     return 0
 
 
-def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None,
-            figure=None) -> int:
+def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None) -> int:
     """Write the files asked for (``stream``: the CSV written during the run, put in place
-    here; the figure by ``figure``, a
-    :class:`~circuitnsds.output.figure_process.FigureProcess`, when given), print the
-    measurements and the summary, show the figure."""
+    here), print the measurements and the summary, show the figure."""
     names, written = _write_outputs(args, waves if stream is not None else _selected(args, waves),
-                                    stream, figure)
+                                    stream)
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
@@ -487,8 +466,7 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None,
     return 0
 
 
-def _write_partial(args: argparse.Namespace, partial, when: str, stream=None,
-                   figure=None) -> None:
+def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) -> None:
     """Write the waveforms computed before a failed step or an interruption (``partial``,
     ``None`` if nothing was computed; ``stream``: the CSV written so far) to the files asked
     for (the error itself is reported by the caller); a failure to write them is only
@@ -503,7 +481,7 @@ def _write_partial(args: argparse.Namespace, partial, when: str, stream=None,
     else:
         last = partial.time[-1]
     try:
-        _, written = _write_outputs(args, partial, stream, figure)
+        _, written = _write_outputs(args, partial, stream)
     except CircuitnsdsError as exc:
         print(f"circuitnsds: the results {when} were not written: {exc.message}", file=sys.stderr)
         return
@@ -568,13 +546,11 @@ def _selected(args: argparse.Namespace, waves):
                      residual=None if waves.residual is None else waves.residual[index])
 
 
-def _write_outputs(args: argparse.Namespace, waves, stream=None,
-                   figure=None) -> tuple[list[str] | None, list[Path]]:
+def _write_outputs(args: argparse.Namespace, waves,
+                   stream=None) -> tuple[list[str] | None, list[Path]]:
     """Write the CSV (``stream``: put in place the one written during the run) and the raw
     file and figure asked for; returns the signal names chosen with ``--signals`` (``None``:
-    all) and the files written. With ``figure`` (a
-    :class:`~circuitnsds.output.figure_process.FigureProcess`) the figure is drawn by that
-    child while the other files are written, and here only if the child could not."""
+    all) and the files written."""
     from circuitnsds.errors import CircuitError
 
     names = None
@@ -585,8 +561,6 @@ def _write_outputs(args: argparse.Namespace, waves, stream=None,
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
                                where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
     written = []
-    drawing = bool(args.plot) and figure is not None and figure.send(
-        waves, args.plot, names, events=args.mark_events)
     output = _outputs(args).get("-o")
     if stream is not None:
         stream.commit()
@@ -606,11 +580,10 @@ def _write_outputs(args: argparse.Namespace, waves, stream=None,
             write_raw(waves, args.raw, names, binary=not args.ascii)
         written.append(args.raw)
     if args.plot:
-        if not (drawing and figure.wait()):  # no child, or it failed: draw here (and report)
-            from circuitnsds.output.plot import plot_waveforms
+        from circuitnsds.output.plot import plot_waveforms
 
-            with _writing(args.plot):
-                plot_waveforms(waves, args.plot, names, events=args.mark_events)
+        with _writing(args.plot):
+            plot_waveforms(waves, args.plot, names, events=args.mark_events)
         written.append(args.plot)
     if args.events:
         with _writing(args.events):

@@ -3,8 +3,9 @@
 Voltages (``v(...)``) share the top panel, currents (``i(...)``) the next one, any
 other signal a panel of its own kind. Each panel's axis is scaled to an SI prefix
 (``current [mA]``), the time axis to s, ms, µs or ns, and every trace is named in
-the panel's legend. :func:`plot_waveforms` writes a file (PNG, or PDF/SVG by the
-extension) without a screen; :func:`show_waveforms` opens a window and says
+the panel's legend. :func:`plot_waveforms` writes a file (PNG, drawn with Pillow by
+:mod:`circuitnsds.output.raster_figure`, or PDF/SVG ... by the extension, drawn with
+matplotlib) without a screen; :func:`show_waveforms` opens a window and says
 clearly when there is no display to open it on.
 """
 
@@ -14,6 +15,7 @@ import io
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -65,39 +67,87 @@ def _panels(names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
     return panels
 
 
-def draw(figure, waves: Waveforms, names: Sequence[str] | None = None, events: bool = False) -> None:
-    """Draw the panels of ``waves`` into a matplotlib ``figure`` (see the module docstring);
-    with ``events``, each switching of ``waves.events`` as a thin vertical line on every
-    panel (solid: closing, dotted: opening)."""
+@dataclass(frozen=True)
+class Panel:
+    """One panel of a waveform figure: its axis label and its traces, already scaled to
+    the label's unit (``("i(d1)", values in mA)``)."""
+
+    ylabel: str
+    traces: list[tuple[str, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class FigureData:
+    """What a waveform figure shows, in the units of its labels: the time axis (scaled, with
+    its label), the panels top to bottom, the title and the switchings to mark
+    (``(time, closed)``, time scaled like the axis). Drawn by :func:`draw` (matplotlib) and
+    :func:`circuitnsds.output.raster_figure.png_bytes` (PNG with Pillow)."""
+
+    title: str
+    time: np.ndarray
+    xlabel: str
+    panels: list[Panel]
+    events: list[tuple[float, bool]] = field(default_factory=list)
+
+
+def _finite_peak(values: np.ndarray) -> float:
+    """Largest magnitude among the finite ``values`` (0 if none): NaN and inf do not set the scale."""
+    magnitudes = np.abs(np.asarray(values, dtype=float))
+    magnitudes = magnitudes[np.isfinite(magnitudes)]
+    return float(magnitudes.max()) if magnitudes.size else 0.0
+
+
+def figure_data(waves: Waveforms, names: Sequence[str] | None = None,
+                events: bool = False) -> FigureData:
+    """The panels of ``waves`` (see the module docstring) with their units chosen: time in
+    s, ms, µs ... and each panel in the SI prefix of its largest finite value; with
+    ``events``, the switchings of ``waves.events``.
+
+    Raises:
+        KeyError: a name that is not a signal of ``waves``.
+        PlotError: no signal to plot.
+    """
     names = default_signals(waves) if names is None else [n.strip().lower() for n in names]
     names = [n for n in names if n != "time"]
     missing = [n for n in names if n not in waves]
     if missing:
         raise KeyError(f"no signal {', '.join(missing)}; available: {', '.join(waves.names)}")
-    panels = _panels(names)
-    if not panels:
+    groups = _panels(names)
+    if not groups:
         raise PlotError("nothing to plot: no signals", where="plot")
-    time = np.asarray(waves.time)
+    time = np.asarray(waves.time, dtype=float)
     span = float(time[-1] - time[0]) if time.size > 1 else 0.0
     t_factor, t_unit = time_unit(max(span, abs(float(time[-1])) if time.size else 0.0))
-    axes = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    for axis, (quantity, unit, group) in zip(axes, panels):
-        peak = max((float(np.max(np.abs(waves[n]))) if waves[n].size else 0.0) for n in group)
+    panels = []
+    for quantity, unit, group in groups:
+        peak = max(_finite_peak(waves[n]) for n in group)
         factor, prefix = engineering_scale(peak) if unit else (1.0, "")
-        for name in group:
-            axis.plot(time * t_factor, waves[name] * factor, label=name, linewidth=1.0)
-        if events:
-            for time_of, _, closed in waves.events:
-                axis.axvline(time_of * t_factor, color="0.5", linewidth=0.4,
-                             linestyle="-" if closed else ":")
-        axis.set_ylabel(f"{quantity} [{prefix}{unit}]" if unit else quantity)
+        panels.append(Panel(f"{quantity} [{prefix}{unit}]" if unit else quantity,
+                            [(n, np.asarray(waves[n], dtype=float) * factor) for n in group]))
+    marks = [(time_of * t_factor, bool(closed)) for time_of, _, closed in waves.events] if events else []
+    return FigureData(waves.title or "circuitnsds transient", time * t_factor, f"time [{t_unit}]",
+                      panels, marks)
+
+
+def draw(figure, waves: Waveforms, names: Sequence[str] | None = None, events: bool = False) -> None:
+    """Draw the panels of ``waves`` into a matplotlib ``figure`` (see the module docstring);
+    with ``events``, each switching of ``waves.events`` as a thin vertical line on every
+    panel (solid: closing, dotted: opening)."""
+    data = figure_data(waves, names, events)
+    axes = figure.subplots(len(data.panels), 1, sharex=True, squeeze=False)[:, 0]
+    for axis, panel in zip(axes, data.panels):
+        for name, values in panel.traces:
+            axis.plot(data.time, values, label=name, linewidth=1.0)
+        for time_of, closed in data.events:
+            axis.axvline(time_of, color="0.5", linewidth=0.4, linestyle="-" if closed else ":")
+        axis.set_ylabel(panel.ylabel)
         axis.grid(True, alpha=0.3)
         axis.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small",
                     frameon=False)
-    axes[-1].set_xlabel(f"time [{t_unit}]")
-    if time.size:
-        axes[-1].set_xlim(time[0] * t_factor, time[-1] * t_factor)
-    axes[0].set_title(waves.title or "circuitnsds transient", fontsize="medium")
+    axes[-1].set_xlabel(data.xlabel)
+    if data.time.size:
+        axes[-1].set_xlim(data.time[0], data.time[-1])
+    axes[0].set_title(data.title, fontsize="medium")
 
 
 def _size(panels: int) -> tuple[float, float]:
@@ -106,7 +156,10 @@ def _size(panels: int) -> tuple[float, float]:
 
 def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | None = None,
                    dpi: int = 120, events: bool = False) -> None:
-    """Write a figure of ``waves`` to ``path`` (format from the extension, PNG usually).
+    """Write a figure of ``waves`` to ``path`` (format from the extension, PNG usually),
+    through a temporary file and a rename. A PNG is drawn with Pillow
+    (:mod:`circuitnsds.output.raster_figure`, no matplotlib: ~0.1 s in all); other formats
+    (PDF, SVG, ...) with matplotlib.
 
     Args:
         waves: the results.
@@ -114,13 +167,24 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
         names: signals to draw; default: :func:`default_signals`.
         dpi: resolution of raster formats.
         events: mark each switching (``waves.events``) with a thin vertical line.
-    """
-    from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
 
+    Raises:
+        PlotError: the extension names no figure format, or nothing to plot.
+        KeyError: a name that is not a signal of ``waves``.
+    """
     file_format = plot_format(path)
     chosen = default_signals(waves) if names is None else list(names)
-    figure = Figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
-                    layout="constrained")
+    size = _size(len(_panels([n.strip().lower() for n in chosen])))
+    if file_format == "png":
+        from circuitnsds.output.raster_figure import png_bytes
+
+        content = png_bytes(figure_data(waves, chosen, events), size, dpi)
+        with atomic_path(path) as temporary, open(temporary, "wb") as handle:
+            handle.write(content)
+        return
+    from matplotlib.figure import Figure  # no pyplot: no backend, no screen needed
+
+    figure = Figure(figsize=size, layout="constrained")
     draw(figure, waves, chosen, events)
     save_figure(figure, path, dpi, file_format)
 

@@ -1,0 +1,405 @@
+"""The waveform figure as a PNG, drawn with Pillow: the figure of
+:func:`circuitnsds.output.plot.draw` without importing matplotlib.
+
+matplotlib's import takes ~0.4-0.9 s and its drawing and PNG ~0.2 s, more than a short run.
+Pillow (a dependency of matplotlib, so always installed with it) imports in ~0.03 s. This
+module lays out the same figure: panels stacked on a shared time axis, each with its unit
+label, round ticks (:func:`nice_ticks`, steps 1, 2, 2.5 and 5 × 10^k as matplotlib's
+default locator chooses them), a light grid, the legend at its right naming each trace
+beside a stroke of its colour (matplotlib's default colour cycle), the title on top and the
+optional switching marks (solid: closing, dotted: opening). Sizes are matplotlib's defaults
+in points (10 pt text, 1 pt lines, 3.5 pt ticks), converted at the figure's dpi.
+
+Traces are drawn at :data:`SUPERSAMPLE` times the resolution and averaged down (antialiased
+lines); text is FreeType's own antialiasing, in DejaVu Sans (the font matplotlib ships and
+uses by default; Pillow's default font if it is absent). A long signal is reduced to the
+first, lowest, highest and last value in every drawn pixel column (:func:`min_max_decimate`),
+which draws the same pixels: spikes and ringing are kept. Non-finite values (NaN, ±inf)
+break the line, as in matplotlib, and do not set the axis limits.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from circuitnsds.output.plot import FigureData
+
+COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+           "#7f7f7f", "#bcbd22", "#17becf")
+"""matplotlib's default colour cycle ("tab10"), restarted in every panel."""
+
+STEPS = (1.0, 2.0, 2.5, 5.0, 10.0)
+"""Tick steps per decade (matplotlib's ``AutoLocator``)."""
+
+SUPERSAMPLE = 3
+"""Traces are drawn at this many times the resolution, then averaged down to it."""
+
+GRID = (231, 231, 231)  # matplotlib's grid colour #b0b0b0 at alpha 0.3 over white
+FRAME = (0, 0, 0)
+TEXT = (0, 0, 0)
+EVENT = (128, 128, 128)  # matplotlib's "0.5"
+
+# sizes in points (1/72 inch), matplotlib's defaults
+FONT_PT = 10.0          # tick labels, axis labels, title ("medium")
+LEGEND_PT = 10.0 * 0.833  # "small"
+LINE_PT = 1.0
+FRAME_PT = 0.8
+EVENT_PT = 0.4
+TICK_PT = 3.5           # tick length and the gap from tick to label
+EDGE_PT = 3.0           # constrained layout's padding at the figure's edge and between panels
+LABEL_PAD_PT = 4.0      # axis label to tick labels
+TITLE_PAD_PT = 6.0
+MINUS = "\u2212"         # matplotlib writes negative ticks with a minus sign, not a hyphen
+
+
+@lru_cache(maxsize=8)
+def _font(size_px: float) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """DejaVu Sans at ``size_px`` pixels per em, from matplotlib's folder (found without
+    importing matplotlib); Pillow's default font if it is not there."""
+    import importlib.util
+    import os
+
+    spec = importlib.util.find_spec("matplotlib")
+    for folder in (spec.submodule_search_locations or []) if spec else []:
+        path = os.path.join(folder, "mpl-data", "fonts", "ttf", "DejaVuSans.ttf")
+        if os.path.exists(path):
+            return ImageFont.truetype(path, size_px)
+    return ImageFont.load_default(size_px)
+
+
+def _has_minus(font) -> bool:
+    """Whether ``font`` draws U+2212 (DejaVu does; a fallback font may show a box)."""
+    return isinstance(font, ImageFont.FreeTypeFont) and "DejaVu" in (font.getname()[0] or "")
+
+
+# ---------------------------------------------------------------------------- ticks
+
+
+def nice_ticks(low: float, high: float, bins: int = 9) -> tuple[np.ndarray, float]:
+    """Round ticks within ``[low, high]`` and their step: the smallest step of
+    :data:`STEPS` × 10^k that makes at most ``bins`` intervals of the range, as matplotlib's
+    ``MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10])`` does. With ``bins`` from 6 to 9
+    there are 3 to ``bins + 1`` ticks (consecutive steps differ by at most 2×).
+
+    Returns:
+        ``(ticks, step)``: the multiples of ``step`` in ``[low, high]`` (computed as
+        integer × step, so ``0`` is exactly 0), ascending.
+    """
+    if not (math.isfinite(low) and math.isfinite(high)) or high <= low:
+        raise ValueError(f"no ticks for the range [{low}, {high}]")
+    raw = (high - low) / bins
+    scale = 10.0 ** math.floor(math.log10(raw))
+    tolerance = 1e-10 * max(abs(low), abs(high))  # ticks on an end are kept despite rounding
+    for mantissa in STEPS + tuple(10 * s for s in STEPS[1:]):
+        step = mantissa * scale
+        if step < raw * (1 - 1e-12):
+            continue
+        first = math.ceil((low - tolerance) / step)
+        last = math.floor((high + tolerance) / step)
+        if last - first + 1 >= 2:
+            break
+    return np.arange(first, last + 1) * step, step
+
+
+def tick_labels(ticks: np.ndarray, step: float, minus: str = MINUS) -> list[str]:
+    """Tick labels with the decimals the step needs (``0, 20, 40``; ``0.00, 0.25``;
+    ``1.5, 2.0``; ``3.3000025``), negative values with ``minus``; labels that would need
+    more than 9 digits in scientific notation (``1.00000020e+09``, ``2.0e-10``)."""
+    biggest = float(np.max(np.abs(ticks))) if ticks.size else 0.0
+    decimals = next(d for d in range(0, 400) if abs(round(step, d) - step) <= 1e-9 * step)
+    if decimals + len(f"{biggest:.0f}") <= 9:  # up to 9 digits: fixed notation
+        texts = [f"{0.0 if abs(value) < step / 2 else value:.{decimals}f}" for value in ticks]
+    else:  # the digits from the largest value's down to the step's, in scientific notation
+        digits = max(1, math.floor(math.log10(max(biggest, step))) - math.floor(math.log10(step)) + 2)
+        texts = [f"{value:.{digits - 1}e}" if abs(value) >= step / 2 else "0" for value in ticks]
+    return [text.replace("-", minus) for text in texts]
+
+
+def _limits(values: Sequence[np.ndarray], margin: float) -> tuple[float, float]:
+    """Axis limits of the finite ``values`` with ``margin`` of their range added on each side
+    (matplotlib's autoscaling: 5 % on y); a single value gets ±5 % of itself (±0.05 at 0)
+    first, and no finite value at all gives (-1, 1)."""
+    lows, highs = [], []
+    for array in values:
+        finite = array[np.isfinite(array)]
+        if finite.size:
+            lows.append(float(finite.min()))
+            highs.append(float(finite.max()))
+    if not lows:
+        return -1.0, 1.0
+    low, high = min(lows), max(highs)
+    if high - low <= 1e-12 * max(abs(low), abs(high)):
+        delta = 0.05 * abs(low) if low != 0 else 0.05
+        low, high = low - delta, high + delta
+    pad = margin * (high - low)
+    return low - pad, high + pad
+
+
+# ---------------------------------------------------------------------------- lines
+
+
+def min_max_decimate(x: np.ndarray, y: np.ndarray, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, y)`` reduced to the first, lowest, highest and last point of each run of equal
+    ``columns`` (the pixel column of each point; ascending), in that order: drawn as a
+    connected line it covers the same pixels as all of the points, so every extreme
+    (spike, ring) stays. Inputs must be finite."""
+    if x.size <= 4:
+        return x, y
+    starts = np.flatnonzero(np.diff(columns)) + 1
+    starts = np.concatenate(([0], starts))
+    ends = np.concatenate((starts[1:], [x.size])) - 1
+    lows = np.minimum.reduceat(y, starts)
+    highs = np.maximum.reduceat(y, starts)
+    xs = np.empty((starts.size, 4))
+    ys = np.empty((starts.size, 4))
+    xs[:, 0], ys[:, 0] = x[starts], y[starts]
+    xs[:, 1], ys[:, 1] = x[starts], lows
+    xs[:, 2], ys[:, 2] = x[ends], highs
+    xs[:, 3], ys[:, 3] = x[ends], y[ends]
+    return xs.ravel(), ys.ravel()
+
+
+def _finite_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` of each run of ``True`` in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([False], mask, [False])).astype(np.int8)))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+
+def _polylines(px: np.ndarray, py: np.ndarray, decimate: bool) -> list[np.ndarray]:
+    """The pixel polylines (n × 2 arrays) of one trace: one per run of finite points,
+    reduced per pixel column when ``decimate``."""
+    finite = np.isfinite(px) & np.isfinite(py)
+    lines = []
+    for start, stop in ([(0, px.size)] if finite.all() else _finite_runs(finite)):
+        x, y = px[start:stop], py[start:stop]
+        if decimate and x.size > 8:
+            x, y = min_max_decimate(x, y, np.floor(x).astype(np.int64))
+        lines.append(np.column_stack((x, y)))
+    return lines
+
+
+# ---------------------------------------------------------------------------- layout
+
+
+@dataclass
+class _Box:
+    """An axes rectangle in pixels: the frame's lines are on columns ``left``, ``right``
+    and rows ``top``, ``bottom``."""
+
+    left: int
+    top: int
+    right: int
+    bottom: int
+
+
+def _text_size(font, text: str) -> tuple[int, int]:
+    left, top, right, bottom = font.getbbox(text)
+    return right - left, bottom - top
+
+
+def _line_height(font) -> int:
+    if isinstance(font, ImageFont.FreeTypeFont):
+        ascent, descent = font.getmetrics()
+        return ascent + descent
+    return _text_size(font, "Ag")[1]
+
+
+def _draw_text(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str, font, anchor: str) -> None:
+    draw.text((round(xy[0]), round(xy[1])), text, fill=TEXT, font=font, anchor=anchor)
+
+
+def _vertical_text(image: Image.Image, centre: tuple[float, float], text: str, font) -> None:
+    """``text`` turned a quarter left (reading upwards), centred on ``centre``."""
+    width, _ = _text_size(font, text)
+    height = _line_height(font)
+    label = Image.new("L", (width + 4, height + 4), 0)
+    ImageDraw.Draw(label).text(((width + 4) / 2, (height + 4) / 2), text, fill=255, font=font,
+                               anchor="mm")
+    label = label.rotate(90, expand=True)
+    corner = (round(centre[0] - label.width / 2), round(centre[1] - label.height / 2))
+    image.paste(TEXT, (*corner, corner[0] + label.width, corner[1] + label.height), label)
+
+
+def png_bytes(data: FigureData, size: tuple[float, float], dpi: float = 120) -> bytes:
+    """The PNG of ``data`` at ``size`` inches (width, height) and ``dpi`` dots per inch."""
+    return encode_png(render(data, size, dpi), dpi)
+
+
+def render(data: FigureData, size: tuple[float, float], dpi: float = 120) -> Image.Image:
+    """The figure of ``data`` as an RGB image of ``size`` inches at ``dpi``."""
+    pt = dpi / 72.0  # pixels per point
+    width, height = round(size[0] * dpi), round(size[1] * dpi)
+    image = Image.new("RGB", (width, height), "white")
+    draw = ImageDraw.Draw(image)
+    font = _font(FONT_PT * pt)
+    legend_font = _font(LEGEND_PT * pt)
+    minus = MINUS if _has_minus(font) else "-"
+    text_height = _line_height(font)
+    edge, tick, pad = EDGE_PT * pt, TICK_PT * pt, TICK_PT * pt
+
+    # y limits and ticks per panel first: the left margin is the widest tick label's
+    y_limits = [_limits([v for _, v in panel.traces], 0.05) for panel in data.panels]
+    top = edge + text_height + TITLE_PAD_PT * pt
+    bottom_margin = edge + text_height + LABEL_PAD_PT * pt + text_height + pad + tick
+    gap = tick + 2 * edge  # between panels: the upper one's ticks and paddings
+    count = len(data.panels)
+    panel_height = (height - top - bottom_margin - gap * (count - 1)) / count
+    y_bins = int(np.clip(panel_height / (2 * FONT_PT * pt), 3, 9))
+    y_ticks = []
+    for low, high in y_limits:
+        ticks, step = nice_ticks(low, high, y_bins)
+        y_ticks.append((ticks, tick_labels(ticks, step, minus)))
+    widest = max((_text_size(font, t)[0] for _, labels in y_ticks for t in labels), default=0)
+    left = edge + text_height + LABEL_PAD_PT * pt + widest + pad + tick
+
+    # the legends: one column per panel unless its entries are taller than the panel
+    em = LEGEND_PT * pt
+    row = max(_line_height(legend_font), 0.7 * em) + 0.5 * em
+    rows = max(1, int((panel_height + gap) // row))
+    legend_widths = []
+    for panel in data.panels:
+        columns = math.ceil(len(panel.traces) / rows)
+        names = [name for name, _ in panel.traces]
+        column_widths = [max(_text_size(legend_font, n)[0] for n in names[c * rows:(c + 1) * rows])
+                         for c in range(columns)]
+        legend_widths.append(sum(0.4 * em + 2.0 * em + 0.8 * em + w for w in column_widths)
+                             + 2.0 * em * (columns - 1) + 0.4 * em)
+    axes_width = (width - left - max(legend_widths) - edge) / 1.01
+    x_left, x_right = int(round(left)), int(round(left + axes_width))
+
+    # the time axis: as many round ticks as fit without their labels touching
+    x_low, x_high = ((float(data.time[0]), float(data.time[-1])) if data.time.size else (0.0, 1.0))
+    if not (math.isfinite(x_low) and math.isfinite(x_high)) or x_high <= x_low:
+        x_low, x_high = _limits([np.array([x_low, x_high])], 0.0)
+    for x_bins in range(int(np.clip(axes_width / (3 * FONT_PT * pt), 1, 9)), 0, -1):
+        x_ticks, x_step = nice_ticks(x_low, x_high, x_bins)
+        x_labels = tick_labels(x_ticks, x_step, minus)
+        label_width = max(_text_size(font, t)[0] for t in x_labels)
+        spacing = (x_right - x_left) * x_step / (x_high - x_low)
+        if label_width + FONT_PT * pt <= spacing:
+            break
+
+    boxes = []
+    for index in range(count):
+        box_top = top + index * (panel_height + gap)
+        boxes.append(_Box(x_left, int(round(box_top)), x_right, int(round(box_top + panel_height))))
+
+    def x_pixel(value, box):  # data -> pixel coordinate (pixel i spans [i, i + 1))
+        return box.left + 0.5 + (value - x_low) / (x_high - x_low) * (box.right - box.left)
+
+    def y_pixel(value, box, limits):
+        low, high = limits
+        return box.top + 0.5 + (high - value) / (high - low) * (box.bottom - box.top)
+
+    for box, panel, limits, (ticks, labels) in zip(boxes, data.panels, y_limits, y_ticks):
+        _draw_panel(image, box, panel, data, limits, ticks, x_ticks, x_pixel, y_pixel, pt)
+        # the frame, ticks and labels, crisp at the final resolution
+        frame = max(1, round(FRAME_PT * pt))
+        draw.rectangle((box.left, box.top, box.right, box.bottom), outline=FRAME, width=frame)
+        for value, label in zip(ticks, labels):
+            y = round(y_pixel(value, box, limits) - 0.5)
+            draw.line((box.left - tick, y, box.left, y), fill=FRAME, width=frame)
+            _draw_text(draw, (box.left - tick - pad, y), label, font, "rm")
+        for value in x_ticks:
+            x = round(x_pixel(value, box) - 0.5)
+            draw.line((x, box.bottom, x, box.bottom + tick), fill=FRAME, width=frame)
+        _vertical_text(image, (edge + text_height / 2, (box.top + box.bottom) / 2), panel.ylabel, font)
+        _draw_legend(draw, box, panel, legend_font, rows, pt)
+    last = boxes[-1]
+    for value, label in zip(x_ticks, x_labels):
+        x = round(x_pixel(value, last) - 0.5)
+        _draw_text(draw, (x, last.bottom + tick + pad), label, font, "mt")
+    _draw_text(draw, ((last.left + last.right) / 2, height - edge), data.xlabel, font, "md")
+    first = boxes[0]
+    _draw_text(draw, ((first.left + first.right) / 2, first.top - TITLE_PAD_PT * pt), data.title,
+               font, "md")
+    return image
+
+
+def _draw_panel(image, box, panel, data, limits, y_ticks, x_ticks, x_pixel, y_pixel, pt) -> None:
+    """Grid, switching marks and traces of one panel, drawn at :data:`SUPERSAMPLE` times the
+    resolution inside the frame and averaged down into ``image``."""
+    s = SUPERSAMPLE
+    width, height = box.right - box.left + 1, box.bottom - box.top + 1
+    layer = Image.new("RGB", (width * s, height * s), "white")
+    draw = ImageDraw.Draw(layer)
+
+    def sx(pixels):  # final pixel coordinate -> supersampled coordinate
+        return (pixels - box.left) * s
+
+    def sy(pixels):
+        return (pixels - box.top) * s
+
+    grid = max(1, round(FRAME_PT * pt * s))
+    for value in y_ticks:
+        y = sy(y_pixel(value, box, limits))
+        draw.line((0, y, width * s, y), fill=GRID, width=grid)
+    for value in x_ticks:
+        x = sx(x_pixel(value, box))
+        draw.line((x, 0, x, height * s), fill=GRID, width=grid)
+    line = max(1, round(LINE_PT * pt * s))
+    time = sx(x_pixel(data.time, box)) if data.time.size else data.time
+    monotonic = time.size < 2 or bool(np.all(np.diff(time) >= 0))
+    decimate = monotonic and time.size > 2 * width * s
+    for index, (_, values) in enumerate(panel.traces):
+        colour = COLOURS[index % len(COLOURS)]
+        ys = sy(y_pixel(values, box, limits))
+        for points in _polylines(time, ys, decimate):
+            if points.shape[0] == 1:  # a lone point: a dot of the line's width
+                x, y = points[0]
+                draw.ellipse((x - line / 2, y - line / 2, x + line / 2, y + line / 2), fill=colour)
+            else:
+                draw.line(points.ravel().tolist(), fill=colour, width=line)
+    if data.events:
+        _draw_events(draw, data, box, x_pixel, sx, height * s, pt)
+    image.paste(layer.reduce(s), (box.left, box.top))
+
+
+def _draw_events(draw, data, box, x_pixel, sx, height, pt) -> None:
+    """The switching marks: a thin line per supersampled column holding one (solid for a
+    closing, dotted for an opening; a closing wins a shared column)."""
+    times = np.array([t for t, _ in data.events], dtype=float)
+    closed = np.array([c for _, c in data.events], dtype=bool)
+    columns = np.round(sx(x_pixel(times, box))).astype(np.int64)
+    width = max(1, round(EVENT_PT * pt * SUPERSAMPLE))
+    solid = set(columns[closed].tolist())
+    dash = max(1, round(1.5 * pt * SUPERSAMPLE))
+    for x in sorted(solid):
+        draw.line((x, 0, x, height), fill=EVENT, width=width)
+    for x in sorted(set(columns[~closed].tolist()) - solid):
+        for y in range(0, height, 2 * dash):
+            draw.line((x, y, x, y + dash - 1), fill=EVENT, width=width)
+
+
+def _draw_legend(draw, box, panel, font, rows, pt) -> None:
+    """Each trace's name beside a stroke of its colour, right of the panel, centred on it."""
+    em = LEGEND_PT * pt
+    row = max(_line_height(font), 0.7 * em) + 0.5 * em
+    names = [name for name, _ in panel.traces]
+    shown_rows = min(rows, len(names))
+    first_y = (box.top + box.bottom) / 2 - (shown_rows - 1) * row / 2
+    x = box.right + 0.01 * (box.right - box.left) + 0.4 * em
+    line = max(1, round(LINE_PT * pt))
+    for column in range(math.ceil(len(names) / rows)):
+        chunk = names[column * rows:(column + 1) * rows]
+        for place, name in enumerate(chunk):
+            index = column * rows + place
+            y = first_y + place * row
+            draw.line((round(x), round(y), round(x + 2.0 * em), round(y)),
+                      fill=COLOURS[index % len(COLOURS)], width=line)
+            _draw_text(draw, (x + 2.8 * em, y), name, font, "lm")
+        x += 2.8 * em + max(_text_size(font, n)[0] for n in chunk) + 2.0 * em
+
+
+def encode_png(image: Image.Image, dpi: float = 120) -> bytes:
+    """``image`` as PNG bytes (with its dpi recorded, as matplotlib records it)."""
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG", dpi=(dpi, dpi), compress_level=6)
+    return buffer.getvalue()

@@ -1,0 +1,222 @@
+"""The PNG figure drawn with Pillow: traces where the data says, round ticks, extremes kept by
+the column reduction, non-finite values skipped, and the command writing it without
+importing matplotlib."""
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from PIL import Image
+
+from circuitnsds.output.plot import _size, plot_waveforms
+from circuitnsds.output.raster_figure import min_max_decimate, nice_ticks, tick_labels
+from circuitnsds.output.waveforms import Waveforms
+from tests.conftest import NETLISTS
+
+ROOT = Path(__file__).resolve().parents[1]
+BLUE, ORANGE = (0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)  # matplotlib's first two colours
+
+
+def _image(tmp_path, waves, names=None, events=False) -> np.ndarray:
+    path = tmp_path / "f.png"
+    plot_waveforms(waves, path, names, events=events)
+    with Image.open(path) as image:
+        assert image.format == "PNG"
+        return np.asarray(image.convert("RGB")).astype(int)
+
+
+def _longest_runs(mask: np.ndarray) -> np.ndarray:
+    """Length of the longest run of ``True`` along each column of ``mask``."""
+    runs = np.zeros(mask.shape, dtype=int)
+    runs[0] = mask[0]
+    for row in range(1, mask.shape[0]):
+        runs[row] = (runs[row - 1] + 1) * mask[row]
+    return runs.max(axis=0)
+
+
+def _frame(pixels: np.ndarray, panel: int = 0) -> tuple[int, int, int, int]:
+    """Left, top, right, bottom pixel of the ``panel``-th axes frame, found as the long
+    unbroken black lines of the image (not from the drawing code's layout)."""
+    black = pixels.sum(axis=2) < 60
+    columns = np.flatnonzero(_longest_runs(black) > 100)
+    rows_all = np.flatnonzero(_longest_runs(black.T) > 0.5 * pixels.shape[1])
+    left, right = columns.min(), columns.max()
+    rows = [r for r in rows_all if r - 1 not in rows_all]  # the first row of each thick line
+    return left, rows[2 * panel], right, rows[2 * panel + 1]
+
+
+def _near(pixels, colour, row, column, tolerance=2) -> bool:
+    window = pixels[row - tolerance:row + tolerance + 1, column]
+    return bool(np.any(np.abs(window - np.array(colour)).sum(axis=1) < 60))
+
+
+def test_size_is_matplotlibs_at_120_dpi(tmp_path):
+    time = np.linspace(0, 1e-3, 11)
+    one = Waveforms(time, {"v(a)": time})
+    assert _image(tmp_path, one).shape[:2] == (round(_size(1)[1] * 120), 1200)
+    two = Waveforms(time, {"v(a)": time, "i(b)": time})
+    assert _image(tmp_path, two).shape[:2] == (768, 1200)  # 10 x 6.4 inches
+
+
+def test_traces_are_where_the_axis_limits_put_them(tmp_path):
+    """A constant 1 V and a ramp 0 -> 2 V over 0..1 s: the y axis spans the data with 5 %
+    margins (-0.1 .. 2.1 V, as matplotlib autoscales), the x axis the run."""
+    time = np.linspace(0.0, 1.0, 201)
+    pixels = _image(tmp_path, Waveforms(time, {"v(one)": np.ones_like(time), "v(ramp)": 2 * time}))
+    left, top, right, bottom = _frame(pixels)
+    row_of = lambda volts: round(top + (2.1 - volts) / 2.2 * (bottom - top))  # noqa: E731
+    for fraction in (0.1, 0.3, 0.7, 0.9):  # (the ramp is drawn over the constant at 0.5)
+        column = round(left + fraction * (right - left))
+        assert _near(pixels, BLUE, row_of(1.0), column)
+        assert not _near(pixels, BLUE, row_of(1.0) - 6, column)
+        assert _near(pixels, ORANGE, row_of(2 * fraction), column)
+
+
+def test_non_finite_values_break_the_line_and_do_not_set_the_limits(tmp_path):
+    time = np.linspace(0.0, 1.0, 301)
+    values = np.ones_like(time)
+    values[100:200] = np.nan  # a gap over the middle third
+    values[50] = np.inf
+    values[250] = -np.inf
+    pixels = _image(tmp_path, Waveforms(time, {"v(a)": values, "v(b)": 2 * time}))
+    left, top, right, bottom = _frame(pixels)
+    row = round(top + (2.1 - 1.0) / 2.2 * (bottom - top))  # limits from the finite values only
+    column = lambda fraction: round(left + fraction * (right - left))  # noqa: E731
+    assert _near(pixels, BLUE, row, column(0.1)) and _near(pixels, BLUE, row, column(0.9))
+    for fraction in (0.4, 0.5, 0.6):
+        assert not np.any(np.abs(pixels[top + 2:bottom - 1, column(fraction)]
+                                 - np.array(BLUE)).sum(axis=1) < 60)
+
+
+def test_switching_marks(tmp_path):
+    time = np.linspace(0.0, 1.0, 101)
+    waves = Waveforms(time, {"v(a)": time}, events=[(0.5, "s1", True)])
+    pixels = _image(tmp_path, waves, events=True)
+    left, top, right, bottom = _frame(pixels)
+    column = round(left + 0.5 * (right - left))
+    middle = pixels[top + 5:bottom - 5, column - 1:column + 2]
+    grey = np.all(np.abs(middle - middle.mean(axis=2, keepdims=True)) < 8, axis=2) & (middle[..., 0] < 215)
+    assert grey.any(axis=1).mean() > 0.8  # a grey vertical line through the panel
+    assert not np.array_equal(pixels, _image(tmp_path, waves))
+
+
+@pytest.mark.parametrize("signals", [
+    {"v(a)": np.array([1.0])},                                   # one sample
+    {"v(a)": np.full(50, 3.3)},                                  # constant
+    {"v(a)": np.zeros(50)},                                      # constant zero
+    {"v(a)": np.full(50, np.nan)},                               # nothing finite
+    {f"v(n{k})": np.sin(np.arange(50) / (k + 1)) for k in range(40)},  # many traces
+])
+def test_degenerate_signals_give_a_figure(tmp_path, signals):
+    size = next(iter(signals.values())).size
+    time = -1e-3 + np.arange(size) * 1e-6  # negative times
+    pixels = _image(tmp_path, Waveforms(time, signals))
+    assert pixels.shape[:2] == (round(_size(1)[1] * 120), 1200)
+    assert pixels[:, -1].sum() == 255 * 3 * pixels.shape[0]  # nothing drawn over the edge
+
+
+STEP_MANTISSAS = (1.0, 2.0, 2.5, 5.0)
+
+
+def _mantissa(step: float) -> float:
+    return step / 10.0 ** math.floor(math.log10(step) + 1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(low=st.floats(-1e6, 1e6), width=st.floats(1e-6, 1e6), bins=st.integers(6, 9))
+def test_ticks_are_round_and_cover_the_range(low, width, bins):
+    high = low + width
+    if not high - low > 1e-9 * max(abs(low), abs(high)):
+        return
+    ticks, step = nice_ticks(low, high, bins)
+    assert any(abs(_mantissa(step) - m) < 1e-6 for m in STEP_MANTISSAS)
+    assert 3 <= ticks.size <= bins + 1
+    tolerance = 1e-9 * max(abs(low), abs(high), step)
+    assert ticks[0] >= low - tolerance and ticks[-1] <= high + tolerance
+    assert ticks[0] - step < low + tolerance and ticks[-1] + step > high - tolerance  # all of them
+    assert step >= (high - low) / bins * (1 - 1e-9)  # at most `bins` intervals
+    labels = tick_labels(ticks, step)
+    assert len(set(labels)) == len(labels)  # distinct labels
+    for label, value in zip(labels, ticks):
+        assert float(label.replace("\u2212", "-")) == pytest.approx(value, abs=step * 1e-6)
+
+
+@settings(max_examples=200, deadline=None)
+@given(low=st.floats(-1e4, 1e4), width=st.floats(1e-3, 1e4), bins=st.integers(6, 9))
+def test_tick_steps_are_matplotlibs(low, width, bins):
+    from matplotlib.ticker import MaxNLocator
+
+    high = low + width
+    if abs(low) > 1e3 * width:  # matplotlib then ticks an offset from a large value
+        return
+    expected = MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10]).tick_values(low, high)
+    _, step = nice_ticks(low, high, bins)
+    assert step == pytest.approx(expected[1] - expected[0], rel=1e-9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=400), st.integers(1, 50))
+def test_decimation_keeps_every_extreme(values, per_column):
+    y = np.array(values)
+    x = np.arange(y.size, dtype=float) / per_column
+    columns = np.floor(x).astype(np.int64)
+    dx, dy = min_max_decimate(x, y, columns)
+    assert dy.size <= max(4 * (columns[-1] + 1), y.size)
+    assert (dx[0], dy[0], dx[-1], dy[-1]) == (x[0], y[0], x[-1], y[-1])
+    for column in np.unique(columns):
+        inside = columns == column
+        kept = np.floor(dx).astype(np.int64) == column
+        assert dy[kept].min() == y[inside].min() and dy[kept].max() == y[inside].max()
+    assert np.all(np.diff(dx) >= 0)
+
+
+def test_a_spike_in_a_long_signal_is_drawn(tmp_path):
+    """A million samples, one of them a spike to 5 V over a 1 V sine: the spike reaches the
+    row of 5 V (the top of the data, 5 % under the frame)."""
+    time = np.linspace(0.0, 1.0, 1_000_001)
+    values = np.sin(2 * np.pi * 5 * time)
+    values[400_000] = 5.0
+    pixels = _image(tmp_path, Waveforms(time, {"v(a)": values}))
+    left, top, right, bottom = _frame(pixels)
+    row = round(top + 0.05 / 1.1 * (bottom - top))
+    column = round(left + 0.4 * (right - left))
+    assert any(_near(pixels, BLUE, row, c) for c in range(column - 1, column + 2))
+
+
+def _run(*arguments, cwd):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "circuitnsds", *map(str, arguments)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_command_writes_the_png_without_matplotlib(tmp_path):
+    code = ("import sys; from circuitnsds.cli.main import main; "
+            f"status = main(['run', {str(NETLISTS / 'zener_regulator.cir')!r}, '-o', 'z.csv', "
+            "'--plot', 'z.png', '-q']); print(status, 'matplotlib' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=120)
+    assert done.stdout.split() == ["0", "False"], done.stderr
+    with Image.open(tmp_path / "z.png") as image:
+        assert image.size == (1200, 768)
+    # the figure of the results written to the CSV, drawn in this process
+    data = np.genfromtxt(tmp_path / "z.csv", delimiter=",", names=True, deletechars="")
+    header = (tmp_path / "z.csv").read_text().splitlines()[0].split(",")
+    title = NETLISTS.joinpath("zener_regulator.cir").read_text().splitlines()[0]
+    waves = Waveforms(data[header[0]], {name: data[name] for name in header[1:]}, title=title)
+    plot_waveforms(waves, tmp_path / "here.png")
+    assert (tmp_path / "here.png").read_bytes() == (tmp_path / "z.png").read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["here.png", "z.csv", "z.png"]
+
+
+def test_unwritable_figure_is_the_usual_error(tmp_path):
+    done = _run("run", NETLISTS / "zener_regulator.cir", "-o", tmp_path / "z.csv", "--plot",
+                tmp_path / "missing" / "z.png", "-q", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "cannot write" in done.stderr and "Traceback" not in done.stderr
+    assert (tmp_path / "z.csv").stat().st_size > 0
