@@ -17,10 +17,16 @@ NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_nat
 FLAGS = [] if sys.platform == "win32" else ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 
 
+HEADER = Path("circuitnsds/native.h")
+"""The header every library includes (its export macro and digest function)."""
+
+
 def extension(stem: str) -> Extension:
     source = Path(stem + ".c")
-    digest = hashlib.sha256(source.read_bytes()).hexdigest()[:16]  # as circuitnsds.native.source_digest
+    # as circuitnsds.native.source_digest: the .c file's bytes, then the header's
+    digest = hashlib.sha256(source.read_bytes() + HEADER.read_bytes()).hexdigest()[:16]
     return Extension(stem.replace("/", "."), [str(source)], optional=True, extra_compile_args=FLAGS,
+                     include_dirs=[str(HEADER.parent)], depends=[str(HEADER)],
                      define_macros=[("CIRCUITNSDS_SOURCE_DIGEST", f'"{digest}"')])
 
 

@@ -8,8 +8,8 @@ loops run compiled by numba, or in Python). The libraries use no Python API: the
 pointers to numpy arrays and release the GIL while they run (ctypes calls them so).
 
 A library is used only when it was built from the very source beside it: ``setup.py``
-bakes the SHA-256 of the ``.c`` file into it (``circuitnsds_source_digest()``), and
-:func:`library` compares that with the file's digest now. An editable install whose C
+bakes the SHA-256 of the ``.c`` file and of the shared ``native.h`` into it
+(``circuitnsds_source_digest()``), and :func:`library` compares that with their digest now. An editable install whose C
 source changed since the last ``pip install -e .`` thus warns and falls back to numba,
 never runs stale machine code.
 
@@ -36,10 +36,14 @@ PACKAGE = Path(__file__).resolve().parent
 _LIBRARIES: dict[str, ctypes.CDLL | None] = {}
 
 
+HEADER = PACKAGE / "native.h"
+"""The header every library includes (export macro, ``circuitnsds_source_digest``)."""
+
+
 def source_digest(source: Path) -> str:
     """The digest ``setup.py`` bakes into a library: the first 16 hex digits of the SHA-256
-    of its C source's bytes."""
-    return hashlib.sha256(Path(source).read_bytes()).hexdigest()[:16]
+    of its C source's bytes followed by :data:`HEADER`'s."""
+    return hashlib.sha256(Path(source).read_bytes() + HEADER.read_bytes()).hexdigest()[:16]
 
 
 def _built(stem: Path) -> Path | None:

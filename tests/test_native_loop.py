@@ -252,6 +252,16 @@ def test_stale_library_refused_and_switch(tmp_path: Path, monkeypatch) -> None:
     assert native.library("engine/_dense_native") is None
     monkeypatch.delenv(native.DISABLE_ENV)
     monkeypatch.setattr(native, "_LIBRARIES", {})
+    header = tmp_path / "native.h"  # the header the library was built with (shared by all)
+    shutil.copy(native.HEADER, header)
+    monkeypatch.setattr(native, "HEADER", header)
+    assert native.library("engine/_dense_native") is not None
+    monkeypatch.setattr(native, "_LIBRARIES", {})
+    header.write_text(header.read_text() + "\n/* edited since the build */\n")
+    with pytest.warns(RuntimeWarning, match="built from another version"):
+        assert native.library("engine/_dense_native") is None
+    shutil.copy(stem.parents[1] / "native.h", header)  # the header as built again
+    monkeypatch.setattr(native, "_LIBRARIES", {})
     source.write_text(source.read_text() + "\n/* edited since the build */\n")
     with pytest.warns(RuntimeWarning, match="built from another version"):
         assert native.library("engine/_dense_native") is None

@@ -14,17 +14,7 @@
 #include <math.h>
 #include <stdint.h>
 
-#ifndef CIRCUITNSDS_SOURCE_DIGEST
-#error "build with -DCIRCUITNSDS_SOURCE_DIGEST=\"<digest>\" (setup.py does)"
-#endif
-
-#if defined(_WIN32)
-#define EXPORT __declspec(dllexport)
-#else
-#define EXPORT __attribute__((visibility("default")))
-#endif
-
-EXPORT const char *circuitnsds_source_digest(void) { return CIRCUITNSDS_SOURCE_DIGEST; }
+#include "native.h"
 
 #if defined(_WIN32)
 /* setuptools links the library as an extension module and exports this name on Windows;

@@ -17,17 +17,7 @@
 
 #include <stdint.h>
 
-#ifndef CIRCUITNSDS_SOURCE_DIGEST
-#define CIRCUITNSDS_SOURCE_DIGEST "unknown"
-#endif
-
-#if defined(_WIN32)
-#define EXPORT __declspec(dllexport)
-#else
-#define EXPORT __attribute__((visibility("default")))
-#endif
-
-EXPORT const char *circuitnsds_source_digest(void) { return CIRCUITNSDS_SOURCE_DIGEST; }
+#include "native.h"
 
 __extension__ typedef unsigned __int128 u128; /* gcc and clang */
 
