@@ -9,9 +9,9 @@ pointers to numpy arrays and release the GIL while they run (ctypes calls them s
 
 A library is used only when it was built from the very source beside it: ``setup.py``
 bakes the SHA-256 of the ``.c`` file and of the shared ``native.h`` into it
-(``circuitnsds_source_digest()``), and :func:`library` compares that with their digest now. An editable install whose C
-source changed since the last ``pip install -e .`` thus warns and falls back to numba,
-never runs stale machine code.
+(``circuitnsds_source_digest()``), and :func:`library` compares that with their digest
+now. An editable install whose C source changed since the last ``pip install -e .`` thus
+warns and falls back to numba, never runs stale machine code.
 
 Setting the environment variable ``CIRCUITNSDS_NATIVE=0`` disables the libraries (the
 benchmarks use it to time the numba loops against them).
