@@ -75,7 +75,7 @@ def library(name: str) -> ctypes.CDLL | None:
                           "(reinstall circuitnsds to rebuild it)", RuntimeWarning, stacklevel=2)
         else:
             source = stem.with_suffix(".c")
-            if source.is_file() and source_digest(source) != built_from:
+            if source.is_file() and HEADER.is_file() and source_digest(source) != built_from:
                 warnings.warn(f"circuitnsds: {path.name} was built from another version of "
                               f"{source.name}; its loop runs without it until the package is "
                               "reinstalled (pip install -e . in a checkout)", RuntimeWarning, stacklevel=2)
