@@ -252,3 +252,18 @@ def test_pulse_flat_parts_shortcut_is_the_corner_by_corner_sampling(run):
     ulp = np.spacing(max(abs(pulse.initial), abs(pulse.pulsed), abs(pulse.pulsed - pulse.initial)))
     np.testing.assert_allclose([pulse.value(float(t)) for t in picked], pulse.sample(picked),
                                rtol=0, atol=2 * ulp)
+
+
+def test_pulse_corners_closer_than_the_snapping_distance_snap_once():
+    """A fall that ends 1e-17 s after the period (found by the property test above): late in
+    the run the snapping distance exceeds that gap, and ``value`` and ``sample`` must snap an
+    instant near the period's end to the same corner (they used to differ by 1e-9 V there:
+    ``sample`` snapped twice)."""
+    pulse = Pulse(initial=0.0, pulsed=1.0, delay=0.0, rise=0.0, fall=1e-8, width=1e-17, period=1e-8)
+    corners = np.array([0.0, 0.0, 1e-17, 1e-8 + 1e-17, 1e-8])
+    times = (np.arange(0, 70_370, 7)[:, None] * 1e-8 + corners[None, :]).ravel()
+    times = np.concatenate([np.linspace(0.0, 70_369e-8, 2001), times])
+    times = np.concatenate([times, np.nextafter(times, 0.0), np.nextafter(times, 1.0)])
+    expected = np.array([pulse.value(float(t)) for t in times])
+    np.testing.assert_array_equal(pulse.sample(times), expected)
+    np.testing.assert_array_equal(pulse._sample_corners(times), expected)

@@ -190,10 +190,17 @@ class Pulse(_TwoLevels):
             cycles = np.floor(local / self.period)
             local = local - cycles * self.period
             snap = 64 * np.finfo(float).eps * np.maximum(times, self.period)
-            local = np.where((cycles > 0) & (local <= snap), self.period, local)
-            for corner in (self.period, self.rise + self.width + self.fall,
-                           self.rise + self.width, self.rise):
-                local = np.where(np.abs(local - corner) <= snap, corner, local)
+            # as value(): a period's start is the previous period's end, else the first
+            # corner (in time order) within the snapping distance, each instant snapped once
+            # (two corners closer than that, e.g. a fall ending 1e-17 s after the period,
+            # must not snap an instant twice)
+            snapped = (cycles > 0) & (local <= snap)
+            local = np.where(snapped, self.period, local)
+            for corner in (self.rise, self.rise + self.width, self.rise + self.width + self.fall,
+                           self.period):
+                hit = ~snapped & (np.abs(local - corner) <= snap)
+                local = np.where(hit, corner, local)
+                snapped |= hit
         span = self.pulsed - self.initial
         rise_end, fall_start = self.rise, self.rise + self.width
         fall_end = fall_start + self.fall
