@@ -16,7 +16,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from circuitnsds.checks.rules import ill_conditioning
 from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
@@ -29,6 +28,7 @@ from circuitnsds.circuit.elements import (
     Integrator,
     MinMax,
 )
+from circuitnsds.engine.integrate import DENSE_MAP_LIMIT
 from circuitnsds.errors import NetlistWarning, SimulationError
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -104,15 +104,28 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
     held = [node for node in circuit.initial_voltages if node != "0"]
     rows = [circuit.nodes.index(node) for node in held]
     k = len(held)
-    incidence = sp.csr_matrix((np.ones(k), (rows, np.arange(k))), shape=(n, k))
     system = mlcs.system_matrix(tuple(bool(on) for on in states))
-    matrix = sp.bmat([[system, incidence], [incidence.T, None]], format="csr")
     source = np.concatenate([mlcs.source(0.0),
                              [-circuit.initial_voltages[node][0] for node in held]])
-    coupling = sp.vstack([mlcs.B, sp.csr_matrix((k, mlcs.m))], format="csr")
-    output = sp.hstack([mlcs.C, sp.csr_matrix((mlcs.m, k))], format="csr")
+    if n + k + mlcs.m <= DENSE_MAP_LIMIT:  # a small circuit: dense blocks, no scipy
+        matrix = np.zeros((n + k, n + k))
+        matrix[:n, :n] = system.toarray()
+        matrix[rows, n + np.arange(k)] = matrix[n + np.arange(k), rows] = 1.0
+        coupling = np.zeros((n + k, mlcs.m))
+        coupling[:n] = mlcs.B.toarray()
+        output = np.zeros((mlcs.m, n + k))
+        output[:, :n] = mlcs.C.toarray()
+        pairs = mlcs.D.toarray()
+    else:
+        import scipy.sparse as sp
+
+        incidence = sp.csr_matrix((np.ones(k), (rows, np.arange(k))), shape=(n, k))
+        matrix = sp.bmat([[system.tocsr(), incidence], [incidence.T, None]], format="csr")
+        coupling = sp.vstack([mlcs.B.tocsr(), sp.csr_matrix((k, mlcs.m))], format="csr")
+        output = sp.hstack([mlcs.C.tocsr(), sp.csr_matrix((mlcs.m, k))], format="csr")
+        pairs = mlcs.D.tocsr()
     try:
-        return solve_mlcp(-matrix, -coupling, output, mlcs.D, -source, mlcs.e, tol=tol)
+        return solve_mlcp(-matrix, -coupling, output, pairs, -source, mlcs.e, tol=tol)
     except LCPError as exc:
         ill = ill_conditioning(circuit.elements, math.inf)  # DC: capacitors open, inductors short
         if ill is not None:

@@ -273,7 +273,7 @@ def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
     on Roff, not on the circuit. A current that falls to zero smoothly (a diode's natural
     turn-off) does not count: the cut step must change the current more than ten times as
     much as the step before it."""
-    E = mlcs.E.tocsr()
+    inductances = mlcs.E.diagonal()
     y = trajectory.y
     fluxes: dict[str, np.ndarray] = {}
     if y.shape[0] < 3:
@@ -291,7 +291,7 @@ def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
                              & (change > 10.0 * before))
         if not cut.size:
             continue
-        inductance = float(E[row, row])
+        inductance = float(inductances[row])
         weights = np.zeros(current.size)
         weights[cut + 1] = inductance * (current[cut + 1] - current[cut])
         fluxes[name[2:-1]] = weights
@@ -483,7 +483,7 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
     first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
     y, current = trajectory.y[first:], trajectory.current[first:]
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
-    Y_out, L_out = mlcs.Y_out.tocsr(), mlcs.L_out.tocsr()
+    Y_out, L_out = mlcs.Y_out, mlcs.L_out
     time = trajectory.time[first:]
     # capacitor currents ΔQ/Δt of each step (charge-consistent: their integral is the charge
     # the capacitor took), from n1 through the capacitor to n2; at the first point the step
@@ -519,8 +519,7 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
         j = rows[name]
         values = np.zeros(states.shape[0])
         for matrix, unknowns in ((Y_out, states), (L_out, currents)):
-            span = slice(matrix.indptr[j], matrix.indptr[j + 1])
-            for column, weight in zip(matrix.indices[span], matrix.data[span]):
+            for column, weight in zip(*matrix.row(j)):
                 values += weight * unknowns[:, column]
         return values
 

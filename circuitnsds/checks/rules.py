@@ -229,7 +229,7 @@ def check_stamps(elements: Sequence[Element], mlcs) -> None:
     from circuitnsds.system.mlcs import MLCSBuilder
 
     matrices = (mlcs.E, mlcs.A, mlcs.B, mlcs.C, mlcs.D, mlcs.S)
-    if all(np.isfinite(m.data).all() for m in matrices) and np.isfinite(mlcs.e).all():
+    if all(np.isfinite(m.values).all() for m in matrices) and np.isfinite(mlcs.e).all():
         return
     nodes = list(mlcs.nodes)
     for element in elements:

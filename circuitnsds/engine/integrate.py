@@ -500,7 +500,6 @@ class _Stepping:
                  initial_states: np.ndarray, continued: bool = False,
                  sizes: tuple[float, np.ndarray] | None = None):
         self.mlcs, self.theta, self.tol = mlcs, theta, tol
-        self.E = mlcs.E.tocsr()
         self.differential = mlcs.differential_rows
         self.step_sizes = _step_sizes(np.diff(grid)) if sizes is None else sizes
         self.sizes = self.step_sizes[1].size
@@ -608,8 +607,8 @@ class _Stepping:
                 solved = self._mode_solve(length, theta, states, charge, y, f0, f1, mode)
                 if solved is not None:
                     return solved
-        system = step_system(self.mlcs, length, states, theta, E=self.E)
-        solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        system = step_system(self.mlcs, length, states, theta, dense=self.dense)
+        solver = MLCPSolver(system.K, -system.B, system.C, system.D, tol=self.tol)
         rhs = system.rhs(charge, y, f0, f1)
         try:
             return solver.solve(-rhs, self.mlcs.e, guess=guess)
@@ -669,7 +668,7 @@ class _Stepping:
         mode = self._dense_cache.get(key)
         if mode is None:
             mlcs = self.mlcs
-            E = self.E.toarray()
+            E = mlcs.E.toarray()
             A = mlcs.system_matrix(tuple(bool(s) for s in states)).toarray()
             B, C, D = mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray()
             act = np.flatnonzero(active)
@@ -726,7 +725,7 @@ class _Stepping:
                                        np.asarray(part.active, dtype=bool), theta, row))
                 impulse += part.z * first
                 y, guess = part.u, np.asarray(part.active, dtype=bool)
-                charge = self.E @ y
+                charge = self.mlcs.E @ y
                 start += first
             states[j] = not states[j]
             events.append(SwitchEvent(float(self.grid[k] + start), self.mlcs.switches[j].name,
@@ -788,13 +787,13 @@ class _Stepping:
         # rows divided by h: node rows in amperes, the pair unknowns are currents μ/h
         # (same solution; the solver's normwise test then weighs currents, not charges,
         # against the voltages, and a wrong-signed current of microamperes is caught)
-        system = step_system(self.mlcs, h, states, self.theta_of(cls), E=self.E)
+        system = step_system(self.mlcs, h, states, self.theta_of(cls), dense=self.dense)
         if not system.finite:
             raise SimulationError(
                 f"the step from t = {self.grid[k]:.6g} s (h = {h:.3g} s) gives equations that are "
                 "not finite (capacitance/h or inductance/h overflows)", where=f"t = {self.grid[k]:.6g} s",
                 time=float(self.grid[k]), cause=SimulationError.STEP_NOT_FINITE)
-        solver = MLCPSolver(system.K, -self.mlcs.B, self.mlcs.C, self.mlcs.D, tol=self.tol)
+        solver = MLCPSolver(system.K, -system.B, system.C, system.D, tol=self.tol)
         self.solvers[key] = _StepSolver(solver, system)
         if len(self.solvers) > SOLVER_CACHE_SIZE:
             self.retired.append(self.solvers.popitem(last=False)[1])
@@ -954,7 +953,7 @@ def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
             values[:, column] = stimulus.sample(grid)
     if not np.isfinite(values).all():
         row, column = np.argwhere(~np.isfinite(values))[0]
-        rows = mlcs.S.tocsc()[:, column].indices
+        rows = mlcs.S.rows[mlcs.S.cols == column]
         owners = tuple(mlcs.unknowns[r] for r in rows)
         raise SimulationError(
             f"a source function is {values[row, column]} at t = {grid[row]:.6g} s "

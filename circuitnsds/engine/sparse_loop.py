@@ -42,7 +42,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
 
 from circuitnsds.engine.dense_loop import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH
 from circuitnsds.engine.jit import AVAILABLE, jit, python_version
@@ -138,6 +137,8 @@ class CompiledSparseMap(NamedTuple):
 
 def _csr_arrays(matrix: object, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(indptr, indices, data)`` of ``matrix`` as canonical CSR (int64 indices, float64 data)."""
+    import scipy.sparse as sp
+
     csr = sp.csr_matrix(matrix, dtype=np.float64)  # copies or converts csc/coo/dense alike
     if csr.shape != shape:
         raise ValueError(f"expected a {shape[0]}x{shape[1]} matrix, got {csr.shape[0]}x{csr.shape[1]}")
@@ -157,6 +158,8 @@ def compile_sparse_map(mode: SparseModeMap) -> CompiledSparseMap:
     if tuple(lu.shape) != (size, size):
         raise ValueError(f"the factorisation is {lu.shape[0]}x{lu.shape[1]}, expected {size}x{size} "
                          f"({n} unknowns + {active.size} active pairs)")
+    import scipy.sparse as sp
+
     L = sp.csr_matrix(lu.L, dtype=np.float64)
     U = sp.csr_matrix(lu.U, dtype=np.float64)
     if not np.array_equal(L.diagonal(), np.ones(size)):
@@ -359,6 +362,8 @@ def run_compiled_sparse(cmap: CompiledSparseMap, k0: int, k_end: int, y: np.ndar
     """
     controls = np.asarray(controls, dtype=np.float64).reshape(-1, y.shape[1])
     if controls.shape[0]:
+        import scipy.sparse as sp
+
         controls_csr = sp.csr_matrix(controls)
         controls_csr.eliminate_zeros()
         controls_csr.sort_indices()

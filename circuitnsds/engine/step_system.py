@@ -21,13 +21,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
 
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.theta import THETA_RANGE, theta_in_range
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 __all__ = ["StepSystem", "DenseParts", "ModeBlocks", "step_system", "mode_blocks", "check_theta"]
 
@@ -49,6 +51,8 @@ class StepSystem:
         A: ``A(states)`` (CSR); K: ``E/h - ΘA`` (CSC; may hold inf when ``E/h`` overflows,
             see :attr:`finite`).
         E, S: the MLCS's ``E`` and ``S`` (CSR); B (CSC), C, D (CSR) and e: its pair blocks.
+        The matrices are numpy arrays instead when the system was built ``dense`` (a small
+        circuit: no scipy is imported for it).
 
     The right-hand side's parts (:attr:`carry`, :attr:`source_next`, :attr:`source_now`) are
     computed on first use and kept: every mode of the step shares them.
@@ -67,9 +71,14 @@ class StepSystem:
     e: np.ndarray
 
     @property
+    def is_dense(self) -> bool:
+        """Whether the matrices are numpy arrays (see :func:`step_system`)."""
+        return isinstance(self.K, np.ndarray)
+
+    @property
     def finite(self) -> bool:
         """Whether ``K`` is finite (capacitance/h or inductance/h may overflow)."""
-        return bool(np.isfinite(self.K.data).all())
+        return bool(np.isfinite(self.K if self.is_dense else self.K.data).all())
 
     def rhs(self, charge: np.ndarray, y: np.ndarray, f_now: np.ndarray, f_next: np.ndarray) -> np.ndarray:
         """``r`` of the module docstring with ``charge = E y_k`` (given separately: initial
@@ -80,18 +89,30 @@ class StepSystem:
         return r
 
     @cached_property
-    def carry(self) -> sp.csr_matrix:
+    def carry(self) -> sp.csr_matrix | np.ndarray:
         """``E/h + (I - Θ)A``: the part of ``r`` multiplying ``y_k``."""
+        if self.is_dense:
+            return self.dense.carry
+        import scipy.sparse as sp
+
         return (self.E / self.h + sp.diags(1.0 - self.weights) @ self.A).tocsr()
 
     @cached_property
-    def source_next(self) -> sp.csr_matrix:
+    def source_next(self) -> sp.csr_matrix | np.ndarray:
         """``ΘS``: the part of ``r`` multiplying ``f_{k+1}``."""
+        if self.is_dense:
+            return self.dense.source_next
+        import scipy.sparse as sp
+
         return (sp.diags(self.weights) @ self.S).tocsr()
 
     @cached_property
-    def source_now(self) -> sp.csr_matrix:
+    def source_now(self) -> sp.csr_matrix | np.ndarray:
         """``(I - Θ)S``: the part of ``r`` multiplying ``f_k``."""
+        if self.is_dense:
+            return self.dense.source_now
+        import scipy.sparse as sp
+
         return (sp.diags(1.0 - self.weights) @ self.S).tocsr()
 
     @cached_property
@@ -99,12 +120,17 @@ class StepSystem:
         """``K``, ``B``, ``C``, ``D`` and the right-hand side's parts as numpy arrays, for
         the dense mode maps of a small system (computed on first use and kept)."""
         implicit = (1.0 - self.weights)[:, None]
-        S = self.S.toarray()
+        S, E, A = (_array(self.S), _array(self.E), _array(self.A))
         with np.errstate(all="ignore"):
             # E * (1/h), not E / h: what scipy computes for the sparse E/h (same rounding)
-            carry = self.E.toarray() * (1.0 / self.h) + implicit * self.A.toarray()
-        return DenseParts(self.K.toarray(), self.B.toarray(), self.C.toarray(), self.D.toarray(),
+            carry = E * (1.0 / self.h) + implicit * A
+        return DenseParts(_array(self.K), _array(self.B), _array(self.C), _array(self.D),
                           carry, self.weights[:, None] * S, implicit * S)
+
+
+def _array(matrix: sp.spmatrix | np.ndarray) -> np.ndarray:
+    """``matrix`` as a numpy array (itself if it is one)."""
+    return matrix if isinstance(matrix, np.ndarray) else matrix.toarray()
 
 
 class DenseParts(NamedTuple):
@@ -120,14 +146,24 @@ class DenseParts(NamedTuple):
 
 
 def step_system(mlcs: MLCS, h: float, states: tuple[bool, ...] | np.ndarray = (),
-                theta: float = 1.0, E: sp.csr_matrix | None = None) -> StepSystem:
+                theta: float = 1.0, dense: bool = False) -> StepSystem:
     """The :class:`StepSystem` of ``mlcs`` for a step ``h`` [s], switch ``states`` (closed =
-    true, one per ``mlcs.switches``) and ``theta`` (``E``: ``mlcs.E`` as CSR, if at hand)."""
-    E = mlcs.E.tocsr() if E is None else E
+    true, one per ``mlcs.switches``) and ``theta``; with numpy arrays if ``dense`` (a small
+    circuit), else scipy.sparse matrices."""
     weights = np.where(mlcs.differential_rows, theta, 1.0)
     A = mlcs.system_matrix(tuple(bool(s) for s in states))
+    if dense:
+        E, A = mlcs.E.toarray(), A.toarray()
+        with np.errstate(all="ignore"):
+            # E * (1/h): what scipy computes for the sparse E/h (same rounding either way)
+            K = E * (1.0 / h) - weights[:, None] * A
+        return StepSystem(float(h), float(theta), weights, A, K, E, mlcs.S.toarray(), mlcs.B.toarray(),
+                          mlcs.C.toarray(), mlcs.D.toarray(), mlcs.e)
+    import scipy.sparse as sp
+
+    E = mlcs.E.tocsr()
     with np.errstate(all="ignore"):
-        K = (E / h - sp.diags(weights) @ A).tocsc()
+        K = (E / h - sp.diags(weights) @ A.tocsr()).tocsc()
     return StepSystem(float(h), float(theta), weights, A.tocsr(), K, E, mlcs.S.tocsr(), mlcs.B.tocsc(),
                       mlcs.C.tocsr(), mlcs.D.tocsr(), mlcs.e)
 
@@ -168,6 +204,8 @@ def mode_blocks(system: StepSystem, active: np.ndarray, dense: bool = False) -> 
         W = np.hstack([C[inact], D[np.ix_(inact, act)]])
         W_active = np.hstack([C[act], D[np.ix_(act, act)]])
     else:
+        import scipy.sparse as sp
+
         B, C, D = system.B, system.C, system.D
         carry, source_next, source_now = system.carry, system.source_next, system.source_now
         bordered = sp.bmat([[system.K, -B[:, act]], [C[act], D[act][:, act]]], format="csc")

@@ -2,22 +2,24 @@
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 
 __all__ = ["is_sparse", "as_dense", "as_vector", "as_mask", "bordered"]
 
 
 def is_sparse(x: Any) -> bool:
-    """True for any scipy.sparse matrix or array."""
-    return sp.issparse(x)
+    """True for any scipy.sparse matrix or array (without importing scipy: when it has not
+    been imported, nothing can be one)."""
+    sparse = sys.modules.get("scipy.sparse")
+    return sparse is not None and sparse.issparse(x)
 
 
 def as_dense(x: Any, shape: tuple[int, int] | None = None, name: str = "matrix") -> np.ndarray:
     """A C-contiguous float64 2-D copy-free-if-possible view of ``x`` (sparse is densified)."""
-    if sp.issparse(x):
+    if is_sparse(x):
         arr = np.asarray(x.toarray(), dtype=float)
     else:
         arr = np.asarray(x, dtype=float)
@@ -76,10 +78,10 @@ def bordered(A: Any, C: Any, D: Any, B: Any,
         ``(K_dense, K_sparse_or_None, n, m, input_was_sparse)``.
     """
     blocks = [A, C, D, B]
-    any_sparse = any(sp.issparse(b) for b in blocks)
+    any_sparse = any(is_sparse(b) for b in blocks)
     shapes = []
     for blk in blocks:
-        if sp.issparse(blk):
+        if is_sparse(blk):
             shapes.append(blk.shape)
         else:
             arr = np.asarray(blk, dtype=float)
@@ -88,25 +90,27 @@ def bordered(A: Any, C: Any, D: Any, B: Any,
     m = shapes[3][0] if shapes[3] is not None else None
     if n is None or m is None:
         raise ValueError("A and B must be 2-D")
-    Ad = as_dense(A, (n, n), "A") if not sp.issparse(A) else None
-    Cd = as_dense(C, (n, m), "C") if not sp.issparse(C) else None
-    Dd = as_dense(D, (m, n), "D") if not sp.issparse(D) else None
-    Bd = as_dense(B, (m, m), "B") if not sp.issparse(B) else None
+    Ad = as_dense(A, (n, n), "A") if not is_sparse(A) else None
+    Cd = as_dense(C, (n, m), "C") if not is_sparse(C) else None
+    Dd = as_dense(D, (m, n), "D") if not is_sparse(D) else None
+    Bd = as_dense(B, (m, m), "B") if not is_sparse(B) else None
     exp = {"A": (n, n), "C": (n, m), "D": (m, n), "B": (m, m)}
     for name, blk in zip("ACDB", blocks, strict=True):
-        if sp.issparse(blk) and blk.shape != exp[name]:
+        if is_sparse(blk) and blk.shape != exp[name]:
             raise ValueError(f"{name} has shape {blk.shape}, expected {exp[name]}")
     Ks = None
     if any_sparse:
+        import scipy.sparse as sp
+
         Ks = (
             sp.block_array(
                 [
                     [
-                        sp.csr_array(b) if sp.issparse(b) else sp.csr_array(d)
+                        sp.csr_array(b) if is_sparse(b) else sp.csr_array(d)
                         for b, d in ((A, Ad), (C, Cd))
                     ],
                     [
-                        sp.csr_array(b) if sp.issparse(b) else sp.csr_array(d)
+                        sp.csr_array(b) if is_sparse(b) else sp.csr_array(d)
                         for b, d in ((D, Dd), (B, Bd))
                     ],
                 ],

@@ -14,7 +14,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
+
+from ._inputs import is_sparse
 
 __all__ = ["ruiz"]
 
@@ -30,17 +31,19 @@ def ruiz(K: Any, iters: int = 10) -> tuple[np.ndarray, np.ndarray]:
     c = np.ones(nc)
     if nr == 0 or nc == 0:
         return r, c
-    if sp.issparse(K):
+    if is_sparse(K):
+        import scipy.sparse as sp
+
         A = abs(sp.csr_matrix(K)).astype(float)
     else:
         A = np.abs(np.asarray(K, dtype=float))
     for _ in range(iters):
         S = (
             A.multiply(r[:, None]).multiply(c[None, :])
-            if sp.issparse(A)
+            if is_sparse(A)
             else A * r[:, None] * c[None, :]
         )
-        if sp.issparse(S):
+        if is_sparse(S):
             rmax = np.asarray(S.max(axis=1).todense()).ravel()
             cmax = np.asarray(S.max(axis=0).todense()).ravel()
         else:

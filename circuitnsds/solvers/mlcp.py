@@ -54,9 +54,6 @@ from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg.blas import ddot as _ddot
-from scipy.linalg.blas import idamax as _idamax
 
 from ._inputs import as_mask, as_vector, bordered
 from .enumeration import MAX_ENUM, enumerate_mlcp
@@ -174,6 +171,10 @@ def _equilibrate_pair_columns(
     if np.all(scale == 1.0):
         return K, Ks, None
     factors = np.concatenate([np.ones(n), 1.0 / scale])
+    if isinstance(K, np.ndarray) and Ks is None:
+        return K * factors, None, scale
+    import scipy.sparse as sp
+
     K = K * factors if isinstance(K, np.ndarray) else (K @ sp.diags(factors)).tocsr()
     if Ks is not None:
         Ks = (Ks @ sp.diags(factors)).tocsr()
@@ -306,15 +307,13 @@ class MLCPSolver:
         w = r[n:]
         num = 0.0
         if m:
-            cmp = np.minimum(x[n:] * kappa, w)
-            num = abs(cmp[_idamax(cmp)])
+            num = float(np.abs(np.minimum(x[n:] * kappa, w)).max())
         if n:
-            eq = r[:n]
-            num = max(num, abs(eq[_idamax(eq)]))
+            num = max(num, float(np.abs(r[:n]).max()))
         if self._N == 0:
             return x, w, 0.0, 0.0
-        scale = abs(c[_idamax(c)]) + kappa * abs(x[_idamax(x)])
-        if not np.isfinite(_ddot(r, r)):
+        scale = float(np.abs(c).max()) + kappa * float(np.abs(x).max())
+        if not np.isfinite(np.dot(r, r)):
             return x, w, float("inf"), float(scale)
         if num == 0.0:
             return x, w, 0.0, float(scale)

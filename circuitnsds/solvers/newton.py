@@ -27,9 +27,8 @@ import warnings
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from ._inputs import is_sparse
 from ._scaling import ruiz
 from .linalg import factorise
 from .residual import kappa_of, mlcp_residual
@@ -60,6 +59,9 @@ def _solve(J: Any, rhs: np.ndarray, sparse: bool) -> np.ndarray | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if sparse:
+            import scipy.sparse as sp
+            import scipy.sparse.linalg as spla
+
             try:
                 d = spla.spsolve(sp.csc_matrix(J), rhs)
             except (RuntimeError, ValueError):
@@ -79,6 +81,8 @@ def _polish(K: Any, n: int, c: np.ndarray, active: np.ndarray, sparse: bool) -> 
     if sel.size == 0:
         return x
     if sparse:
+        import scipy.sparse as sp
+
         sub = sp.csc_matrix(K)[sel][:, sel]
     else:
         sub = K[np.ix_(sel, sel)]
@@ -115,7 +119,7 @@ def fb_newton_mlcp(
     Raises:
         LCPSolverFailure: no convergence within ``max_iter`` or line search failure.
     """
-    sparse = sp.issparse(K)
+    sparse = is_sparse(K)
     N = K.shape[0]
     m = N - n
     size = {"n": n, "m": m} if n else {"n": m}
@@ -125,6 +129,8 @@ def fb_newton_mlcp(
     kappa_orig = kappa_of(K)
     rs, cs = ruiz(K)
     if sparse:
+        import scipy.sparse as sp
+
         K = sp.csr_matrix(sp.diags(rs) @ sp.csr_matrix(K) @ sp.diags(cs))
     else:
         K = rs[:, None] * np.asarray(K, dtype=float) * cs[None, :]

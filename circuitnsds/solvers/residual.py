@@ -23,7 +23,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 
 __all__ = ["mlcp_residual", "lcp_residual", "kappa_of", "evaluate", "componentwise_residual",
            "scaled_column_max"]
@@ -117,6 +116,8 @@ def scaled_column_max(absK: Any, n: int, safe: np.ndarray) -> np.ndarray:
     sparse ``|K|``: the relative weight of a pair unknown in the rows it enters."""
     if isinstance(absK, np.ndarray):
         return (absK[:, n:] / safe[:, None]).max(axis=0)
+    import scipy.sparse as sp
+
     scaled = sp.diags(1.0 / safe) @ sp.csc_matrix(absK)[:, n:]
     return np.asarray(scaled.max(axis=0).todense()).ravel()
 

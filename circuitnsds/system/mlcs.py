@@ -32,14 +32,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from circuitnsds.system.stimuli import Stimulus, threshold_crossings
-
-if TYPE_CHECKING:  # scipy (~0.3 s to import) is needed to build the matrices, not to read a netlist
-    import scipy.sparse as sp
+from circuitnsds.system.triplets import Triplets
 
 Row = tuple[tuple[int, float], ...]
 """Sparse row: ``((column, value), ...)``."""
@@ -96,20 +93,20 @@ class SwitchRelation:
 class MLCS:
     """Matrices and names of a circuit's complementarity system (see module docstring)."""
 
-    E: sp.csr_matrix
-    A: sp.csr_matrix
-    B: sp.csr_matrix
-    C: sp.csr_matrix
-    D: sp.csr_matrix
+    E: Triplets
+    A: Triplets
+    B: Triplets
+    C: Triplets
+    D: Triplets
     e: np.ndarray
-    S: sp.csr_matrix
+    S: Triplets
     stimuli: list[Stimulus]
     unknowns: list[str]
     pairs: list[str]
     pair_devices: list[str]
     output_names: list[str]
-    Y_out: sp.csr_matrix
-    L_out: sp.csr_matrix
+    Y_out: Triplets
+    L_out: Triplets
     nodes: list[str] = field(default_factory=list)
     switches: list[SwitchRelation] = field(default_factory=list)
     pair_signs: np.ndarray | None = None
@@ -144,7 +141,7 @@ class MLCS:
     @property
     def differential_rows(self) -> np.ndarray:
         """Boolean mask of the rows of ``E y' = ...`` that carry a time derivative."""
-        return np.asarray(abs(self.E).sum(axis=1)).ravel() > 0
+        return np.bincount(self.E.rows, weights=np.abs(self.E.values), minlength=self.n) > 0
 
     def source(self, t: float) -> np.ndarray:
         """``s(t)`` [A on node rows, V on source rows]."""
@@ -166,22 +163,26 @@ class MLCS:
                                                                  stop), dtype=float))
         return np.unique(np.concatenate([np.zeros(0), *points]))  # sorted, each instant once
 
-    def system_matrix(self, closed: tuple[bool, ...] = ()) -> sp.csr_matrix:
-        """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere)."""
+    def system_matrix(self, closed: tuple[bool, ...] = ()) -> Triplets:
+        """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere): the
+        entries of each closed switch's ``open_row`` give way to its ``closed_row``."""
         if not any(closed):
             return self.A
-        matrix = self.A.tolil()
+        A = self.A
+        replaced = np.zeros(A.nnz, dtype=bool)
+        stamps = []
         for switch, on in zip(self.switches, closed):
             if on:
-                for column, _ in switch.open_row:
-                    matrix[switch.row, column] = 0.0
-                for column, value in switch.closed_row:
-                    matrix[switch.row, column] = value
-        return matrix.tocsr()
+                columns = [column for column, _ in switch.open_row + switch.closed_row]
+                replaced |= (A.rows == switch.row) & np.isin(A.cols, columns)
+                stamps += [(switch.row, column, value) for column, value in switch.closed_row]
+        kept = ~replaced
+        stamps += list(zip(A.rows[kept].tolist(), A.cols[kept].tolist(), A.values[kept].tolist()))
+        return Triplets.from_stamps(stamps, A.shape)
 
     def outputs(self, y: np.ndarray, current: np.ndarray) -> np.ndarray:
         """Output signals for states ``y`` and pair currents ``current`` (rows = time points)."""
-        return y @ self.Y_out.T + current @ self.L_out.T
+        return (self.Y_out @ np.asarray(y).T + self.L_out @ np.asarray(current).T).T
 
     def save(self, path: str | Path) -> None:
         """Write every matrix and name to a ``.npz`` file (dense arrays, readable with numpy)."""
@@ -299,27 +300,16 @@ class MLCSBuilder:
         self._outputs.append((name, [t for t in y_terms if t[0] != self.GROUND], list(pair_terms)))
 
     def build(self) -> MLCS:
-        import scipy.sparse as sp
-
         n, m, k = len(self.unknowns), len(self.pairs), len(self.stimuli)
         shapes = {"E": (n, n), "A": (n, n), "B": (n, m), "C": (m, n), "D": (m, m), "S": (n, k)}
 
-        def assemble(key: str) -> sp.csr_matrix:
-            entries = self._triplets[key]
-            rows = [r for r, _, _ in entries]
-            cols = [c for _, c, _ in entries]
-            vals = [v for _, _, v in entries]
-            return sp.csr_matrix((vals, (rows, cols)), shape=shapes[key], dtype=float)
+        def assemble(key: str) -> Triplets:
+            return Triplets.from_stamps(self._triplets[key], shapes[key])
 
         node_outputs = [(u, [(i, 1.0)], []) for i, u in enumerate(self.unknowns[: len(self.nodes)])]
         outputs = node_outputs + self._outputs
-        y_out = sp.lil_matrix((len(outputs), n))
-        l_out = sp.lil_matrix((len(outputs), m))
-        for row, (_, y_terms, pair_terms) in enumerate(outputs):
-            for col, coefficient in y_terms:
-                y_out[row, col] += coefficient
-            for col, coefficient in pair_terms:
-                l_out[row, col] += coefficient
+        y_out = [(row, col, c) for row, (_, y_terms, _) in enumerate(outputs) for col, c in y_terms]
+        l_out = [(row, col, c) for row, (_, _, pair_terms) in enumerate(outputs) for col, c in pair_terms]
         switches = []
         for relation, control_nodes in self._switches:
             stimulus = None
@@ -336,6 +326,7 @@ class MLCSBuilder:
             stimuli=list(self.stimuli), unknowns=list(self.unknowns), pairs=list(self.pairs),
             pair_devices=list(self.pair_devices), pair_signs=np.array(self.pair_signs, dtype=float),
             output_names=[name for name, _, _ in outputs],
-            Y_out=y_out.tocsr(), L_out=l_out.tocsr(), nodes=list(self.nodes),
+            Y_out=Triplets.from_stamps(y_out, (len(outputs), n)),
+            L_out=Triplets.from_stamps(l_out, (len(outputs), m)), nodes=list(self.nodes),
             switches=switches, stimulus_owners=list(self.stimulus_owners),
         )
