@@ -8,8 +8,8 @@ systems; :meth:`Triplets.tocsr` / :meth:`Triplets.tocsc` hand large ones to scip
 imported then.
 
 The entries are canonical: sorted by row, then column, each position once. Stamps that
-fall on one position are summed in the order scipy.sparse sums duplicates (by increasing
-value), so :meth:`toarray` and :meth:`tocsr` hold the same numbers bit for bit.
+fall on one position are added one after another in the order they were stamped, and
+:meth:`toarray` and :meth:`tocsr` hold the same numbers bit for bit.
 
 Only what the package needs is offered: ``@`` with a vector or a matrix, the shape, the
 dense and the scipy forms. Anything else (``*``, ``abs``, slicing) raises ``TypeError``
@@ -51,7 +51,7 @@ class Triplets:
         values = np.array([v for _, _, v in stamps], dtype=float)
         if rows.min() < 0 or cols.min() < 0 or rows.max() >= shape[0] or cols.max() >= shape[1]:
             raise ValueError(f"a stamp lies outside the {shape[0]}×{shape[1]} matrix")
-        order = np.lexsort((values, cols, rows))  # by row, column, then value (scipy's order)
+        order = np.lexsort((cols, rows))  # by row, then column; stable: stamps in their order
         rows, cols, values = rows[order], cols[order], values[order]
         position = rows * shape[1] + cols
         first = np.concatenate([[True], position[1:] != position[:-1]])

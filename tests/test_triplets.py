@@ -1,0 +1,140 @@
+"""The MLCS's matrices as plain triplets (circuitnsds.system.triplets): the same numbers as
+scipy.sparse builds from the same stamps, products as scipy's CSR product computes them,
+and no operation that would mean something else than it does for scipy or numpy."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from circuitnsds.system.triplets import Triplets
+
+finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def stamped(draw):
+    rows = draw(st.integers(1, 7))
+    cols = draw(st.integers(1, 7))
+    # few positions, many stamps: repeated positions are the rule (a node's diagonal)
+    positions = st.tuples(st.integers(0, rows - 1), st.integers(0, cols - 1))
+    stamps = draw(st.lists(st.tuples(positions, finite), max_size=25))
+    return [(r, c, v) for (r, c), v in stamps], (rows, cols)
+
+
+@given(stamped())
+@settings(max_examples=300, deadline=None)
+def test_the_stamps_sum_to_the_matrix_in_every_form(case):
+    stamps, shape = case
+    triplets = Triplets.from_stamps(stamps, shape)
+    exact = np.zeros(shape)  # each position's exact sum, rounded once
+    magnitude = np.zeros(shape)
+    for r, c in {(r, c) for r, c, _ in stamps}:
+        exact[r, c] = math.fsum(v for rr, cc, v in stamps if (rr, cc) == (r, c))
+        magnitude[r, c] = sum(abs(v) for rr, cc, v in stamps if (rr, cc) == (r, c))
+    # stamps added one after another: within (count - 1)·eps·Σ|v| of the exact sum
+    assert np.all(np.abs(triplets.toarray() - exact) <= len(stamps) * 2.3e-16 * magnitude)
+    stamped_in_order = np.zeros(shape)
+    for r, c, v in stamps:
+        stamped_in_order[r, c] += v
+    assert np.array_equal(triplets.toarray(), stamped_in_order)  # in the order stamped
+    reference = sp.csr_matrix(([v for *_, v in stamps], ([r for r, *_ in stamps], [c for _, c, _ in stamps])),
+                              shape=shape, dtype=float)  # scipy: the same sums, to rounding
+    assert np.all(np.abs(triplets.toarray() - reference.toarray()) <= len(stamps) * 4.5e-16 * magnitude)
+    assert np.array_equal(triplets.tocsr().toarray(), triplets.toarray())  # bit for bit
+    assert np.array_equal(triplets.tocsc().toarray(), triplets.toarray())
+    position = triplets.rows * shape[1] + triplets.cols
+    assert np.all(np.diff(position) > 0)  # canonical: sorted, each position once
+    assert np.array_equal(triplets.diagonal(), np.diagonal(triplets.toarray()))
+    for i in range(shape[0]):
+        columns, values = triplets.row(i)
+        dense = np.zeros(shape[1])
+        dense[columns] = values
+        assert np.array_equal(dense, triplets.toarray()[i])
+
+
+@given(stamped(), st.data())
+@settings(max_examples=300, deadline=None)
+def test_products_are_scipys_csr_products_bit_for_bit(case, data):
+    stamps, shape = case
+    triplets = Triplets.from_stamps(stamps, shape)
+    csr = triplets.tocsr()
+    vector = np.array(data.draw(st.lists(finite, min_size=shape[1], max_size=shape[1])))
+    assert np.array_equal(triplets @ vector, csr @ vector)
+    k = data.draw(st.integers(0, 3))
+    entries = data.draw(st.lists(finite, min_size=shape[1] * k, max_size=shape[1] * k))
+    matrix = np.array(entries).reshape(shape[1], k)
+    assert np.array_equal(triplets @ matrix, csr @ matrix)
+    phasor = vector + 1j * vector[::-1]
+    assert np.array_equal(triplets @ phasor, csr @ phasor)  # complex: not cast to real
+
+
+def test_a_stamp_outside_the_matrix_is_refused():
+    with pytest.raises(ValueError, match="outside"):
+        Triplets.from_stamps([(2, 0, 1.0)], (2, 2))
+
+
+def test_operations_with_another_meaning_raise_instead_of_answering():
+    triplets = Triplets.from_stamps([(0, 0, 2.0), (1, 0, -1.0)], (2, 2))
+    with pytest.raises(TypeError):
+        triplets * 2.0  # noqa: B018 (scipy: scale; numpy: elementwise; here: neither)
+    with pytest.raises(TypeError):
+        abs(triplets)
+    with pytest.raises(TypeError):
+        triplets[0]  # noqa: B018
+    with pytest.raises(ValueError, match="cannot multiply"):
+        triplets @ np.ones(3)
+    with pytest.raises((TypeError, ValueError)):
+        np.ones(2) @ triplets  # noqa: B018
+    assert not triplets.values.flags.writeable  # shared by everything that reads the MLCS
+
+
+def test_the_mlcs_of_a_netlist_matches_its_dense_stamping(tmp_path):
+    """The bundled bridge's MLCS: every product the engine forms from triplets equals the
+    dense product, and the dense step system is the sparse one made dense."""
+    from circuitnsds import read_netlist
+    from circuitnsds.engine.step_system import step_system
+
+    mlcs = read_netlist("netlists/bridge_rectifier.cir").mlcs()
+    y = np.linspace(-1.0, 2.0, mlcs.n)
+    assert np.array_equal(mlcs.E @ y, mlcs.E.toarray() @ y)
+    dense, sparse = step_system(mlcs, 1e-5, dense=True), step_system(mlcs, 1e-5)
+    assert dense.is_dense and not sparse.is_dense
+    for name in ("A", "K", "E", "S", "B", "C", "D"):
+        assert np.array_equal(getattr(dense, name), getattr(sparse, name).toarray()), name
+    for name in ("carry", "source_next", "source_now"):
+        assert np.array_equal(getattr(dense, name), getattr(sparse, name).toarray()), name
+
+
+def test_a_small_circuit_runs_without_importing_scipy(tmp_path):
+    """The point of the triplets: `circuitnsds run` of the bundled bridge (CSV and PNG) and
+    of a switched buck through the Python API import no scipy module."""
+    script = textwrap.dedent(f"""
+        import sys
+        from circuitnsds.cli.main import main
+        status = main(["run", {str(_bundled("bridge_rectifier.cir"))!r}, "-o", {str(tmp_path / "b.csv")!r},
+                       "--plot", {str(tmp_path / "b.png")!r}])
+        import circuitnsds
+        waves = circuitnsds.read_netlist({str(_bundled("buck_converter.cir"))!r}).transient(1e-6, 2e-4)
+        loaded = sorted(m for m in sys.modules if m == "scipy" or m.startswith("scipy."))
+        print(status, len(waves.time), loaded[:5])
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    status, points, loaded = done.stdout.split(" ", 2)
+    assert status == "0" and int(points) > 100
+    assert loaded.strip() == "[]", f"scipy was imported: {loaded}"
+
+
+def _bundled(name: str):
+    from pathlib import Path
+
+    return Path(__file__).resolve().parent.parent / "netlists" / name
