@@ -511,6 +511,7 @@ def _selected(args: argparse.Namespace, waves):
     ``--tstart``/``--tstop`` window and ``--every`` decimation applied."""
     import numpy as np
 
+    from circuitnsds.arrays import sorted_unique
     from circuitnsds.errors import CircuitError
     from circuitnsds.output.measure import MeasurementError, _series
     from circuitnsds.output.waveforms import Waveforms
@@ -537,7 +538,7 @@ def _selected(args: argparse.Namespace, waves):
         raise CircuitError(f"no time point in the window --tstart/--tstop "
                            f"(the run spans {time[0]:g} .. {time[-1]:g} s)", where="--tstart")
     if every > 1:
-        index = np.unique(np.append(index[::every], index[-1]))
+        index = sorted_unique(np.append(index[::every], index[-1]))
     if not extra and index.size == time.size:
         return waves
     signals = {name: np.asarray(waves[name])[index] for name in waves.names}

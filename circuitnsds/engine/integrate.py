@@ -46,6 +46,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from circuitnsds.arrays import sorted_unique
 from circuitnsds.engine.dense_loop import (
     STOP_LEFT_MODE,
     FreeSwitches,
@@ -934,7 +935,7 @@ def _step_sizes(steps: np.ndarray) -> tuple[float, np.ndarray]:
     quantum = 1e-9 * steps.max()
     rounded = np.round(steps / quantum)
     common = rounded[steps.size // 2]
-    return quantum, np.unique(np.append(rounded[rounded != common], common))
+    return quantum, sorted_unique(np.append(rounded[rounded != common], common))
 
 
 def _step_classes(steps: np.ndarray, sizes: tuple[float, np.ndarray] | None = None) -> np.ndarray:

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from circuitnsds.arrays import sorted_unique
+
 MERGE_FRACTION = 1e-9
 """Grid points closer than this fraction of the step to a breakpoint are merged into it."""
 
@@ -29,7 +31,7 @@ def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = 
     regular = np.arange(count + 1) * step
     regular[-1] = stop
     tolerance = MERGE_FRACTION * step
-    points = np.unique(np.asarray(breakpoints, dtype=float))
+    points = sorted_unique(np.asarray(breakpoints, dtype=float))
     points = points[(points > tolerance) & (points < stop - tolerance)]
     if points.size > 1:  # breakpoints within rounding noise of each other are one
         points = points[np.concatenate([[True], np.diff(points) > tolerance])]

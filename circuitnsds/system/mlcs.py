@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from circuitnsds.arrays import sorted_unique
 from circuitnsds.system.stimuli import Stimulus, threshold_crossings
 from circuitnsds.system.triplets import Triplets
 
@@ -161,7 +162,7 @@ class MLCS:
                 for level in levels:
                     points.append(np.asarray(threshold_crossings(self.stimuli[column], sign * level,
                                                                  stop), dtype=float))
-        return np.unique(np.concatenate([np.zeros(0), *points]))  # sorted, each instant once
+        return sorted_unique(np.concatenate([np.zeros(0), *points]))  # sorted, each instant once
 
     def system_matrix(self, closed: tuple[bool, ...] = ()) -> Triplets:
         """``A`` with switch ``j`` closed where ``closed[j]`` is true (open elsewhere): the
