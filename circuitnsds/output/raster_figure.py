@@ -399,7 +399,8 @@ def _draw_legend(draw, box, panel, font, rows, pt) -> None:
 
 
 def encode_png(image: Image.Image, dpi: float = 120) -> bytes:
-    """``image`` as PNG bytes (with its dpi recorded, as matplotlib records it)."""
+    """``image`` as PNG bytes (with its dpi recorded, as matplotlib records it). zlib level 3:
+    the bridge's figure takes 0.021 s and 64 kB, against 0.032 s and 58 kB at level 6."""
     buffer = io.BytesIO()
-    image.save(buffer, format="PNG", dpi=(dpi, dpi), compress_level=6)
+    image.save(buffer, format="PNG", dpi=(dpi, dpi), compress_level=3)
     return buffer.getvalue()
