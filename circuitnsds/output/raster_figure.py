@@ -99,7 +99,7 @@ def nice_ticks(low: float, high: float, bins: int = 9) -> tuple[np.ndarray, floa
     tolerance = 1e-10 * max(abs(low), abs(high))  # ticks on an end are kept despite rounding
     for mantissa in STEPS + tuple(10 * s for s in STEPS[1:]):
         step = mantissa * scale
-        if step < raw * (1 - 1e-12):
+        if step < raw:  # strictly, as matplotlib: 1.0..1.02 in 8 bins (raw 0.0025000000000000022) steps 0.005
             continue
         first = math.ceil((low - tolerance) / step)
         last = math.floor((high + tolerance) / step)
