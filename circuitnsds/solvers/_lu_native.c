@@ -271,6 +271,20 @@ EXPORT double circuitnsds_lu_factor(int64_t n, double *a, int32_t *ipiv) {
     return circuitnsds_lu_rcond(n, a, anorm);
 }
 
+/* y[r] -= a * x[r] for r < count: one row of a right-hand side matrix from another (two
+ * rows, never the same; unrolled by four, the same operations). */
+static void axpy_row(int64_t count, double a, const double *restrict x, double *restrict y) {
+    int64_t r = 0;
+    for (; r + 4 <= count; r += 4) {
+        y[r] -= a * x[r];
+        y[r + 1] -= a * x[r + 1];
+        y[r + 2] -= a * x[r + 2];
+        y[r + 3] -= a * x[r + 3];
+    }
+    for (; r < count; r++)
+        y[r] -= a * x[r];
+}
+
 /* Solve K X = B in place in b (n x nrhs, C order) with the factors lu and pivots ipiv of
  * circuitnsds_lu_factor (dgetrs, no transpose). */
 EXPORT void circuitnsds_lu_solve(int64_t n, int64_t nrhs, const double *lu, const int32_t *ipiv,
@@ -292,23 +306,14 @@ EXPORT void circuitnsds_lu_solve(int64_t n, int64_t nrhs, const double *lu, cons
     }
     for (int64_t i = 1; i < n; i++) {  /* L: row i of B loses the terms k = 0 .. i-1 */
         const double *row = lu + i * n;
-        double *bi = b + i * nrhs;
-        for (int64_t k = 0; k < i; k++) {
-            const double l = row[k];
-            const double *bk = b + k * nrhs;
-            for (int64_t r = 0; r < nrhs; r++)
-                bi[r] -= l * bk[r];
-        }
+        for (int64_t k = 0; k < i; k++)
+            axpy_row(nrhs, row[k], b + k * nrhs, b + i * nrhs);
     }
     for (int64_t i = n - 1; i >= 0; i--) {  /* U: the terms k = n-1 .. i+1, then the division */
         const double *row = lu + i * n;
         double *bi = b + i * nrhs;
-        for (int64_t k = n - 1; k > i; k--) {
-            const double u = row[k];
-            const double *bk = b + k * nrhs;
-            for (int64_t r = 0; r < nrhs; r++)
-                bi[r] -= u * bk[r];
-        }
+        for (int64_t k = n - 1; k > i; k--)
+            axpy_row(nrhs, row[k], b + k * nrhs, bi);
         const double pivot = row[i];
         for (int64_t r = 0; r < nrhs; r++)
             bi[r] /= pivot;
