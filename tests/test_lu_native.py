@@ -214,6 +214,11 @@ def test_solve_arguments() -> None:
         factorise(np.ones((2, 3)))
     empty = factorise(np.zeros((0, 0)))
     assert empty.ok and empty.solve(np.zeros(0)).shape == (0,)
+    # the public constructor takes the C library's factors only
+    again = LU(lu.lu, lu.piv, lu.rcond)
+    assert np.array_equal(again.solve(np.array([1.0, 2.0, 3.0])), lu.solve(np.array([1.0, 2.0, 3.0])))
+    with pytest.raises(ValueError, match="C-ordered"):
+        LU(np.asfortranarray(lu.lu), lu.piv, lu.rcond)
     # K itself is not modified (factorised in a copy)
     K_before = K.copy()
     factorise(K)

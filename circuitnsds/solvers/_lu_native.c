@@ -215,6 +215,20 @@ EXPORT double circuitnsds_lu_rcond(int64_t n, const double *lu, double anorm) {
     return rcond;
 }
 
+/* y[r] -= a * x[r] for r < count: part of a row of a matrix from another row (never the
+ * same; unrolled by four, the same operations, so that the compiler vectorises it). */
+static void axpy_row(int64_t count, double a, const double *restrict x, double *restrict y) {
+    int64_t r = 0;
+    for (; r + 4 <= count; r += 4) {
+        y[r] -= a * x[r];
+        y[r + 1] -= a * x[r + 1];
+        y[r + 2] -= a * x[r + 2];
+        y[r + 3] -= a * x[r + 3];
+    }
+    for (; r < count; r++)
+        y[r] -= a * x[r];
+}
+
 /* Factorise the n x n matrix a in place (see the top of the file); returns 0, or k + 1 for
  * the first exactly zero pivot U[k][k] (LAPACK's info; the factorisation is completed). */
 static int64_t factor(int64_t n, double *a, int32_t *ipiv) {
@@ -245,12 +259,8 @@ static int64_t factor(int64_t n, double *a, int32_t *ipiv) {
         } else if (info == 0) {
             info = k + 1;
         }
-        for (int64_t i = k + 1; i < n; i++) {  /* the rank-one update of the trailing block */
-            double *rowi = a + i * n;
-            const double l = rowi[k];
-            for (int64_t j = k + 1; j < n; j++)
-                rowi[j] -= l * rowk[j];
-        }
+        for (int64_t i = k + 1; i < n; i++)  /* the rank-one update of the trailing block */
+            axpy_row(n - k - 1, a[i * n + k], rowk + k + 1, a + i * n + k + 1);
     }
     return info;
 }
@@ -269,20 +279,6 @@ EXPORT double circuitnsds_lu_factor(int64_t n, double *a, int32_t *ipiv) {
     if (factor(n, a, ipiv) != 0)
         return 0.0;
     return circuitnsds_lu_rcond(n, a, anorm);
-}
-
-/* y[r] -= a * x[r] for r < count: one row of a right-hand side matrix from another (two
- * rows, never the same; unrolled by four, the same operations). */
-static void axpy_row(int64_t count, double a, const double *restrict x, double *restrict y) {
-    int64_t r = 0;
-    for (; r + 4 <= count; r += 4) {
-        y[r] -= a * x[r];
-        y[r + 1] -= a * x[r + 1];
-        y[r + 2] -= a * x[r + 2];
-        y[r + 3] -= a * x[r + 3];
-    }
-    for (; r < count; r++)
-        y[r] -= a * x[r];
 }
 
 /* Solve K X = B in place in b (n x nrhs, C order) with the factors lu and pivots ipiv of

@@ -116,6 +116,14 @@ class LU:
         self._call = (functions[1], ctypes.addressof(_DOUBLE.from_buffer(lu)),
                       ctypes.addressof(_INT32.from_buffer(piv))) if size else None
 
+    @classmethod
+    def _made(cls, lu: np.ndarray, piv: np.ndarray, rcond: float, call: tuple | None) -> LU:
+        """The constructor without its checks, for :func:`factorise` (``call``: the C solve
+        and the factors' addresses, ``None`` for size 0)."""
+        self = cls.__new__(cls)
+        self.lu, self.piv, self.rcond, self.size, self._call = lu, piv, rcond, lu.shape[0], call
+        return self
+
     @property
     def ok(self) -> bool:
         """True when the matrix is not numerically singular."""
@@ -169,9 +177,10 @@ def factorise(K: np.ndarray) -> LU:
     size = lu.shape[0]
     piv = np.zeros(size, dtype=np.int32)
     if size == 0:
-        return LU(lu, piv, 1.0)
-    rcond = functions[0](size, _DOUBLE.from_buffer(lu), _INT32.from_buffer(piv))
-    return LU(lu, piv, rcond)
+        return LU._made(lu, piv, 1.0, None)
+    lu_buffer, piv_buffer = _DOUBLE.from_buffer(lu), _INT32.from_buffer(piv)
+    rcond = functions[0](size, lu_buffer, piv_buffer)
+    return LU._made(lu, piv, rcond, (functions[1], ctypes.addressof(lu_buffer), ctypes.addressof(piv_buffer)))
 
 
 def _factorise_lapack(K: np.ndarray) -> LU:
