@@ -18,9 +18,12 @@ LAPACK (scipy's) and against what the theory of LU with partial pivoting guarant
 
 from __future__ import annotations
 
+import copy
 import ctypes
+import gc
 import json
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -223,6 +226,24 @@ def test_solve_arguments() -> None:
     K_before = K.copy()
     factorise(K)
     assert np.array_equal(K, K_before)
+
+
+def test_copies_and_pickles_take_their_own_addresses(monkeypatch) -> None:
+    K = np.random.default_rng(5).standard_normal((7, 7)) + 7 * np.eye(7)
+    b = np.arange(7.0)
+    expected = np.linalg.solve(K, b)
+    lu = factorise(K)
+    copies = [copy.copy(lu), copy.deepcopy(lu), pickle.loads(pickle.dumps(lu))]
+    del lu
+    gc.collect()  # the deep copy and the unpickled one own their arrays, not the original's
+    for other in copies:
+        assert type(other) is LU and other.rcond > 0
+        assert np.allclose(other.solve(b), expected, rtol=1e-13)
+    data = pickle.dumps(copies[0])
+    monkeypatch.setattr(linalg, "_native", [None])  # unpickled where the library is not built
+    fallback = pickle.loads(data)
+    assert type(fallback) is not LU and np.allclose(fallback.solve(b), expected, rtol=1e-13)
+    assert np.allclose(pickle.loads(pickle.dumps(fallback)).solve(b), expected, rtol=1e-13)
 
 
 # -- without the library ----------------------------------------------------------------------

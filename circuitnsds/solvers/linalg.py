@@ -124,6 +124,11 @@ class LU:
         self.lu, self.piv, self.rcond, self.size, self._call = lu, piv, rcond, lu.shape[0], call
         return self
 
+    def __reduce__(self):
+        """Copied and pickled as its arrays: a copy takes the addresses of its own (and is
+        solved by scipy's LAPACK in a process without the C library)."""
+        return _rebuilt, (self.lu, self.piv, self.rcond)
+
     @property
     def ok(self) -> bool:
         """True when the matrix is not numerically singular."""
@@ -146,7 +151,6 @@ class _LapackLU(LU):
     without the C library."""
 
     __slots__ = ()
-    getrs = None  # scipy.linalg.lapack.dgetrs, set at the first factorisation
 
     def __init__(self, lu: np.ndarray, piv: np.ndarray, rcond: float) -> None:
         self.lu = lu
@@ -159,8 +163,29 @@ class _LapackLU(LU):
         """Solve ``K x = b`` (``b`` 1-D or 2-D) by LAPACK ``getrs``."""
         if self.size == 0:
             return np.zeros_like(b, dtype=float)
-        x, _ = self.getrs(self.lu, self.piv, b)
+        x, _ = _getrs()(self.lu, self.piv, b)
         return x
+
+
+_lapack_getrs: list = []  # [scipy.linalg.lapack.dgetrs], imported at the first fallback solve
+
+
+def _getrs():
+    """scipy's LAPACK ``dgetrs``."""
+    if not _lapack_getrs:
+        from scipy.linalg import lapack
+
+        _lapack_getrs.append(lapack.dgetrs)
+    return _lapack_getrs[0]
+
+
+def _rebuilt(lu: np.ndarray, piv: np.ndarray, rcond: float) -> LU:
+    """The :class:`LU` of the factors ``lu`` (either order) and pivots ``piv``: the C
+    library's when it is loaded, else scipy's (unpickling, copying)."""
+    piv = np.ascontiguousarray(piv, dtype=np.int32)
+    if _native_functions() is not None:
+        return LU(np.ascontiguousarray(lu, dtype=np.float64), piv, rcond)
+    return _LapackLU(np.asfortranarray(lu, dtype=np.float64), piv, rcond)
 
 
 def factorise(K: np.ndarray) -> LU:
@@ -188,7 +213,6 @@ def _factorise_lapack(K: np.ndarray) -> LU:
     import scipy.linalg as sla
     from scipy.linalg import lapack
 
-    _LapackLU.getrs = lapack.dgetrs
     size = K.shape[0]
     if size == 0:
         return _LapackLU(np.zeros((0, 0)), np.zeros(0, dtype=np.int32), 1.0)
