@@ -67,7 +67,7 @@ def _native_functions():
             factor.argtypes = [ctypes.c_int64, ctypes.POINTER(_DOUBLE), ctypes.POINTER(_INT32)]
             factor.restype = ctypes.c_double
             solve = library.circuitnsds_lu_solve
-            solve.argtypes = [ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p,
+            solve.argtypes = [ctypes.c_int64, ctypes.c_int64, ctypes.POINTER(_DOUBLE), ctypes.POINTER(_INT32),
                               ctypes.POINTER(_DOUBLE)]
             solve.restype = None
             functions = (factor, solve)
@@ -102,7 +102,7 @@ class LU:
 
     def __init__(self, lu: np.ndarray, piv: np.ndarray, rcond: float) -> None:
         """Factors of the C library (see the attributes); the C solve's function and the
-        factors' addresses are taken here, once."""
+        factors' addresses are taken here, once (held with the arrays they point into)."""
         size = lu.shape[0]
         functions = _native_functions()
         if (functions is None or lu.shape != (size, size) or piv.shape != (size,)
@@ -113,13 +113,13 @@ class LU:
         self.piv = piv
         self.rcond = rcond
         self.size = size
-        self._call = (functions[1], ctypes.addressof(_DOUBLE.from_buffer(lu)),
-                      ctypes.addressof(_INT32.from_buffer(piv))) if size else None
+        self._call = (functions[1], _DOUBLE.from_buffer(lu), _INT32.from_buffer(piv)) if size else None
 
     @classmethod
     def _made(cls, lu: np.ndarray, piv: np.ndarray, rcond: float, call: tuple | None) -> LU:
         """The constructor without its checks, for :func:`factorise` (``call``: the C solve
-        and the factors' addresses, ``None`` for size 0)."""
+        and the factors as ctypes objects sharing their memory, which keep them alive;
+        ``None`` for size 0)."""
         self = cls.__new__(cls)
         self.lu, self.piv, self.rcond, self.size, self._call = lu, piv, rcond, lu.shape[0], call
         return self
@@ -141,8 +141,8 @@ class LU:
         if not 0 < x.ndim < 3 or x.shape[0] != size:
             raise ValueError(f"LU.solve: b of shape {x.shape} for a {size}x{size} matrix")
         if x.size:
-            solve, lu_at, piv_at = self._call
-            solve(size, x.size // size, lu_at, piv_at, _DOUBLE.from_buffer(x))
+            solve, lu_buffer, piv_buffer = self._call
+            solve(size, x.size // size, lu_buffer, piv_buffer, _DOUBLE.from_buffer(x))
         return x
 
 
@@ -205,7 +205,7 @@ def factorise(K: np.ndarray) -> LU:
         return LU._made(lu, piv, 1.0, None)
     lu_buffer, piv_buffer = _DOUBLE.from_buffer(lu), _INT32.from_buffer(piv)
     rcond = functions[0](size, lu_buffer, piv_buffer)
-    return LU._made(lu, piv, rcond, (functions[1], ctypes.addressof(lu_buffer), ctypes.addressof(piv_buffer)))
+    return LU._made(lu, piv, rcond, (functions[1], lu_buffer, piv_buffer))
 
 
 def _factorise_lapack(K: np.ndarray) -> LU:
