@@ -265,6 +265,11 @@ def test_fallback_to_scipy(monkeypatch) -> None:
     assert np.allclose(lapack_lu.solve(b[:, 0]), native_lu.solve(b[:, 0]), rtol=1e-12)
     assert factorise(np.zeros((3, 3))).rcond == 0.0
     assert factorise(np.zeros((0, 0))).solve(np.zeros(0)).shape == (0,)
+    K_before = K.copy()
+    factorise(K)
+    assert np.array_equal(K, K_before)
+    with pytest.raises(ValueError, match="square"):
+        factorise(np.ones((2, 3)))
 
 
 def test_switched_off_by_the_environment() -> None:

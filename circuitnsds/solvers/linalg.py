@@ -194,11 +194,11 @@ def factorise(K: np.ndarray) -> LU:
     estimate is not. By the C library when it is built (:func:`native_loaded`), else by
     scipy's LAPACK (``getrf``, ``gecon``), imported then."""
     functions = _native_functions()
-    if functions is None:
-        return _factorise_lapack(K)
-    lu = np.array(K, dtype=np.float64, order="C")
+    lu = np.array(K, dtype=np.float64, order="C" if functions is not None else "F")
     if lu.ndim != 2 or lu.shape[0] != lu.shape[1]:
         raise ValueError(f"factorise: a square matrix expected, not one of shape {lu.shape}")
+    if functions is None:
+        return _factorise_lapack(lu)
     size = lu.shape[0]
     piv = np.zeros(size, dtype=np.int32)
     if size == 0:
@@ -209,22 +209,22 @@ def factorise(K: np.ndarray) -> LU:
 
 
 def _factorise_lapack(K: np.ndarray) -> LU:
-    """:func:`factorise` by scipy's LAPACK."""
+    """:func:`factorise` by scipy's LAPACK (``K``: a square float64 array, overwritten)."""
     import scipy.linalg as sla
     from scipy.linalg import lapack
 
     size = K.shape[0]
     if size == 0:
         return _LapackLU(np.zeros((0, 0)), np.zeros(0, dtype=np.int32), 1.0)
+    anorm = float(np.abs(K).sum(axis=0).max())  # (before K is overwritten)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        lu, piv = sla.lu_factor(K, check_finite=False)
+        lu, piv = sla.lu_factor(K, overwrite_a=True, check_finite=False)
     if not np.all(np.isfinite(lu)):
         return _LapackLU(lu, piv, 0.0)
     diag = np.abs(np.diag(lu))
     if diag.min() == 0.0:
         return _LapackLU(lu, piv, 0.0)
-    anorm = float(np.abs(K).sum(axis=0).max())
     rcond, info = lapack.dgecon(lu, anorm, norm="1")
     if info != 0 or not np.isfinite(rcond):
         rcond = 0.0
