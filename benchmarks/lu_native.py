@@ -4,7 +4,8 @@ small runs without scipy); prints two tables.
 Table 1, per call (µs, the best of ``--repeats`` rounds of many calls): ``factorise`` by the
 C library and by scipy (``lu_factor`` + ``gecon``, the fallback and what it replaced),
 ``LU.solve`` with one right-hand side and with ``n + 3`` of them (a mode map's width), and
-the bare f2py ``dgetrs`` call the solve replaced, for n = 5, 10, 20, 40.
+the bare f2py ``dgetrs`` call the solve replaced, for n = 5, 10, 20, 40; then the same for
+large matrices (the C library forced beyond ``NATIVE_MAX``, where scipy takes over).
 
 Table 2, imports in fresh processes (``python -X importtime``): what ``import
 circuitnsds.solvers.linalg`` costs itself (the cumulative time of its line: the imports it
@@ -78,6 +79,34 @@ def call_table(repeats: int) -> None:
         print(f"{name:24s}" + "".join(f"{times[name]:8.2f}" for times in columns))
 
 
+def crossover_table(repeats: int) -> None:
+    """``factorise`` and a 5-column solve of large matrices, C (NATIVE_MAX lifted) and scipy:
+    where :data:`circuitnsds.solvers.linalg.NATIVE_MAX` comes from."""
+    from scipy.linalg import lapack
+
+    print("\nlarge n [ms]: factorise C / scipy, solve 5 columns C / scipy")
+    limit = linalg.NATIVE_MAX
+    linalg.NATIVE_MAX = 10**9
+    try:
+        for n in (60, 100, 200, 400, 1000):
+            K = np.random.default_rng(n).standard_normal((n, n)) + np.sqrt(n) * np.eye(n)
+            B = np.ones((n, 5))
+            native = linalg.factorise(K)
+            factor_c = per_call(lambda: linalg.factorise(K), repeats) / 1e3  # noqa: B023
+            solve_c = per_call(lambda: native.solve(B), repeats) / 1e3  # noqa: B023
+            lu, piv = lapack.dgetrf(K)[:2]
+            fallback = linalg._LapackLU(lu, piv, 1.0)
+            linalg._native[:] = [None]
+            try:
+                factor_s = per_call(lambda: linalg.factorise(K), repeats) / 1e3  # noqa: B023
+            finally:
+                linalg._native.clear()
+            solve_s = per_call(lambda: fallback.solve(B), repeats) / 1e3  # noqa: B023
+            print(f"  n = {n:5d}   {factor_c:8.3f} / {factor_s:8.3f}   {solve_c:8.3f} / {solve_s:8.3f}")
+    finally:
+        linalg.NATIVE_MAX = limit
+
+
 def import_table(root: Path, repeats: int) -> None:
     script = "import sys, circuitnsds.solvers.linalg; print('scipy' in sys.modules)"
     environment = dict(os.environ, PYTHONPATH=str(root))
@@ -109,6 +138,7 @@ def main() -> None:
     arguments = parser.parse_args()
     assert linalg.native_loaded(), "the C LU is not built (python setup.py build_ext --inplace)"
     call_table(arguments.repeats)
+    crossover_table(arguments.repeats)
     import_table(arguments.root.resolve(), arguments.repeats)
 
 

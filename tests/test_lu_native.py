@@ -246,6 +246,17 @@ def test_copies_and_pickles_take_their_own_addresses(monkeypatch) -> None:
     assert np.allclose(pickle.loads(pickle.dumps(fallback)).solve(b), expected, rtol=1e-13)
 
 
+def test_large_matrices_go_to_lapack() -> None:
+    # above NATIVE_MAX scipy's blocked LAPACK is faster (benchmarks/lu_native.py)
+    n = linalg.NATIVE_MAX
+    for size, native_type in ((n, True), (n + 1, False)):
+        K = np.random.default_rng(size).standard_normal((size, size)) + size * np.eye(size)
+        lu = factorise(K)
+        assert (type(lu) is LU) is native_type
+        b = np.ones(size)
+        assert np.abs(K @ lu.solve(b) - b).max() < 1e-12
+
+
 # -- without the library ----------------------------------------------------------------------
 
 

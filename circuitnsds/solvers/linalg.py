@@ -50,6 +50,13 @@ Used by the MLCP solver's test of a guessed mode and by the engine's mode loops.
 
 LIBRARY = "solvers/_lu_native"
 """The C library of the dense LU (:mod:`circuitnsds.native`)."""
+NATIVE_MAX = 64
+"""Largest order factorised by the C library: the matrices of the circuits stepped with
+dense mode maps (``n + m <= 64``, :data:`circuitnsds.engine.integrate.DENSE_MAP_LIMIT`).
+Larger circuits are stepped by the sparse loop, which imports scipy anyway, and scipy's
+LAPACK (blocked, vectorised with AVX and fused multiply-adds, threaded) is faster there
+(``benchmarks/lu_native.py``: factorise + estimate equal at n = 100, C 2.4 times slower
+at 200, 3.4 times at 1000; a solve of 5 columns 3 times slower from n = 100 on)."""
 
 _DOUBLE = ctypes.c_double
 _INT32 = ctypes.c_int32
@@ -191,9 +198,12 @@ def _rebuilt(lu: np.ndarray, piv: np.ndarray, rcond: float) -> LU:
 def factorise(K: np.ndarray) -> LU:
     """LU-factorise a dense square ``K`` (not modified) with partial pivoting; ``rcond`` is
     0 when a pivot is exactly zero, when ``K`` or its factors are not finite, or when the
-    estimate is not. By the C library when it is built (:func:`native_loaded`), else by
-    scipy's LAPACK (``getrf``, ``gecon``), imported then."""
+    estimate is not. By the C library when it is built (:func:`native_loaded`) and ``K``
+    is at most :data:`NATIVE_MAX` square, else by scipy's LAPACK (``getrf``, ``gecon``),
+    imported then."""
     functions = _native_functions()
+    if np.ndim(K) == 2 and np.shape(K)[0] > NATIVE_MAX:
+        functions = None
     lu = np.array(K, dtype=np.float64, order="C" if functions is not None else "F")
     if lu.ndim != 2 or lu.shape[0] != lu.shape[1]:
         raise ValueError(f"factorise: a square matrix expected, not one of shape {lu.shape}")
