@@ -1,5 +1,6 @@
-"""The package's C loops (circuitnsds/native.py): compiled at install when a C compiler is
-there, skipped (with pip's warning) when not; the loops then run compiled by numba.
+"""The package's C code (circuitnsds/native.py): compiled at install when a C compiler is
+there, skipped (with pip's warning) when not; the package then runs its loops compiled by
+numba and its dense LU by scipy's LAPACK.
 
 Everything else about the package is in pyproject.toml."""
 
@@ -9,7 +10,8 @@ from pathlib import Path
 
 from setuptools import Extension, setup
 
-NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_native")
+NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_native",
+          "circuitnsds/solvers/_lu_native")
 """The C sources (without .c), each built into a library beside it."""
 
 # the same floating-point arithmetic as the Python and numba loops: no fused multiply-adds,

@@ -55,7 +55,6 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 
 from circuitnsds.engine.step_system import step_system
 from circuitnsds.errors import CircuitError
@@ -245,7 +244,7 @@ def analyse(mlcs: MLCS, step: float, states: tuple[bool, ...] | None = None,
             chosen = (mask, lu)
             break
     if chosen is None:
-        _, s, Vt = sla.svd(K)
+        _, s, Vt = np.linalg.svd(K)
         direction = np.abs(Vt[-1])
         report.singular_unknowns = tuple(name for name, value in zip(mlcs.unknowns, direction)
                                          if value >= COMPONENT * direction.max())

@@ -52,7 +52,6 @@ import weakref
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg import lapack
 
 from circuitnsds import native
 from circuitnsds.engine.jit import AVAILABLE, jit, python_version
@@ -121,17 +120,15 @@ def dense_mode_map(blocks: ModeBlocks, n: int) -> ModeMap | None:
     right[:n, n:n + kstim] = blocks.S_next
     right[:n, n + kstim:n + 2 * kstim] = blocks.S_now
     right[n:, -1] = blocks.rhs_pairs
-    # LAPACK getrs directly: scipy's lu_solve is slow for matrix right-hand sides
-    solution, info = lapack.dgetrs(lu.lu, lu.piv, right)
-    if info != 0 or not np.all(np.isfinite(solution)):
+    solution = lu.solve(right)
+    if not np.all(np.isfinite(solution)):
         return None
     a = blocks.active.size
     # ∂λ_i/∂w_i of each active pair: the inverse's diagonal at the pair rows (its reciprocal is
     # the resistance the pair sees; see _try_mode_scalar)
     unit = np.zeros((blocks.bordered.shape[0], a))
     unit[n + np.arange(a), np.arange(a)] = 1.0
-    gain, info = lapack.dgetrs(lu.lu, lu.piv, unit)
-    gain = np.abs(np.diagonal(gain[n:])) if info == 0 else np.zeros(a)
+    gain = np.abs(np.diagonal(lu.solve(unit)[n:]))
     with np.errstate(divide="ignore"):
         resistance = np.where(gain > 0.0, 1.0 / gain, np.inf)
     return ModeMap(P=solution[:, :n], Q1=solution[:, n:n + kstim], Q0=solution[:, n + kstim:n + 2 * kstim],

@@ -22,7 +22,6 @@ answers is returned only if its scaled residual is ``<= tol``.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
 from ._scaling import ruiz
 from .linalg import factorise
@@ -224,14 +223,10 @@ def solve_active_set(M: np.ndarray, q: np.ndarray, active: np.ndarray) -> np.nda
     idx = np.flatnonzero(active)
     if idx.size == 0:
         return z
-    sub = M[np.ix_(idx, idx)]
-    try:
-        lu, piv = sla.lu_factor(sub, check_finite=False)
-    except (ValueError, sla.LinAlgError):
+    lu = factorise(M[np.ix_(idx, idx)])
+    if lu.rcond == 0.0:  # an exactly zero pivot, or not finite
         return None
-    if not np.all(np.isfinite(lu)) or np.min(np.abs(np.diag(lu))) == 0.0:
-        return None
-    sol = sla.lu_solve((lu, piv), -q[idx], check_finite=False)
+    sol = lu.solve(-q[idx])
     if not np.all(np.isfinite(sol)):
         return None
     z[idx] = sol

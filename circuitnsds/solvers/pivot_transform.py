@@ -20,11 +20,10 @@ by the well-posedness report (:mod:`circuitnsds.checks.wellposed`).
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
 from .linalg import LU
 
-__all__ = ["PivotTransform", "completion_mask"]
+__all__ = ["PivotTransform", "completion_mask", "pivoted_qr_order"]
 
 
 def _block(K, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -83,19 +82,50 @@ class PivotTransform:
         return x
 
 
+def pivoted_qr_order(P: np.ndarray, steps: int | None = None) -> np.ndarray:
+    """The column order of a Householder QR of ``P`` with column pivoting (Businger & Golub;
+    LAPACK ``geqp3``'s choice): at each step the remaining column of largest norm in the
+    rows not yet reduced comes next (ties: the first in the current order, as LAPACK's
+    ``idamax``). Norms are recomputed at each step (``geqp3`` downdates them: the same
+    order up to rounding). ``steps`` (default all) limits the pivoting; the columns after
+    them stay in their current order. ``P`` is not modified."""
+    R = np.array(P, dtype=float)
+    rows, columns = R.shape
+    order = np.arange(columns)
+    steps = min(rows, columns) if steps is None else min(steps, rows, columns)
+    for j in range(steps):
+        norms = np.sqrt(np.einsum("ij,ij->j", R[j:, j:], R[j:, j:]))
+        p = j + int(np.argmax(norms))
+        if p != j:
+            R[:, [j, p]] = R[:, [p, j]]
+            order[[j, p]] = order[[p, j]]
+        x = R[j:, j]
+        alpha = float(norms[p - j])
+        if alpha == 0.0 or j + 1 == rows:  # nothing left to reduce
+            continue
+        v = x.copy()
+        v[0] += alpha if x[0] >= 0.0 else -alpha  # the sign that avoids cancellation
+        v /= np.sqrt(v @ v)
+        R[j:, j:] -= 2.0 * np.outer(v, v @ R[j:, j:])
+    return order
+
+
 def completion_mask(K: np.ndarray, n: int, good: float = 1e-8) -> np.ndarray | None:
     """Pairs whose activation completes the rank of a (nearly) singular ``A = K[:n, :n]``.
 
     The ``k`` singular values of ``A`` at or below ``good`` times the largest span its
     numerical null spaces ``U2`` (left) and ``V2`` (right); rank-revealing QR (column
-    pivoting) on ``[U2ᵀ C; (D V2)ᵀ]`` picks the ``k`` pairs whose columns and rows best
-    fill them. ``None`` when more than ``m`` directions are missing or the SVD fails.
+    pivoting, :func:`pivoted_qr_order`) on ``[U2ᵀ C; (D V2)ᵀ]`` picks the ``k`` pairs whose
+    columns and rows best fill them. ``None`` when more than ``m`` directions are missing,
+    when the blocks are not finite or the SVD fails.
     """
     m = K.shape[0] - n
     A, C, D = K[:n, :n], K[:n, n:], K[n:, :n]
+    if not np.isfinite(A).all():
+        return None
     try:
-        U, s, Vt = sla.svd(A)
-    except (sla.LinAlgError, ValueError):
+        U, s, Vt = np.linalg.svd(A)
+    except np.linalg.LinAlgError:
         return None
     smax = float(s[0]) if s.size else 0.0
     k = int(np.sum(s <= good * smax)) if smax > 0 else n
@@ -103,7 +133,8 @@ def completion_mask(K: np.ndarray, n: int, good: float = 1e-8) -> np.ndarray | N
     if k > m:
         return None
     P = np.vstack([U[:, n - k:].T @ C, (D @ Vt[n - k:].T).T])
-    _, piv = sla.qr(P, pivoting=True, mode="r")
+    if not np.isfinite(P).all():
+        return None
     mask = np.zeros(m, dtype=bool)
-    mask[piv[:k]] = True
+    mask[pivoted_qr_order(P, k)[:k]] = True
     return mask
