@@ -615,8 +615,9 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
             residuals.append(trajectory.residual[first:].copy())  # (its array is reused)
             for name in names:
                 kept[name].append(np.array(waves[name][first:]))
+        begin = float(trajectory.time[0])
         events.extend(event for event in trajectory.events  # a boundary's events once
-                      if not events or event.time > trajectory.time[0] or event not in events[-8:])
+                      if not events or event.time > begin or event not in events[-8:])
         for key, value in trajectory.stats.items():
             stats[key] = stats.get(key, 0) + value
 
