@@ -25,7 +25,8 @@ shortens every run (a smoke test; the figures in the issue note come from the fu
 ngspice is optional: without it the ngspice columns say so.
 
 The issue 19 table (``--part issue19``, also run first by default): every case of that
-issue, as a user runs it, whole processes, the median of ``--repeats`` runs each:
+issue, as a user runs it, whole processes, the median of ``--repeats`` runs each (ours, numba's
+and ngspice's interleaved, one of each per repeat):
 
 * buck 24 -> 12 V, 100 ms at 0.1 µs, ``run -o out.csv --signals v(out)``;
 * the bundled bridge rectifier (5,000 steps), ``run -o bridge.csv --plot bridge.png``,
@@ -245,6 +246,15 @@ def _median_process(command: list[str], cwd: Path, repeats: int, env: dict | Non
     return float(np.median(times)), done
 
 
+def _median_run(runs: list[tuple[float, subprocess.CompletedProcess]]
+                ) -> tuple[float, subprocess.CompletedProcess]:
+    """The median wall time of single runs of :func:`_median_process`, and the result of the
+    first that failed (else the last) with the median CPU time of all of them."""
+    done = next((d for _, d in runs if d.returncode != 0), runs[-1][1])
+    done.cpu_s = float(np.median([d.cpu_s for _, d in runs]))
+    return float(np.median([t for t, _ in runs])), done
+
+
 def _quick_tran(text: str, factor: float) -> str:
     """The netlist with its .tran stop time multiplied by ``factor`` (a smoke test)."""
     found = re.search(r"(?im)^\.tran\s+(\S+)\s+(\S+)", text)
@@ -266,10 +276,17 @@ def issue19(workdir: Path, repeats: int, scale: float, only: str | None = None) 
         arguments = [a.replace("{png}", str(workdir / f"{name}.png")) for a in extra]
         command = [sys.executable, "-m", "circuitnsds", "run", str(path), "-o", str(workdir / f"{name}.csv"),
                    "-q", *arguments]
-        ours, done = _median_process(command, workdir, repeats)
-        numba, numba_done = _median_process(command, workdir, repeats, env=NUMBA_LOOP)
+        # interleaved (ours, numba's, ngspice, ours, ...): the machine's speed drifts by tens of
+        # per cent over minutes on shared cores, and a ratio should compare runs made together
         tran = re.search(r"(?im)^\.tran.*$", text).group(0)
-        ng = [ngspice_process(text, tran, workdir, name) for _ in range(repeats)]
+        runs: dict[str, list] = {"ours": [], "numba": [], "ngspice": []}
+        for _ in range(repeats):
+            runs["ours"].append(_median_process(command, workdir, 1))
+            runs["numba"].append(_median_process(command, workdir, 1, env=NUMBA_LOOP))
+            runs["ngspice"].append(ngspice_process(text, tran, workdir, name))
+        ours, done = _median_run(runs["ours"])
+        numba, numba_done = _median_run(runs["numba"])
+        ng = runs["ngspice"]
         theta = float(arguments[arguments.index("--theta") + 1]) if "--theta" in arguments else 1.0
         inproc = ours_in_process(text, theta=theta)
         rows.append({"case": label, "steps": inproc["steps"], "pairs": inproc["pairs"],
