@@ -142,3 +142,61 @@ def _bundled(name: str):
     from pathlib import Path
 
     return Path(__file__).resolve().parent.parent / "netlists" / name
+
+
+@st.composite
+def switched(draw):
+    """A matrix of stamps and switches whose rows may hold other elements' stamps and whose
+    open and closed rows may share columns (each row's columns distinct, as the elements
+    build them)."""
+    n = draw(st.integers(2, 6))
+    column = st.integers(0, n - 1)
+    stamps = draw(st.lists(st.tuples(column, column, finite), max_size=20))
+    rows = draw(st.lists(column, unique=True, min_size=1, max_size=3))
+    entries = st.lists(st.tuples(column, finite), max_size=4, unique_by=lambda entry: entry[0])
+    switches = [(row, tuple(draw(entries)), tuple(draw(entries))) for row in rows]
+    closed = tuple(draw(st.lists(st.booleans(), min_size=len(rows), max_size=len(rows))))
+    return n, stamps, switches, closed
+
+
+@given(switched())
+@settings(max_examples=200, deadline=None)
+def test_a_closed_switch_writes_its_row_over_the_open_one(case):
+    """``system_matrix``: in a closed switch's row, the entries at the columns of its open and
+    closed rows are those of the closed row (whatever another stamp put there), every other
+    entry stays; written here on a dense copy, as ``A.tolil()`` did before the triplets."""
+    from circuitnsds.system.mlcs import MLCS, SwitchRelation
+
+    n, stamps, switches, closed = case
+    A = Triplets.from_stamps(stamps, (n, n))
+    relations = [SwitchRelation(f"s{j}", row, open_row, closed_row, (), None, 0.0, 0.0)
+                 for j, (row, open_row, closed_row) in enumerate(switches)]
+    empty = Triplets.from_stamps([], (n, 0))
+    mlcs = MLCS(E=A, A=A, B=empty, C=Triplets.from_stamps([], (0, n)), D=Triplets.from_stamps([], (0, 0)),
+                e=np.zeros(0), S=empty, stimuli=[], unknowns=[f"v({j})" for j in range(n)], pairs=[],
+                pair_devices=[], output_names=[], Y_out=empty, L_out=empty, switches=relations)
+    expected = A.toarray()
+    for (row, open_row, closed_row), on in zip(switches, closed):
+        if on:
+            for column, _ in open_row:
+                expected[row, column] = 0.0
+            for column, value in closed_row:
+                expected[row, column] = value
+    assert np.array_equal(mlcs.system_matrix(closed).toarray(), expected)
+
+
+def test_a_switch_shorted_on_one_node_carries_no_current():
+    """A switch with both terminals on node b is warned about as having no effect, and its
+    current is 0 in both states (open: Goff·0 - i = 0; closed: 0 - Ron·i = 0). Before the
+    triplets its closed row wrote the -1 of n- over the +1 of n+ at the same column, and the
+    closed switch reported i = -v(b)/Ron = -2.5 A."""
+    from circuitnsds import read_netlist
+    from circuitnsds.errors import CircuitWarning
+
+    text = ("switch across one node\nV1 a 0 PULSE(0 5 1u 1n 1n 5u 10u)\nR1 a b 1k\n"
+            "S1 b b a 0 sw\nR2 b 0 1k\n.model sw sw(vt=2.5 ron=1 roff=1meg)\n.tran 0.1u 20u\n.end\n")
+    with pytest.warns(CircuitWarning, match="shorted"):
+        waves = read_netlist(text).transient()
+    assert sum(event.state for event in waves.events) >= 2  # it did close
+    assert np.array_equal(waves["i(s1)"], np.zeros(waves.time.size))
+    np.testing.assert_allclose(waves["v(b)"].max(), 2.5, rtol=1e-12)  # the divider, untouched
