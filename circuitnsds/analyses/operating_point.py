@@ -28,7 +28,7 @@ from circuitnsds.circuit.elements import (
     Integrator,
     MinMax,
 )
-from circuitnsds.engine.integrate import DENSE_MAP_LIMIT
+from circuitnsds.engine import integrate
 from circuitnsds.errors import NetlistWarning, SimulationError
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -107,7 +107,7 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
     system = mlcs.system_matrix(tuple(bool(on) for on in states))
     source = np.concatenate([mlcs.source(0.0),
                              [-circuit.initial_voltages[node][0] for node in held]])
-    if n + k + mlcs.m <= DENSE_MAP_LIMIT:  # a small circuit: dense blocks, no scipy
+    if n + k + mlcs.m <= integrate.DENSE_MAP_LIMIT:  # a small circuit: dense blocks, no scipy
         matrix = np.zeros((n + k, n + k))
         matrix[:n, :n] = system.toarray()
         matrix[rows, n + np.arange(k)] = matrix[n + np.arange(k), rows] = 1.0
