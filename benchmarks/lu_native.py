@@ -24,6 +24,7 @@ import re
 import subprocess
 import sys
 import timeit
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,17 @@ ROWS = ("factorise, C", "factorise, scipy", "solve 1-D, C", "solve 1-D, scipy", 
         "solve n+3 cols, C", "solve n+3 cols, scipy")
 
 
+@contextmanager
+def scipy_lapack():
+    """``linalg.factorise`` by its fallback, scipy's LAPACK, inside the block."""
+    original = linalg._native_functions
+    linalg._native_functions = lambda: None
+    try:
+        yield
+    finally:
+        linalg._native_functions = original
+
+
 def times_for(n: int, repeats: int) -> dict[str, float]:
     """The :data:`ROWS` for one ``n`` (a random, well-conditioned ``K``)."""
     from scipy.linalg import lapack
@@ -55,12 +67,9 @@ def times_for(n: int, repeats: int) -> dict[str, float]:
     B = rng.standard_normal((n, n + 3))
     native = linalg.factorise(K)
     times = {"factorise, C": per_call(lambda: linalg.factorise(K), repeats)}
-    linalg._native[:] = [None]  # the fallback: scipy's LAPACK
-    try:
+    with scipy_lapack():
         fallback = linalg.factorise(K)
         times["factorise, scipy"] = per_call(lambda: linalg.factorise(K), repeats)
-    finally:
-        linalg._native.clear()
     assert type(native) is linalg.LU and type(fallback) is not linalg.LU
     times["solve 1-D, C"] = per_call(lambda: native.solve(b), repeats)
     times["solve 1-D, scipy"] = per_call(lambda: fallback.solve(b), repeats)
@@ -96,11 +105,8 @@ def crossover_table(repeats: int) -> None:
             solve_c = per_call(lambda: native.solve(B), repeats) / 1e3  # noqa: B023
             lu, piv = lapack.dgetrf(K)[:2]
             fallback = linalg._LapackLU(lu, piv, 1.0)
-            linalg._native[:] = [None]
-            try:
+            with scipy_lapack():
                 factor_s = per_call(lambda: linalg.factorise(K), repeats) / 1e3  # noqa: B023
-            finally:
-                linalg._native.clear()
             solve_s = per_call(lambda: fallback.solve(B), repeats) / 1e3  # noqa: B023
             print(f"  n = {n:5d}   {factor_c:8.3f} / {factor_s:8.3f}   {solve_c:8.3f} / {solve_s:8.3f}")
     finally:

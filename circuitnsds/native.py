@@ -26,7 +26,7 @@ import os
 import warnings
 from pathlib import Path
 
-__all__ = ["DISABLE_ENV", "library", "source_digest"]
+__all__ = ["DISABLE_ENV", "function", "library", "source_digest"]
 
 DISABLE_ENV = "CIRCUITNSDS_NATIVE"
 """Environment variable: ``0`` disables the compiled C libraries."""
@@ -83,3 +83,15 @@ def library(name: str) -> ctypes.CDLL | None:
                 loaded = candidate
     _LIBRARIES[name] = loaded
     return loaded
+
+
+def function(name: str, symbol: str, argtypes: list, restype: object):
+    """The function ``symbol`` of the library ``name`` (see :func:`library`) with its argument
+    and result types declared, or ``None`` when the library is not loaded (callers on a hot
+    path keep what it returns)."""
+    loaded = library(name)
+    if loaded is None:
+        return None
+    found = getattr(loaded, symbol)
+    found.argtypes, found.restype = argtypes, restype
+    return found

@@ -48,6 +48,7 @@ to the summation order of the products: results agree to rounding, not bit for b
 from __future__ import annotations
 
 import ctypes
+import functools
 import weakref
 from typing import NamedTuple
 
@@ -469,21 +470,11 @@ _DTYPES = {"active": np.int64, "rows": np.int64, "nw": np.int64, "mode_class": n
            "mode_sched": np.int64, "mode_free": np.int64, "last_used": np.int64, "unique": np.bool_,
            "successor": np.int64, "step_class": np.int64, "sched_state": np.int64, "used": np.int64,
            "switch_on": np.bool_}
-_native_loop: list = []  # [the C function or None], once looked up
-
-
+@functools.cache
 def _native_function():
     """The C loop's function (argument types declared), or ``None``: no library built, or
     disabled (:mod:`circuitnsds.native`)."""
-    if not _native_loop:
-        function = None
-        library = native.library("engine/_dense_native")
-        if library is not None:
-            function = library.circuitnsds_table_loop
-            function.argtypes = [ctypes.c_void_p] * 4
-            function.restype = None
-        _native_loop.append(function)
-    return _native_loop[0]
+    return native.function("engine/_dense_native", "circuitnsds_table_loop", [ctypes.c_void_p] * 4, None)
 
 
 def native_loaded() -> bool:

@@ -329,13 +329,11 @@ def _native_kernel():
     disabled or stale: :func:`circuitnsds.native.library`)."""
     import ctypes
 
-    library = native.library(NATIVE)
-    if library is None:
+    function = native.function(NATIVE, "circuitnsds_csv_block",
+                               [ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p,
+                                *[ctypes.c_void_p] * 6, ctypes.c_int64, ctypes.c_int64], ctypes.c_int64)
+    if function is None:
         return None
-    function = library.circuitnsds_csv_block
-    function.restype = ctypes.c_int64
-    function.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p,
-                         *[ctypes.c_void_p] * 6, ctypes.c_int64, ctypes.c_int64]
     table_types = (np.uint64, np.uint64, np.int64, np.int64, np.int64, np.int64)
     table_sizes = (E_MAX - E_MIN + 1,) * 2 + (Q_MAX - Q_MIN + 1,) * 4
 

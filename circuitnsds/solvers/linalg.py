@@ -27,6 +27,7 @@ a few solves), so :attr:`SparseLU.ok` means what :attr:`LU.ok` means.
 from __future__ import annotations
 
 import ctypes
+import functools
 import warnings
 from typing import TYPE_CHECKING
 
@@ -60,26 +61,18 @@ at 200, 3.4 times at 1000; a solve of 5 columns 3 times slower from n = 100 on).
 
 _DOUBLE = ctypes.c_double
 _INT32 = ctypes.c_int32
-_native: list = []  # [(factor, solve) or None], looked up at the first factorisation
 
 
+@functools.cache  # (on the path of every factorisation)
 def _native_functions():
     """The C library's ``(factor, solve)`` with their argument types declared, or ``None``
     (not built, disabled, or stale: :func:`circuitnsds.native.library`)."""
-    if not _native:
-        functions = None
-        library = native.library(LIBRARY)
-        if library is not None:
-            factor = library.circuitnsds_lu_factor
-            factor.argtypes = [ctypes.c_int64, ctypes.POINTER(_DOUBLE), ctypes.POINTER(_INT32)]
-            factor.restype = ctypes.c_double
-            solve = library.circuitnsds_lu_solve
-            solve.argtypes = [ctypes.c_int64, ctypes.c_int64, ctypes.POINTER(_DOUBLE), ctypes.POINTER(_INT32),
-                              ctypes.POINTER(_DOUBLE)]
-            solve.restype = None
-            functions = (factor, solve)
-        _native.append(functions)
-    return _native[0]
+    matrix, pivots, size = ctypes.POINTER(_DOUBLE), ctypes.POINTER(_INT32), ctypes.c_int64
+    factor = native.function(LIBRARY, "circuitnsds_lu_factor", [size, matrix, pivots], ctypes.c_double)
+    if factor is None:
+        return None
+    solve = native.function(LIBRARY, "circuitnsds_lu_solve", [size, size, matrix, pivots, matrix], None)
+    return factor, solve
 
 
 def native_loaded() -> bool:
