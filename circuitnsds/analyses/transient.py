@@ -274,12 +274,13 @@ def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
     turn-off) does not count: the cut step must change the current more than ten times as
     much as the step before it."""
     inductances = mlcs.E.diagonal()
+    differential = mlcs.differential_rows
     y = trajectory.y
     fluxes: dict[str, np.ndarray] = {}
     if y.shape[0] < 3:
         return fluxes
     for row, name in enumerate(mlcs.unknowns):
-        if not (name.startswith("i(") and mlcs.differential_rows[row]):
+        if not (name.startswith("i(") and differential[row]):
             continue
         current = y[:, row]
         scale = float(np.abs(current).max())
