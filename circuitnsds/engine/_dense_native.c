@@ -95,24 +95,95 @@ static double inactive_w(const Loop *L, int64_t mode, int64_t r, int64_t size, d
     return acc;
 }
 
-/* _try_mode_scalar: step k with mode into x; whether its complementarity signs hold. */
+/* Rows r .. r+3 of a mode's map at one step: x[r + i] = c[i] + sum_j P[i][j]*y[j]
+ * + sum_j (Q1[i][j]*F1[j] + Q0[i][j]*F0[j]) (P, Q1, Q0 and c at row r). Each row's sum is
+ * _try_mode_scalar's, operation for operation in the same order; the four rows are summed
+ * side by side so that their chains of dependent additions overlap (one row alone waits
+ * for each addition's result before the next). */
+static void four_rows(const double *restrict P, const double *restrict Q1, const double *restrict Q0,
+                      const double *restrict c, const double *restrict y, const double *restrict F1,
+                      const double *restrict F0, int64_t n, int64_t kstim, double *restrict x) {
+    const double *P1 = P + n, *P2 = P1 + n, *P3 = P2 + n;
+    double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3];
+    for (int64_t j = 0; j < n; j++) {
+        const double v = y[j];
+        a0 += P[j] * v;
+        a1 += P1[j] * v;
+        a2 += P2[j] * v;
+        a3 += P3[j] * v;
+    }
+    const double *Q11 = Q1 + kstim, *Q12 = Q11 + kstim, *Q13 = Q12 + kstim;
+    const double *Q01 = Q0 + kstim, *Q02 = Q01 + kstim, *Q03 = Q02 + kstim;
+    for (int64_t j = 0; j < kstim; j++) {
+        const double f1 = F1[j], f0 = F0[j];
+        a0 += Q1[j] * f1 + Q0[j] * f0;
+        a1 += Q11[j] * f1 + Q01[j] * f0;
+        a2 += Q12[j] * f1 + Q02[j] * f0;
+        a3 += Q13[j] * f1 + Q03[j] * f0;
+    }
+    x[0] = a0;
+    x[1] = a1;
+    x[2] = a2;
+    x[3] = a3;
+}
+
+/* One row of four_rows. */
+static void one_row(const double *restrict P, const double *restrict Q1, const double *restrict Q0,
+                    const double *restrict c, const double *restrict y, const double *restrict F1,
+                    const double *restrict F0, int64_t n, int64_t kstim, double *restrict x) {
+    double acc = c[0];
+    for (int64_t j = 0; j < n; j++)
+        acc += P[j] * y[j];
+    for (int64_t j = 0; j < kstim; j++)
+        acc += Q1[j] * F1[j] + Q0[j] * F0[j];
+    x[0] = acc;
+}
+
+/* W rows r and r+1 (W and e_w at row r, `size` columns) for the step x: w[i] and the sum of
+ * the magnitudes of its terms mag[i], each in _inactive_w_scalar's order, side by side. */
+static void two_w(const double *restrict W, const double *restrict e_w, const double *restrict x,
+                  int64_t width, int64_t size, double *restrict w, double *restrict mag) {
+    const double *W1 = W + width;
+    double w0 = e_w[0], w1 = e_w[1];
+    double m0 = fabs(w0), m1 = fabs(w1);
+    for (int64_t j = 0; j < size; j++) {
+        const double v = x[j];
+        const double t0 = W[j] * v, t1 = W1[j] * v;
+        w0 += t0;
+        m0 += fabs(t0);
+        w1 += t1;
+        m1 += fabs(t1);
+    }
+    w[0] = w0;
+    w[1] = w1;
+    mag[0] = m0;
+    mag[1] = m1;
+}
+
+/* _try_mode_scalar: step k with mode into x; whether its complementarity signs hold. The
+ * rows are computed four at a time (the last four again when their number is not a
+ * multiple of four: a row computed twice gives the same bits), the inactive pairs' w two
+ * at a time and checked in order: the same values and the same answer as row by row. */
 static int try_mode(const Loop *L, int64_t mode, int64_t k) {
-    const int64_t n = L->n, size = L->rows[mode], inactive = L->nw[mode];
+    const int64_t n = L->n, kstim = L->kstim, size = L->rows[mode], inactive = L->nw[mode];
     const double *yk = L->y + k * L->y_row;
     const double *F1 = L->F + (k + 1) * L->f_row;
     const double *F0 = L->F + k * L->f_row;
+    const int64_t first = mode * L->width;
+    const double *P = L->P + first * n, *Q1 = L->Q1 + first * kstim, *Q0 = L->Q0 + first * kstim;
+    const double *c = L->c + first;
     double *x = L->x;
-    for (int64_t r = 0; r < size; r++) {
-        const int64_t row = mode * L->width + r;
-        const double *P = L->P + row * n;
-        const double *Q1 = L->Q1 + row * L->kstim;
-        const double *Q0 = L->Q0 + row * L->kstim;
-        double acc = L->c[row];
-        for (int64_t j = 0; j < n; j++)
-            acc += P[j] * yk[j];
-        for (int64_t j = 0; j < L->kstim; j++)
-            acc += Q1[j] * F1[j] + Q0[j] * F0[j];
-        x[r] = acc;
+    if (size >= 4) {
+        for (int64_t r = 0;; r += 4) {
+            if (r + 4 > size)
+                r = size - 4;
+            four_rows(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, yk, F1, F0, n, kstim, x + r);
+            if (r + 4 == size)
+                break;
+        }
+    } else {
+        for (int64_t r = 0; r < size; r++)
+            one_row(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, yk, F1, F0, n, kstim, x + r);
     }
     for (int64_t r = n; r < size; r++) {
         if (x[r] < 0.0) {
@@ -124,9 +195,21 @@ static int try_mode(const Loop *L, int64_t mode, int64_t k) {
                 return 0;
         }
     }
-    for (int64_t r = 0; r < inactive; r++) {
+    const double *W = L->W + mode * L->m * L->width, *e_w = L->e_w + mode * L->m;
+    if (inactive >= 2) {
+        for (int64_t r = 0;; r += 2) {
+            if (r + 2 > inactive)
+                r = inactive - 2;
+            double w[2], magnitude[2];
+            two_w(W + r * L->width, e_w + r, x, L->width, size, w, magnitude);
+            if (w[0] < -L->sign_tol * magnitude[0] || w[1] < -L->sign_tol * magnitude[1])
+                return 0;
+            if (r + 2 == inactive)
+                break;
+        }
+    } else if (inactive == 1) {
         double magnitude;
-        const double w = inactive_w(L, mode, r, size, &magnitude);
+        const double w = inactive_w(L, mode, 0, size, &magnitude);
         if (w < -L->sign_tol * magnitude)
             return 0;
     }
