@@ -8,7 +8,8 @@ change by the last bit when it replaces numba. Checked here:
   missing library fails here, it is not skipped);
 * random mode tables (random maps, step classes, scheduled and watched switches, stored
   modes flagged unique or not): every written array and the returned ``(k, reason, last)``
-  of the C loop equal numba's, and the Python loop's to rounding;
+  of the C loop equal numba's, and the Python loop's to rounding; also for up to 22 rows
+  and 9 inactive pairs (the C loop sums rows in blocks of eight, four, two);
 * whole runs, C against numba, bit for bit: the bundled buck, the flyback with Coss at
   θ = 0.5 (mode changes found in the table), the 16-diode RF multiplier, an XSPICE buck
   with watched switches, the bridge; C against the Python loop to rounding;
@@ -133,6 +134,25 @@ def test_random_tables_c_equals_numba(n: int, m: int, kstim: int, switches: int,
     for ours, theirs in zip(c[1:3], python[1:3], strict=True):
         scale = 1 + np.abs(theirs).max(initial=0.0)
         np.testing.assert_allclose(ours, theirs, rtol=1e-12, atol=1e-12 * scale)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n=st.integers(1, 13), m=st.integers(0, 9), kstim=st.integers(0, 3), switches=st.integers(0, 2),
+       seed=st.integers(0, 2**32 - 1))
+def test_row_blocks_c_equals_numba(n: int, m: int, kstim: int, switches: int, seed: int) -> None:
+    """The C loop sums a step's rows eight and four at a time and the inactive pairs' w four and
+    two at a time, a count that is no multiple of the block finished by a block ending at the
+    last row: every count of rows 1..22 and of inactive pairs 0..9 gives numba's numbers bit
+    for bit, and the same modes pass and fail their signs."""
+    table = random_table(np.random.default_rng(seed), n, m, kstim)
+    c = run_random(table, seed + 1, 40, n, m, kstim, switches, "c")
+    numba = run_random(table, seed + 1, 40, n, m, kstim, switches, "numba")
+    assert c[0] == numba[0]
+    for ours, theirs in zip(c[1:], numba[1:], strict=True):
+        np.testing.assert_array_equal(ours, theirs)
+    # and bit for bit, not merely equal as numbers (assert_array_equal takes -0.0 for 0.0)
+    for ours, theirs in zip(c[1:3], numba[1:3], strict=True):
+        assert ours.tobytes() == theirs.tobytes()
 
 
 def test_layouts_the_loop_cannot_take(monkeypatch) -> None:

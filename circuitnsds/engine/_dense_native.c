@@ -5,7 +5,9 @@
  * ctypes by dense_loop.run_table (circuitnsds/native.py checks that the library was built
  * from this very file). Every floating-point operation is the Python original's, in the
  * same order: no fused multiply-adds, no reassociation, so that the trajectories are the
- * numba loop's bit for bit (tests/test_native_loop.py). Edit the two together.
+ * numba loop's bit for bit (tests/test_native_loop.py). Edit the two together. (Only the
+ * order in which independent sums are interleaved differs: a step's rows are summed eight
+ * or four side by side, each row's own operations in the numba loop's order.)
  *
  * No Python API: the arrays come as addresses (the layout is checked by dense_loop before
  * the call), the loop runs without the interpreter's lock (ctypes releases it).
@@ -95,11 +97,55 @@ static double inactive_w(const Loop *L, int64_t mode, int64_t r, int64_t size, d
     return acc;
 }
 
-/* Rows r .. r+3 of a mode's map at one step: x[r + i] = c[i] + sum_j P[i][j]*y[j]
- * + sum_j (Q1[i][j]*F1[j] + Q0[i][j]*F0[j]) (P, Q1, Q0 and c at row r). Each row's sum is
- * _try_mode_scalar's, operation for operation in the same order; the four rows are summed
- * side by side so that their chains of dependent additions overlap (one row alone waits
- * for each addition's result before the next). */
+/* The rows of a step are summed several at a time: one row's sum is a chain of dependent
+ * additions (each waits for the previous one's result), and the rows' chains, summed side
+ * by side, overlap. Each row's own sum keeps _try_mode_scalar's (_inactive_w_scalar's)
+ * operations in their order, so every value is the numba loop's bit for bit. A count of
+ * rows that is not a multiple of the block is finished by a block ending at the last row:
+ * the rows it computes again get the same bits. */
+
+/* Rows r .. r+7 of a mode's map at one step (P, Q1, Q0 and c at row r; y = y_k, F1 = F_{k+1},
+ * F0 = F_k): x[i] = c[i] + P[i][0]*y[0] + ... + P[i][n-1]*y[n-1]
+ * + (Q1[i][0]*F1[0] + Q0[i][0]*F0[0]) + ..., added left to right. */
+static void eight_rows(const double *restrict P, const double *restrict Q1, const double *restrict Q0,
+                       const double *restrict c, const double *restrict y, const double *restrict F1,
+                       const double *restrict F0, int64_t n, int64_t kstim, double *restrict x) {
+    const double *P1 = P + n, *P2 = P1 + n, *P3 = P2 + n, *P4 = P3 + n, *P5 = P4 + n, *P6 = P5 + n,
+                 *P7 = P6 + n;
+    double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3], a4 = c[4], a5 = c[5], a6 = c[6], a7 = c[7];
+    for (int64_t j = 0; j < n; j++) {
+        const double v = y[j];
+        a0 += P[j] * v;
+        a1 += P1[j] * v;
+        a2 += P2[j] * v;
+        a3 += P3[j] * v;
+        a4 += P4[j] * v;
+        a5 += P5[j] * v;
+        a6 += P6[j] * v;
+        a7 += P7[j] * v;
+    }
+    for (int64_t j = 0; j < kstim; j++) {
+        const double f1 = F1[j], f0 = F0[j];
+        a0 += Q1[j] * f1 + Q0[j] * f0;
+        a1 += Q1[kstim + j] * f1 + Q0[kstim + j] * f0;
+        a2 += Q1[2 * kstim + j] * f1 + Q0[2 * kstim + j] * f0;
+        a3 += Q1[3 * kstim + j] * f1 + Q0[3 * kstim + j] * f0;
+        a4 += Q1[4 * kstim + j] * f1 + Q0[4 * kstim + j] * f0;
+        a5 += Q1[5 * kstim + j] * f1 + Q0[5 * kstim + j] * f0;
+        a6 += Q1[6 * kstim + j] * f1 + Q0[6 * kstim + j] * f0;
+        a7 += Q1[7 * kstim + j] * f1 + Q0[7 * kstim + j] * f0;
+    }
+    x[0] = a0;
+    x[1] = a1;
+    x[2] = a2;
+    x[3] = a3;
+    x[4] = a4;
+    x[5] = a5;
+    x[6] = a6;
+    x[7] = a7;
+}
+
+/* eight_rows for rows r .. r+3. */
 static void four_rows(const double *restrict P, const double *restrict Q1, const double *restrict Q0,
                       const double *restrict c, const double *restrict y, const double *restrict F1,
                       const double *restrict F0, int64_t n, int64_t kstim, double *restrict x) {
@@ -112,14 +158,12 @@ static void four_rows(const double *restrict P, const double *restrict Q1, const
         a2 += P2[j] * v;
         a3 += P3[j] * v;
     }
-    const double *Q11 = Q1 + kstim, *Q12 = Q11 + kstim, *Q13 = Q12 + kstim;
-    const double *Q01 = Q0 + kstim, *Q02 = Q01 + kstim, *Q03 = Q02 + kstim;
     for (int64_t j = 0; j < kstim; j++) {
         const double f1 = F1[j], f0 = F0[j];
         a0 += Q1[j] * f1 + Q0[j] * f0;
-        a1 += Q11[j] * f1 + Q01[j] * f0;
-        a2 += Q12[j] * f1 + Q02[j] * f0;
-        a3 += Q13[j] * f1 + Q03[j] * f0;
+        a1 += Q1[kstim + j] * f1 + Q0[kstim + j] * f0;
+        a2 += Q1[2 * kstim + j] * f1 + Q0[2 * kstim + j] * f0;
+        a3 += Q1[3 * kstim + j] * f1 + Q0[3 * kstim + j] * f0;
     }
     x[0] = a0;
     x[1] = a1;
@@ -127,7 +171,7 @@ static void four_rows(const double *restrict P, const double *restrict Q1, const
     x[3] = a3;
 }
 
-/* One row of four_rows. */
+/* eight_rows for row r alone. */
 static void one_row(const double *restrict P, const double *restrict Q1, const double *restrict Q0,
                     const double *restrict c, const double *restrict y, const double *restrict F1,
                     const double *restrict F0, int64_t n, int64_t kstim, double *restrict x) {
@@ -139,8 +183,59 @@ static void one_row(const double *restrict P, const double *restrict Q1, const d
     x[0] = acc;
 }
 
-/* W rows r and r+1 (W and e_w at row r, `size` columns) for the step x: w[i] and the sum of
- * the magnitudes of its terms mag[i], each in _inactive_w_scalar's order, side by side. */
+/* The `size` rows of mode's map at step k into x (the step of _try_mode_scalar). */
+static void map_rows(const Loop *L, int64_t mode, int64_t k, int64_t size) {
+    const int64_t n = L->n, kstim = L->kstim, first = mode * L->width;
+    const double *P = L->P + first * n, *Q1 = L->Q1 + first * kstim, *Q0 = L->Q0 + first * kstim;
+    const double *c = L->c + first;
+    const double *y = L->y + k * L->y_row, *F1 = L->F + (k + 1) * L->f_row, *F0 = L->F + k * L->f_row;
+    double *x = L->x;
+    if (size < 4) {
+        for (int64_t r = 0; r < size; r++)
+            one_row(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, y, F1, F0, n, kstim, x + r);
+        return;
+    }
+    int64_t r = 0;
+    for (; r + 8 <= size; r += 8)
+        eight_rows(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, y, F1, F0, n, kstim, x + r);
+    for (; r < size; r += 4) {
+        if (r + 4 > size)
+            r = size - 4;
+        four_rows(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, y, F1, F0, n, kstim, x + r);
+    }
+}
+
+/* W rows r .. r+3 (W and e_w at row r, rows `width` apart) for the step x (`size` entries):
+ * w[i] = e_w[i] + W[i][0]*x[0] + ... and mag[i] = |e_w[i]| + |W[i][0]*x[0]| + ..., added
+ * left to right (_inactive_w_scalar). */
+static void four_w(const double *restrict W, const double *restrict e_w, const double *restrict x,
+                   int64_t width, int64_t size, double *restrict w, double *restrict mag) {
+    const double *W1 = W + width, *W2 = W1 + width, *W3 = W2 + width;
+    double w0 = e_w[0], w1 = e_w[1], w2 = e_w[2], w3 = e_w[3];
+    double m0 = fabs(w0), m1 = fabs(w1), m2 = fabs(w2), m3 = fabs(w3);
+    for (int64_t j = 0; j < size; j++) {
+        const double v = x[j];
+        const double t0 = W[j] * v, t1 = W1[j] * v, t2 = W2[j] * v, t3 = W3[j] * v;
+        w0 += t0;
+        m0 += fabs(t0);
+        w1 += t1;
+        m1 += fabs(t1);
+        w2 += t2;
+        m2 += fabs(t2);
+        w3 += t3;
+        m3 += fabs(t3);
+    }
+    w[0] = w0;
+    w[1] = w1;
+    w[2] = w2;
+    w[3] = w3;
+    mag[0] = m0;
+    mag[1] = m1;
+    mag[2] = m2;
+    mag[3] = m3;
+}
+
+/* four_w for W rows r and r+1. */
 static void two_w(const double *restrict W, const double *restrict e_w, const double *restrict x,
                   int64_t width, int64_t size, double *restrict w, double *restrict mag) {
     const double *W1 = W + width;
@@ -160,31 +255,35 @@ static void two_w(const double *restrict W, const double *restrict e_w, const do
     mag[1] = m1;
 }
 
-/* _try_mode_scalar: step k with mode into x; whether its complementarity signs hold. The
- * rows are computed four at a time (the last four again when their number is not a
- * multiple of four: a row computed twice gives the same bits), the inactive pairs' w two
- * at a time and checked in order: the same values and the same answer as row by row. */
-static int try_mode(const Loop *L, int64_t mode, int64_t k) {
-    const int64_t n = L->n, kstim = L->kstim, size = L->rows[mode], inactive = L->nw[mode];
-    const double *yk = L->y + k * L->y_row;
-    const double *F1 = L->F + (k + 1) * L->f_row;
-    const double *F0 = L->F + k * L->f_row;
-    const int64_t first = mode * L->width;
-    const double *P = L->P + first * n, *Q1 = L->Q1 + first * kstim, *Q0 = L->Q0 + first * kstim;
-    const double *c = L->c + first;
-    double *x = L->x;
-    if (size >= 4) {
-        for (int64_t r = 0;; r += 4) {
-            if (r + 4 > size)
-                r = size - 4;
-            four_rows(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, yk, F1, F0, n, kstim, x + r);
-            if (r + 4 == size)
-                break;
-        }
-    } else {
-        for (int64_t r = 0; r < size; r++)
-            one_row(P + r * n, Q1 + r * kstim, Q0 + r * kstim, c + r, yk, F1, F0, n, kstim, x + r);
+/* Whether the w of every inactive pair of mode (its first nw rows of W) for the step x of
+ * `size` rows holds: w >= -sign_tol·magnitude (_try_mode_scalar), or, `strictly`,
+ * w > clear_tol·magnitude (_clear_scalar); the rows four or two at a time, checked in order. */
+static int inactive_hold(const Loop *L, int64_t mode, int64_t size, int strictly) {
+    const int64_t inactive = L->nw[mode], width = L->width;
+    const double *W = L->W + mode * L->m * width, *e_w = L->e_w + mode * L->m;
+    const int64_t block = inactive >= 4 ? 4 : inactive >= 2 ? 2 : 1;
+    double w[4], magnitude[4];
+    for (int64_t r = 0; r < inactive; r += block) {
+        if (r + block > inactive)
+            r = inactive - block;
+        if (block == 4)
+            four_w(W + r * width, e_w + r, L->x, width, size, w, magnitude);
+        else if (block == 2)
+            two_w(W + r * width, e_w + r, L->x, width, size, w, magnitude);
+        else
+            w[0] = inactive_w(L, mode, r, size, magnitude);
+        for (int64_t i = 0; i < block; i++)
+            if (strictly ? !(w[i] > L->clear_tol * magnitude[i]) : w[i] < -L->sign_tol * magnitude[i])
+                return 0;
     }
+    return 1;
+}
+
+/* _try_mode_scalar: step k with mode into x; whether its complementarity signs hold. */
+static int try_mode(const Loop *L, int64_t mode, int64_t k) {
+    const int64_t n = L->n, size = L->rows[mode], inactive = L->nw[mode];
+    const double *x = L->x;
+    map_rows(L, mode, k, size);
     for (int64_t r = n; r < size; r++) {
         if (x[r] < 0.0) {
             if (x[r] < -L->sign_tol * pair_magnitude(L, mode, r, k))
@@ -195,25 +294,7 @@ static int try_mode(const Loop *L, int64_t mode, int64_t k) {
                 return 0;
         }
     }
-    const double *W = L->W + mode * L->m * L->width, *e_w = L->e_w + mode * L->m;
-    if (inactive >= 2) {
-        for (int64_t r = 0;; r += 2) {
-            if (r + 2 > inactive)
-                r = inactive - 2;
-            double w[2], magnitude[2];
-            two_w(W + r * L->width, e_w + r, x, L->width, size, w, magnitude);
-            if (w[0] < -L->sign_tol * magnitude[0] || w[1] < -L->sign_tol * magnitude[1])
-                return 0;
-            if (r + 2 == inactive)
-                break;
-        }
-    } else if (inactive == 1) {
-        double magnitude;
-        const double w = inactive_w(L, mode, 0, size, &magnitude);
-        if (w < -L->sign_tol * magnitude)
-            return 0;
-    }
-    return 1;
+    return inactive_hold(L, mode, size, 0);
 }
 
 /* _clear_scalar: whether the step x of mode is strictly complementary. */
@@ -222,13 +303,7 @@ static int clear(const Loop *L, int64_t mode, int64_t k) {
     for (int64_t r = L->n; r < size; r++)
         if (!(L->x[r] > L->clear_tol * pair_magnitude(L, mode, r, k)))
             return 0;
-    for (int64_t r = 0; r < L->nw[mode]; r++) {
-        double magnitude;
-        const double w = inactive_w(L, mode, r, size, &magnitude);
-        if (!(w > L->clear_tol * magnitude))
-            return 0;
-    }
-    return 1;
+    return inactive_hold(L, mode, size, 1);
 }
 
 /* _find_mode_scalar: the stored mode that solves step k, whose mode `failed` left its signs, or -1. */
