@@ -13,8 +13,9 @@ interleaved runs (before, after, before, after, ...):
   40), 2 pairs (one active, one inactive: both sign checks run), 2 sources and a watched
   switch, stepped 50,000 times in one call: µs per unchanged-mode step.
 * **whole runs**: the time spent inside the C loop's calls of a whole transient (the
-  flyback with Coss at θ = 0.5, the 100 ms buck, the RF multiplier), and the µs per step
-  that makes. The waveforms of the two libraries are checked equal bit for bit.
+  flyback with Coss at θ = 0.5, the 100 ms buck, the RF multiplier, the bundled XSPICE
+  peak-current buck with its 5 watched switches), and the µs per step that makes. The
+  waveforms of the two libraries are checked equal bit for bit.
 """
 
 from __future__ import annotations
@@ -43,7 +44,8 @@ SOURCE = "circuitnsds/engine/_dense_native.c"
 NETLISTS = ROOT / "benchmarks" / "netlists"
 RUNS = (("flyback Coss θ=0.5, 3 ms", NETLISTS / "flyback_coss.cir", {"theta": 0.5}),
         ("buck 100 ms", NETLISTS / "buck_100ms.cir", {}),
-        ("RF multiplier, 16 pairs", NETLISTS / "rf_multiplier.cir", {}))
+        ("RF multiplier, 16 pairs", NETLISTS / "rf_multiplier.cir", {}),
+        ("XSPICE peak-current buck", ROOT / "netlists" / "buck_peak_current_xspice.cir", {}))
 
 
 def build_before(revision: str, scratch: Path):
