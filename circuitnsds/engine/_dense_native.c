@@ -107,9 +107,9 @@ static double inactive_w(const Loop *L, int64_t mode, int64_t r, int64_t size, d
 /* Rows r .. r+7 of a mode's map at one step (P, Q1, Q0 and c at row r; y = y_k, F1 = F_{k+1},
  * F0 = F_k): x[i] = c[i] + P[i][0]*y[0] + ... + P[i][n-1]*y[n-1]
  * + (Q1[i][0]*F1[0] + Q0[i][0]*F0[0]) + ..., added left to right. */
-static void eight_rows(const double *P, const double *Q1, const double *Q0,
-                       const double *c, const double *y, const double *F1,
-                       const double *F0, int64_t n, int64_t kstim, double *x) {
+static void eight_rows(const double *P, const double *Q1, const double *Q0, const double *c,
+                       const double *y, const double *F1, const double *F0, int64_t n, int64_t kstim,
+                       double *x) {
     const double *P1 = P + n, *P2 = P1 + n, *P3 = P2 + n, *P4 = P3 + n, *P5 = P4 + n, *P6 = P5 + n,
                  *P7 = P6 + n;
     double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3], a4 = c[4], a5 = c[5], a6 = c[6], a7 = c[7];
@@ -146,9 +146,9 @@ static void eight_rows(const double *P, const double *Q1, const double *Q0,
 }
 
 /* eight_rows for rows r .. r+3. */
-static void four_rows(const double *P, const double *Q1, const double *Q0,
-                      const double *c, const double *y, const double *F1,
-                      const double *F0, int64_t n, int64_t kstim, double *x) {
+static void four_rows(const double *P, const double *Q1, const double *Q0, const double *c,
+                      const double *y, const double *F1, const double *F0, int64_t n, int64_t kstim,
+                      double *x) {
     const double *P1 = P + n, *P2 = P1 + n, *P3 = P2 + n;
     double a0 = c[0], a1 = c[1], a2 = c[2], a3 = c[3];
     for (int64_t j = 0; j < n; j++) {
@@ -172,9 +172,9 @@ static void four_rows(const double *P, const double *Q1, const double *Q0,
 }
 
 /* eight_rows for row r alone. */
-static void one_row(const double *P, const double *Q1, const double *Q0,
-                    const double *c, const double *y, const double *F1,
-                    const double *F0, int64_t n, int64_t kstim, double *x) {
+static void one_row(const double *P, const double *Q1, const double *Q0, const double *c,
+                    const double *y, const double *F1, const double *F0, int64_t n, int64_t kstim,
+                    double *x) {
     double acc = c[0];
     for (int64_t j = 0; j < n; j++)
         acc += P[j] * y[j];
@@ -208,8 +208,8 @@ static void map_rows(const Loop *L, int64_t mode, int64_t k, int64_t size) {
 /* W rows r .. r+3 (W and e_w at row r, rows `width` apart) for the step x (`size` entries):
  * w[i] = e_w[i] + W[i][0]*x[0] + ... and mag[i] = |e_w[i]| + |W[i][0]*x[0]| + ..., added
  * left to right (_inactive_w_scalar). */
-static void four_w(const double *W, const double *e_w, const double *x,
-                   int64_t width, int64_t size, double *w, double *mag) {
+static void four_w(const double *W, const double *e_w, const double *x, int64_t width, int64_t size,
+                   double *w, double *mag) {
     const double *W1 = W + width, *W2 = W1 + width, *W3 = W2 + width;
     double w0 = e_w[0], w1 = e_w[1], w2 = e_w[2], w3 = e_w[3];
     double m0 = fabs(w0), m1 = fabs(w1), m2 = fabs(w2), m3 = fabs(w3);
@@ -236,8 +236,8 @@ static void four_w(const double *W, const double *e_w, const double *x,
 }
 
 /* four_w for W rows r and r+1. */
-static void two_w(const double *W, const double *e_w, const double *x,
-                  int64_t width, int64_t size, double *w, double *mag) {
+static void two_w(const double *W, const double *e_w, const double *x, int64_t width, int64_t size,
+                  double *w, double *mag) {
     const double *W1 = W + width;
     double w0 = e_w[0], w1 = e_w[1];
     double m0 = fabs(w0), m1 = fabs(w1);
