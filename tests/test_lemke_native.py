@@ -292,3 +292,19 @@ def test_above_the_limit_python_pivots(monkeypatch) -> None:
         z = lemke.lemke_pivot(M, q)[0]
         np.testing.assert_allclose(z, z_star, atol=1e-8 * (1 + np.abs(z_star).max()))
     assert len(calls) == 1  # n = NATIVE_MAX only
+
+
+def test_a_kept_tableau_solves_each_q_as_a_fresh_one() -> None:
+    # the MLCP solver keeps one LemkeTableau per start basis and pivots it for every new q
+    rng = np.random.default_rng(6)
+    M = psd_matrix(7, rng, rank=4)
+    tableau = lemke.LemkeTableau(M)
+    for _ in range(5):
+        q = lcp_with_solution(M, rng, degenerate=0.2)[0]
+        try:
+            kept = ("answer", *tableau.pivot(q))
+        except (LCPNoSolution, LCPSolverFailure) as error:
+            kept = (type(error), error.message, error.pivots, error.evidence)
+        assert same(kept, outcome(M, q))
+    with pytest.raises(ValueError, match="covering vector"):
+        lemke.LemkeTableau(M, d=np.ones(6))

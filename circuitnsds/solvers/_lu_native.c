@@ -340,7 +340,7 @@ EXPORT void circuitnsds_lu_solve(int64_t n, int64_t nrhs, const double *lu, cons
  * The arithmetic follows numpy's for the Python loop: a row is divided by its pivot, then
  * every row i (the pivot row included, with factor 0) loses col[i] times the pivot row, entry
  * by entry; NaN and infinities are treated as numpy's min, max, nan_to_num and maximum treat
- * them. Tolerances come from lemke.py (its constants), in the order of enum lemke_tolerance.
+ * them. Tolerances come from lemke.py (its constants), in the order of enum lemke_scalar.
  */
 
 enum lemke_status {  /* lemke.py's _SOLVED ... (the same numbers) */
@@ -353,7 +353,8 @@ enum lemke_status {  /* lemke.py's _SOLVED ... (the same numbers) */
     LEMKE_NO_MEMORY = -1     /* nothing done: the caller runs the Python loop */
 };
 
-enum lemke_tolerance { TIE, PIV_REL, PIV_ABS, NEG_TOL, RCOND_MIN, LEMKE_TOLERANCES };
+/* The entries of circuitnsds_lemke's scalars: the tolerances of lemke.py, then an output. */
+enum lemke_scalar { TIE, PIV_REL, PIV_ABS, NEG_TOL, RCOND_MIN, MIN_BASIC, LEMKE_SCALARS };
 
 /* numpy.nan_to_num(v, nan=inf): NaN -> inf, +-inf -> +-DBL_MAX. */
 static double nan_to_inf(double v) {
@@ -440,16 +441,16 @@ static void column_range(int64_t n, const double *t, int64_t j, double *lo, doub
 }
 
 /* Run Lemke's pivoting on the tableau t0 (n >= 1 rows, see above; not modified), in t (the
- * same shape; the final tableau on return) with basis (n): the status (enum lemke_status);
- * counts[0] the pivots done, counts[1] the entering variable (the ray's column when
- * LEMKE_RAY); *min_basic the negative basic value of LEMKE_NEGATIVE. */
+ * same shape; the final tableau on return) and basis (n + 2: the basis, then the pivots done
+ * and the entering variable, the ray's column for LEMKE_RAY); scalars (LEMKE_SCALARS) holds
+ * the tolerances (enum lemke_scalar) and receives the negative basic value of LEMKE_NEGATIVE.
+ * Returns the status (enum lemke_status). */
 EXPORT int64_t circuitnsds_lemke(int64_t n, const double *t0, double *t, int64_t *basis,
-                                 int64_t max_pivots, int64_t reinvert_every,
-                                 const double *tolerances, int64_t *counts, double *min_basic) {
+                                 int64_t max_pivots, int64_t reinvert_every, double *scalars) {
     const int64_t ncol = 2 * n + 2, z0 = 2 * n, rhs = 2 * n + 1;
-    const double tie = tolerances[TIE], piv_rel = tolerances[PIV_REL];
-    const double piv_abs = tolerances[PIV_ABS], neg_tol = tolerances[NEG_TOL];
-    const double rcond_min = tolerances[RCOND_MIN];
+    const double tie = scalars[TIE], piv_rel = scalars[PIV_REL];
+    const double piv_abs = scalars[PIV_ABS], neg_tol = scalars[NEG_TOL];
+    const double rcond_min = scalars[RCOND_MIN];
     double *work = malloc((size_t)(n * n + 2 * n) * sizeof(double));
     int64_t *rows = malloc((size_t)n * sizeof(int64_t));
     int32_t *ipiv = malloc((size_t)n * sizeof(int32_t));
@@ -499,7 +500,7 @@ EXPORT int64_t circuitnsds_lemke(int64_t n, const double *t0, double *t, int64_t
         }
         if (lo < 0.0) {
             if (lo < -neg_tol * scale || !isfinite(lo)) {
-                *min_basic = lo;
+                scalars[MIN_BASIC] = lo;
                 status = LEMKE_NEGATIVE;
                 break;
             }
@@ -550,8 +551,8 @@ EXPORT int64_t circuitnsds_lemke(int64_t n, const double *t0, double *t, int64_t
         }
         r = lex_argmin(n, t, rows, count, div, z0_row, tie, vals);
     }
-    counts[0] = pivots;
-    counts[1] = entering;
+    basis[n] = pivots;
+    basis[n + 1] = entering;
     free(work);
     free(rows);
     free(ipiv);

@@ -42,7 +42,7 @@ from .linalg import RCOND_MIN, factorise
 from .residual import kappa_of, lcp_residual
 from .result import LCPNoSolution, LCPResult, LCPSolverFailure
 
-__all__ = ["lemke", "lemke_pivot"]
+__all__ = ["LemkeTableau", "lemke", "lemke_pivot"]
 
 _TIE = 1e-10  # relative tolerance under which two ratios count as tied
 _PIV_REL = 1e-11  # a column entry must exceed this fraction of the column's max-abs ...
@@ -96,10 +96,9 @@ so that both loops take the same pivots; ``benchmarks/lemke_native.py`` times th
 def _native_lemke():
     """The C pivoting loop ``circuitnsds_lemke`` of the LU's library with its argument types
     declared, or ``None`` (not built, disabled, or stale: :func:`circuitnsds.native.library`)."""
-    address, size = ctypes.c_void_p, ctypes.c_int64
+    doubles, integers, size = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int64), ctypes.c_int64
     return native.function(LU_LIBRARY, "circuitnsds_lemke",
-                           [size, address, address, address, size, size, address, address, address],
-                           ctypes.c_int64)
+                           [size, doubles, doubles, integers, size, size, doubles], ctypes.c_int64)
 
 
 def native_loaded() -> bool:
@@ -113,18 +112,17 @@ _Outcome = tuple[int, np.ndarray, np.ndarray, int, int, float]
 
 def _pivot_native(run, T0: np.ndarray, max_pivots: int) -> _Outcome | None:
     """:func:`_pivot_python` by the C loop ``run``; ``None`` if it could not allocate."""
-    T0 = np.ascontiguousarray(T0, dtype=np.float64)  # (no copy: lemke_pivot's is)
+    T0 = np.require(T0, np.float64, ["C", "W"])  # (no copy: lemke_pivot's is)
     n = T0.shape[0]
     T = np.empty_like(T0)
-    basis = np.empty(n, dtype=np.int64)
-    counts = np.zeros(2, dtype=np.int64)
-    low = np.zeros(1)
-    tolerances = np.array([_TIE, _PIV_REL, _PIV_ABS, _NEG_TOL, RCOND_MIN])  # (enum lemke_tolerance)
-    status = run(n, T0.ctypes.data, T.ctypes.data, basis.ctypes.data, max_pivots, _REINVERT_EVERY,
-                 tolerances.ctypes.data, counts.ctypes.data, low.ctypes.data)
+    basis = np.empty(n + 2, dtype=np.int64)  # the basis, the pivots, the entering variable
+    scalars = np.array([_TIE, _PIV_REL, _PIV_ABS, _NEG_TOL, RCOND_MIN, 0.0])  # (enum lemke_scalar)
+    double, integer = ctypes.c_double, ctypes.c_int64
+    status = run(n, double.from_buffer(T0), double.from_buffer(T), integer.from_buffer(basis), max_pivots,
+                 _REINVERT_EVERY, double.from_buffer(scalars))
     if status == _NO_MEMORY:
         return None
-    return int(status), T, basis, int(counts[0]), int(counts[1]), float(low[0])
+    return int(status), T, basis[:n], int(basis[n]), int(basis[n + 1]), float(scalars[-1])
 
 
 def _pivot_python(T0: np.ndarray, max_pivots: int) -> _Outcome:
@@ -199,6 +197,107 @@ def _pivot_python(T0: np.ndarray, max_pivots: int) -> _Outcome:
         r = _lex_argmin(rows, col, T, n, prefer=int(z0_pos[0]) if z0_pos.size else -1)
 
 
+class LemkeTableau:
+    """What Lemke's method needs of ``M`` and the covering vector ``d``, computed once: the Ruiz
+    factors and the tableau's columns of ``w``, ``z`` and ``z0``. :meth:`pivot` then solves
+    ``LCP(M, q)`` for any ``q`` (the MLCP solver keeps one per start basis, whose ``M̂`` is the
+    same at every step while ``q̂`` changes).
+
+    Args:
+        M: dense ``(n, n)`` float array (not kept).
+        d: covering vector, all entries ``> 0`` (default ones).
+
+    Raises:
+        ValueError: ``d`` of another length or not positive.
+    """
+
+    __slots__ = ("n", "rs", "cs", "s_m", "s_d", "T0")
+
+    def __init__(self, M: np.ndarray, d: np.ndarray | None = None) -> None:
+        n = M.shape[0]
+        if d is None:
+            d = np.ones(n)
+        d = np.asarray(d, dtype=float).reshape(-1)
+        if d.shape != (n,) or not np.all(d > 0.0):
+            raise ValueError("covering vector d must have n strictly positive entries")
+        rs, cs = ruiz(M)
+        Ms = rs[:, None] * M * cs[None, :]
+        ds = rs * d
+        self.n = n
+        self.rs, self.cs = rs, cs
+        self.s_m = float(np.abs(Ms).max()) if n else 0.0
+        self.s_m = self.s_m or 1.0
+        self.s_d = float(ds.max()) if n else 1.0
+        T0 = np.zeros((n, 2 * n + 2))  # [I, -M, -d, q] scaled, q filled in by pivot
+        T0[:, :n] = np.eye(n)
+        T0[:, n : 2 * n] = -Ms / self.s_m
+        T0[:, 2 * n] = -(ds / self.s_d)
+        self.T0 = T0
+
+    def pivot(self, q: np.ndarray, max_pivots: int | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """:func:`lemke_pivot` of this ``M`` and ``d`` for ``q`` (``(n,)`` float array)."""
+        n = self.n
+        size = {"n": n}
+        if max_pivots is None:
+            max_pivots = 50 * (n + 1)
+        if n == 0 or np.all(q >= 0.0):
+            return np.zeros(n), np.zeros(n, dtype=bool), 0
+        rs, cs, s_m, s_d = self.rs, self.cs, self.s_m, self.s_d
+        qs = rs * q
+        s_q = float(np.abs(qs).max())
+        Z0, RHS = 2 * n, 2 * n + 1
+        T0 = self.T0.copy()
+        T0[:, RHS] = qs / s_q
+
+        run = _native_lemke() if n <= NATIVE_MAX else None
+        outcome = _pivot_native(run, T0, max_pivots) if run is not None else None
+        if outcome is None:
+            outcome = _pivot_python(T0, max_pivots)
+        status, T, basis, pivots, entering, min_basic = outcome
+
+        if status == _RAY:
+            col = T[:, entering]
+            direction = np.zeros(2 * n + 1)
+            direction[entering] = 1.0
+            direction[basis] -= col
+            z0_pos = np.flatnonzero(basis == Z0)
+            z0_val = float(T[z0_pos[0], RHS]) * s_q / s_d if z0_pos.size else 0.0
+            ray_w = direction[:n] * s_q / rs
+            ray_z = cs * direction[n : 2 * n] * (s_q / s_m)
+            ray_z0 = direction[Z0] * s_q / s_d
+            big = max(float(np.abs(ray_w).max()), float(np.abs(ray_z).max()), abs(ray_z0)) or 1.0
+            raise LCPNoSolution(
+                "Lemke ended on a secondary ray: no solution if M is copositive-plus",
+                method="lemke",
+                size=size,
+                pivots=pivots,
+                residual=float("inf"),
+                entering=_var_name(entering, n),
+                z0=z0_val,
+                ray_z=ray_z / big,
+                ray_w=ray_w / big,
+                ray_z0=ray_z0 / big,
+                confirmed_by_enumeration=False,
+            )
+        if status != _SOLVED:
+            message, reason, evidence = {
+                _SINGULAR: ("Lemke basis became singular", "singular basis", {}),
+                _NEGATIVE: ("Lemke lost feasibility (numerical trouble: ill-conditioned pivots)",
+                            "negative basic variable", {"min_basic": min_basic * s_q}),
+                _NOT_FINITE: ("Lemke tableau became non-finite", "non-finite tableau", {}),
+                _PIVOT_LIMIT: (f"Lemke reached the pivot limit ({max_pivots})", "pivot limit", {}),
+            }[status]
+            raise LCPSolverFailure(message, method="lemke", size=size, pivots=pivots, residual=float("inf"),
+                                   reason=reason, **evidence)
+
+        zn = np.zeros(n)
+        isz = (basis >= n) & (basis < 2 * n)
+        zn[basis[isz] - n] = T[isz, RHS]
+        active = np.zeros(n, dtype=bool)
+        active[basis[isz] - n] = True
+        return cs * zn * (s_q / s_m), active, pivots
+
+
 def lemke_pivot(
     M: np.ndarray,
     q: np.ndarray,
@@ -210,7 +309,8 @@ def lemke_pivot(
 
     The pivoting runs in C (:func:`native_loaded`, up to :data:`NATIVE_MAX` pairs), else in
     Python (:func:`_pivot_python`); both take the same pivots. The scaling before and the
-    evidence after are Python's either way.
+    evidence after are Python's either way (:class:`LemkeTableau`, which keeps the scaling
+    of ``M`` for further ``q``).
 
     Args:
         M: dense ``(n, n)`` float array.
@@ -228,83 +328,9 @@ def lemke_pivot(
         LCPSolverFailure: pivot limit or numerical trouble.
     """
     n = q.shape[0]
-    size = {"n": n}
-    if max_pivots is None:
-        max_pivots = 50 * (n + 1)
     if n == 0 or np.all(q >= 0.0):
         return np.zeros(n), np.zeros(n, dtype=bool), 0
-    if d is None:
-        d = np.ones(n)
-    d = np.asarray(d, dtype=float).reshape(-1)
-    if d.shape != (n,) or not np.all(d > 0.0):
-        raise ValueError("covering vector d must have n strictly positive entries")
-
-    rs, cs = ruiz(M)
-    Ms = rs[:, None] * M * cs[None, :]
-    qs = rs * q
-    ds = rs * d
-    s_m = float(np.abs(Ms).max()) or 1.0
-    s_q = float(np.abs(qs).max())
-    s_d = float(ds.max())
-    dn = ds / s_d
-
-    Z0, RHS = 2 * n, 2 * n + 1
-    T0 = np.zeros((n, 2 * n + 2))
-    T0[:, :n] = np.eye(n)
-    T0[:, n : 2 * n] = -Ms / s_m
-    T0[:, Z0] = -dn
-    T0[:, RHS] = qs / s_q
-
-    run = _native_lemke() if n <= NATIVE_MAX else None
-    outcome = _pivot_native(run, T0, max_pivots) if run is not None else None
-    if outcome is None:
-        outcome = _pivot_python(T0, max_pivots)
-    status, T, basis, pivots, entering, min_basic = outcome
-
-    def unscale_z(vals: np.ndarray) -> np.ndarray:
-        return cs * vals * (s_q / s_m)
-
-    if status == _RAY:
-        col = T[:, entering]
-        direction = np.zeros(2 * n + 1)
-        direction[entering] = 1.0
-        direction[basis] -= col
-        z0_pos = np.flatnonzero(basis == Z0)
-        z0_val = float(T[z0_pos[0], RHS]) * s_q / s_d if z0_pos.size else 0.0
-        ray_w = direction[:n] * s_q / rs
-        ray_z = unscale_z(direction[n : 2 * n])
-        ray_z0 = direction[Z0] * s_q / s_d
-        big = max(float(np.abs(ray_w).max()), float(np.abs(ray_z).max()), abs(ray_z0)) or 1.0
-        raise LCPNoSolution(
-            "Lemke ended on a secondary ray: no solution if M is copositive-plus",
-            method="lemke",
-            size=size,
-            pivots=pivots,
-            residual=float("inf"),
-            entering=_var_name(entering, n),
-            z0=z0_val,
-            ray_z=ray_z / big,
-            ray_w=ray_w / big,
-            ray_z0=ray_z0 / big,
-            confirmed_by_enumeration=False,
-        )
-    if status != _SOLVED:
-        message, reason, evidence = {
-            _SINGULAR: ("Lemke basis became singular", "singular basis", {}),
-            _NEGATIVE: ("Lemke lost feasibility (numerical trouble: ill-conditioned pivots)",
-                        "negative basic variable", {"min_basic": min_basic * s_q}),
-            _NOT_FINITE: ("Lemke tableau became non-finite", "non-finite tableau", {}),
-            _PIVOT_LIMIT: (f"Lemke reached the pivot limit ({max_pivots})", "pivot limit", {}),
-        }[status]
-        raise LCPSolverFailure(message, method="lemke", size=size, pivots=pivots, residual=float("inf"),
-                               reason=reason, **evidence)
-
-    zn = np.zeros(n)
-    isz = (basis >= n) & (basis < 2 * n)
-    zn[basis[isz] - n] = T[isz, RHS]
-    active = np.zeros(n, dtype=bool)
-    active[basis[isz] - n] = True
-    return unscale_z(zn), active, pivots
+    return LemkeTableau(M, d).pivot(q, max_pivots)
 
 
 def solve_active_set(M: np.ndarray, q: np.ndarray, active: np.ndarray) -> np.ndarray | None:
