@@ -111,9 +111,11 @@ _Outcome = tuple[int, np.ndarray, np.ndarray, int, int, float]
 
 
 def _pivot_native(run, T0: np.ndarray, max_pivots: int) -> _Outcome | None:
-    """:func:`_pivot_python` by the C loop ``run``; ``None`` if it could not allocate."""
-    T0 = np.require(T0, np.float64, ["C", "W"])  # (no copy: lemke_pivot's is)
+    """:func:`_pivot_python` by the C loop ``run``; ``None`` if it could not allocate. ``T0``:
+    a C-ordered float64 array (from_buffer refuses one not contiguous)."""
     n = T0.shape[0]
+    if T0.dtype != np.float64 or T0.shape != (n, 2 * n + 2):
+        raise ValueError(f"Lemke tableau: float64 of shape (n, 2n + 2) expected, not {T0.dtype} {T0.shape}")
     T = np.empty_like(T0)
     basis = np.empty(n + 2, dtype=np.int64)  # the basis, the pivots, the entering variable
     scalars = np.array([_TIE, _PIV_REL, _PIV_ABS, _NEG_TOL, RCOND_MIN, 0.0])  # (enum lemke_scalar)
@@ -240,7 +242,7 @@ class LemkeTableau:
         size = {"n": n}
         if max_pivots is None:
             max_pivots = 50 * (n + 1)
-        if n == 0 or np.all(q >= 0.0):
+        if n == 0 or (q >= 0.0).all():
             return np.zeros(n), np.zeros(n, dtype=bool), 0
         rs, cs, s_m, s_d = self.rs, self.cs, self.s_m, self.s_d
         qs = rs * q
@@ -291,10 +293,12 @@ class LemkeTableau:
                                    reason=reason, **evidence)
 
         zn = np.zeros(n)
-        isz = (basis >= n) & (basis < 2 * n)
-        zn[basis[isz] - n] = T[isz, RHS]
         active = np.zeros(n, dtype=bool)
-        active[basis[isz] - n] = True
+        values = T[:, RHS].tolist()
+        for row, var in enumerate(basis.tolist()):  # (a loop: cheaper than numpy's masks at this size)
+            if n <= var < 2 * n:
+                zn[var - n] = values[row]
+                active[var - n] = True
         return cs * zn * (s_q / s_m), active, pivots
 
 
@@ -328,7 +332,7 @@ def lemke_pivot(
         LCPSolverFailure: pivot limit or numerical trouble.
     """
     n = q.shape[0]
-    if n == 0 or np.all(q >= 0.0):
+    if n == 0 or (q >= 0.0).all():
         return np.zeros(n), np.zeros(n, dtype=bool), 0
     return LemkeTableau(M, d).pivot(q, max_pivots)
 

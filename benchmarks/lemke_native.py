@@ -1,0 +1,162 @@
+"""Lemke's pivoting in C (``circuitnsds_lemke``, circuitnsds/solvers/_lu_native.c) against the
+Python loop it replaces (issue 19: a step whose mode is new leaves the compiled mode loop
+for an MLCP solve, and Lemke's pivots were numpy calls on tiny arrays); prints two tables.
+
+Table 1, per call (µs, the best of ``--repeats`` rounds of many calls) on random P-matrix
+LCPs (``p_matrix(n, "pd")``, ``q`` with half the pairs active) for n = 2 … 64 and, above
+``lemke.NATIVE_MAX`` where ``lemke_pivot`` pivots in Python, 128 and 256 (the loop alone):
+
+* ``lemke_pivot`` whole (scaling, loop, answer) with the C loop and with the Python loop;
+* ``LemkeTableau.pivot`` with the C loop: the MLCP solver's path, which keeps the scaling
+  of ``M̂`` per start basis;
+* the loop alone, C (``_pivot_native``) and Python (``_pivot_python``), on the same tableau.
+
+Table 2, in-process stepping time (``waves.stats['seconds']`` / steps, µs per step; median of
+``--runs`` runs, C and Python interleaved in the same process) of the RF voltage multiplier
+(benchmarks/netlists/rf_multiplier.cir, 16 pairs) and of the flyback with Coss at θ = 0.5
+(benchmarks/netlists/flyback_coss.cir), with the Lemke calls and pivots of one run.
+
+Usage: ``python benchmarks/lemke_native.py [--repeats 5] [--runs 5]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import statistics
+import sys
+import timeit
+import warnings
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+import circuitnsds  # noqa: E402
+from circuitnsds.solvers.testing import lcp_with_solution, p_matrix  # noqa: E402
+
+lemke = importlib.import_module("circuitnsds.solvers.lemke")  # (the package exports the function)
+
+
+def per_call(statement, repeats: int) -> float:
+    """Microseconds per call of ``statement`` (a callable): the best of ``repeats`` rounds."""
+    timer = timeit.Timer(statement)
+    number, _ = timer.autorange()
+    return min(timer.repeat(repeats, number)) / number * 1e6
+
+
+@contextmanager
+def python_loop():
+    """Lemke pivots in Python inside the block, as without the C library."""
+    original = lemke._native_lemke
+    lemke._native_lemke = lambda: None
+    try:
+        yield
+    finally:
+        lemke._native_lemke = original
+
+
+def problem(n: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(n)
+    M = p_matrix(n, rng, "pd")
+    q = lcp_with_solution(M, rng, frac_active=0.5)[0]
+    while np.all(q >= 0):  # (no pivot at all otherwise)
+        q = lcp_with_solution(M, rng, frac_active=0.5)[0]
+    return M, q
+
+
+def table_per_call(repeats: int) -> None:
+    print("Table 1: per call, µs (random P-matrix LCPs; best of", repeats, "rounds)")
+    header = ("n", "pivots", "lemke_pivot C", "lemke_pivot Py", "kept tableau C", "loop C", "loop Py",
+              "loop Py/C")
+    print(" | ".join(header))
+    print(" | ".join("---" for _ in header))
+    for n in (2, 4, 8, 16, 32, 64, 128, 256):
+        print(" | ".join(str(cell) for cell in row(n, repeats)))
+
+
+def row(n: int, repeats: int) -> tuple:
+    """Table 1's row of order ``n``."""
+    run = lemke._native_lemke()
+    M, q = problem(n)
+    pivots = lemke.lemke_pivot(M, q)[2]
+    tableau = lemke.LemkeTableau(M)
+    T0 = tableau.T0.copy()
+    qs = tableau.rs * q
+    T0[:, -1] = qs / np.abs(qs).max()
+    native_loop = per_call(lambda: lemke._pivot_native(run, T0, 10**6), repeats)
+    python_loop_us = per_call(lambda: lemke._pivot_python(T0, 10**6), repeats)
+    assert lemke._pivot_native(run, T0, 10**6)[3] == lemke._pivot_python(T0, 10**6)[3] == pivots
+    if n <= lemke.NATIVE_MAX:
+        whole_c = f"{per_call(lambda: lemke.lemke_pivot(M, q), repeats):.1f}"
+        kept = f"{per_call(lambda: tableau.pivot(q), repeats):.1f}"
+    else:
+        whole_c = kept = "(Python)"
+    with python_loop():
+        whole_py = per_call(lambda: lemke.lemke_pivot(M, q), repeats)
+    return (n, pivots, whole_c, f"{whole_py:.1f}", kept, f"{native_loop:.1f}", f"{python_loop_us:.1f}",
+            f"{python_loop_us / native_loop:.1f}")
+
+CIRCUITS = (("RF multiplier, 16 pairs", HERE / "netlists" / "rf_multiplier.cir", 1.0),
+            ("flyback Coss, θ = 0.5", HERE / "netlists" / "flyback_coss.cir", 0.5))
+
+
+def table_stepping(runs: int) -> None:
+    print(f"\nTable 2: in-process stepping, µs per step (median of {runs}, C and Python interleaved)")
+    header = ("circuit", "steps", "Lemke calls", "pivots", "C Lemke", "Python Lemke", "Python/C")
+    print(" | ".join(header))
+    print(" | ".join("---" for _ in header))
+    for name, path, theta in CIRCUITS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            circuit = circuitnsds.read_netlist(path.read_text())
+            circuit.transient(theta=theta)  # (compiled code loaded, caches warm)
+            times: dict[str, list[float]] = {"C": [], "Python": []}
+            for _ in range(runs):
+                for label in times:
+                    if label == "C":
+                        waves = circuit.transient(theta=theta)
+                    else:
+                        with python_loop():
+                            waves = circuit.transient(theta=theta)
+                    times[label].append(1e6 * waves.stats["seconds"] / waves.stats["steps"])
+            calls, pivots = counted_run(circuit, theta)
+        c, py = statistics.median(times["C"]), statistics.median(times["Python"])
+        print(f"{name} | {waves.stats['steps']} | {calls} | {pivots} | {c:.3f} | {py:.3f} | {py / c:.2f}")
+
+
+def counted_run(circuit, theta: float) -> tuple[int, int]:
+    """The Lemke calls and their pivots in one run of ``circuit``."""
+    original = lemke.LemkeTableau.pivot
+    seen = [0, 0]
+
+    def counting(self, q, max_pivots=None):
+        answer = original(self, q, max_pivots)
+        seen[0] += 1
+        seen[1] += answer[2]
+        return answer
+
+    lemke.LemkeTableau.pivot = counting
+    try:
+        circuit.transient(theta=theta)
+    finally:
+        lemke.LemkeTableau.pivot = original
+    return seen[0], seen[1]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    if not lemke.native_loaded():
+        sys.exit("the C library is not built: python setup.py build_ext --inplace")
+    table_per_call(args.repeats)
+    table_stepping(args.runs)
+
+
+if __name__ == "__main__":
+    main()
