@@ -12,9 +12,11 @@ LCPs (``p_matrix(n, "pd")``, ``q`` with half the pairs active) for n = 2 … 64 
 * the loop alone, C (``_pivot_native``) and Python (``_pivot_python``), on the same tableau.
 
 Table 2, in-process stepping time (``waves.stats['seconds']`` / steps, µs per step; median of
-``--runs`` runs, C and Python interleaved in the same process) of the RF voltage multiplier
-(benchmarks/netlists/rf_multiplier.cir, 16 pairs) and of the flyback with Coss at θ = 0.5
-(benchmarks/netlists/flyback_coss.cir), with the Lemke calls and pivots of one run.
+``--runs`` runs, the three variants interleaved in the same process) of the RF voltage
+multiplier (benchmarks/netlists/rf_multiplier.cir, 16 pairs) and of the flyback with Coss at
+θ = 0.5 (benchmarks/netlists/flyback_coss.cir), with the Lemke calls and pivots of one run:
+the C loop (the MLCP solver keeps each start basis's scaled tableau), the Python loop with
+the same kept tableau, and the Python loop with ``M̂`` scaled at every call (as before).
 
 Usage: ``python benchmarks/lemke_native.py [--repeats 5] [--runs 5]``.
 """
@@ -27,7 +29,7 @@ import statistics
 import sys
 import timeit
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +38,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 import circuitnsds  # noqa: E402
+from circuitnsds.solvers import mlcp  # noqa: E402
 from circuitnsds.solvers.testing import lcp_with_solution, p_matrix  # noqa: E402
 
 lemke = importlib.import_module("circuitnsds.solvers.lemke")  # (the package exports the function)
@@ -105,8 +108,9 @@ CIRCUITS = (("RF multiplier, 16 pairs", HERE / "netlists" / "rf_multiplier.cir",
 
 
 def table_stepping(runs: int) -> None:
-    print(f"\nTable 2: in-process stepping, µs per step (median of {runs}, C and Python interleaved)")
-    header = ("circuit", "steps", "Lemke calls", "pivots", "C Lemke", "Python Lemke", "Python/C")
+    print(f"\nTable 2: in-process stepping, µs per step (median of {runs}, interleaved)")
+    header = ("circuit", "steps", "Lemke calls", "pivots", "C loop, kept scaling",
+              "Python loop, kept scaling", "Python loop, scaled per call (before)", "before/C")
     print(" | ".join(header))
     print(" | ".join("---" for _ in header))
     for name, path, theta in CIRCUITS:
@@ -114,18 +118,29 @@ def table_stepping(runs: int) -> None:
             warnings.simplefilter("ignore")
             circuit = circuitnsds.read_netlist(path.read_text())
             circuit.transient(theta=theta)  # (compiled code loaded, caches warm)
-            times: dict[str, list[float]] = {"C": [], "Python": []}
+            times: dict[str, list[float]] = {"C": [], "Python": [], "before": []}
             for _ in range(runs):
                 for label in times:
-                    if label == "C":
+                    with python_loop() if label != "C" else nullcontext(), \
+                            scaled_per_call() if label == "before" else nullcontext():
                         waves = circuit.transient(theta=theta)
-                    else:
-                        with python_loop():
-                            waves = circuit.transient(theta=theta)
                     times[label].append(1e6 * waves.stats["seconds"] / waves.stats["steps"])
             calls, pivots = counted_run(circuit, theta)
-        c, py = statistics.median(times["C"]), statistics.median(times["Python"])
-        print(f"{name} | {waves.stats['steps']} | {calls} | {pivots} | {c:.3f} | {py:.3f} | {py / c:.2f}")
+        c, py, before = (statistics.median(times[label]) for label in ("C", "Python", "before"))
+        print(f"{name} | {waves.stats['steps']} | {calls} | {pivots} | {c:.3f} | {py:.3f} | {before:.3f} | "
+              f"{before / c:.2f}")
+
+
+@contextmanager
+def scaled_per_call():
+    """Inside the block the MLCP solver scales ``M̂`` at every Lemke call (a new
+    ``LemkeTableau`` each time), as ``lemke_pivot`` did before the tableau was kept."""
+    original = mlcp._StartBasis.lemke
+    mlcp._StartBasis.lemke = lambda self: lemke.LemkeTableau(self.Mhat)
+    try:
+        yield
+    finally:
+        mlcp._StartBasis.lemke = original
 
 
 def counted_run(circuit, theta: float) -> tuple[int, int]:

@@ -21,7 +21,11 @@ Python loop it replaces (``lemke._pivot_python``, the fallback and the reference
 from __future__ import annotations
 
 import importlib
+import os
+import subprocess
+import sys
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,6 +38,7 @@ from circuitnsds.solvers.testing import lcp_with_solution, monotone_mlcp, p_matr
 
 lemke = importlib.import_module("circuitnsds.solvers.lemke")  # (the package exports the function)
 
+ROOT = Path(__file__).parents[1]
 BUILD = "python setup.py build_ext --inplace (or pip install -e .) with a C compiler"
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -308,3 +313,23 @@ def test_a_kept_tableau_solves_each_q_as_a_fresh_one() -> None:
         assert same(kept, outcome(M, q))
     with pytest.raises(ValueError, match="covering vector"):
         lemke.LemkeTableau(M, d=np.ones(6))
+
+
+def test_switched_off_by_the_environment() -> None:
+    # CIRCUITNSDS_NATIVE=0: the Python loop, with the same answer as the C loop here
+    script = ("import importlib, numpy as np\n"
+              "lemke = importlib.import_module('circuitnsds.solvers.lemke')\n"
+              "M, q = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-5.0, -6.0])\n"
+              "z, active, pivots = lemke.lemke_pivot(M, q)\n"
+              "print(lemke.native_loaded(), z.tolist(), active.tolist(), pivots)")
+    answers = []
+    for switch in ("1", "0"):
+        environment = dict(os.environ, PYTHONPATH=str(ROOT), **{native.DISABLE_ENV: switch})
+        result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                                env=environment, cwd=ROOT, check=True)
+        answers.append(result.stdout.split(maxsplit=1))
+    assert [answer[0] for answer in answers] == ["True", "False"]
+    assert answers[0][1] == answers[1][1]
+    # w = M z + q = 0 with z = M⁻¹ (5, 6) = (4/3, 7/3): both pairs active, after three pivots
+    # (z0 enters at the row of -6, then z2, then z1 as z0 leaves)
+    assert answers[0][1].startswith("[1.333333333333333") and "[True, True] 3" in answers[0][1]
