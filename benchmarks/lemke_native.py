@@ -11,12 +11,14 @@ LCPs (``p_matrix(n, "pd")``, ``q`` with half the pairs active) for n = 2 … 64 
   of ``M̂`` per start basis;
 * the loop alone, C (``_pivot_native``) and Python (``_pivot_python``), on the same tableau.
 
-Table 2, in-process stepping time (``waves.stats['seconds']`` / steps, µs per step; median of
-``--runs`` runs, the three variants interleaved in the same process) of the RF voltage
-multiplier (benchmarks/netlists/rf_multiplier.cir, 16 pairs) and of the flyback with Coss at
-θ = 0.5 (benchmarks/netlists/flyback_coss.cir), with the Lemke calls and pivots of one run:
-the C loop (the MLCP solver keeps each start basis's scaled tableau), the Python loop with
-the same kept tableau, and the Python loop with ``M̂`` scaled at every call (as before).
+Table 2, in-process stepping time (``waves.stats['seconds']`` / steps, µs per step) and the
+time spent in Lemke per run (the tableau's scaling, the loop, the answer: the steadier figure
+on a shared machine), medians of ``--runs`` runs, the three variants interleaved in the same
+process, for the RF voltage multiplier (benchmarks/netlists/rf_multiplier.cir, 16 pairs) and
+the flyback with Coss at θ = 0.5 (benchmarks/netlists/flyback_coss.cir), with the Lemke
+calls and pivots of a run: the C loop (the MLCP solver keeps each start basis's scaled
+tableau: now), the Python loop with the same kept tableau, and the Python loop with ``M̂``
+scaled at every call (before).
 
 Usage: ``python benchmarks/lemke_native.py [--repeats 5] [--runs 5]``.
 """
@@ -27,6 +29,7 @@ import argparse
 import importlib
 import statistics
 import sys
+import time
 import timeit
 import warnings
 from contextlib import contextmanager, nullcontext
@@ -107,10 +110,16 @@ CIRCUITS = (("RF multiplier, 16 pairs", HERE / "netlists" / "rf_multiplier.cir",
             ("flyback Coss, θ = 0.5", HERE / "netlists" / "flyback_coss.cir", 0.5))
 
 
+VARIANTS = ("C", "Python", "before")
+"""Table 2's variants: the C loop with the kept scaling (now), the Python loop with it, and
+the Python loop with ``M̂`` scaled at every call (before this change)."""
+
+
 def table_stepping(runs: int) -> None:
-    print(f"\nTable 2: in-process stepping, µs per step (median of {runs}, interleaved)")
-    header = ("circuit", "steps", "Lemke calls", "pivots", "C loop, kept scaling",
-              "Python loop, kept scaling", "Python loop, scaled per call (before)", "before/C")
+    print(f"\nTable 2: in-process stepping (median of {runs} runs, the variants interleaved): µs per step, "
+          "and ms per run in Lemke (scaling, loop, answer)")
+    header = ("circuit", "steps", "Lemke calls", "pivots", "µs/step C", "µs/step Python", "µs/step before",
+              "Lemke ms C", "Lemke ms Python", "Lemke ms before")
     print(" | ".join(header))
     print(" | ".join("---" for _ in header))
     for name, path, theta in CIRCUITS:
@@ -118,17 +127,19 @@ def table_stepping(runs: int) -> None:
             warnings.simplefilter("ignore")
             circuit = circuitnsds.read_netlist(path.read_text())
             circuit.transient(theta=theta)  # (compiled code loaded, caches warm)
-            times: dict[str, list[float]] = {"C": [], "Python": [], "before": []}
+            per_step: dict[str, list[float]] = {label: [] for label in VARIANTS}
+            in_lemke: dict[str, list[float]] = {label: [] for label in VARIANTS}
             for _ in range(runs):
-                for label in times:
+                for label in VARIANTS:
                     with python_loop() if label != "C" else nullcontext(), \
-                            scaled_per_call() if label == "before" else nullcontext():
+                            scaled_per_call() if label == "before" else nullcontext(), lemke_clock() as clock:
                         waves = circuit.transient(theta=theta)
-                    times[label].append(1e6 * waves.stats["seconds"] / waves.stats["steps"])
-            calls, pivots = counted_run(circuit, theta)
-        c, py, before = (statistics.median(times[label]) for label in ("C", "Python", "before"))
-        print(f"{name} | {waves.stats['steps']} | {calls} | {pivots} | {c:.3f} | {py:.3f} | {before:.3f} | "
-              f"{before / c:.2f}")
+                    per_step[label].append(1e6 * waves.stats["seconds"] / waves.stats["steps"])
+                    in_lemke[label].append(1e3 * clock["seconds"])
+        steps = [f"{statistics.median(per_step[label]):.3f}" for label in VARIANTS]
+        spent = [f"{statistics.median(in_lemke[label]):.2f}" for label in VARIANTS]
+        counts = [str(waves.stats["steps"]), str(clock["calls"]), str(clock["pivots"])]
+        print(" | ".join([name, *counts, *steps, *spent]))
 
 
 @contextmanager
@@ -143,23 +154,35 @@ def scaled_per_call():
         mlcp._StartBasis.lemke = original
 
 
-def counted_run(circuit, theta: float) -> tuple[int, int]:
-    """The Lemke calls and their pivots in one run of ``circuit``."""
-    original = lemke.LemkeTableau.pivot
-    seen = [0, 0]
+@contextmanager
+def lemke_clock():
+    """Inside the block the MLCP solver's Lemke work is timed: the start basis's tableau
+    (scaled when it is made) and its ``pivot``; yields ``{"seconds", "calls", "pivots"}``."""
+    record = {"seconds": 0.0, "calls": 0, "pivots": 0}
+    tableau, pivot = mlcp._StartBasis.lemke, lemke.LemkeTableau.pivot
 
-    def counting(self, q, max_pivots=None):
-        answer = original(self, q, max_pivots)
-        seen[0] += 1
-        seen[1] += answer[2]
+    def timed_tableau(self):
+        started = time.perf_counter()
+        try:
+            return tableau(self)
+        finally:
+            record["seconds"] += time.perf_counter() - started
+
+    def timed_pivot(self, q, max_pivots=None):
+        started = time.perf_counter()
+        try:
+            answer = pivot(self, q, max_pivots)
+        finally:
+            record["seconds"] += time.perf_counter() - started
+        record["calls"] += 1
+        record["pivots"] += answer[2]
         return answer
 
-    lemke.LemkeTableau.pivot = counting
+    mlcp._StartBasis.lemke, lemke.LemkeTableau.pivot = timed_tableau, timed_pivot
     try:
-        circuit.transient(theta=theta)
+        yield record
     finally:
-        lemke.LemkeTableau.pivot = original
-    return seen[0], seen[1]
+        mlcp._StartBasis.lemke, lemke.LemkeTableau.pivot = tableau, pivot
 
 
 def main() -> None:
