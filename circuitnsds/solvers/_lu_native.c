@@ -487,7 +487,8 @@ EXPORT int64_t circuitnsds_lemke(int64_t n, const double *t0, double *t, int64_t
         basis[r] = entering;
         pivots++;
 
-        if (pivots % reinvert_every == 0 && !reinvert(n, t0, t, basis, b, ipiv, rcond_min)) {
+        if (reinvert_every > 0 && pivots % reinvert_every == 0
+            && !reinvert(n, t0, t, basis, b, ipiv, rcond_min)) {
             status = LEMKE_SINGULAR;
             break;
         }
