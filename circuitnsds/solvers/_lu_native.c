@@ -1,6 +1,8 @@
 /* Dense LU of circuitnsds/solvers/linalg.py in plain C: factorisation with partial pivoting,
  * solves with the factors, and the reciprocal 1-norm condition estimate, so that the small
- * (dense) circuits need no scipy (whose import alone costs a run ~0.3 s).
+ * (dense) circuits need no scipy (whose import alone costs a run ~0.3 s). The second section
+ * of the file is the pivoting loop of Lemke's method (circuitnsds/solvers/lemke.py), here
+ * because its reinversions factorise with this LU (see there).
  *
  * What LAPACK computes, for one matrix at a time:
  *   circuitnsds_lu_factor  dgetf2 (unblocked getrf): the pivot of column k is the first row
@@ -28,9 +30,11 @@
  * addresses, checked by linalg.py before the call.
  */
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "native.h"
 
@@ -314,4 +318,244 @@ EXPORT void circuitnsds_lu_solve(int64_t n, int64_t nrhs, const double *lu, cons
         for (int64_t r = 0; r < nrhs; r++)
             bi[r] /= pivot;
     }
+}
+
+
+/* ==========================================================================================
+ * Lemke's complementary pivoting: the loop of circuitnsds/solvers/lemke.py (_pivot_python),
+ * statement for statement, so that both take the same pivots and end on the same basis.
+ *
+ * Why here, and not in a file of its own: every LEMKE_REINVERT_EVERY pivots, and when a basic
+ * variable turns negative, the tableau is recomputed from the data for the current basis by
+ * factorising the basis columns. The Python loop does that with linalg.factorise, which is
+ * the LU above for the orders Lemke runs in C (n <= linalg.NATIVE_MAX); calling the same
+ * functions keeps the two loops' arithmetic identical without a second copy of the LU (the
+ * libraries are built separately, and one cannot call into another).
+ *
+ * The tableau t is n x (2n + 2) in C order: columns 0..n-1 the w's (starting as the identity,
+ * so that they hold the current basis inverse), n..2n-1 the z's, 2n the artificial z0, 2n + 1
+ * the right-hand side; t0 is the initial tableau [I, -M, -d, q] (scaled by lemke.py), kept for
+ * the reinversions. Variables are numbered by their column; basis[i] is the variable of row i.
+ *
+ * The arithmetic follows numpy's for the Python loop: a row is divided by its pivot, then
+ * every row i (the pivot row included, with factor 0) loses col[i] times the pivot row, entry
+ * by entry; NaN and infinities are treated as numpy's min, max, nan_to_num and maximum treat
+ * them. Tolerances come from lemke.py (its constants), in the order of enum lemke_scalar.
+ */
+
+enum lemke_status {  /* lemke.py's _SOLVED ... (the same numbers) */
+    LEMKE_SOLVED = 0,        /* z0 left the basis */
+    LEMKE_RAY = 1,           /* no pivot row for the entering column: a secondary ray */
+    LEMKE_PIVOT_LIMIT = 2,
+    LEMKE_SINGULAR = 3,      /* a periodic reinversion met a singular basis */
+    LEMKE_NEGATIVE = 4,      /* a basic variable stayed negative beyond the tolerance */
+    LEMKE_NOT_FINITE = 5,    /* the pivot row is not finite */
+    LEMKE_NO_MEMORY = -1     /* nothing done: the caller runs the Python loop */
+};
+
+/* The entries of circuitnsds_lemke's scalars: the tolerances of lemke.py, then an output. */
+enum lemke_scalar { TIE, PIV_REL, PIV_ABS, NEG_TOL, RCOND_MIN, MIN_BASIC, LEMKE_SCALARS };
+
+/* numpy.nan_to_num(v, nan=inf): NaN -> inf, +-inf -> +-DBL_MAX. */
+static double nan_to_inf(double v) {
+    if (isnan(v))
+        return INFINITY;
+    if (isinf(v))
+        return v > 0.0 ? DBL_MAX : -DBL_MAX;
+    return v;
+}
+
+/* _lex_argmin: among the count rows listed in rows (ascending, overwritten), the row of the
+ * lexicographic minimum of [rhs, B^-1]_i / div[i], ratios within the tie tolerance counting as
+ * equal; prefer (>= 0) is taken as soon as it is among the rows tied on the right-hand side. */
+static int64_t lex_argmin(int64_t n, const double *t, int64_t *rows, int64_t count,
+                          const double *div, int64_t prefer, double tie, double *vals) {
+    const int64_t ncol = 2 * n + 2;
+    for (int64_t step = 0; step <= n; step++) {
+        const int64_t j = step == 0 ? ncol - 1 : step - 1;
+        double best = INFINITY;
+        for (int64_t k = 0; k < count; k++) {
+            const int64_t i = rows[k];
+            const double v = nan_to_inf(t[i * ncol + j] / div[i]);
+            vals[k] = v;
+            if (v < best)
+                best = v;
+        }
+        const double bound = best + tie * (fabs(best) > 1.0 ? fabs(best) : 1.0);
+        int64_t kept = 0, has_prefer = 0;
+        for (int64_t k = 0; k < count; k++) {
+            if (vals[k] <= bound) {
+                rows[kept++] = rows[k];
+                has_prefer |= rows[k] == prefer;
+            }
+        }
+        count = kept;
+        if (count == 1)
+            break;
+        if (step == 0 && prefer >= 0 && has_prefer)
+            return prefer;
+    }
+    return rows[0];
+}
+
+/* Recompute t from t0 for the current basis (factors in b, n x n, and ipiv); 0 when the basis
+ * is numerically singular (rcond below the tolerance: t left alone) or t is not finite. */
+static int reinvert(int64_t n, const double *t0, double *t, const int64_t *basis, double *b,
+                    int32_t *ipiv, double rcond_min) {
+    const int64_t ncol = 2 * n + 2;
+    for (int64_t i = 0; i < n; i++)
+        for (int64_t k = 0; k < n; k++)
+            b[i * n + k] = t0[i * ncol + basis[k]];
+    if (!(circuitnsds_lu_factor(n, b, ipiv) >= rcond_min))
+        return 0;
+    memcpy(t, t0, (size_t)(n * ncol) * sizeof(double));
+    circuitnsds_lu_solve(n, ncol, b, ipiv, t);
+    for (int64_t row = 0; row < n; row++) {
+        for (int64_t i = 0; i < n; i++)
+            t[i * ncol + basis[row]] = 0.0;
+        t[row * ncol + basis[row]] = 1.0;
+    }
+    for (int64_t i = 0; i < n * ncol; i++)
+        if (!isfinite(t[i]))
+            return 0;
+    return 1;
+}
+
+/* The smallest and largest entry of column j of t (numpy's min and max: NaN if one is). */
+static void column_range(int64_t n, const double *t, int64_t j, double *lo, double *hi) {
+    const int64_t ncol = 2 * n + 2;
+    double low = t[j], high = t[j];
+    for (int64_t i = 0; i < n; i++) {
+        const double v = t[i * ncol + j];
+        if (isnan(v)) {
+            low = high = v;
+            break;
+        }
+        if (v < low)
+            low = v;
+        if (v > high)
+            high = v;
+    }
+    *lo = low;
+    *hi = high;
+}
+
+/* Run Lemke's pivoting on the tableau t0 (n >= 1 rows, see above; not modified), in t (the
+ * same shape; the final tableau on return) and basis (n + 2: the basis, then the pivots done
+ * and the entering variable, the ray's column for LEMKE_RAY); scalars (LEMKE_SCALARS) holds
+ * the tolerances (enum lemke_scalar) and receives the negative basic value of LEMKE_NEGATIVE.
+ * Returns the status (enum lemke_status). */
+EXPORT int64_t circuitnsds_lemke(int64_t n, const double *t0, double *t, int64_t *basis,
+                                 int64_t max_pivots, int64_t reinvert_every, double *scalars) {
+    const int64_t ncol = 2 * n + 2, z0 = 2 * n, rhs = 2 * n + 1;
+    const double tie = scalars[TIE], piv_rel = scalars[PIV_REL];
+    const double piv_abs = scalars[PIV_ABS], neg_tol = scalars[NEG_TOL];
+    const double rcond_min = scalars[RCOND_MIN];
+    double *work = malloc((size_t)(n * n + 2 * n) * sizeof(double));
+    int64_t *rows = malloc((size_t)n * sizeof(int64_t));
+    int32_t *ipiv = malloc((size_t)n * sizeof(int32_t));
+    if (work == NULL || rows == NULL || ipiv == NULL) {
+        free(work);
+        free(rows);
+        free(ipiv);
+        return LEMKE_NO_MEMORY;
+    }
+    double *b = work, *vals = work + n * n, *div = work + n * n + n;
+    memcpy(t, t0, (size_t)(n * ncol) * sizeof(double));
+    for (int64_t i = 0; i < n; i++) {
+        basis[i] = i;
+        rows[i] = i;
+        div[i] = -t[i * ncol + z0];
+    }
+    /* the first pivot: z0 enters at the row of the (lexicographically) most negative q_i/d_i */
+    int64_t r = lex_argmin(n, t, rows, n, div, -1, tie, vals);
+    int64_t entering = z0, pivots = 0, status;
+    for (;;) {
+        const int64_t leaving = basis[r];
+        double *prow = t + r * ncol;
+        const double piv = prow[entering];
+        for (int64_t j = 0; j < ncol; j++)
+            prow[j] /= piv;
+        for (int64_t i = 0; i < n; i++)
+            if (i != r)
+                axpy_row(ncol, t[i * ncol + entering], prow, t + i * ncol);
+        for (int64_t j = 0; j < ncol; j++)  /* numpy's outer product has a 0 here */
+            prow[j] -= 0.0 * prow[j];
+        for (int64_t i = 0; i < n; i++)
+            t[i * ncol + entering] = 0.0;
+        prow[entering] = 1.0;
+        basis[r] = entering;
+        pivots++;
+
+        if (reinvert_every > 0 && pivots % reinvert_every == 0
+            && !reinvert(n, t0, t, basis, b, ipiv, rcond_min)) {
+            status = LEMKE_SINGULAR;
+            break;
+        }
+        double lo, hi;
+        column_range(n, t, rhs, &lo, &hi);
+        double scale = hi > 1.0 ? hi : 1.0;
+        if (lo < -neg_tol * scale && reinvert(n, t0, t, basis, b, ipiv, rcond_min)) {
+            column_range(n, t, rhs, &lo, &hi);
+            scale = hi > 1.0 ? hi : 1.0;
+        }
+        if (lo < 0.0) {
+            if (lo < -neg_tol * scale || !isfinite(lo)) {
+                scalars[MIN_BASIC] = lo;
+                status = LEMKE_NEGATIVE;
+                break;
+            }
+            for (int64_t i = 0; i < n; i++) {  /* numpy.maximum(rhs, 0): NaN stays, -0 -> 0 */
+                const double v = t[i * ncol + rhs];
+                if (!isnan(v) && !(v > 0.0))
+                    t[i * ncol + rhs] = 0.0;
+            }
+        }
+        int finite = 1;
+        for (int64_t j = 0; j < ncol; j++)
+            finite &= isfinite(prow[j]) != 0;
+        if (!finite) {
+            status = LEMKE_NOT_FINITE;
+            break;
+        }
+        if (leaving == z0) {
+            status = LEMKE_SOLVED;
+            break;
+        }
+        entering = leaving < n ? leaving + n : leaving - n;
+        if (pivots >= max_pivots) {
+            status = LEMKE_PIVOT_LIMIT;
+            break;
+        }
+        double big = 0.0;
+        for (int64_t i = 0; i < n; i++) {
+            const double v = fabs(t[i * ncol + entering]);
+            if (isnan(v)) {
+                big = v;
+                break;
+            }
+            if (v > big)
+                big = v;
+        }
+        const double thresh = piv_rel * big > piv_abs ? piv_rel * big : piv_abs;
+        int64_t count = 0, z0_row = -1;
+        for (int64_t i = 0; i < n; i++) {
+            div[i] = t[i * ncol + entering];
+            if (div[i] > thresh)
+                rows[count++] = i;
+            if (basis[i] == z0 && z0_row < 0)
+                z0_row = i;
+        }
+        if (count == 0) {
+            status = LEMKE_RAY;
+            break;
+        }
+        r = lex_argmin(n, t, rows, count, div, z0_row, tie, vals);
+    }
+    basis[n] = pivots;
+    basis[n + 1] = entering;
+    free(work);
+    free(rows);
+    free(ipiv);
+    return status;
 }

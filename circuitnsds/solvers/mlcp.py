@@ -57,7 +57,7 @@ import numpy as np
 
 from ._inputs import as_mask, as_vector, bordered
 from .enumeration import MAX_ENUM, enumerate_mlcp
-from .lemke import lemke_pivot
+from .lemke import LemkeTableau
 from .linalg import LU, SIGN_TOL, factorise, factorise_sparse
 from .mode import Mode, ModeCache
 from .newton import fb_newton_mlcp
@@ -126,9 +126,9 @@ class _StartBasis(PivotTransform):
     """:class:`~circuitnsds.solvers.pivot_transform.PivotTransform` at a start basis ``α0``,
     with the rounding noise of the elimination removed from ``M̂`` (as ``Mhat``; ``M`` keeps
     the values computed, which the certificate of :meth:`MLCPSolver.unique_solutions` judges)
-    and ``q̂``."""
+    and ``q̂``, and Lemke's scaled tableau of ``M̂`` (:meth:`lemke`)."""
 
-    __slots__ = ("Mhat",)
+    __slots__ = ("Mhat", "_lemke")
 
     def __init__(self, K: np.ndarray, n: int, mask: np.ndarray, lu: LU) -> None:
         super().__init__(K, n, mask, lu)
@@ -138,6 +138,13 @@ class _StartBasis(PivotTransform):
         if self.m:
             Mhat[np.abs(Mhat) < _NOISE * float(np.abs(Mhat).max())] = 0.0
         self.Mhat = Mhat
+        self._lemke: LemkeTableau | None = None
+
+    def lemke(self) -> LemkeTableau:
+        """Lemke's tableau of ``M̂`` (its scaling computed on the first call, then kept)."""
+        if self._lemke is None:
+            self._lemke = LemkeTableau(self.Mhat)
+        return self._lemke
 
     def rhs(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(q̂, r0)`` for ``c = [a; b]`` (``r0`` = basic values at ``ẑ = 0``)."""
@@ -482,7 +489,7 @@ class MLCPSolver:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
         qhat, r0 = sb.rhs(c)
         try:
-            zhat, act_hat, pivots = lemke_pivot(sb.Mhat, qhat, max_pivots=self.max_pivots)
+            zhat, act_hat, pivots = sb.lemke().pivot(qhat, self.max_pivots)
         except LCPNoSolution as err:
             if sb.aidx.size and getattr(err, "ray_z", None) is not None:
                 rz, rw = err.ray_z, err.ray_w
