@@ -518,10 +518,16 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
 
     def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
         j = rows[name]
+        terms = [(unknowns, column, weight) for matrix, unknowns in ((Y_out, states), (L_out, currents))
+                 for column, weight in zip(*matrix.row(j))]
+        if len(terms) == 1:  # most signals (a node voltage, a pair's current): one pass, no zeros
+            unknowns, column, weight = terms[0]
+            values = weight * unknowns[:, column]
+            values += 0.0  # (a zero is +0.0, as the sum below makes it)
+            return values
         values = np.zeros(states.shape[0])
-        for matrix, unknowns in ((Y_out, states), (L_out, currents)):
-            for column, weight in zip(*matrix.row(j)):
-                values += weight * unknowns[:, column]
+        for unknowns, column, weight in terms:
+            values += weight * unknowns[:, column]
         return values
 
     # each device's impulse (the signed sum of its pairs'), computed when first read: a run

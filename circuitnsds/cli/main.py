@@ -274,8 +274,6 @@ def _shown(written: list[Path]) -> str:
 def _prepare(args: argparse.Namespace, builder=None):
     """Read the netlist (unless ``builder`` has read it) and check what can be checked before
     a long run (``run``, ``pss``)."""
-    from circuitnsds.output.measure import parse_measurement
-
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
     # before a long run: never over the netlist, a file it includes, or another output
@@ -287,8 +285,11 @@ def _prepare(args: argparse.Namespace, builder=None):
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
     args.measure = [e for e in args.measure if e not in meas_lines]
-    for expression in args.measure:  # syntax errors before a long run, not after it
-        parse_measurement(expression)
+    if args.measure:  # syntax errors before a long run, not after it
+        from circuitnsds.output.measure import parse_measurement
+
+        for expression in args.measure:
+            parse_measurement(expression)
     if args.plot:  # an unknown figure format before a long run, not after it
         from circuitnsds.output.plot import plot_format
 

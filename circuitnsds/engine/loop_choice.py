@@ -46,7 +46,6 @@ A loop already loaded in the process (an earlier run) is used at once.
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
@@ -88,7 +87,7 @@ def python_step_us(unknowns: int, watched: int) -> float:
     return STEP_US + SWITCH_TERM_US * unknowns * watched
 
 
-_warmup: list[subprocess.Popen] = []  # the process's background compilation, if started
+_warmup: list = []  # the process's background compilation (a subprocess.Popen), if started
 
 
 def start_warmup() -> None:
@@ -97,6 +96,8 @@ def start_warmup() -> None:
     find first on its path)."""
     if _warmup:
         return
+    import subprocess  # (here: a run that never warms numba up does not import it)
+
     package_parent = str(Path(__file__).resolve().parents[2])
     code = (f"import sys; sys.path.insert(0, {package_parent!r}); "
             "from circuitnsds.engine.warmup import main; main()")

@@ -166,8 +166,7 @@ class CsvStream:
         self.compiled: bool | None = None
         self.expected = 0
         self._chunks: list[tuple[np.ndarray, list[np.ndarray], np.ndarray | None]] = []
-        self._pending = None
-        self._executor = None
+        self._pending: _Background | None = None
         self._stack = ExitStack()
         try:
             with writing(target):
@@ -200,12 +199,7 @@ class CsvStream:
         if self.keep:
             self._chunks.append((time, columns, residual))
         if self.compiled and self.background:
-            if self._executor is None:
-                from concurrent.futures import ThreadPoolExecutor
-
-                self._executor = ThreadPoolExecutor(1, thread_name_prefix="csv")
-            self._pending = self._executor.submit(write_rows, self._stream, time, columns,
-                                                  compiled=True)
+            self._pending = _Background(write_rows, self._stream, time, columns, compiled=True)
         else:
             with writing(self.target):
                 write_rows(self._stream, time, columns, compiled=self.compiled)
@@ -228,7 +222,6 @@ class CsvStream:
         except BaseException:
             self.abort()
             raise
-        self._shutdown()
         with writing(self.target):
             if hasattr(self.target, "write"):
                 self._stream.flush()
@@ -238,15 +231,9 @@ class CsvStream:
         """Stop writing; the file being written is removed, the previous one kept."""
         pending, self._pending = self._pending, None
         if pending is not None:
-            pending.exception()  # wait; the run's own failure is what gets reported
-        self._shutdown()
+            pending.join()  # the run's own failure is what gets reported, not the writer's
         aborted = KeyboardInterrupt()
         self._stack.__exit__(KeyboardInterrupt, aborted, None)
-
-    def _shutdown(self) -> None:
-        if self._executor is not None:
-            self._executor.shutdown(wait=True)
-            self._executor = None
 
     def waveforms(self, template):
         """The rows kept (``keep``) as :class:`~circuitnsds.output.waveforms.Waveforms`, with
@@ -261,3 +248,33 @@ class CsvStream:
                        signals={name: joined([c[j] for _, c, _ in self._chunks])
                                 for j, name in enumerate(self.names)},
                        residual=joined(residuals) if residuals else template.residual)
+
+
+class _Background:
+    """One call of ``function(*args, **kwargs)`` in a thread of its own, started at once
+    (a plain thread: ``concurrent.futures`` would import ``logging`` and more, ~5 ms of every
+    run's start-up, for one worker)."""
+
+    def __init__(self, function, *args, **kwargs):
+        import threading
+
+        self._failure: BaseException | None = None
+
+        def work() -> None:
+            try:
+                function(*args, **kwargs)
+            except BaseException as exc:  # handed to whoever waits for the result
+                self._failure = exc
+
+        self._thread = threading.Thread(target=work, name="csv", daemon=True)
+        self._thread.start()
+
+    def join(self) -> None:
+        """Wait for the call to end."""
+        self._thread.join()
+
+    def result(self) -> None:
+        """Wait for the call to end; raise what it raised."""
+        self.join()
+        if self._failure is not None:
+            raise self._failure

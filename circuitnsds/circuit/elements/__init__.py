@@ -1,13 +1,11 @@
-"""Circuit elements. Each class knows its terminals and stamps itself into an MLCS."""
+"""Circuit elements. Each class knows its terminals and stamps itself into an MLCS.
+
+The controlled sources (:mod:`~circuitnsds.circuit.elements.controlled`) are imported when
+first named here, so that a run of a netlist without them does not build their classes.
+"""
 
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
-from circuitnsds.circuit.elements.controlled import (
-    CurrentControlledCurrentSource,
-    CurrentControlledVoltageSource,
-    VoltageControlledCurrentSource,
-    VoltageControlledVoltageSource,
-)
 from circuitnsds.circuit.elements.coupling import MutualInductance
 from circuitnsds.circuit.elements.diode import Diode, DiodeModel
 from circuitnsds.circuit.elements.passive import Capacitor, Inductor, Resistor
@@ -21,3 +19,14 @@ __all__ = [
     "Resistor", "Switch", "SwitchModel", "VoltageControlledCurrentSource",
     "VoltageControlledVoltageSource", "VoltageSource",
 ]
+
+_CONTROLLED = {"CurrentControlledCurrentSource", "CurrentControlledVoltageSource",
+               "VoltageControlledCurrentSource", "VoltageControlledVoltageSource"}
+
+
+def __getattr__(name: str):
+    if name in _CONTROLLED:
+        from circuitnsds.circuit.elements import controlled
+
+        return getattr(controlled, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

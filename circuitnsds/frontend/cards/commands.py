@@ -6,7 +6,6 @@ from __future__ import annotations
 import re
 
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.frontend.cards.meas import parse_four, parse_meas
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist import Statement
 from circuitnsds.specs import AcSpec, PssSpec, TransientSpec
@@ -104,12 +103,16 @@ def command(circuit: Circuit, statement: Statement) -> None:
     elif keyword == ".save":
         _save(circuit, statement)
     elif keyword in {".meas", ".measure"}:
+        from circuitnsds.frontend.cards.meas import parse_meas
+
         spec = parse_meas(statement.text, statement.location)
         if spec is None:
             reader.warn(f"{keyword} ignored (only .meas tran is run): {statement.text}")
         else:
             circuit.measurements.append(spec)
     elif keyword == ".four":
+        from circuitnsds.frontend.cards.meas import parse_four
+
         circuit.fourier.append(parse_four(statement.text, statement.location))
     elif keyword == ".title":
         circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""

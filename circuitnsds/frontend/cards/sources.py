@@ -4,15 +4,8 @@ from __future__ import annotations
 
 import re
 
-from circuitnsds.circuit.elements import (
-    CurrentControlledCurrentSource,
-    CurrentControlledVoltageSource,
-    CurrentSource,
-    Element,
-    VoltageControlledCurrentSource,
-    VoltageControlledVoltageSource,
-    VoltageSource,
-)
+from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.sources import CurrentSource, VoltageSource
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.system.stimuli import Dc, Exp, Pulse, Pwl, Sin, Stimulus
 from circuitnsds.values import is_value, parse_value
@@ -33,6 +26,14 @@ def controlled_source(reader: StatementReader, letter: str, voltage_sources: set
 
     ``voltage_sources`` holds the names of the circuit's voltage sources (for ``F``/``H``).
     """
+    # (imported here: a netlist without E F G H does not pay for their classes at start-up)
+    from circuitnsds.circuit.elements.controlled import (
+        CurrentControlledCurrentSource,
+        CurrentControlledVoltageSource,
+        VoltageControlledCurrentSource,
+        VoltageControlledVoltageSource,
+    )
+
     name = reader.name
     if any(token in BEHAVIOURAL_KEYWORDS for token in reader.tokens[1:]):
         raise reader.error(f"{name}: this form of controlled source (POLY, LAPLACE, FREQ, or "
