@@ -302,9 +302,8 @@ def integrate(
                 left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
                                         and stepping.continues(done)) else -1
                 if done > k:
-                    finite = np.isfinite(y[k + 1:done + 1]).all(axis=1)
-                    if not finite.all():
-                        bad = k + 1 + int(np.argmin(finite))
+                    if not np.isfinite(y[k + 1:done + 1]).all():  # (flat: one fast pass)
+                        bad = k + 1 + int(np.argmin(np.isfinite(y[k + 1:done + 1]).all(axis=1)))
                         raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
                                        residual, active, states, stats, so_far(bad - 1))
                     states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held
@@ -862,11 +861,16 @@ class _Stepping:
         """How many of the steps taken in table ``modes`` (``mode`` before them) changed to a
         mode of the same class and switch states: mode changes the loop found by searching
         the table (the others follow a change of step size or scheduled switch states)."""
-        before = np.concatenate(([mode], modes[:-1]))
+        if modes.size == 0:
+            return 0
+        changed = np.flatnonzero(modes[1:] != modes[:-1])  # (few: compared only where it changed)
+        after, before = modes[changed + 1], modes[changed]
+        if modes[0] != mode:
+            after, before = np.append(after, modes[0]), np.append(before, mode)
         table = self.table
-        same = ((table.mode_class[before] == table.mode_class[modes])
-                & (table.mode_sched[before] == table.mode_sched[modes]))
-        return int(np.count_nonzero((before != modes) & same))
+        same = ((table.mode_class[before] == table.mode_class[after])
+                & (table.mode_sched[before] == table.mode_sched[after]))
+        return int(np.count_nonzero(same))
 
     def continues(self, k: int) -> bool:
         """Whether step ``k`` has the class and scheduled switch states of step ``k - 1``."""
@@ -984,12 +988,18 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
         switch = mlcs.switches[j]
         stimulus, sign = switch.control_stimulus
         control = sign * mlcs.stimuli[stimulus].sample(middles)
-        decided = np.where(control > switch.on_threshold, 1,
-                           np.where(control < switch.off_threshold, 0, -1))
+        on = control > switch.on_threshold
+        off = control < switch.off_threshold
+        if (on | off).all():  # no step inside the hysteresis band (e.g. VH = 0): no memory
+            states[:, column] = on
+            continue
+        decided = np.where(on, 1, np.where(off, 0, -1))
         last = np.maximum.accumulate(np.where(decided >= 0, np.arange(steps), -1))
         states[:, column] = np.where(last >= 0, decided[np.maximum(last, 0)] == 1, initial[j])
     if len(scheduled) < 63:  # the states as the bits of one integer
-        ids = states.astype(np.int64) @ (np.int64(1) << np.arange(len(scheduled), dtype=np.int64))
+        ids = np.zeros(steps, dtype=np.int64)
+        for column in range(len(scheduled)):
+            ids |= states[:, column].astype(np.int64) << column
     else:
         ids = np.unique(states, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
     return np.array(scheduled, dtype=np.int64), states, ids
