@@ -3,10 +3,11 @@ checkout's library against the same file at another git revision, on the same ar
 
 Run from the repository root, after ``python setup.py build_ext --inplace``::
 
-    python benchmarks/loop_step.py [--before main] [--repeat 5]
+    python benchmarks/loop_step.py [--before 21261dd] [--repeat 5]
 
 ``--before`` names the revision whose ``_dense_native.c`` is compiled here (into a temporary
-directory, with setup.py's flags) as the reference. Two tables, medians of ``--repeat``
+directory, with setup.py's flags) as the reference; the default, 21261dd, is the last one
+that summed one row at a time. Two tables, medians of ``--repeat``
 interleaved runs (before, after, before, after, ...):
 
 * **one unchanged mode**: a synthetic table with one mode of ``n`` unknowns (n = 5, 10, 20,
@@ -121,7 +122,7 @@ def time_run(function, path: Path, options: dict) -> tuple[float, int, dict]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--before", default="main", help="git revision of the reference C source")
+    parser.add_argument("--before", default="21261dd", help="git revision of the reference C source")
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--steps", type=int, default=50_000, help="steps of the one-mode runs")
     args = parser.parse_args(argv)

@@ -171,3 +171,44 @@ def test_ctrl_c_before_tstart_is_no_traceback(tmp_path, capsys, monkeypatch, ext
     assert status == 130 and "internal error" not in err and "Traceback" not in err
     assert "no results to write" in err
     assert csv.read_text() == "previous\n"
+
+
+def test_ctrl_c_while_waiting_for_the_writer_still_commits_every_row(tmp_path, monkeypatch):
+    """A Ctrl-C that interrupts the wait for the chunk being formatted (formatting slower than
+    stepping) leaves that chunk pending: committing the partial result waits for it, so the
+    file holds every row the stream counted (the review of the plain-thread writer found a
+    file with only its header)."""
+    import threading
+    import time as clock
+
+    release = threading.Event()
+    real_write = csvfile.write_rows
+
+    def slow_write(*args, **kwargs):
+        release.wait(5.0)  # formatting that outlasts the next segment's steps
+        clock.sleep(0.05)
+        return real_write(*args, **kwargs)
+
+    monkeypatch.setattr(csvfile, "write_rows", slow_write)
+    interrupted = []
+    real_join = csvfile._Background.join
+
+    def join_once_interrupted(self):
+        if not interrupted:  # the first wait is cut short by Ctrl-C, with the chunk in flight
+            interrupted.append(True)
+            release.set()
+            raise KeyboardInterrupt
+        real_join(self)
+
+    monkeypatch.setattr(csvfile._Background, "join", join_once_interrupted)
+    target = tmp_path / "out.csv"
+    stream = CsvStream(target, ["v(out)"], background=True)
+    stream.compiled = True
+    time = np.linspace(0.0, 1.0, 5)
+    stream.append(time, [2 * time])
+    with pytest.raises(KeyboardInterrupt):
+        stream.append(time + 1.0, [2 * time])
+    stream.commit()  # as the CLI does with the rows done so far
+    rows = target.read_text().splitlines()
+    assert len(rows) == 1 + 5 == 1 + stream.rows
+    np.testing.assert_allclose(np.loadtxt(target, delimiter=",", skiprows=1)[:, 1], 2 * time)

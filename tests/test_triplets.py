@@ -200,3 +200,30 @@ def test_a_switch_shorted_on_one_node_carries_no_current():
     assert sum(event.state for event in waves.events) >= 2  # it did close
     assert np.array_equal(waves["i(s1)"], np.zeros(waves.time.size))
     np.testing.assert_allclose(waves["v(b)"].max(), 2.5, rtol=1e-12)  # the divider, untouched
+
+
+def test_a_plain_run_imports_only_what_its_netlist_uses(tmp_path):
+    """Start-up (issue 19): `run -o out.csv --signals v(out)` of the bundled buck, which has no
+    controlled sources, no .meas and no --measure, and streams its CSV, builds none of the
+    modules it does not use; a netlist with an E source still finds its class."""
+    unused = ["circuitnsds.circuit.elements.controlled", "circuitnsds.frontend.cards.meas",
+              "circuitnsds.output.measure", "subprocess", "concurrent.futures"]
+    controlled = tmp_path / "e.cir"
+    controlled.write_text("E gain\nV1 in 0 DC 1\nR1 in 0 1k\nE1 out 0 in 0 3\nR2 out 0 1k\n"
+                          ".tran 1u 10u\n.end\n")
+    script = textwrap.dedent(f"""
+        import sys
+        from circuitnsds.cli.main import main
+        status = main(["run", {str(_bundled("buck_converter.cir"))!r}, "-o", {str(tmp_path / "b.csv")!r},
+                       "--signals", "v(out)", "-q"])
+        loaded = [m for m in {unused!r} if m in sys.modules]
+        import circuitnsds
+        waves = circuitnsds.read_netlist({str(controlled)!r}).transient()
+        print(status, loaded, float(waves["v(out)"][-1]))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    status, rest = done.stdout.split(" ", 1)
+    loaded, gain_out = rest.rsplit(" ", 1)
+    assert status == "0" and loaded == "[]", f"imported although unused: {loaded}"
+    assert float(gain_out) == pytest.approx(3.0)

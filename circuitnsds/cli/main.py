@@ -514,12 +514,13 @@ def _selected(args: argparse.Namespace, waves):
 
     from circuitnsds.arrays import sorted_unique
     from circuitnsds.errors import CircuitError
-    from circuitnsds.output.measure import MeasurementError, _series
     from circuitnsds.output.waveforms import Waveforms
 
     extra = {}
     for name in _signal_names(args.signals or ""):
         if name.startswith("v(") and "," in name and name not in waves:
+            from circuitnsds.output.measure import MeasurementError, _series
+
             try:
                 extra[name] = _series(waves, name)[1]
             except MeasurementError as exc:

@@ -210,10 +210,12 @@ class CsvStream:
 
     def _wait(self) -> None:
         """Let the chunk in flight be written (its write error raised here)."""
-        pending, self._pending = self._pending, None
+        pending = self._pending
         if pending is not None:
             with writing(self.target):
-                pending.result()
+                pending.join()  # (a Ctrl-C here leaves it pending: commit or abort waits again)
+                self._pending = None
+                pending.raise_failure()
 
     def commit(self) -> None:
         """Finish writing and put the file in place (an open stream is flushed)."""
@@ -253,7 +255,7 @@ class CsvStream:
 class _Background:
     """One call of ``function(*args, **kwargs)`` in a thread of its own, started at once
     (a plain thread: ``concurrent.futures`` would import ``logging`` and more, ~5 ms of every
-    run's start-up, for one worker)."""
+    run's start-up, for one worker). Not a daemon: the interpreter waits for it at exit."""
 
     def __init__(self, function, *args, **kwargs):
         import threading
@@ -266,15 +268,14 @@ class _Background:
             except BaseException as exc:  # handed to whoever waits for the result
                 self._failure = exc
 
-        self._thread = threading.Thread(target=work, name="csv", daemon=True)
+        self._thread = threading.Thread(target=work, name="csv")
         self._thread.start()
 
     def join(self) -> None:
         """Wait for the call to end."""
         self._thread.join()
 
-    def result(self) -> None:
-        """Wait for the call to end; raise what it raised."""
-        self.join()
+    def raise_failure(self) -> None:
+        """Raise what the call raised, if anything (after :meth:`join`)."""
         if self._failure is not None:
             raise self._failure

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import math
 
 import numpy as np
 
@@ -120,7 +121,8 @@ def _pivot_native(run, T0: np.ndarray, max_pivots: int) -> _Outcome | None:
     basis = np.empty(n + 2, dtype=np.int64)  # the basis, the pivots, the entering variable
     scalars = np.array([_TIE, _PIV_REL, _PIV_ABS, _NEG_TOL, RCOND_MIN, 0.0])  # (enum lemke_scalar)
     double, integer = ctypes.c_double, ctypes.c_int64
-    status = run(n, double.from_buffer(T0), double.from_buffer(T), integer.from_buffer(basis), max_pivots,
+    limit = math.ceil(max_pivots)  # (the Python loop stops at the first pivot count >= the limit)
+    status = run(n, double.from_buffer(T0), double.from_buffer(T), integer.from_buffer(basis), limit,
                  _REINVERT_EVERY, double.from_buffer(scalars))
     if status == _NO_MEMORY:
         return None

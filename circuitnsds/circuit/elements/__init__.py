@@ -4,6 +4,8 @@ The controlled sources (:mod:`~circuitnsds.circuit.elements.controlled`) are imp
 first named here, so that a run of a netlist without them does not build their classes.
 """
 
+from typing import TYPE_CHECKING
+
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
 from circuitnsds.circuit.elements.coupling import MutualInductance
@@ -20,6 +22,14 @@ __all__ = [
     "VoltageControlledVoltageSource", "VoltageSource",
 ]
 
+if TYPE_CHECKING:
+    from circuitnsds.circuit.elements.controlled import (
+        CurrentControlledCurrentSource,
+        CurrentControlledVoltageSource,
+        VoltageControlledCurrentSource,
+        VoltageControlledVoltageSource,
+    )
+
 _CONTROLLED = {"CurrentControlledCurrentSource", "CurrentControlledVoltageSource",
                "VoltageControlledCurrentSource", "VoltageControlledVoltageSource"}
 
@@ -30,3 +40,7 @@ def __getattr__(name: str):
 
         return getattr(controlled, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
