@@ -558,10 +558,12 @@ SEGMENT_BYTES = 256 * 2**20
 [bytes] (see :func:`_kept_signals`)."""
 
 
-SINK_SEGMENT_STEPS = 2**18
+SINK_SEGMENT_STEPS = 2**16
 """Steps per segment at most when the rows go to a sink: the sink (a CSV file) formats one
-segment in a background thread while the next is computed (the 1M-step buck's whole run:
-2.49 s against 2.86 s in one segment, and 95 MB less; docs/performance.md)."""
+segment in a background thread while the next is computed, and only the last one's
+formatting is waited for (the 300,600-step flyback, θ = 0.5, in-process, medians of 12
+interleaved runs: 167 ms against 225 ms at 2^18 steps; the 1M-step buck the same to the
+noise, 344–358 ms; benchmarks/segments.py, docs/performance.md)."""
 
 
 def segment_steps(mlcs) -> int:
