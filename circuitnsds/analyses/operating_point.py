@@ -14,24 +14,25 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from circuitnsds.checks.rules import ill_conditioning
 from circuitnsds.checks.topology import check_current_cutsets, check_source_loops
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import (
-    Affine,
-    BehaviouralSource,
-    Capacitor,
-    Inductor,
-    Integrator,
-    MinMax,
-)
+from circuitnsds.circuit.elements import Capacitor, Inductor
 from circuitnsds.engine import integrate
 from circuitnsds.errors import NetlistWarning, SimulationError
+from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
+
+if TYPE_CHECKING:
+    from circuitnsds.circuit.elements import Affine
+
+BEHAVIOURAL = "circuitnsds.circuit.elements.behavioural"
+"""Imported with the first behavioural card: without it the circuit has no such element."""
 
 
 @dataclass
@@ -228,7 +229,7 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
             y[k] = element.initial_current
             charge[k] = element.inductance * element.initial_current
     for element in circuit.elements:
-        if isinstance(element, Integrator):  # its state row starts at out_ic
+        if is_loaded_instance(element, BEHAVIOURAL, "Integrator"):  # its state row starts at out_ic
             k = mlcs.unknowns.index(f"i({element.name})")
             charge[k] = element.initial_charge
             plus, minus = element.nodes[:2]
@@ -260,12 +261,12 @@ def _consistent_auxiliaries(circuit: Circuit, mlcs: MLCS, y: np.ndarray) -> None
 
     for element in circuit.elements:
         auxiliaries = getattr(element, "auxiliaries", ())
-        if not isinstance(element, BehaviouralSource) or not auxiliaries:
+        if not auxiliaries or not is_loaded_instance(element, BEHAVIOURAL, "BehaviouralSource"):
             continue
         columns = [index[f"x({element.name}.{k})"] for k in range(len(auxiliaries))]
         for _ in range(len(auxiliaries)):  # enough passes for any order of definition
             for auxiliary, column in zip(auxiliaries, columns):
-                if isinstance(auxiliary, MinMax):
+                if is_loaded_instance(auxiliary, BEHAVIOURAL, "MinMax"):
                     pick = max if auxiliary.kind == "max" else min
                     y[column] = pick(value(auxiliary.a, columns), value(auxiliary.b, columns))
                 else:  # a comparator, in its initial state

@@ -13,28 +13,20 @@ from __future__ import annotations
 
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import (
-    BehaviouralSource,
     Diode,
     Element,
     Inductor,
-    Integrator,
     MutualInductance,
     Resistor,
     Switch,
 )
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import (
-    behavioural,
-    commands,
-    devices,
-    mosfets,
-    sources,
-    xspice,
-    xspice_digital,
-)
+from circuitnsds.frontend.cards import commands, devices, sources
+from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
+from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.netlist import Netlist, Statement
 from circuitnsds.netlist.subcircuits import element_letter
 
@@ -90,6 +82,8 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
         elif element_letter(statement.keyword) == "m":
+            from circuitnsds.frontend.cards import mosfets
+
             for element in mosfets.mosfet(StatementReader(statement), circuit.models,
                                           circuit.options, off_resistance):
                 circuit.add(element, statement.location)
@@ -99,7 +93,11 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                 circuit.add(element, statement.location)
     _couple(circuit, couplings)
     _check_unused_models(circuit)
-    xspice_digital.check_digital_nodes(circuit.elements, circuit.models)
+    if any(getattr(model, "kind", None) in DIGITAL_PARTS for model in circuit.models.values()):
+        # (digital parts are the elements of such models: without one there is nothing to check)
+        from circuitnsds.frontend.cards import xspice_digital
+
+        xspice_digital.check_digital_nodes(circuit.elements, circuit.models)
     _check_initial_conditions(circuit)
     if not netlist.ended:
         last = netlist.statements[-1].location.line if netlist.statements else 1
@@ -120,6 +118,8 @@ def _element(statement: Statement, models: dict[str, object],
     if letter in "vi":
         return sources.independent_source(reader, letter)
     if letter == "b" or (letter in "eg" and statement.tokens[3:4] in {("value",), ("table",)}):
+        from circuitnsds.frontend.cards import behavioural
+
         return behavioural.behavioural_source(reader, letter, voltage_sources)
     if letter in "efgh":
         return sources.controlled_source(reader, letter, voltage_sources)
@@ -128,6 +128,8 @@ def _element(statement: Statement, models: dict[str, object],
     if letter in "sw":
         return devices.switch(reader, letter, models, voltage_sources)
     if letter == "a":
+        from circuitnsds.frontend.cards import xspice
+
         return xspice.analog_block(reader, models)
     if letter == "x":
         raise reader.error(f"{statement.keyword}: subcircuit instance reached the elaborator "
@@ -185,12 +187,15 @@ def _check_unused_models(circuit: Circuit) -> None:
     for element in circuit.elements:
         if isinstance(element, (Diode, Switch)):
             used.add(element.model.name)
-        elif isinstance(element, (Resistor, BehaviouralSource, Integrator)) and element.model:
+        elif (isinstance(element, Resistor) or is_loaded_instance(
+                element, "circuitnsds.circuit.elements.behavioural", "BehaviouralSource", "Integrator"
+        )) and element.model:
             used.add(element.model)
     for name, model in circuit.models.items():
         if name not in used:
-            kind = model if isinstance(model, str) else model.kind if isinstance(
-                model, xspice.XspiceModel) else type(model).__name__.removesuffix("Model")
+            kind = model if isinstance(model, str) else model.kind if is_loaded_instance(
+                model, "circuitnsds.frontend.cards.xspice", "XspiceModel"
+            ) else type(model).__name__.removesuffix("Model")
             warn_at(circuit.model_locations[name], f".model {name} ({kind.upper()}) is not used")
 
 

@@ -27,7 +27,6 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.errors import NetlistError
-from circuitnsds.netlist.behavioural import flat_tokens
 from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
@@ -78,6 +77,8 @@ def _behavioural(statement: Statement) -> bool:
 def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, ...] | None:
     """A behavioural line's tokens with its expression's parameters substituted and its
     nodes and elements renamed (:func:`circuitnsds.netlist.behavioural.flat_tokens`)."""
+    from circuitnsds.netlist.behavioural import flat_tokens  # only for a netlist with such lines
+
     try:
         return flat_tokens(element_letter(statement.keyword), statement.text, node=context.node,
                            element=context.element, lookup=context.scope.lookup)

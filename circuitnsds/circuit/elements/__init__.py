@@ -1,13 +1,13 @@
 """Circuit elements. Each class knows its terminals and stamps itself into an MLCS.
 
-The controlled sources (:mod:`~circuitnsds.circuit.elements.controlled`) are imported when
-first named here, so that a run of a netlist without them does not build their classes.
+The controlled sources (:mod:`~circuitnsds.circuit.elements.controlled`) and the behavioural
+elements (:mod:`~circuitnsds.circuit.elements.behavioural`) are imported when first named
+here, so that a run of a netlist without them does not build their classes.
 """
 
 from typing import TYPE_CHECKING
 
 from circuitnsds.circuit.elements.base import Element
-from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
 from circuitnsds.circuit.elements.coupling import MutualInductance
 from circuitnsds.circuit.elements.diode import Diode, DiodeModel
 from circuitnsds.circuit.elements.passive import Capacitor, Inductor, Resistor
@@ -23,6 +23,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
     from circuitnsds.circuit.elements.controlled import (
         CurrentControlledCurrentSource,
         CurrentControlledVoltageSource,
@@ -30,15 +31,20 @@ if TYPE_CHECKING:
         VoltageControlledVoltageSource,
     )
 
-_CONTROLLED = {"CurrentControlledCurrentSource", "CurrentControlledVoltageSource",
-               "VoltageControlledCurrentSource", "VoltageControlledVoltageSource"}
+_LAZY = {
+    "CurrentControlledCurrentSource": "controlled", "CurrentControlledVoltageSource": "controlled",
+    "VoltageControlledCurrentSource": "controlled", "VoltageControlledVoltageSource": "controlled",
+    "Affine": "behavioural", "BehaviouralSource": "behavioural", "Integrator": "behavioural",
+    "MinMax": "behavioural",
+}
+"""The names imported on first use -> their module in this package."""
 
 
 def __getattr__(name: str):
-    if name in _CONTROLLED:
-        from circuitnsds.circuit.elements import controlled
+    if name in _LAZY:
+        import importlib
 
-        return getattr(controlled, name)
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -16,8 +16,8 @@ from circuitnsds.circuit.elements import (
     SwitchModel,
 )
 from circuitnsds.frontend.cards.models import MODEL_KINDS, ResistorModel
-from circuitnsds.frontend.cards.mosfets import MosfetModel
 from circuitnsds.frontend.cards.reader import StatementReader
+from circuitnsds.lazy import is_loaded_instance
 
 IGNORED_PASSIVE_PARAMETERS = {"tc1", "tc2", "tc", "temp", "dtemp", "noisy", "scale", "ac"}
 
@@ -218,7 +218,7 @@ def inductance_matrix(inductors: list[Inductor], couplings: list[MutualInductanc
 def _kind(model: object) -> str:
     if isinstance(model, str):
         return f"a {MODEL_KINDS[model]}" if model in MODEL_KINDS else f"an unknown-type ({model.upper()})"
-    if isinstance(model, MosfetModel):
+    if is_loaded_instance(model, "circuitnsds.frontend.cards.mosfets", "MosfetModel"):
         return f"a {model.kind.upper()} MOSFET"
     return {DiodeModel: "a diode", ResistorModel: "a resistor"}.get(
         type(model), "a current-controlled switch" if getattr(model, "current_controlled", False)

@@ -9,9 +9,8 @@ from dataclasses import dataclass, replace
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
-from circuitnsds.frontend.cards.mosfets import MOS_KINDS, read_mos_model
+from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS
 from circuitnsds.frontend.cards.reader import StatementReader
-from circuitnsds.frontend.cards.xspice import CODE_MODELS, read_xspice_model
 
 # Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
 SHOCKLEY_PARAMETERS = {
@@ -111,9 +110,13 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
                                hint=f"write .model NAME {kind.upper()}(param=value ...) with every "
                                "parameter inside the parentheses")
         reader.tokens = reader.tokens[:-1]
-    if kind in CODE_MODELS:
+    if kind in CODE_MODELS:  # the families' modules imported only for a netlist that uses them
+        from circuitnsds.frontend.cards.xspice import read_xspice_model
+
         return name, read_xspice_model(reader, name, kind)
     if kind in MOS_KINDS:
+        from circuitnsds.frontend.cards.mosfets import read_mos_model
+
         return name, read_mos_model(name, kind, reader)
     if kind not in MODEL_KINDS:
         return name, kind

@@ -52,7 +52,6 @@ from circuitnsds.frontend.cards.reader import StatementReader, node_name
 DEFAULT_GATE_DRIVE = 10.0
 """``|Vgs|`` [V] at which the on-resistance is computed: the usual datasheet ``Rds(on)``
 condition of standard-level power MOSFETs (``.options mosdrive`` changes it)."""
-MOS_KINDS = {"vdmos": "VDMOS power MOSFET", "nmos": "n-channel MOSFET", "pmos": "p-channel MOSFET"}
 TEXT_PARAMETERS = {"mfg", "type"}
 """Parameters whose value is text (the manufacturer, in vendor libraries)."""
 FLAGS = {"nchan", "pchan", "vdmosn", "vdmosp"}

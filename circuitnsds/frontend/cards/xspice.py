@@ -29,8 +29,9 @@ from dataclasses import dataclass, field
 
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, Integrator, MinMax
 from circuitnsds.errors import SourceLocation
+from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, DIGITAL_PARTS
 from circuitnsds.frontend.cards.reader import StatementReader
-from circuitnsds.frontend.cards.xspice_digital import DIGITAL_PARTS, check_digital_model, digital_part
+from circuitnsds.frontend.cards.xspice_digital import check_digital_model, digital_part
 from circuitnsds.frontend.cards.xspice_ports import (
     HINT,
     Port,
@@ -40,19 +41,6 @@ from circuitnsds.frontend.cards.xspice_ports import (
     split_brackets,
 )
 from circuitnsds.values import parse_value
-
-ANALOG_BLOCKS = {
-    "gain": {"in_offset": 0.0, "gain": 1.0, "out_offset": 0.0},
-    "summer": {"in_offset": (), "in_gain": (), "out_gain": 1.0, "out_offset": 0.0},
-    "limit": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
-              "limit_range": 1e-6, "fraction": False},
-    "int": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
-            "limit_range": 1e-6, "out_ic": 0.0},
-}
-"""Supported analog code models: parameter -> ngspice default (``None``: no default)."""
-
-CODE_MODELS = {**ANALOG_BLOCKS, **DIGITAL_PARTS}
-"""Every supported code model: parameter -> ngspice default."""
 
 VECTOR_PARAMETERS = {"summer": frozenset({"in_offset", "in_gain"})}
 """The parameters written as vectors ``[v1 v2 ...]`` (one value per input); every other

@@ -53,25 +53,9 @@ from typing import NamedTuple
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax, Select
 from circuitnsds.circuit.elements.switch import AT_THRESHOLD
 from circuitnsds.errors import NetlistError
+from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.frontend.cards.xspice_ports import HINT, DigitalPort, Ports, difference
-
-_GATE = {"rise_delay": 1e-9, "fall_delay": 1e-9, "input_load": 1e-12}
-DIGITAL_PARTS: dict[str, dict[str, object]] = {
-    "d_inverter": dict(_GATE),
-    "d_and": dict(_GATE),
-    "d_or": dict(_GATE),
-    "d_srlatch": {"sr_delay": 1e-9, "enable_delay": 1e-9, "set_delay": 1e-9, "reset_delay": 1e-9,
-                  "ic": 0.0, "rise_delay": 1e-9, "fall_delay": 1e-9, "sr_load": 1e-12,
-                  "enable_load": 1e-12, "set_load": 1e-12, "reset_load": 1e-12},
-    "d_dff": {"clk_delay": 1e-9, "set_delay": 1e-9, "reset_delay": 1e-9, "ic": 0.0,
-              "rise_delay": 1e-9, "fall_delay": 1e-9, "data_load": 1e-12, "clk_load": 1e-12,
-              "set_load": 1e-12, "reset_load": 1e-12},
-    "adc_bridge": {"in_low": 0.1, "in_high": 0.9, "rise_delay": 1e-9, "fall_delay": 1e-9},
-    "dac_bridge": {"out_low": 0.0, "out_high": 1.0, "out_undef": 0.5, "input_load": 1e-12,
-                   "t_rise": 1e-9, "t_fall": 1e-9},
-}
-"""Supported digital code models: parameter -> ngspice default (ngspice 39's ifspec.ifs)."""
 
 DELAYS = frozenset({"rise_delay", "fall_delay", "sr_delay", "enable_delay", "set_delay",
                     "reset_delay", "clk_delay", "t_rise", "t_fall"})
