@@ -43,7 +43,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import repeat
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -65,12 +65,14 @@ from circuitnsds.engine.events import (
     regula_falsi,
 )
 from circuitnsds.engine.loop_choice import LoopChoice
-from circuitnsds.engine.sparse_loop import CompiledSparseMap, run_compiled_sparse, sparse_mode_map
 from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
 from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
 from circuitnsds.solvers.linalg import SIGN_TOL
 from circuitnsds.system.mlcs import MLCS
+
+if TYPE_CHECKING:
+    from circuitnsds.engine.sparse_loop import CompiledSparseMap
 
 SOLVER_CACHE_SIZE = 32
 """How many (step size, switch states) keep their MLCP solver (and its factorisations)."""
@@ -849,6 +851,8 @@ class _Stepping:
         else:
             # a restart step found at run time (a state-controlled switch changed) is one
             # step of its own: the steps after it are of the ordinary class
+            from circuitnsds.engine.sparse_loop import run_compiled_sparse  # large circuits only
+
             last_step = k + 1 if cls != self.step_class[k] else k_end
             done, reason = run_compiled_sparse(mode, k, last_step, y, current, self.sources,
                                                self.step_class, self.sched_state, *free,
@@ -918,6 +922,8 @@ class _Stepping:
     def _build_sparse_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray
                            ) -> CompiledSparseMap | None:
         """The factorised step map of a mode, as the compiled loop's arrays (``None``: singular)."""
+        from circuitnsds.engine.sparse_loop import sparse_mode_map  # large circuits only
+
         blocks = mode_blocks(self._step_solver(k, cls, states).system, guess)
         return sparse_mode_map(blocks, self.mlcs.n)
 
