@@ -4,6 +4,7 @@ and no operation that would mean something else than it does for scipy or numpy.
 
 from __future__ import annotations
 
+import ast
 import math
 import os
 import subprocess
@@ -204,26 +205,54 @@ def test_a_switch_shorted_on_one_node_carries_no_current():
 
 def test_a_plain_run_imports_only_what_its_netlist_uses(tmp_path):
     """Start-up (issue 19): `run -o out.csv --signals v(out)` of the bundled buck, which has no
-    controlled sources, no .meas and no --measure, and streams its CSV, builds none of the
-    modules it does not use; a netlist with an E source still finds its class."""
+    controlled sources, no behavioural sources, XSPICE blocks or MOSFETs, no current source, no
+    .meas and no --measure, is small, and streams its CSV, builds none of the modules it does
+    not use; then, in the same process, netlists that use them still find their classes and
+    their checks: an E source's gain, a B source with a max(), the digital-node check of an inverter fed by
+    an analog node, and the unused-model warnings naming a code model's and a MOSFET's type."""
     unused = ["circuitnsds.circuit.elements.controlled", "circuitnsds.frontend.cards.meas",
-              "circuitnsds.output.measure", "subprocess", "concurrent.futures"]
+              "circuitnsds.output.measure", "subprocess", "concurrent.futures",
+              "circuitnsds.circuit.elements.behavioural", "circuitnsds.circuit.elements.mosfet",
+              "circuitnsds.frontend.cards.behavioural", "circuitnsds.frontend.cards.mosfets",
+              "circuitnsds.frontend.cards.xspice", "circuitnsds.frontend.cards.xspice_digital",
+              "circuitnsds.frontend.cards.xspice_ports", "circuitnsds.netlist.behavioural",
+              "circuitnsds.engine.sparse_loop", "circuitnsds.checks.wellposed"]
     controlled = tmp_path / "e.cir"
     controlled.write_text("E gain\nV1 in 0 DC 1\nR1 in 0 1k\nE1 out 0 in 0 3\nR2 out 0 1k\n"
                           ".tran 1u 10u\n.end\n")
+    behavioural = tmp_path / "b.cir"
+    behavioural.write_text("B max\nV1 in 0 DC 3\nR1 in 0 1k\nB1 out 0 V=max(v(in), 5)-2*v(in)\n"
+                           "R2 out 0 1k\n.tran 1u 10u\n.end\n")
+    digital = tmp_path / "d.cir"
+    digital.write_text("analog into a gate\nV1 a 0 1\nA1 a y inv\n.model inv d_inverter\nR1 y 0 1k\n"
+                       ".tran 1u 10u\n.end\n")
+    unused_models = tmp_path / "m.cir"
+    unused_models.write_text("unused models\nV1 a 0 1\nR1 a 0 1k\n.model g gain(gain=2)\n"
+                             ".model q VDMOS(vto=2 kp=1)\n.tran 1u 10u\n.end\n")
     script = textwrap.dedent(f"""
-        import sys
+        import sys, warnings
         from circuitnsds.cli.main import main
         status = main(["run", {str(_bundled("buck_converter.cir"))!r}, "-o", {str(tmp_path / "b.csv")!r},
                        "--signals", "v(out)", "-q"])
         loaded = [m for m in {unused!r} if m in sys.modules]
         import circuitnsds
-        waves = circuitnsds.read_netlist({str(controlled)!r}).transient()
-        print(status, loaded, float(waves["v(out)"][-1]))
+        gain = float(circuitnsds.read_netlist({str(controlled)!r}).transient()["v(out)"][-1])
+        square = float(circuitnsds.read_netlist({str(behavioural)!r}).transient()["v(out)"][-1])
+        try:
+            circuitnsds.read_netlist({str(digital)!r})
+            refused = "accepted"
+        except circuitnsds.NetlistError as error:
+            refused = "refused" if "is a digital input" in str(error) else str(error)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            circuitnsds.read_netlist({str(unused_models)!r})
+        told = sorted(str(w.message).split(": ", 1)[1] for w in caught if "is not used" in str(w.message))
+        print(repr((status, loaded, gain, square, refused, told)))
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    status, rest = done.stdout.split(" ", 1)
-    loaded, gain_out = rest.rsplit(" ", 1)
-    assert status == "0" and loaded == "[]", f"imported although unused: {loaded}"
-    assert float(gain_out) == pytest.approx(3.0)
+    status, loaded, gain, square, refused, told = ast.literal_eval(done.stdout.strip().splitlines()[-1])
+    assert status == 0 and loaded == [], f"imported although unused: {loaded}"
+    assert gain == pytest.approx(3.0) and square == pytest.approx(-1.0)
+    assert refused == "refused"
+    assert told == [".model g (GAIN) is not used", ".model q (MOSFET) is not used"]
