@@ -523,17 +523,16 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
     def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
         """Signal ``name``: the sum, in stamped order, of its rows' weighted unknowns."""
         j = rows[name]
-        parts = [(unknowns, *matrix.row(j)) for matrix, unknowns in ((Y_out, states), (L_out, currents))]
-        parts = [(unknowns, columns, weights) for unknowns, columns, weights in parts if columns.size]
-        if len(parts) == 1 and parts[0][1].size == 1:  # most signals: one scaled column
-            unknowns, columns, weights = parts[0]
-            values = weights[0] * unknowns[:, columns[0]]
+        terms = [(unknowns, column, weight) for matrix, unknowns in ((Y_out, states), (L_out, currents))
+                 for column, weight in zip(*matrix.row(j))]
+        if len(terms) == 1:  # most signals: one scaled column, no zeros array to fault in
+            unknowns, column, weight = terms[0]
+            values = weight * unknowns[:, column]
             values += 0.0  # (a zero is +0.0, as the sum below makes it)
             return values
         values = np.zeros(states.shape[0])
-        for unknowns, columns, weights in parts:
-            for column, weight in zip(columns, weights):
-                values += weight * unknowns[:, column]
+        for unknowns, column, weight in terms:
+            values += weight * unknowns[:, column]
         return values
 
     # each device's impulse (the signed sum of its pairs'), computed when first read: a run

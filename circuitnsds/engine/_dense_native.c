@@ -102,7 +102,10 @@ static double inactive_w(const Loop *L, int64_t mode, int64_t r, int64_t size, d
  * by side, overlap. Each row's own sum keeps _try_mode_scalar's (_inactive_w_scalar's)
  * operations in their order, so every value is the numba loop's bit for bit. A count of
  * rows that is not a multiple of the block is finished by a block ending at the last row:
- * the rows it computes again get the same bits. */
+ * the rows it computes again get the same bits. The blocks are written out, one function per
+ * size: one function with the block size as a constant parameter and loops over an array of
+ * accumulators (gcc 12, -O2) kept them in memory and made every step 1.4-1.9 times slower
+ * (benchmarks/loop_step.py, 2026-11-23). */
 
 /* Rows r .. r+7 of a mode's map at one step (P, Q1, Q0 and c at row r; y = y_k, F1 = F_{k+1},
  * F0 = F_k): x[i] = c[i] + P[i][0]*y[0] + ... + P[i][n-1]*y[n-1]

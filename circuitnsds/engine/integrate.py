@@ -304,8 +304,9 @@ def integrate(
                 left_mode_at = done if (reason == STOP_LEFT_MODE and done > k
                                         and stepping.continues(done)) else -1
                 if done > k:
-                    if not np.isfinite(y[k + 1:done + 1]).all():  # (flat: one fast pass)
-                        bad = k + 1 + int(np.argmin(np.isfinite(y[k + 1:done + 1]).all(axis=1)))
+                    finite = np.isfinite(y[k + 1:done + 1])
+                    if not finite.all():  # (flat: one fast pass; the rows only to name the step)
+                        bad = k + 1 + int(np.argmin(finite.all(axis=1)))
                         raise _stopped(_non_finite(mlcs, grid, y, bad), bad - 1, grid, y, current,
                                        residual, active, states, stats, so_far(bad - 1))
                     states[k + 1:done + 1] = states[k + 1]  # the state-controlled switches held

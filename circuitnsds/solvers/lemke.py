@@ -229,8 +229,7 @@ class LemkeTableau:
         ds = rs * d
         self.n = n
         self.rs, self.cs = rs, cs
-        self.s_m = float(np.abs(Ms).max()) if n else 0.0
-        self.s_m = self.s_m or 1.0
+        self.s_m = (float(np.abs(Ms).max()) if n else 0.0) or 1.0
         self.s_d = float(ds.max()) if n else 1.0
         T0 = np.zeros((n, 2 * n + 2))  # [I, -M, -d, q] scaled, q filled in by pivot
         T0[:, :n] = np.eye(n)
