@@ -2,6 +2,7 @@
 the column reduction, non-finite values skipped, and the command writing it without
 importing matplotlib."""
 
+import io
 import math
 import os
 import subprocess
@@ -15,7 +16,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from circuitnsds.output.plot import _size, plot_waveforms
-from circuitnsds.output.raster_figure import min_max_decimate, nice_ticks, tick_labels
+from circuitnsds.output.raster_figure import encode_png, min_max_decimate, nice_ticks, tick_labels
 from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import NETLISTS
 
@@ -54,6 +55,22 @@ def _frame(pixels: np.ndarray, panel: int = 0) -> tuple[int, int, int, int]:
 def _near(pixels, colour, row, column, tolerance=2) -> bool:
     window = pixels[row - tolerance:row + tolerance + 1, column]
     return bool(np.any(np.abs(window - np.array(colour)).sum(axis=1) < 60))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 40), st.integers(0, 2**32 - 1), st.sampled_from([72, 96, 120, 300]),
+       st.sampled_from(["RGB", "L", "RGBA"]))
+def test_encoded_png_decodes_to_the_same_pixels_and_dpi(width, height, seed, dpi, mode):
+    """Our PNG writer against Pillow's decoder: every pixel back, the dpi recorded (within
+    the rounding of pixels per metre), any image mode written as RGB."""
+    channels = {"RGB": 3, "L": 1, "RGBA": 4}[mode]
+    pixels = np.random.default_rng(seed).integers(0, 256, (height, width, channels), dtype=np.uint8)
+    image = Image.fromarray(pixels[:, :, 0] if mode == "L" else pixels, mode)
+    with Image.open(io.BytesIO(encode_png(image, dpi))) as decoded:
+        decoded.load()  # checks every chunk's CRC and the zlib stream
+        assert decoded.format == "PNG" and decoded.mode == "RGB" and decoded.size == (width, height)
+        assert np.array_equal(np.asarray(decoded), np.asarray(image.convert("RGB")))
+        assert decoded.info["dpi"] == pytest.approx((dpi, dpi), abs=0.5 * 0.0254)  # whole px per metre
 
 
 def test_size_is_matplotlibs_at_120_dpi(tmp_path):
