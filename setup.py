@@ -4,8 +4,8 @@ numba and its dense LU by scipy's LAPACK.
 
 Everything else about the package is in pyproject.toml."""
 
-import hashlib
 import sys
+import zlib
 from pathlib import Path
 
 from setuptools import Extension, setup
@@ -25,8 +25,9 @@ HEADER = Path("circuitnsds/native.h")
 
 def extension(stem: str) -> Extension:
     source = Path(stem + ".c")
-    # as circuitnsds.native.source_digest: the .c file's bytes, then the header's
-    digest = hashlib.sha256(source.read_bytes() + HEADER.read_bytes()).hexdigest()[:16]
+    # as circuitnsds.native.source_digest: CRC-32 and length of the .c file's bytes, then the header's
+    content = source.read_bytes() + HEADER.read_bytes()
+    digest = f"{zlib.crc32(content):08x}-{len(content)}"
     return Extension(stem.replace("/", "."), [str(source)], optional=True, extra_compile_args=FLAGS,
                      include_dirs=[str(HEADER.parent)], depends=[str(HEADER)],
                      define_macros=[("CIRCUITNSDS_SOURCE_DIGEST", f'"{digest}"')])
