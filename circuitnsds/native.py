@@ -13,8 +13,9 @@ A library is used only when it was built from the very source beside it: ``setup
 bakes a digest of the ``.c`` file and of the shared ``native.h`` into it
 (``circuitnsds_source_digest()``: their CRC-32 and length, which catches any edit; it is
 no defence against a deliberate forgery, which needs write access to the package anyway),
-and :func:`library` compares that with their digest now. An editable install whose C source changed since the last ``pip install -e .`` thus
-warns and falls back to numba, never runs stale machine code.
+and :func:`library` compares that with their digest now. An editable install whose C
+source changed since the last ``pip install -e .`` thus warns and falls back to numba,
+never runs stale machine code.
 
 Setting the environment variable ``CIRCUITNSDS_NATIVE=0`` disables the libraries (the
 benchmarks use it to time the numba loops against them).

@@ -16,7 +16,13 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from circuitnsds.output.plot import _size, plot_waveforms
-from circuitnsds.output.raster_figure import encode_png, min_max_decimate, nice_ticks, tick_labels
+from circuitnsds.output.raster_figure import (
+    encode_png,
+    min_max_decimate,
+    nice_ticks,
+    points_to_draw,
+    tick_labels,
+)
 from circuitnsds.output.waveforms import Waveforms
 from tests.conftest import NETLISTS
 
@@ -237,3 +243,44 @@ def test_unwritable_figure_is_the_usual_error(tmp_path):
     assert done.returncode == 1
     assert "cannot write" in done.stderr and "Traceback" not in done.stderr
     assert (tmp_path / "z.csv").stat().st_size > 0
+
+
+def _distance_to_polyline(px: np.ndarray, py: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Distance of each point (px, py) to the nearest segment of the polyline (x, y)."""
+    x0, y0, dx, dy = x[:-1], y[:-1], np.diff(x), np.diff(y)
+    length = dx * dx + dy * dy
+    t = np.clip(((px[:, None] - x0) * dx + (py[:, None] - y0) * dy) / np.where(length > 0, length, 1), 0, 1)
+    return np.hypot(px[:, None] - (x0 + t * dx), py[:, None] - (y0 + t * dy)).min(axis=1)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 3), st.integers(-3, 3), st.integers(1, 6)), min_size=1, max_size=12),
+       st.integers(0, 2**32 - 1))
+def test_points_dropped_from_a_line_lie_on_what_is_drawn(pieces, seed):
+    """Straight pieces (slope, run length), with repeated points, turns back and tiny noise:
+    every point left out is within the tolerance of the line drawn through the points
+    kept, the ends are kept, and a turn back (a point beyond the straight stretch) is kept."""
+    rng = np.random.default_rng(seed)
+    x, y = [0.0], [0.0]
+    for kind, slope, count in pieces:
+        for _ in range(count):
+            step = (0.0, 0.0) if kind == 0 else (1.0, float(slope)) if kind < 3 else (-1.0, 0.5 * slope)
+            x.append(x[-1] + step[0])
+            y.append(y[-1] + step[1] + rng.uniform(-1e-5, 1e-5))
+    x, y = np.array(x), np.array(y)
+    kept = points_to_draw(x, y)
+    assert kept[0] and kept[-1]
+    if x.size > 1:
+        assert _distance_to_polyline(x, y, x[kept], y[kept]).max() <= 1e-3 + 1e-12
+
+
+def test_a_gentle_curve_keeps_its_points():
+    """A circle's arc sampled so finely that every point is within the tolerance of its two
+    neighbours' chord: the line must still follow the arc (the run is checked against the
+    chord between the points kept around it)."""
+    angle = np.linspace(0.0, 0.5, 2001)
+    x, y = 100.0 * np.cos(angle), 100.0 * np.sin(angle)
+    kept = points_to_draw(x, y)
+    assert _distance_to_polyline(x, y, x[kept], y[kept]).max() <= 1e-3
+    flat = np.linspace(0.0, 50.0, 501)
+    assert points_to_draw(flat, 0.0 * flat).sum() == 2  # a straight line: its ends

@@ -182,8 +182,56 @@ def _polylines(px: np.ndarray, py: np.ndarray, decimate: bool) -> list[np.ndarra
         x, y = px[start:stop], py[start:stop]
         if decimate and x.size > 8:
             x, y = min_max_decimate(x, y, np.floor(x).astype(np.int64))
-        lines.append(np.column_stack((x, y)))
+        kept = points_to_draw(x, y)
+        lines.append(np.column_stack((x[kept], y[kept])))
     return lines
+
+
+STRAIGHT_TOLERANCE = 1e-3
+"""Pixels: a point this close to the straight segment between the points kept around it is
+not drawn (:func:`points_to_draw`)."""
+
+
+def points_to_draw(x: np.ndarray, y: np.ndarray, tolerance: float = STRAIGHT_TOLERANCE) -> np.ndarray:
+    """Which points of the polyline ``(x, y)`` (pixels) to draw: not the interior points of
+    its straight stretches. A point goes when it lies, within ``tolerance``, on the segment
+    joining the nearest points kept before and after it: the line drawn covers the same
+    pixels with fewer segments (an ideal diode's current is a straight zero for half of the
+    bridge's period, and a wide line costs Pillow ~0.6 µs per segment). A point at a turn
+    back (a spike along the line's own direction) is kept: it lies beyond the segment."""
+    n = x.size
+    kept = np.ones(n, dtype=bool)
+    if n < 3:
+        return kept
+    kept[1:-1] = ~_on_segment(x[1:-1], y[1:-1], x[:-2], y[:-2], x[2:], y[2:], tolerance)
+    dropped = ~kept
+    if not dropped.any():
+        return kept
+    # each run of dropped points against the chord between the kept points around it: small
+    # deviations from one neighbour to the next could add up along a gentle curve
+    index = np.arange(n)
+    left = np.maximum.accumulate(np.where(dropped, 0, index))
+    right = np.minimum.accumulate(np.where(dropped, n - 1, index)[::-1])[::-1]
+    runs = np.flatnonzero(dropped)
+    before, after = left[runs], right[runs]
+    off = ~_on_segment(x[runs], y[runs], x[before], y[before], x[after], y[after], tolerance)
+    if off.any():  # a run that bends keeps all of its points
+        bent = np.zeros(n, dtype=bool)
+        bent[before[off]] = True
+        kept[runs[bent[before]]] = True
+    return kept
+
+
+def _on_segment(x, y, x0, y0, x1, y1, tolerance: float) -> np.ndarray:
+    """Whether each point ``(x, y)`` lies within ``tolerance`` of the segment from
+    ``(x0, y0)`` to ``(x1, y1)`` (arrays of one length), between its ends."""
+    chord_x, chord_y = x1 - x0, y1 - y0
+    offset_x, offset_y = x - x0, y - y0
+    length_squared = chord_x * chord_x + chord_y * chord_y
+    along = chord_x * offset_x + chord_y * offset_y
+    cross = chord_x * offset_y - chord_y * offset_x
+    return ((cross * cross <= tolerance * tolerance * length_squared)
+            & (along >= 0.0) & (along <= length_squared) & (length_squared > 0.0))
 
 
 # ---------------------------------------------------------------------------- layout
