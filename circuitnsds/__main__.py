@@ -2,7 +2,7 @@
 
 import sys
 
-from circuitnsds.cli.main import main
+from circuitnsds.cli.main import program
 
 if __name__ == "__main__":  # sweeps start worker processes, which must not run the command again
-    sys.exit(main())
+    sys.exit(program())
