@@ -11,7 +11,7 @@ from pathlib import Path
 from setuptools import Extension, setup
 
 NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_native",
-          "circuitnsds/solvers/_lu_native")
+          "circuitnsds/output/_raster_native", "circuitnsds/solvers/_lu_native")
 """The C sources (without .c), each built into a library beside it."""
 
 # the same floating-point arithmetic as the Python and numba loops: no fused multiply-adds,

@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
+from circuitnsds.output import raster_figure
 from circuitnsds.output.plot import _size, plot_waveforms
 from circuitnsds.output.raster_figure import (
     encode_png,
@@ -28,6 +29,17 @@ from tests.conftest import NETLISTS
 
 ROOT = Path(__file__).resolve().parents[1]
 BLUE, ORANGE = (0x1F, 0x77, 0xB4), (0xFF, 0x7F, 0x0E)  # matplotlib's first two colours
+
+
+@pytest.fixture(params=["C", "Pillow"])
+def painter(request, monkeypatch):
+    """The figure's lines painted by the C library (built at install) and by the Pillow
+    fallback an install without a compiler uses: every figure test runs with both."""
+    if request.param == "Pillow":
+        monkeypatch.setattr(raster_figure, "_native_painter", lambda: None)
+    else:
+        assert raster_figure._native_painter() is not None, "the C painter is not built"
+    return request.param
 
 
 def _image(tmp_path, waves, names=None, events=False) -> np.ndarray:
@@ -79,7 +91,7 @@ def test_encoded_png_decodes_to_the_same_pixels_and_dpi(width, height, seed, dpi
         assert decoded.info["dpi"] == pytest.approx((dpi, dpi), abs=0.5 * 0.0254)  # whole px per metre
 
 
-def test_size_is_matplotlibs_at_120_dpi(tmp_path):
+def test_size_is_matplotlibs_at_120_dpi(tmp_path, painter):
     time = np.linspace(0, 1e-3, 11)
     one = Waveforms(time, {"v(a)": time})
     assert _image(tmp_path, one).shape[:2] == (round(_size(1)[1] * 120), 1200)
@@ -87,7 +99,7 @@ def test_size_is_matplotlibs_at_120_dpi(tmp_path):
     assert _image(tmp_path, two).shape[:2] == (768, 1200)  # 10 x 6.4 inches
 
 
-def test_traces_are_where_the_axis_limits_put_them(tmp_path):
+def test_traces_are_where_the_axis_limits_put_them(tmp_path, painter):
     """A constant 1 V and a ramp 0 -> 2 V over 0..1 s: the y axis spans the data with 5 %
     margins (-0.1 .. 2.1 V, as matplotlib autoscales), the x axis the run."""
     time = np.linspace(0.0, 1.0, 201)
@@ -101,7 +113,7 @@ def test_traces_are_where_the_axis_limits_put_them(tmp_path):
         assert _near(pixels, ORANGE, row_of(2 * fraction), column)
 
 
-def test_non_finite_values_break_the_line_and_do_not_set_the_limits(tmp_path):
+def test_non_finite_values_break_the_line_and_do_not_set_the_limits(tmp_path, painter):
     time = np.linspace(0.0, 1.0, 301)
     values = np.ones_like(time)
     values[100:200] = np.nan  # a gap over the middle third
@@ -117,7 +129,7 @@ def test_non_finite_values_break_the_line_and_do_not_set_the_limits(tmp_path):
                                  - np.array(BLUE)).sum(axis=1) < 60)
 
 
-def test_switching_marks(tmp_path):
+def test_switching_marks(tmp_path, painter):
     time = np.linspace(0.0, 1.0, 101)
     waves = Waveforms(time, {"v(a)": time}, events=[(0.5, "s1", True)])
     pixels = _image(tmp_path, waves, events=True)
@@ -136,7 +148,7 @@ def test_switching_marks(tmp_path):
     {"v(a)": np.full(50, np.nan)},                               # nothing finite
     {f"v(n{k})": np.sin(np.arange(50) / (k + 1)) for k in range(40)},  # many traces
 ])
-def test_degenerate_signals_give_a_figure(tmp_path, signals):
+def test_degenerate_signals_give_a_figure(tmp_path, signals, painter):
     size = next(iter(signals.values())).size
     time = -1e-3 + np.arange(size) * 1e-6  # negative times
     pixels = _image(tmp_path, Waveforms(time, signals))
@@ -199,7 +211,7 @@ def test_decimation_keeps_every_extreme(values, per_column):
     assert np.all(np.diff(dx) >= 0)
 
 
-def test_a_spike_in_a_long_signal_is_drawn(tmp_path):
+def test_a_spike_in_a_long_signal_is_drawn(tmp_path, painter):
     """A million samples, one of them a spike to 5 V over a 1 V sine: the spike reaches the
     row of 5 V (the top of the data, 5 % under the frame)."""
     time = np.linspace(0.0, 1.0, 1_000_001)

@@ -10,9 +10,13 @@ beside a stroke of its colour (matplotlib's default colour cycle), the title on 
 optional switching marks (solid: closing, dotted: opening). Sizes are matplotlib's defaults
 in points (10 pt text, 1 pt lines, 3.5 pt ticks), converted at the figure's dpi.
 
-Traces are drawn at :data:`SUPERSAMPLE` times the resolution and averaged down (antialiased
-lines); text is FreeType's own antialiasing, in DejaVu Sans (the font matplotlib ships and
-uses by default; Pillow's default font if it is absent). A long signal is reduced to the
+The lines inside each panel (grid, traces, switching marks) are painted at
+:data:`SUPERSAMPLE` times the resolution and averaged down (antialiased lines): by the C
+library ``_raster_native.c`` built at install (a canvas of palette indices, each segment
+the rectangle of the points within half the line's width of it), else by Pillow's wide
+lines; the two differ by rounding at the lines' edges. Text is FreeType's own
+antialiasing, in DejaVu Sans (the font matplotlib ships and uses by default; Pillow's
+default font if it is absent). A long signal is reduced to the
 first, lowest, highest and last value in every drawn pixel column (:func:`min_max_decimate`),
 which draws the same pixels: spikes and ringing are kept. Non-finite values (NaN, ±inf)
 break the line, as in matplotlib, and do not set the axis limits.
@@ -20,15 +24,17 @@ break the line, as in matplotlib, and do not set the axis limits.
 
 from __future__ import annotations
 
+import ctypes
 import math
 import struct
 import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageColor, ImageDraw, ImageFont
 
 from circuitnsds.output.plot import FigureData
 
@@ -173,18 +179,22 @@ def _finite_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
 
 
-def _polylines(px: np.ndarray, py: np.ndarray, decimate: bool) -> list[np.ndarray]:
-    """The pixel polylines (n × 2 arrays) of one trace: one per run of finite points,
-    reduced per pixel column when ``decimate``."""
+def _polyline(px: np.ndarray, py: np.ndarray, decimate: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The points to draw of one trace in pixels: each run of finite points reduced per
+    pixel column when ``decimate``, without the interior points of its straight stretches,
+    the runs separated by a NaN."""
     finite = np.isfinite(px) & np.isfinite(py)
-    lines = []
+    xs, ys = [], []
     for start, stop in ([(0, px.size)] if finite.all() else _finite_runs(finite)):
         x, y = px[start:stop], py[start:stop]
         if decimate and x.size > 8:
             x, y = min_max_decimate(x, y, np.floor(x).astype(np.int64))
         kept = points_to_draw(x, y)
-        lines.append(np.column_stack((x[kept], y[kept])))
-    return lines
+        xs += [x[kept], [np.nan]]
+        ys += [y[kept], [np.nan]]
+    if not xs:
+        return px[:0], py[:0]
+    return np.concatenate(xs[:-1]), np.concatenate(ys[:-1])
 
 
 STRAIGHT_TOLERANCE = 1e-3
@@ -347,12 +357,9 @@ def render(data: FigureData, size: tuple[float, float], dpi: float = 120) -> Ima
         low, high = limits
         return box.top + 0.5 + (high - value) / (high - low) * (box.bottom - box.top)
 
-    # one supersampled layer for every panel: a new one per panel took as long again
-    # (fresh memory) as drawing in it
-    layer = Image.new("RGB", (max(b.right - b.left + 1 for b in boxes) * SUPERSAMPLE,
-                              max(b.bottom - b.top + 1 for b in boxes) * SUPERSAMPLE))
     for box, panel, limits, (ticks, labels) in zip(boxes, data.panels, y_limits, y_ticks):
-        _draw_panel(image, layer, box, panel, data, limits, ticks, x_ticks, x_pixel, y_pixel, pt)
+        strokes = _panel_strokes(box, panel, data, limits, ticks, x_ticks, x_pixel, y_pixel, pt)
+        image.paste(_paint(strokes, box.right - box.left + 1, box.bottom - box.top + 1), (box.left, box.top))
         # the frame, ticks and labels, crisp at the final resolution
         frame = max(1, round(FRAME_PT * pt))
         draw.rectangle((box.left, box.top, box.right, box.bottom), outline=FRAME, width=frame)
@@ -376,16 +383,23 @@ def render(data: FigureData, size: tuple[float, float], dpi: float = 120) -> Ima
     return image
 
 
-def _draw_panel(image, layer, box, panel, data, limits, y_ticks, x_ticks, x_pixel, y_pixel,
-                pt) -> None:
-    """Grid, switching marks and traces of one panel, drawn at :data:`SUPERSAMPLE` times the
-    resolution inside the frame (in the top left corner of ``layer``, at least that large)
-    and averaged down into ``image``."""
+class Stroke(NamedTuple):
+    """A line to paint inside a panel: through the points ``(x[k], y[k])`` in supersampled
+    pixels from the panel's top left corner (subpixel k spans [k, k + 1)), ``width``
+    subpixels wide, in ``colour``. A non-finite point breaks it; a run of a single point is
+    a dot as wide as the line."""
+
+    x: np.ndarray
+    y: np.ndarray
+    width: float
+    colour: tuple[int, int, int] | str  # RGB, or a colour name Pillow knows ("#1f77b4")
+
+
+def _panel_strokes(box, panel, data, limits, y_ticks, x_ticks, x_pixel, y_pixel, pt) -> list[Stroke]:
+    """Grid, traces and switching marks of one panel, in painting order, at
+    :data:`SUPERSAMPLE` times the resolution."""
     s = SUPERSAMPLE
     width, height = box.right - box.left + 1, box.bottom - box.top + 1
-    area = (0, 0, width * s, height * s)
-    draw = ImageDraw.Draw(layer)
-    draw.rectangle((0, 0, width * s - 1, height * s - 1), fill="white")
 
     def sx(pixels):  # final pixel coordinate -> supersampled coordinate
         return (pixels - box.left) * s
@@ -394,44 +408,111 @@ def _draw_panel(image, layer, box, panel, data, limits, y_ticks, x_ticks, x_pixe
         return (pixels - box.top) * s
 
     grid = max(1, round(FRAME_PT * pt * s))
-    for value in y_ticks:
-        y = sy(y_pixel(value, box, limits))
-        draw.line((0, y, width * s, y), fill=GRID, width=grid)
-    for value in x_ticks:
-        x = sx(x_pixel(value, box))
-        draw.line((x, 0, x, height * s), fill=GRID, width=grid)
+    rows = sy(y_pixel(np.asarray(y_ticks, dtype=float), box, limits))
+    columns = sx(x_pixel(np.asarray(x_ticks, dtype=float), box))
+    strokes = [_segments(np.zeros_like(rows), rows, np.full_like(rows, width * s), rows, grid, GRID),
+               _segments(columns, np.zeros_like(columns), columns, np.full_like(columns, height * s),
+                         grid, GRID)]
     line = max(1, round(LINE_PT * pt * s))
     time = sx(x_pixel(data.time, box)) if data.time.size else data.time
     monotonic = time.size < 2 or bool(np.all(np.diff(time) >= 0))
     decimate = monotonic and time.size > 2 * width * s
     for index, (_, values) in enumerate(panel.traces):
-        colour = COLOURS[index % len(COLOURS)]
-        ys = sy(y_pixel(values, box, limits))
-        for points in _polylines(time, ys, decimate):
-            if points.shape[0] == 1:  # a lone point: a dot of the line's width
-                x, y = points[0]
-                draw.ellipse((x - line / 2, y - line / 2, x + line / 2, y + line / 2), fill=colour)
-            else:
-                draw.line(points.ravel().tolist(), fill=colour, width=line)
+        strokes.append(Stroke(*_polyline(time, sy(y_pixel(values, box, limits)), decimate), line,
+                              COLOURS[index % len(COLOURS)]))
     if data.events:
-        _draw_events(draw, data, box, x_pixel, sx, height * s, pt)
-    image.paste(layer.reduce(s, area), (box.left, box.top))
+        strokes.extend(_event_strokes(data, box, x_pixel, sx, height * s, pt))
+    return strokes
 
 
-def _draw_events(draw, data, box, x_pixel, sx, height, pt) -> None:
+def _segments(x0, y0, x1, y1, width: float, colour) -> Stroke:
+    """Separate segments from ``(x0, y0)`` to ``(x1, y1)`` (arrays) as one stroke: each
+    pair of points followed by a NaN break."""
+    x = np.column_stack((x0, x1, np.full_like(x0, np.nan))).ravel()
+    y = np.column_stack((y0, y1, np.full_like(y0, np.nan))).ravel()
+    return Stroke(x, y, width, colour)
+
+
+def _event_strokes(data, box, x_pixel, sx, height, pt) -> list[Stroke]:
     """The switching marks: a thin line per supersampled column holding one (solid for a
     closing, dotted for an opening; a closing wins a shared column)."""
     times = np.array([t for t, _ in data.events], dtype=float)
     closed = np.array([c for _, c in data.events], dtype=bool)
-    columns = np.round(sx(x_pixel(times, box))).astype(np.int64)
+    columns = np.round(sx(x_pixel(times, box)))
     width = max(1, round(EVENT_PT * pt * SUPERSAMPLE))
-    solid = set(columns[closed].tolist())
+    solid = np.unique(columns[closed])
+    dotted = np.setdiff1d(np.unique(columns[~closed]), solid)
     dash = max(1, round(1.5 * pt * SUPERSAMPLE))
-    for x in sorted(solid):
-        draw.line((x, 0, x, height), fill=EVENT, width=width)
-    for x in sorted(set(columns[~closed].tolist()) - solid):
-        for y in range(0, height, 2 * dash):
-            draw.line((x, y, x, y + dash - 1), fill=EVENT, width=width)
+    starts = np.arange(0, height, 2 * dash, dtype=float)
+    dot_x = np.repeat(dotted, starts.size)
+    dot_y = np.tile(starts, dotted.size)
+    return [_segments(solid, np.zeros_like(solid), solid, np.full_like(solid, height), width, EVENT),
+            _segments(dot_x, dot_y, dot_x, dot_y + dash, width, EVENT)]
+
+
+def _paint(strokes: list[Stroke], width: int, height: int) -> Image.Image:
+    """The ``width`` × ``height`` pixel image of ``strokes`` on white: painted at
+    :data:`SUPERSAMPLE` times the resolution, in order, then averaged down (antialiasing).
+    In C (``_raster_native.c``) when it is built, else with Pillow's wide lines."""
+    s = SUPERSAMPLE
+    paint = _native_painter()
+    if paint is None:
+        return _paint_pillow(strokes, width * s, height * s).reduce(s)
+    polyline, reduce = paint
+    palette = {(255, 255, 255): 0}
+    canvas = np.zeros((height * s, width * s), dtype=np.uint8)
+    for stroke in strokes:
+        if len(palette) == 256:  # more colours than a byte indexes: Pillow paints them
+            return _paint_pillow(strokes, width * s, height * s).reduce(s)
+        colour = palette.setdefault(ImageColor.getrgb(stroke.colour) if isinstance(stroke.colour, str)
+                                    else stroke.colour, len(palette))
+        x = np.ascontiguousarray(stroke.x, dtype=np.float64)
+        y = np.ascontiguousarray(stroke.y, dtype=np.float64)
+        if x.size:
+            polyline(canvas.ctypes.data, width * s, height * s, x.ctypes.data, y.ctypes.data, x.size,
+                     stroke.width / 2, colour)
+    colours = np.zeros((256, 3), dtype=np.uint8)
+    colours[list(palette.values())] = list(palette)
+    pixels = np.empty((height, width, 3), dtype=np.uint8)
+    reduce(canvas.ctypes.data, width * s, height * s, s, colours.ctypes.data, pixels.ctypes.data)
+    return Image.fromarray(pixels, "RGB")
+
+
+def _paint_pillow(strokes: list[Stroke], width: int, height: int) -> Image.Image:
+    """``strokes`` painted with Pillow's wide lines on a ``width`` × ``height`` white image
+    (Pillow puts pixel k's centre at k: the points move by half a subpixel to get there)."""
+    layer = Image.new("RGB", (width, height), "white")
+    draw = ImageDraw.Draw(layer)
+    for stroke in strokes:
+        finite = np.isfinite(stroke.x) & np.isfinite(stroke.y)
+        for start, stop in _finite_runs(finite):
+            x, y = stroke.x[start:stop] - 0.5, stroke.y[start:stop] - 0.5
+            if x.size == 1:  # a lone point: a dot of the line's width
+                r = stroke.width / 2
+                draw.ellipse((x[0] - r, y[0] - r, x[0] + r, y[0] + r), fill=stroke.colour)
+            else:
+                draw.line(np.column_stack((x, y)).ravel().tolist(), fill=stroke.colour,
+                          width=round(stroke.width))
+    return layer
+
+
+@lru_cache(maxsize=1)
+def _native_painter():
+    """The C painter's two functions (polyline, reduce), or ``None`` when the library is
+    not built."""
+    from circuitnsds import native
+
+    pointer, size = ctypes.c_void_p, ctypes.c_int64
+    polyline = native.function(NATIVE, "circuitnsds_raster_polyline",
+                               [pointer, size, size, pointer, pointer, size, ctypes.c_double, ctypes.c_uint8],
+                               None)
+    reduce = native.function(NATIVE, "circuitnsds_raster_reduce",
+                             [pointer, size, size, size, pointer, pointer], None)
+    return None if polyline is None or reduce is None else (polyline, reduce)
+
+
+NATIVE = "output/_raster_native"
+"""The C painter's library (:func:`circuitnsds.native.library`), built from ``_raster_native.c``."""
 
 
 def _draw_legend(draw, box, panel, font, rows, pt) -> None:

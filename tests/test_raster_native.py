@@ -1,0 +1,102 @@
+"""The figure's C painter (circuitnsds/output/_raster_native.c) against the geometry it
+promises: a segment of a line of width 2r paints exactly the subpixels whose centres lie
+within r of it across and between its ends, a lone point a disc, NaN breaks a line, later
+lines cover earlier ones, and the reduction averages each block's palette colours (checked
+against numpy)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from circuitnsds.output import raster_figure
+
+WIDTH, HEIGHT = 40, 30
+EDGE = 1e-7  # centres this close to the shape's edge may go either way
+
+
+@pytest.fixture(scope="module")
+def painter():
+    functions = raster_figure._native_painter()
+    assert functions is not None, ("circuitnsds/output/_raster_native.c is not built from this source: "
+                                   "pip install -e . (or python setup.py build_ext --inplace)")
+    return functions
+
+
+def _paint(painter, x, y, half_width, colour=1, canvas=None):
+    polyline, _ = painter
+    canvas = np.zeros((HEIGHT, WIDTH), dtype=np.uint8) if canvas is None else canvas
+    x, y = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float)
+    polyline(canvas.ctypes.data, WIDTH, HEIGHT, x.ctypes.data, y.ctypes.data, x.size, half_width, colour)
+    return canvas
+
+
+def _centres():
+    return np.meshgrid(np.arange(WIDTH) + 0.5, np.arange(HEIGHT) + 0.5)
+
+
+coordinate = st.floats(-10.0, 50.0, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(coordinate, coordinate, coordinate, coordinate, st.floats(0.3, 6.0))
+def test_a_segment_paints_the_centres_inside_its_rectangle(painter, x0, y0, x1, y1, r):
+    length = np.hypot(x1 - x0, y1 - y0)
+    canvas = _paint(painter, [x0, x1], [y0, y1], r)
+    if length == 0.0:
+        assert not canvas.any()  # nothing to draw
+        return
+    cx, cy = _centres()
+    across = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / length
+    along = ((x1 - x0) * (cx - x0) + (y1 - y0) * (cy - y0)) / length
+    inside = (np.abs(across) < r - EDGE) & (along > EDGE) & (along < length - EDGE)
+    outside = (np.abs(across) > r + EDGE) | (along < -EDGE) | (along > length + EDGE)
+    assert canvas[inside].all()
+    assert not canvas[outside].any()
+
+
+@settings(max_examples=200, deadline=None)
+@given(coordinate, coordinate, st.floats(0.3, 8.0))
+def test_a_lone_point_is_a_disc(painter, x, y, r):
+    canvas = _paint(painter, [x], [y], r)
+    cx, cy = _centres()
+    distance = np.hypot(cx - x, cy - y)
+    assert canvas[distance < r - EDGE].all()
+    assert not canvas[distance > r + EDGE].any()
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(0.0, 29.0), st.integers(1, 7))
+def test_a_horizontal_line_of_whole_width_paints_that_many_rows(painter, y, width):
+    """Wherever it lies: the centres on its edge count on one side only."""
+    canvas = _paint(painter, [5.0, 35.0], [y, y], width / 2)
+    painted_rows = np.flatnonzero(canvas[:, 20])
+    expected = np.arange(np.ceil(y - width / 2 - 0.5), np.ceil(y + width / 2 - 0.5))
+    expected = expected[(expected >= 0) & (expected < HEIGHT)]
+    assert np.array_equal(painted_rows, expected)
+
+
+def test_nan_breaks_the_line_and_later_lines_cover_earlier_ones(painter):
+    canvas = _paint(painter, [2.0, 10.0, np.nan, 30.0, 38.0], [5.0, 5.0, np.nan, 5.0, 5.0], 1.0)
+    assert canvas[5, 3:10].all() and canvas[5, 31:38].all()
+    assert not canvas[5, 11:30].any()  # no segment from (10, 5) to (30, 5)
+    _paint(painter, [20.0, 20.0], [0.0, 30.0], 2.0, colour=2, canvas=canvas)
+    assert canvas[5, 18:22].tolist() == [2, 2, 2, 2] and canvas[5, 6] == 1
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 4), st.integers(1, 30), st.integers(1, 6), st.integers(0, 2**32 - 1),
+       st.sampled_from([1.0, 0.1, 0.01, 0.0]))
+def test_the_reduction_averages_each_block_of_palette_colours(painter, factor, columns, rows, seed, density):
+    """Dense and sparse canvases: runs of eight background blocks take a short cut."""
+    _, reduce = painter
+    rng = np.random.default_rng(seed)
+    shape = (rows * factor, columns * factor)
+    canvas = (rng.integers(0, 5, shape) * (rng.random(shape) < density)).astype(np.uint8)
+    palette = np.zeros((256, 3), dtype=np.uint8)
+    palette[:5] = rng.integers(0, 256, (5, 3))
+    out = np.empty((rows, columns, 3), dtype=np.uint8)
+    reduce(canvas.ctypes.data, columns * factor, rows * factor, factor, palette.ctypes.data, out.ctypes.data)
+    sums = palette[canvas].astype(np.int64).reshape(rows, factor, columns, factor, 3).sum(axis=(1, 3))
+    area = factor * factor
+    assert np.array_equal(out, (2 * sums + area) // (2 * area))
