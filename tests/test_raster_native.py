@@ -100,3 +100,22 @@ def test_the_reduction_averages_each_block_of_palette_colours(painter, factor, c
     sums = palette[canvas].astype(np.int64).reshape(rows, factor, columns, factor, 3).sum(axis=(1, 3))
     area = factor * factor
     assert np.array_equal(out, (2 * sums + area) // (2 * area))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=2, max_size=12),
+       st.floats(0.0, 1e6))
+def test_any_coordinates_are_safe(painter, values, r):
+    """Huge, infinite and NaN coordinates and widths: no write outside the canvas (a guard
+    band around it stays untouched), no crash."""
+    polyline, _ = painter
+    half = len(values) // 2
+    x = np.ascontiguousarray(values[:half], dtype=float)
+    y = np.ascontiguousarray(values[half:2 * half], dtype=float)
+    guard = 4096
+    block = np.full(HEIGHT * WIDTH + 2 * guard, 7, dtype=np.uint8)
+    canvas = block[guard:guard + HEIGHT * WIDTH]
+    canvas[:] = 0
+    polyline(canvas.ctypes.data, WIDTH, HEIGHT, x.ctypes.data, y.ctypes.data, x.size, r, 1)
+    assert (block[:guard] == 7).all() and (block[guard + HEIGHT * WIDTH:] == 7).all()
+    assert set(np.unique(canvas).tolist()) <= {0, 1}
