@@ -129,6 +129,25 @@ def test_non_finite_values_break_the_line_and_do_not_set_the_limits(tmp_path, pa
                                  - np.array(BLUE)).sum(axis=1) < 60)
 
 
+def test_samples_between_non_finite_values_are_dots(tmp_path, painter):
+    """A trace whose every other sample is NaN (no two finite samples side by side): each
+    finite sample is still drawn, as a dot where it lies, and nothing joins them."""
+    time = np.linspace(0.0, 1.0, 11)
+    values = 2 * time
+    values[1::2] = np.nan  # finite at t = 0, 0.2, ..., 1
+    pixels = _image(tmp_path, Waveforms(time, {"v(a)": values}))
+    left, top, right, bottom = _frame(pixels)
+    row_of = lambda volts: round(top + (2.1 - volts) / 2.2 * (bottom - top))  # noqa: E731
+    column = lambda fraction: round(left + fraction * (right - left))  # noqa: E731
+    tint = pixels[..., 2] - pixels[..., 0]  # blue over white, antialiased: blue above red
+    for fraction in (0.2, 0.4, 0.6, 0.8):
+        row, col = row_of(2 * fraction), column(fraction)
+        assert tint[row - 2:row + 3, col - 2:col + 3].max() > 40, fraction
+    for fraction in (0.3, 0.5, 0.7):  # between two dots: no line
+        assert not np.any(np.abs(pixels[top + 2:bottom - 1, column(fraction)]
+                                 - np.array(BLUE)).sum(axis=1) < 60)
+
+
 def test_switching_marks(tmp_path, painter):
     time = np.linspace(0.0, 1.0, 101)
     waves = Waveforms(time, {"v(a)": time}, events=[(0.5, "s1", True)])

@@ -43,10 +43,11 @@ coordinate = st.floats(-10.0, 50.0, allow_nan=False)
 def test_a_segment_paints_the_centres_inside_its_rectangle(painter, x0, y0, x1, y1, r):
     length = np.hypot(x1 - x0, y1 - y0)
     canvas = _paint(painter, [x0, x1], [y0, y1], r)
-    if length == 0.0:
-        assert not canvas.any()  # nothing to draw
-        return
     cx, cy = _centres()
+    if length == 0.0:  # two copies of one point: a dot (test_a_run_of_one_point_is_a_disc...)
+        distance = np.hypot(cx - x0, cy - y0)
+        assert canvas[distance < r - EDGE].all() and not canvas[distance > r + EDGE].any()
+        return
     across = ((x1 - x0) * (cy - y0) - (y1 - y0) * (cx - x0)) / length
     along = ((x1 - x0) * (cx - x0) + (y1 - y0) * (cy - y0)) / length
     inside = (np.abs(across) < r - EDGE) & (along > EDGE) & (along < length - EDGE)
@@ -119,3 +120,22 @@ def test_any_coordinates_are_safe(painter, values, r):
     polyline(canvas.ctypes.data, WIDTH, HEIGHT, x.ctypes.data, y.ctypes.data, x.size, r, 1)
     assert (block[:guard] == 7).all() and (block[guard + HEIGHT * WIDTH:] == 7).all()
     assert set(np.unique(canvas).tolist()) <= {0, 1}
+
+
+@settings(max_examples=100, deadline=None)
+@given(coordinate, coordinate, st.floats(0.3, 6.0), st.integers(1, 3),
+       st.sampled_from(["alone", "between NaNs", "after a line", "before a line"]))
+def test_a_run_of_one_point_is_a_disc_wherever_it_is(painter, x, y, r, copies, where):
+    """A finite point with non-finite neighbours (a trace sampled where its neighbours are
+    NaN), repeated or not, is a dot: the run has no segment to paint."""
+    run_x, run_y = [x] * copies, [y] * copies
+    line_x, line_y = [-30.0, -20.0], [-30.0, -30.0]  # a line far outside the canvas
+    layouts = {"alone": (run_x, run_y),
+               "between NaNs": ([np.nan, *run_x, np.inf], [np.nan, *run_y, 0.0]),
+               "after a line": ([*line_x, np.nan, *run_x], [*line_y, np.nan, *run_y]),
+               "before a line": ([*run_x, np.nan, *line_x], [*run_y, -np.inf, *line_y])}
+    canvas = _paint(painter, *layouts[where], r)
+    cx, cy = _centres()
+    distance = np.hypot(cx - x, cy - y)
+    assert canvas[distance < r - EDGE].all()
+    assert not canvas[distance > r + EDGE].any()

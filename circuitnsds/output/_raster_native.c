@@ -8,9 +8,9 @@
  *
  * A segment of a line of width 2r is the rectangle of the points within r of the segment,
  * measured across it, and between its ends (square "butt" ends, no joins: the segments of a
- * polyline overlap at its corners, as Pillow's wide lines do). A polyline of a single
- * point is a disc of radius r. Segments with a non-finite end are skipped (NaN separates
- * dashes).
+ * polyline overlap at its corners, as Pillow's wide lines do). A non-finite point breaks
+ * the polyline into runs of finite points (NaN separates dashes); a run with no segment of
+ * positive length (a single point: a sample whose neighbours are NaN) is a disc of radius r.
  *
  * (Subpixel centres on the shape's edge count on its top and left sides only, so that a
  * line 5 subpixels wide paints 5 rows, wherever it lies.)
@@ -75,23 +75,31 @@ static void fill_disc(uint8_t *canvas, int64_t width, int64_t height, double x, 
 }
 
 /* Paint the polyline through the n points (x[k], y[k]), subpixel coordinates, with lines
- * of width 2 * half_width in palette index colour. */
+ * of width 2 * half_width in palette index colour: each run of finite points as its
+ * segments, or as a disc around its first point when none of them has a length. */
 EXPORT void circuitnsds_raster_polyline(uint8_t *canvas, int64_t width, int64_t height,
                                         const double *x, const double *y, int64_t n,
                                         double half_width, uint8_t colour) {
-    if (n == 1) {
-        if (isfinite(x[0]) && isfinite(y[0])) fill_disc(canvas, width, height, x[0], y[0], half_width, colour);
-        return;
-    }
-    for (int64_t k = 0; k + 1 < n; k++) {
-        double x0 = x[k], y0 = y[k], x1 = x[k + 1], y1 = y[k + 1];
-        if (!(isfinite(x0) && isfinite(y0) && isfinite(x1) && isfinite(y1))) continue;
-        double dx = x1 - x0, dy = y1 - y0, length = sqrt(dx * dx + dy * dy);
-        if (!(length > 0.0)) continue;
-        double nx = -dy / length * half_width, ny = dx / length * half_width;
-        double cx[4] = {x0 + nx, x1 + nx, x1 - nx, x0 - nx};
-        double cy[4] = {y0 + ny, y1 + ny, y1 - ny, y0 - ny};
-        fill_quad(canvas, width, height, cx, cy, colour);
+    int64_t k = 0;
+    while (k < n) {
+        if (!(isfinite(x[k]) && isfinite(y[k]))) {
+            k++;
+            continue;
+        }
+        int64_t start = k;
+        int segments = 0;
+        for (; k + 1 < n && isfinite(x[k + 1]) && isfinite(y[k + 1]); k++) {
+            double x0 = x[k], y0 = y[k], x1 = x[k + 1], y1 = y[k + 1];
+            double dx = x1 - x0, dy = y1 - y0, length = sqrt(dx * dx + dy * dy);
+            if (!(length > 0.0)) continue;
+            segments = 1;
+            double nx = -dy / length * half_width, ny = dx / length * half_width;
+            double cx[4] = {x0 + nx, x1 + nx, x1 - nx, x0 - nx};
+            double cy[4] = {y0 + ny, y1 + ny, y1 - ny, y0 - ny};
+            fill_quad(canvas, width, height, cx, cy, colour);
+        }
+        if (!segments) fill_disc(canvas, width, height, x[start], y[start], half_width, colour);
+        k++; /* past the run's last point */
     }
 }
 

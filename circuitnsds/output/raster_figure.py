@@ -386,8 +386,8 @@ def render(data: FigureData, size: tuple[float, float], dpi: float = 120) -> Ima
 class Stroke(NamedTuple):
     """A line to paint inside a panel: through the points ``(x[k], y[k])`` in supersampled
     pixels from the panel's top left corner (subpixel k spans [k, k + 1)), ``width``
-    subpixels wide, in ``colour``. A non-finite point breaks it; a run of a single point is
-    a dot as wide as the line."""
+    subpixels wide, in ``colour``. A non-finite point breaks it; a run of a single point
+    (or of copies of one point) is a dot as wide as the line."""
 
     x: np.ndarray
     y: np.ndarray
@@ -487,7 +487,7 @@ def _paint_pillow(strokes: list[Stroke], width: int, height: int) -> Image.Image
         finite = np.isfinite(stroke.x) & np.isfinite(stroke.y)
         for start, stop in _finite_runs(finite):
             x, y = stroke.x[start:stop] - 0.5, stroke.y[start:stop] - 0.5
-            if x.size == 1:  # a lone point: a dot of the line's width
+            if (x == x[0]).all() and (y == y[0]).all():  # a lone point: a dot of the line's width
                 r = stroke.width / 2
                 draw.ellipse((x[0] - r, y[0] - r, x[0] + r, y[0] + r), fill=stroke.colour)
             else:
