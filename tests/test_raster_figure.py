@@ -315,3 +315,14 @@ def test_a_gentle_curve_keeps_its_points():
     assert _distance_to_polyline(x, y, x[kept], y[kept]).max() <= 1e-3
     flat = np.linspace(0.0, 50.0, 501)
     assert points_to_draw(flat, 0.0 * flat).sum() == 2  # a straight line: its ends
+
+
+def test_more_colours_than_a_palette_holds(painter):
+    """300 strokes of 300 colours (the C canvas indexes 255 besides the background): each
+    one still painted in its own colour, a vertical line filling exactly one pixel column."""
+    s = raster_figure.SUPERSAMPLE
+    colours = [(k % 256, (7 * k) % 256, 255 - k % 200) for k in range(300)]
+    strokes = [raster_figure.Stroke(np.array([s * k + s / 2] * 2), np.array([0.0, 4.0 * s]), s, colour)
+               for k, colour in enumerate(colours)]
+    pixels = np.asarray(raster_figure._paint(strokes, 300, 4))
+    assert np.array_equal(pixels, np.broadcast_to(np.array(colours, dtype=np.uint8), (4, 300, 3)))
