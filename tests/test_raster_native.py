@@ -6,7 +6,7 @@ against numpy)."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from circuitnsds.output import raster_figure
@@ -40,6 +40,7 @@ coordinate = st.floats(-10.0, 50.0, allow_nan=False)
 
 @settings(max_examples=300, deadline=None)
 @given(coordinate, coordinate, coordinate, coordinate, st.floats(0.3, 6.0))
+@example(0.0, 0.0, 0.0, 1.371977031727096e-209, 1.0)  # its length squared underflows to 0
 def test_a_segment_paints_the_centres_inside_its_rectangle(painter, x0, y0, x1, y1, r):
     length = np.hypot(x1 - x0, y1 - y0)
     canvas = _paint(painter, [x0, x1], [y0, y1], r)

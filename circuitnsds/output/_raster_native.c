@@ -90,7 +90,7 @@ EXPORT void circuitnsds_raster_polyline(uint8_t *canvas, int64_t width, int64_t 
         int segments = 0;
         for (; k + 1 < n && isfinite(x[k + 1]) && isfinite(y[k + 1]); k++) {
             double x0 = x[k], y0 = y[k], x1 = x[k + 1], y1 = y[k + 1];
-            double dx = x1 - x0, dy = y1 - y0, length = sqrt(dx * dx + dy * dy);
+            double dx = x1 - x0, dy = y1 - y0, length = hypot(dx, dy); /* no underflow to 0 nor overflow */
             if (!(length > 0.0)) continue;
             segments = 1;
             double nx = -dy / length * half_width, ny = dx / length * half_width;
