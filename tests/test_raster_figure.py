@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from circuitnsds.output import raster_figure
-from circuitnsds.output.plot import _size, plot_waveforms
+from circuitnsds.output.plot import PlotError, _size, plot_waveforms
 from circuitnsds.output.raster_figure import (
     encode_png,
     min_max_decimate,
@@ -326,3 +326,19 @@ def test_more_colours_than_a_palette_holds(painter):
                for k, colour in enumerate(colours)]
     pixels = np.asarray(raster_figure._paint(strokes, 300, 4))
     assert np.array_equal(pixels, np.broadcast_to(np.array(colours, dtype=np.uint8), (4, 300, 3)))
+
+
+def test_a_non_finite_point_and_its_neighbours_stay_in_a_straight_line():
+    x = np.arange(9.0)
+    y = np.array([0, 0, 0, 0, np.nan, 0, 0, 0, 0], dtype=float)
+    kept = points_to_draw(x, y)
+    assert kept.tolist() == [True, False, False, True, True, True, False, False, True]
+
+
+def test_a_legend_that_leaves_no_room_is_a_clear_error(tmp_path):
+    """140 traces in one panel: their legend's columns would take the figure's width."""
+    time = np.linspace(0.0, 1.0, 20)
+    signals = {f"v(n{k})": k * time for k in range(140)}
+    with pytest.raises(PlotError, match="too many signals for one figure: 140 in a panel"):
+        plot_waveforms(Waveforms(time, signals), tmp_path / "f.png", list(signals))
+    assert not (tmp_path / "f.png").exists()

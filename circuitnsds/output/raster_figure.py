@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from PIL import Image, ImageColor, ImageDraw, ImageFont
 
-from circuitnsds.output.plot import FigureData
+from circuitnsds.output.plot import FigureData, PlotError
 
 COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
            "#7f7f7f", "#bcbd22", "#17becf")
@@ -181,20 +181,24 @@ def _finite_runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 def _polyline(px: np.ndarray, py: np.ndarray, decimate: bool) -> tuple[np.ndarray, np.ndarray]:
     """The points to draw of one trace in pixels: each run of finite points reduced per
-    pixel column when ``decimate``, without the interior points of its straight stretches,
-    the runs separated by a NaN."""
+    pixel column when ``decimate``, the runs separated by a NaN, without the interior points
+    of straight stretches (a point beside a NaN always stays)."""
     finite = np.isfinite(px) & np.isfinite(py)
-    xs, ys = [], []
-    for start, stop in ([(0, px.size)] if finite.all() else _finite_runs(finite)):
-        x, y = px[start:stop], py[start:stop]
-        if decimate and x.size > 8:
-            x, y = min_max_decimate(x, y, np.floor(x).astype(np.int64))
-        kept = points_to_draw(x, y)
-        xs += [x[kept], [np.nan]]
-        ys += [y[kept], [np.nan]]
-    if not xs:
-        return px[:0], py[:0]
-    return np.concatenate(xs[:-1]), np.concatenate(ys[:-1])
+    if decimate:
+        xs, ys = [], []
+        for start, stop in [(0, px.size)] if finite.all() else _finite_runs(finite):
+            x, y = px[start:stop], py[start:stop]
+            if x.size > 8:
+                x, y = min_max_decimate(x, y, np.floor(x).astype(np.int64))
+            xs += [x, [np.nan]]
+            ys += [y, [np.nan]]
+        if not xs:
+            return px[:0], py[:0]
+        px, py = np.concatenate(xs[:-1]), np.concatenate(ys[:-1])
+    elif not finite.all():
+        px, py = np.where(finite, px, np.nan), np.where(finite, py, np.nan)
+    kept = points_to_draw(px, py)
+    return px[kept], py[kept]
 
 
 STRAIGHT_TOLERANCE = 1e-3
@@ -207,8 +211,9 @@ def points_to_draw(x: np.ndarray, y: np.ndarray, tolerance: float = STRAIGHT_TOL
     its straight stretches. A point goes when it lies, within ``tolerance``, on the segment
     joining the nearest points kept before and after it: the line drawn covers the same
     pixels with fewer segments (an ideal diode's current is a straight zero for half of the
-    bridge's period, and a wide line costs Pillow ~0.6 µs per segment). A point at a turn
-    back (a spike along the line's own direction) is kept: it lies beyond the segment."""
+    bridge's period, and a wide line costs ~0.2 µs per segment in C, ~0.6 µs with Pillow). A
+    point at a turn back (a spike along the line's own direction) is kept: it lies beyond the
+    segment. Non-finite points, which break the line, and their neighbours are kept."""
     n = x.size
     kept = np.ones(n, dtype=bool)
     if n < 3:
@@ -331,6 +336,11 @@ def render(data: FigureData, size: tuple[float, float], dpi: float = 120) -> Ima
         legend_widths.append(sum(0.4 * em + 2.0 * em + 0.8 * em + w for w in column_widths)
                              + 2.0 * em * (columns - 1) + 0.4 * em)
     axes_width = (width - left - max(legend_widths) - edge) / 1.01
+    if axes_width < 0.1 * width:  # the legends would leave the traces no room
+        crowded = max(len(panel.traces) for panel in data.panels)
+        raise PlotError(f"too many signals for one figure: {crowded} in a panel, whose legend "
+                        "leaves the traces less than a tenth of the figure's width",
+                        hint="choose fewer with --signals (or write a CSV and plot it yourself)")
     x_left, x_right = int(round(left)), int(round(left + axes_width))
 
     # the time axis: as many round ticks as fit without their labels touching
