@@ -1,9 +1,10 @@
-"""Waveform figures: matplotlib against the Pillow renderer (``output/raster_figure.py``).
+"""Waveform figures: matplotlib against our PNG renderer (``output/raster_figure.py``: lines
+painted in C where it was built at install, else by Pillow; text by Pillow).
 
 Prints one table: the import of each (a fresh process, median), and drawing and writing the
 figure in-process (best of ``--repeats``) for the bundled bridge rectifier (10 signals,
 5,001 points, two panels) and for a million-point signal (a sine with ringing and one spike,
-three traces). The PNG goes through :func:`circuitnsds.output.plot.plot_waveforms` (Pillow);
+three traces). The PNG goes through :func:`circuitnsds.output.plot.plot_waveforms`;
 matplotlib's figure through :func:`~circuitnsds.output.plot.draw` and ``save_figure`` (the
 path every PDF/SVG takes), at the same size and dpi.
 
@@ -82,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or Path(tempfile.mkdtemp())
     out.mkdir(parents=True, exist_ok=True)
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    print("| | matplotlib [s] | Pillow [s] |")
+    print("| | matplotlib [s] | ours, PNG [s] |")
     print("|---|---|---|")
     mpl_import = import_seconds("import matplotlib.figure, matplotlib.backends.backend_agg", args.repeats)
     pil_import = import_seconds("import PIL.Image, PIL.ImageDraw, PIL.ImageFont", args.repeats)

@@ -70,7 +70,7 @@ def main() -> None:
             times[name].append(time.perf_counter() - started)
     firsts = [float(subprocess.run([sys.executable, "-c", FIRST_SAVE], capture_output=True, text=True,
                                    check=True).stdout) for _ in range(5)]
-    print(f"bridge figure {image.size[0]} x {image.size[1]}; render (Pillow drawing): "
+    print(f"bridge figure {image.size[0]} x {image.size[1]}; render (text by Pillow, lines in C if built): "
           f"median {statistics.median(renders) * 1e3:.1f} ms, min {min(renders) * 1e3:.1f} ms\n")
     print(f"{'encoding':32} {'median [ms]':>11} {'min [ms]':>9} {'size [kB]':>10}")
     for name in ways:
