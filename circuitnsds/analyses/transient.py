@@ -101,21 +101,101 @@ def _fitted_peaks(circuit: Circuit, waves: Waveforms,
     return peaks
 
 
+def _forward_peaks(circuit: Circuit, mlcs, trajectory, peaks: dict[str, float]) -> dict[str, float]:
+    """Model name -> the largest forward current [A] per unit area through the instances of each
+    Shockley-fitted diode model over every row of ``trajectory`` (what
+    :func:`_fitted_peaks` gives first, the same number), taken together with ``peaks`` (of
+    earlier segments of the same run), which is updated and returned. Each current is
+    computed only at the rows where its largest value can be (:func:`_largest_rows`)."""
+    from circuitnsds.circuit.elements import Diode
+
+    rows = {name: j for j, name in enumerate(mlcs.output_names)}
+    bounds: dict[int, float] = {}  # the largest |value| of y (0) and of the currents (1)
+    for element in circuit.elements:
+        if isinstance(element, Diode) and element.model.shockley is not None:
+            row = rows.get(f"i({element.name})")
+            if row is None:
+                continue
+            terms = _signal_terms(mlcs, row)
+            where = _largest_rows(terms, trajectory, bounds)
+            states, currents = trajectory.y, trajectory.current
+            if where is not None:
+                states, currents = states[where], currents[where]
+            current = _output_values(terms, states, currents) / element.area
+            peaks[element.model.name] = max(peaks.get(element.model.name, 0.0),
+                                            float(current.max(initial=0.0)))
+    return peaks
+
+
+def _signal_terms(mlcs, row: int) -> list[tuple[int, int, float]]:
+    """``(source, column, weight)`` of each term of output ``row`` (``mlcs.output_names``), in
+    stamped order: ``source`` 0 for the unknowns ``y``, 1 for the pair currents."""
+    return [(source, column, weight)
+            for source, matrix in enumerate((mlcs.Y_out, mlcs.L_out))
+            for column, weight in zip(*matrix.row(row))]
+
+
+def _output_values(terms: list[tuple[int, int, float]], states: np.ndarray,
+                   currents: np.ndarray) -> np.ndarray:
+    """The output of ``terms`` (:func:`_signal_terms`) at each row of ``states`` (unknowns) and
+    ``currents`` (pair currents): the sum of its weighted columns, in stamped order."""
+    if len(terms) == 1:  # most signals: one scaled column, no zeros array to fault in
+        source, column, weight = terms[0]
+        values = weight * (states, currents)[source][:, column]
+        values += 0.0  # (a zero is +0.0, as the sum below makes it)
+        return values
+    values = np.zeros(states.shape[0])
+    for source, column, weight in terms:
+        values += weight * (states, currents)[source][:, column]
+    return values
+
+
+def _largest_rows(terms: list[tuple[int, int, float]], trajectory,
+                  bounds: dict[int, float]) -> np.ndarray | None:
+    """Rows of ``trajectory`` among which :func:`_output_values` of ``terms`` takes its largest
+    value (ties included), or ``None`` (every row) when they are not few.
+
+    The term of largest magnitude (a diode's pair current; the others are its off-conductance
+    times node voltages, ~1e-10 A) is computed; every other term is bounded by the largest
+    ``|y|`` or ``|current|`` times its weight (``bounds`` keeps those, per trajectory), their
+    sum ``B``. A row whose main term is more than ``2(B + δ)`` below the main term's largest
+    value (``δ``: the rounding of the products and of the sum, a few ulps of ``B`` plus that
+    largest value for each term) is below the row holding it whatever its other terms are:
+    it cannot hold the maximum. The margin taken is 2.5(B + δ)."""
+    def bound(source: int) -> float:
+        if source not in bounds:
+            array = (trajectory.y, trajectory.current)[source]
+            bounds[source] = max(float(array.max(initial=0.0)), -float(array.min(initial=0.0)))
+        return bounds[source]
+
+    sizes = [abs(float(weight)) * bound(source) for source, _, weight in terms]
+    main = int(np.argmax(sizes))
+    source, column, weight = terms[main]
+    others = sum(sizes) - sizes[main]
+    values = weight * (trajectory.y, trajectory.current)[source][:, column]
+    if values.size == 0 or not np.isfinite(others):
+        return None
+    high = float(values.max())
+    rounding = 4 * len(terms) * np.finfo(float).eps * (abs(high) + sizes[main] + others)
+    where = np.flatnonzero(values >= high - 2.5 * (others + rounding))
+    return where if where.size <= values.size // 4 else None
+
+
 FIT_DROP_TOLERANCE = 0.02
 """Forward-drop error [V] of a fitted line (against its Shockley curve) at a diode's peak
 current beyond which the run notes that the fit range misses the circuit's currents."""
 
 
-def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
+def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, float]) -> None:
     """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward
-    current (``peaks``: :func:`_fitted_peaks`) lies outside the range its line was fitted over,
+    current (``peaks``: :func:`_forward_peaks`) lies outside the range its line was fitted over,
     where the line misses the curve by more than :data:`FIT_DROP_TOLERANCE` (the answer is then
     the line's, not the model's)."""
     from circuitnsds.circuit.elements import Diode
 
     models = {e.model.name: e.model for e in circuit.elements
               if isinstance(e, Diode) and e.model.fit_range is not None}
-    for name, (peak, _) in peaks.items():
+    for name, peak in peaks.items():
         model = models.get(name)
         if model is None or peak <= 1e-12:
             continue
@@ -242,7 +322,8 @@ def _run_transient(
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
-        _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
+        _note_fits_outside_their_range(circuit, {name: forward for name, (forward, _)
+                                                 in _fitted_peaks(circuit, waves).items()})
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -488,7 +569,6 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
     first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
     y, current = trajectory.y[first:], trajectory.current[first:]
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
-    Y_out, L_out = mlcs.Y_out, mlcs.L_out
     time = trajectory.time[first:]
     # capacitor currents ΔQ/Δt of each step (charge-consistent: their integral is the charge
     # the capacitor took), from n1 through the capacitor to n2; at the first point the step
@@ -522,18 +602,7 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
 
     def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
         """Signal ``name``: the sum, in stamped order, of its rows' weighted unknowns."""
-        j = rows[name]
-        terms = [(unknowns, column, weight) for matrix, unknowns in ((Y_out, states), (L_out, currents))
-                 for column, weight in zip(*matrix.row(j))]
-        if len(terms) == 1:  # most signals: one scaled column, no zeros array to fault in
-            unknowns, column, weight = terms[0]
-            values = weight * unknowns[:, column]
-            values += 0.0  # (a zero is +0.0, as the sum below makes it)
-            return values
-        values = np.zeros(states.shape[0])
-        for unknowns, column, weight in terms:
-            values += weight * unknowns[:, column]
-        return values
+        return _output_values(_signal_terms(mlcs, rows[name]), states, currents)
 
     # each device's impulse (the signed sum of its pairs'), computed when first read: a run
     # that keeps some signals reads none (0.09 s per segment of the 1,000-pair ladder)
@@ -577,6 +646,15 @@ def segment_steps(mlcs) -> int:
     return max(2, SEGMENT_BYTES // (8 * width))
 
 
+def _detached(values: np.ndarray, trajectory) -> np.ndarray:
+    """``values``, copied if it may share memory with the per-step arrays of ``trajectory``
+    (a segment's, which the next segment overwrites); a signal computed from them (most) is
+    an array of its own already."""
+    shared = any(np.may_share_memory(values, array) for array in
+                 (trajectory.y, trajectory.current, trajectory.impulse, trajectory.residual))
+    return values.copy() if shared else values
+
+
 def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[str], start: float,
                   stop: float, sink=None, note_fits: bool = True, **options) -> Waveforms:
     """A transient that keeps only the signals ``names`` (and the time and each step's residual):
@@ -603,7 +681,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     residuals: list[np.ndarray] = []
     events: list = []
     stats: dict[str, float] = {}
-    peaks: dict[str, tuple[float, float]] = {}  # of the fitted diode models, over every segment
+    peaks: dict[str, float] = {}  # forward, of the fitted diode models, over every segment
     progress = options.pop("progress")
     total = grid[-1]
     report = None if progress is None else (lambda t, _end: progress(t, total))
@@ -616,12 +694,13 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
 
     def keep(trajectory, first: int) -> None:
         waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
-        _fitted_peaks(circuit, waves, peaks)
+        _forward_peaks(circuit, mlcs, trajectory, peaks)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
-            # (copies: the next segment reuses the trajectory's arrays while the sink may
-            # still be formatting this one's rows in its background thread)
-            sink.append(trajectory.time[first:], [np.array(waves[name][first:]) for name in names],
+            # (not views of the trajectory's arrays: the next segment reuses them while the
+            # sink may still be formatting this one's rows in its background thread)
+            sink.append(trajectory.time[first:], [_detached(waves[name][first:], trajectory)
+                                                  for name in names],
                         trajectory.residual[first:].copy())
             written[0] += trajectory.time.size - min(first, trajectory.time.size)
         else:

@@ -165,11 +165,22 @@ class Pulse(_TwoLevels):
 
         Instants on the flat parts of a period, farther from every corner than the largest
         snapping distance, take ``V2`` or ``V1`` at once; only the others (ramps, corners,
-        before ``TD``) go through :meth:`_sample_corners`. On a regular grid most instants
-        are flat: a million-point grid of a 100 kHz PWM gate is sampled ~3x faster."""
+        before ``TD``) go through :meth:`_sample_corners` (which gives a flat instant the
+        same value). On a regular grid most instants are flat: a million-point grid of a
+        100 kHz PWM gate is sampled ~3x faster. Increasing instants, many to a period (a
+        time grid), find the flat stretches of each period by bisection
+        (:meth:`_flat_runs`), without arithmetic on each instant."""
         times = np.asarray(times, dtype=float)
         if self.period <= 0 or times.size == 0:
             return self._sample_corners(times)
+        runs = self._flat_runs(times)
+        if runs is not None:
+            result = runs
+            other = np.flatnonzero(np.isnan(result))
+            result[other] = self._sample_corners(times[other])
+            if self.count:
+                result[self._finished(times)] = self.initial
+            return result
         local = np.maximum(times - self.delay, 0.0)
         local -= np.floor(local / self.period) * self.period
         margin = 2 * 64 * np.finfo(float).eps * max(float(np.max(np.abs(times))), self.period)
@@ -182,6 +193,36 @@ class Pulse(_TwoLevels):
         if self.count:
             result[self._finished(times)] = self.initial
         return result
+
+    def _flat_runs(self, times: np.ndarray) -> np.ndarray | None:
+        """For increasing ``times`` (1-D) with many instants to a period: ``V2`` at the instants
+        of each period's top and ``V1`` at those of its bottom, away from the corners by four
+        times :meth:`sample`'s margin (every such instant is flat for :meth:`sample` too: its
+        phase is computed to a few ulps), NaN at the others; ``None`` when the instants are
+        not such (or the levels, the pulse's fields are not ordinary), for the caller to
+        compare each instant."""
+        rise, width, fall, period = self.rise, self.width, self.fall, self.period
+        if (times.ndim != 1 or times.size < 64 or not np.isfinite([self.initial, self.pulsed]).all()
+                or min(rise, width, fall) < 0 or rise + width + fall > period):
+            return None
+        first, last = float(times[0]), float(times[-1])
+        periods = (last - first) / period + 2
+        if not (last >= first and times.size >= 16 * periods) or not (times[1:] >= times[:-1]).all():
+            return None
+        guard = 4 * 2 * 64 * np.finfo(float).eps * max(abs(first), abs(last), period)
+        start = max(0, math.floor((first - self.delay) / period) - 1)
+        starts = self.delay + period * np.arange(start, start + math.ceil(periods) + 2)
+        top, bottom = starts + (rise + guard), starts + (rise + width + fall + guard)
+        edges = np.column_stack([top, np.maximum(top, starts + (rise + width - guard)),
+                                 bottom, np.maximum(bottom, starts + (period - guard))]).ravel()
+        edges = np.maximum.accumulate(edges)  # (increasing but for rounding where edges meet)
+        # open stretches (a, b): the instants after a (side right) and before b (side left)
+        bounds = np.searchsorted(times, edges, side="right")
+        bounds[1::2] = np.searchsorted(times, edges[1::2], side="left")
+        bounds = np.maximum.accumulate(np.concatenate([[0], bounds, [times.size]]))
+        levels = np.full(bounds.size - 1, np.nan)
+        levels[1::4], levels[3::4] = self.pulsed, self.initial  # other, top, other, bottom, ...
+        return np.repeat(levels, np.diff(bounds))
 
     def _sample_corners(self, times: np.ndarray) -> np.ndarray:
         """:meth:`value` at every instant of ``times``, each compared with every corner."""

@@ -1,0 +1,149 @@
+"""The cheap paths of a run (issue 19: the Python work around the compiled loop) give the
+numbers of the reference computations they replace, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import circuitnsds
+import circuitnsds.analyses.transient as transient
+from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
+from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
+from tests.test_stimuli_sample import pulses
+
+ZENER_CLIPPER = """Shockley diode and Zener fitted as PWL devices, driven both ways
+V1 in 0 SIN(0 20 1k)
+R1 in a 100
+D1 a b dfit
+D2 0 b dzen
+R2 b 0 1k
+.model dfit D(IS=1e-14 N=1.5 RS=0.1)
+.model dzen D(IS=1e-14 N=1 BV=5.1 IBV=1m)
+.tran 1u 2m
+.end
+"""
+
+
+@given(table=st.lists(st.floats(0.0, 2e9, allow_nan=False), min_size=1, max_size=8, unique=True),
+       values=st.lists(st.floats(0.0, 2e9, allow_nan=False), max_size=40))
+def test_ranks_are_numpys_searchsorted(table, values):
+    """Comparisons with a short table (and numpy's binary search with a longer one) rank every
+    value as ``np.searchsorted`` does, values in the table or not."""
+    table = np.sort(np.array(table))
+    values = np.array(values, dtype=float)
+    ranks = _ranks(table, values)
+    assert ranks.dtype == np.int64
+    np.testing.assert_array_equal(ranks, np.searchsorted(table, values))
+
+
+def test_step_sizes_do_not_take_a_rare_middle_step_for_the_common_one():
+    """The flyback's grid: 1,200 half steps at its gate's threshold crossings among 300,600,
+    the middle one of them a half step. Sizes and classes are still those of the definition."""
+    steps = np.full(3001, 1e-8)
+    steps[np.arange(5, 3001, 100)] = 5e-9
+    steps[1500] = 5e-9
+    (quantum, sizes), classes = _sizes_and_classes(steps)
+    rounded = np.round(steps / quantum)
+    np.testing.assert_array_equal(sizes, np.unique(rounded))
+    np.testing.assert_array_equal(classes, np.unique(rounded, return_inverse=True)[1].reshape(-1))
+
+
+class _Trajectory:
+    """The per-step arrays a peak search reads."""
+
+    def __init__(self, y: np.ndarray, current: np.ndarray):
+        self.y, self.current = y, current
+
+
+@given(data=st.data(), rows=st.integers(1, 60), small=st.sampled_from([0.0, 1e-12, 1e-3, 1.0]))
+def test_largest_rows_hold_the_largest_value(data, rows, small):
+    """The rows :func:`_largest_rows` keeps hold the largest value of the signal computed at
+    every row (bit for bit), whatever the other terms' size beside the main one: a diode's
+    current (one pair's, plus its off-conductance times two node voltages) and sums of terms
+    of any size. Currents often repeat their peak (ties)."""
+    peak = data.draw(st.floats(0.0, 30.0))
+    levels = st.sampled_from([0.0, peak, -peak]) | st.floats(-30.0, 30.0)
+    current = np.array(data.draw(st.lists(levels, min_size=rows, max_size=rows))).reshape(-1, 1)
+    y = np.array(data.draw(st.lists(st.floats(-400.0, 400.0), min_size=2 * rows,
+                                    max_size=2 * rows))).reshape(rows, 2)
+    terms = [(0, 0, small), (0, 1, -small), (1, 0, data.draw(st.sampled_from([1.0, -1.0, 0.5])))]
+    trajectory = _Trajectory(y, current)
+    where = transient._largest_rows(terms, trajectory, {})
+    whole = transient._output_values(terms, y, current)
+    if where is not None:
+        assert transient._output_values(terms, y[where], current[where]).max() == whole.max()
+
+
+def test_forward_peaks_are_those_of_the_waveforms():
+    """A run's fitted-diode forward peaks from the rows where they can be (the segments'
+    path) are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a
+    diode whose current is one pair's and a Zener whose current is two pairs' (each plus its
+    off-conductance's)."""
+    circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
+    spec = transient.transient_spec(circuit)
+    mlcs = circuit.mlcs(spec.source_defaults)
+    grid = np.linspace(0.0, spec.stop, 2001)
+    state = transient.operating_point(circuit, mlcs, 1e-9)
+    trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
+                           state.switches)
+    reference = transient._fitted_peaks(circuit, transient._waveforms(circuit, mlcs, trajectory,
+                                                                      0.0, spec.stop))
+    assert reference["dfit"][0] > 0 and min(reference["dzen"]) > 0  # both conduct, both ways
+    pairs = {name: [source for source, _, _ in transient._signal_terms(
+        mlcs, mlcs.output_names.index(f"i({name})"))].count(1) for name in ("d1", "d2")}
+    assert pairs == {"d1": 1, "d2": 2}
+    # the diode's current is computed at a few rows; the Zener's whole (its two pairs' currents
+    # are amperes each: no term is the main one)
+    kept = [transient._largest_rows(transient._signal_terms(mlcs, mlcs.output_names.index(name)),
+                                    trajectory, {}) for name in ("i(d1)", "i(d2)")]
+    assert kept[0].size < 20 and kept[1] is None
+    peaks = transient._forward_peaks(circuit, mlcs, trajectory, {})
+    assert peaks == {name: forward for name, (forward, _) in reference.items()}
+
+
+@settings(max_examples=150, deadline=None)
+@given(pulse=pulses(), points=st.integers(64, 3000), start=st.floats(0.0, 1e-3),
+       middles=st.booleans())
+def test_pulse_sampled_on_a_grid_is_sampled_instant_by_instant(pulse, points, start, middles):
+    """A PULSE sampled on an increasing grid with many points to a period (the flat stretches
+    found by bisection, :meth:`Pulse._flat_runs`) gives, bit for bit, what the corner-by-corner
+    formula gives at each instant (the reference), corners and their neighbours included; so
+    do the grid's midpoints (the switch schedule's instants)."""
+    step = pulse.period / 40
+    grid = start + step * np.arange(points)
+    corners = np.array(pulse.breakpoints(grid[-1] + pulse.period))
+    corners = corners[(corners > grid[0]) & (corners < grid[-1])]
+    grid = np.sort(np.concatenate([grid, corners, np.nextafter(corners, np.inf)]))
+    times = 0.5 * (grid[:-1] + grid[1:]) if middles else grid
+    sampled = pulse.sample(times)
+    np.testing.assert_array_equal(sampled, pulse._sample_corners(times))
+    regular = min(pulse.rise, pulse.width, pulse.fall) >= 0 and \
+        pulse.rise + pulse.width + pulse.fall <= pulse.period
+    assert (pulse._flat_runs(times) is not None) == regular  # (the grid path was taken)
+    shuffled = np.random.default_rng(points).permutation(times)
+    assert pulse._flat_runs(shuffled) is None  # (not increasing: each instant's phase)
+    np.testing.assert_array_equal(pulse.sample(shuffled), pulse._sample_corners(shuffled))
+
+
+@settings(max_examples=200, deadline=None)
+@given(step=st.floats(1e-9, 1.0), count=st.integers(1, 200),
+       near=st.lists(st.tuples(st.integers(0, 200), st.floats(-3e-9, 3e-9)), max_size=12),
+       points=st.lists(st.floats(-0.1, 1.1), max_size=12))
+def test_time_grid_is_its_definition(step, count, near, points):
+    """The grid (breakpoints put in the place of the regular points they are close to, the
+    others merged in) is its definition computed point by point: the regular points ``k·step``
+    not within ``MERGE_FRACTION·step`` of a breakpoint (the first and last kept), and the
+    breakpoints inside ``(0, stop)`` (those within that of each other counted once)."""
+    stop = count * step
+    breakpoints = [stop * p for p in points] + [(k + d) * step for k, d in near if k <= count]
+    grid = time_grid(step, stop, breakpoints)
+    tolerance = MERGE_FRACTION * step
+    inside = sorted(b for b in set(breakpoints) if tolerance < b < stop - tolerance)
+    merged = [b for i, b in enumerate(inside) if i == 0 or b - inside[i - 1] > tolerance]
+    regular = np.arange(count + 1, dtype=float) * step
+    regular[-1] = stop
+    kept = [t for k, t in enumerate(regular)
+            if k in (0, count) or not any(abs(t - b) <= tolerance for b in merged)]
+    np.testing.assert_array_equal(grid, np.array(sorted(kept + merged)))
