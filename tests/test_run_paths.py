@@ -4,6 +4,7 @@ numbers of the reference computations they replace, bit for bit."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -11,6 +12,7 @@ import circuitnsds
 import circuitnsds.analyses.transient as transient
 from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
+from circuitnsds.solvers import MLCPSolver
 from tests.test_stimuli_sample import pulses
 
 ZENER_CLIPPER = """Shockley diode and Zener fitted as PWL devices, driven both ways
@@ -101,6 +103,44 @@ def test_forward_peaks_are_those_of_the_waveforms():
     assert kept[0].size < 20 and kept[1] is None
     peaks = transient._forward_peaks(circuit, mlcs, trajectory, {})
     assert peaks == {name: forward for name, (forward, _) in reference.items()}
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 4), m=st.integers(1, 5))
+def test_settled_answer_reuses_lemkes_evaluation_with_the_same_result(seed, n, m):
+    """An MLCP answered by Lemke is settled (sign test of its mode) from the evaluation of its
+    mode that Lemke's answer was checked with: the result, its method and the solver's
+    counters are those of evaluating the mode again (the reference)."""
+    rng = np.random.default_rng(seed)
+    A = np.diag(rng.uniform(1.0, 3.0, n)) + 0.1 * rng.standard_normal((n, n))
+    C = rng.standard_normal((n, m))
+    R = rng.standard_normal((m, m))
+    B = R @ R.T + rng.uniform(0.0, 1e-3) * np.eye(m)
+    problems = [(rng.standard_normal(n), rng.standard_normal(m), rng.random(m) < 0.5)
+                for _ in range(6)]
+
+    def answers():
+        solver = MLCPSolver(A, C, -C.T, B)
+        found = [solver.solve(a, b, guess=guess) for a, b, guess in problems]
+        return [(r.u, r.z, r.active, r.method, r.residual) for r in found], solver.stats
+
+    settled, reused = MLCPSolver._settled, []
+
+    def counted(self, result, c, evaluated=None):
+        reused.append(evaluated is not None)
+        return settled(self, result, c, evaluated)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(MLCPSolver, "_settled", counted)
+        fast, fast_stats = answers()
+        patch.setattr(MLCPSolver, "_settled",
+                      lambda self, result, c, evaluated=None: settled(self, result, c))
+        reference, reference_stats = answers()
+    assert all(reused)  # (each Lemke answer here is its mode's evaluation: none computed again)
+    assert fast_stats == reference_stats
+    for (u, z, active, method, res), (u0, z0, active0, method0, res0) in zip(fast, reference):
+        assert np.array_equal(u, u0) and np.array_equal(z, z0) and np.array_equal(active, active0)
+        assert (method, res) == (method0, res0)
 
 
 @settings(max_examples=150, deadline=None)

@@ -200,9 +200,16 @@ def mode_blocks(system: StepSystem, active: np.ndarray, dense: bool = False) -> 
     e = system.e
     if dense:
         K, B, C, D, carry, source_next, source_now = system.dense
-        bordered = np.block([[K, -B[:, act]], [C[act], D[np.ix_(act, act)]]])
-        W = np.hstack([C[inact], D[np.ix_(inact, act)]])
-        W_active = np.hstack([C[act], D[np.ix_(act, act)]])
+        n = K.shape[0]
+        D_act = D[:, act]
+        # (assembled in place: np.block's checks cost more than the copies at these sizes)
+        bordered = np.empty((n + act.size, n + act.size))
+        bordered[:n, :n] = K
+        bordered[:n, n:] = -B[:, act]
+        bordered[n:, :n] = C[act]
+        bordered[n:, n:] = D_act[act]
+        W = np.hstack([C[inact], D_act[inact]])
+        W_active = np.hstack([C[act], D_act[act]])
     else:
         import scipy.sparse as sp
 

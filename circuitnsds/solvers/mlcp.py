@@ -486,7 +486,11 @@ class MLCPSolver:
     # ---------------------------------------------------------------- methods
     def _lemke_from(
         self, sb: _StartBasis, c: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float, tuple | None]:
+        """Lemke from start basis ``sb``: ``(x, w, active, pivots, residual, evaluated)``;
+        ``evaluated``: ``(mode, x, w, residual)`` of the answer's active set as
+        :meth:`_try_mode` gave them (``x`` a copy), when the answer is that evaluation, else
+        ``None`` (what :meth:`_settled` would compute again)."""
         qhat, r0 = sb.rhs(c)
         try:
             zhat, act_hat, pivots = sb.lemke().pivot(qhat, self.max_pivots)
@@ -506,9 +510,11 @@ class MLCPSolver:
         active = act_hat ^ sb.mask
         best: tuple[float, np.ndarray, np.ndarray, float] | None = None
         mode = self._cache.get(active)
+        evaluated = None
         if mode.lu.ok:
             x, w, res, scale = self._try_mode(mode, c)
             best = (res, x, w, scale)
+            evaluated = (mode, x, w, res)
         if best is None or best[0] > self.tol:
             x = sb.recover(zhat, r0)
             res, w, scale = evaluate(self._K, self.n, c, x, self._kappa)
@@ -526,14 +532,21 @@ class MLCPSolver:
                 tol=self.tol,
                 start_basis=sb.mask.copy(),
             )
+        checked_x = x
         x, w, active, res = self._consistent(x, w, active, res, scale, c)
-        return x, w, active, pivots, float(res)
+        if evaluated is not None and not (evaluated[1] is x is checked_x):
+            evaluated = None  # (the answer is another evaluation's)
+        elif evaluated is not None:
+            evaluated = (mode, x.copy(), w, evaluated[3])  # (_result scales x in place)
+        return x, w, active, pivots, float(res), evaluated
 
-    def _lemke_chain(self, c: np.ndarray) -> tuple[MLCPResult | None, list[LCPError]]:
+    def _lemke_chain(self, c: np.ndarray) -> tuple[MLCPResult | None, list[LCPError], tuple | None]:
+        """Lemke from each start basis in turn: ``(result, errors, evaluated)`` (``evaluated``:
+        see :meth:`_lemke_from`; ``result`` ``None`` when every start basis failed)."""
         errors: list[LCPError] = []
         for sb in self._start_bases():
             try:
-                x, w, active, pivots, res = self._lemke_from(sb, c)
+                x, w, active, pivots, res, evaluated = self._lemke_from(sb, c)
             except LCPNoSolution as err:
                 # a ray proves infeasibility only for copositive-plus transforms;
                 # another start basis is cheap to try
@@ -542,13 +555,13 @@ class MLCPSolver:
             except LCPSolverFailure as err:
                 errors.append(err)
                 continue
-            return self._result(x, w, active, "lemke", pivots, res), errors
+            return self._result(x, w, active, "lemke", pivots, res), errors, evaluated
         if not errors:
             errors.append(
                 self._failure("no usable start basis for Lemke (every tried bordered matrix is singular)",
                               "lemke", "singular start basis", rcond_a=self.rcond_a)
             )
-        return None, errors
+        return None, errors, None
 
     def _failure(self, message: str, method: str, reason: str, residual: float = float("inf"),
                  **evidence: Any) -> LCPSolverFailure:
@@ -605,7 +618,8 @@ class MLCPSolver:
             pivoting.update(violated)
         return None
 
-    def _settled(self, result: MLCPResult, c: np.ndarray) -> MLCPResult:
+    def _settled(self, result: MLCPResult, c: np.ndarray, evaluated: tuple | None = None
+                 ) -> MLCPResult:
         """``result`` (verified by the normwise residual) if its active set also passes the
         sign test of a guessed mode (:meth:`_signs_hold`); otherwise the answer of block
         principal pivoting started from it, when that finds one.
@@ -619,7 +633,10 @@ class MLCPSolver:
         mode = self._cache.get(mask)
         if not mode.lu.ok:
             return result
-        x, w, res, _ = self._try_mode(mode, c)
+        if evaluated is not None and evaluated[0] is mode:  # (what _try_mode gives again)
+            _, x, w, res = evaluated
+        else:
+            x, w, res, _ = self._try_mode(mode, c)
         if not np.isfinite(res) or self._signs_hold(x, w, c, mode):
             return result
         better = self._pivoting(c, mask)
@@ -643,10 +660,10 @@ class MLCPSolver:
         chain = prefix.removesuffix("->")
         if not (self.sparse_only and self.m > SPARSE_LEMKE_MAX):
             st["lemke_fallbacks"] += 1
-            result, errors = self._lemke_chain(c)
+            result, errors, evaluated = self._lemke_chain(c)
             if result is not None:
                 result.method = prefix + "lemke"
-                return self._settled(result, c)
+                return self._settled(result, c, evaluated)
             chain = prefix + "lemke"
         ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
         if self.m <= ENUM_FALLBACK_MAX and not self.sparse_only:
@@ -768,7 +785,7 @@ class MLCPSolver:
         c = self._rhs(a, b)
         self.stats["calls"] += 1
         self.stats["lemke_fallbacks"] += 1
-        result, errors = self._lemke_chain(c)
+        result, errors, _ = self._lemke_chain(c)
         if result is None:
             self.stats["failures"] += 1
             ray = next((e for e in errors if isinstance(e, LCPNoSolution)), None)
