@@ -3,6 +3,8 @@ numbers of the reference computations they replace, bit for bit."""
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -12,6 +14,7 @@ import circuitnsds
 import circuitnsds.analyses.transient as transient
 from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
+from circuitnsds.output.csvfile import write_rows
 from circuitnsds.solvers import MLCPSolver
 from tests.test_stimuli_sample import pulses
 
@@ -187,3 +190,19 @@ def test_time_grid_is_its_definition(step, count, near, points):
     kept = [t for k, t in enumerate(regular)
             if k in (0, count) or not any(abs(t - b) <= tolerance for b in merged)]
     np.testing.assert_array_equal(grid, np.array(sorted(kept + merged)))
+
+
+def test_rows_written_with_reused_buffers_are_the_same_bytes():
+    """Chunks of rows written with the buffers of earlier (larger and smaller) chunks reused,
+    to a binary stream (the text buffer handed over as it is) and to a text stream, are the
+    bytes of each chunk written with fresh buffers (the reference)."""
+    rng = np.random.default_rng(7)
+    scratch: dict = {}
+    for rows in (70_000, 5, 65_536, 3, 65_537):
+        time = np.cumsum(rng.random(rows))
+        columns = [rng.standard_normal(rows) * 10.0 ** rng.integers(-20, 20, rows),
+                   np.where(rng.random(rows) < 0.01, np.inf, rng.random(rows))]
+        for stream, fresh in ((io.BytesIO(), io.BytesIO()), (io.StringIO(), io.StringIO())):
+            write_rows(stream, time, columns, compiled=True, scratch=scratch)
+            write_rows(fresh, time, columns, compiled=True)
+            assert stream.getvalue() == fresh.getvalue()

@@ -476,10 +476,10 @@ class Segments:
         classes = self.classes[self.offset:self.offset + grid.size - 1]
         if self.stepping is None or self.stepping.mlcs is not mlcs:
             self.stepping = _Stepping(mlcs, grid, theta, tol, initial_states, continued, self.sizes,
-                                      classes)
+                                      classes, self.buffers)
             self.choice = LoopChoice(loop, unknowns=mlcs.n, watched=self.stepping.free.size)
         else:
-            self.stepping.target(grid, initial_states, continued, classes)
+            self.stepping.target(grid, initial_states, continued, classes, self.buffers)
         return self.stepping, self.choice
 
 
@@ -504,14 +504,15 @@ class _Stepping:
 
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
                  initial_states: np.ndarray, continued: bool = False,
-                 sizes: tuple[float, np.ndarray] | None = None, classes: np.ndarray | None = None):
+                 sizes: tuple[float, np.ndarray] | None = None, classes: np.ndarray | None = None,
+                 buffers: dict | None = None):
         self.mlcs, self.theta, self.tol = mlcs, theta, tol
         self.differential = mlcs.differential_rows
         if sizes is None or classes is None:  # (else the whole grid's sizes, this grid's classes)
             sizes, classes = _sizes_and_classes(np.diff(grid))
         self.step_sizes = sizes
         self.sizes = self.step_sizes[1].size
-        self.target(grid, initial_states, continued, classes)
+        self.target(grid, initial_states, continued, classes, buffers)
         free = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is None]
         self.free = np.array(free, dtype=np.int64)
         controls = np.zeros((len(free), mlcs.n))
@@ -540,26 +541,28 @@ class _Stepping:
         self._counted = self.counters(absolute=True)  # the solvers' counters before this grid
 
     def target(self, grid: np.ndarray, initial_states: np.ndarray, continued: bool,
-               classes: np.ndarray) -> None:
+               classes: np.ndarray, buffers: dict | None = None) -> None:
         """Aim at ``grid`` (a part of the grid whose step sizes :attr:`step_sizes` numbers, or
         the whole of it; ``classes``: the class of each of its steps, by those sizes): the
-        sources' values, step classes and switch schedule of its steps.
+        sources' values (into the array ``"sources"`` of ``buffers``, the parts' per-step
+        arrays, when given), step classes and switch schedule of its steps.
         The step solvers, maps and mode table, keyed by class and switch states, stay:
         a run continued in segments builds each of them once (see :class:`Segments`)."""
         mlcs, theta = self.mlcs, self.theta
         self.grid = grid
-        self.sources = _source_values(mlcs, grid)
-        steps = grid.size - 1
+        self.sources = _source_values(mlcs, grid, None if buffers is None else _work(
+            buffers, "sources", (grid.size, len(mlcs.stimuli)), float, zero=False))
         self.base_class = classes
         self.scheduled, self.schedule, self.sched_state = _switch_schedule(
             mlcs, grid, self.sources, initial_states)
-        restart = np.zeros(steps, dtype=bool)
+        # a restart step's class is its size's plus the number of sizes
+        self.step_class = classes.astype(np.int64)  # (a copy: classes may be the whole grid's)
         # a continued run's first step restarts only if a scheduled switch changes there
-        restart[0] = not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
-            (self.schedule[0] != initial_states[self.scheduled]).any()))
+        if not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
+                (self.schedule[0] != initial_states[self.scheduled]).any())):
+            self.step_class[0] += self.sizes
         if theta != 1.0:
-            restart[1:] = self.sched_state[1:] != self.sched_state[:-1]
-        self.step_class = self.base_class + self.sizes * restart
+            self.step_class[1 + np.flatnonzero(self.sched_state[1:] != self.sched_state[:-1])] += self.sizes
         if hasattr(self, "_counted"):  # a new part: the counters start again
             self._counted = self.counters(absolute=True)
             self.built = 0
@@ -981,9 +984,10 @@ def _step_classes(steps: np.ndarray) -> np.ndarray:
     return _sizes_and_classes(steps)[1]
 
 
-def _source_values(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
-    """Every source's value at every grid point, shape ``(N, number of sources)``."""
-    values = np.empty((grid.size, len(mlcs.stimuli)))
+def _source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Every source's value at every grid point, shape ``(N, number of sources)`` (written
+    into ``out`` when given)."""
+    values = np.empty((grid.size, len(mlcs.stimuli))) if out is None else out
     with np.errstate(all="ignore"):
         for column, stimulus in enumerate(mlcs.stimuli):
             values[:, column] = stimulus.sample(grid)

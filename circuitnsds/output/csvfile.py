@@ -98,30 +98,49 @@ def _emit(stream: TextIO | BinaryIO, text: str | bytes) -> None:
 
 
 def write_rows(stream: TextIO | BinaryIO, time: np.ndarray, columns: Sequence[np.ndarray], *,
-               compiled: bool | None = None) -> None:
+               compiled: bool | None = None, scratch: dict[str, np.ndarray] | None = None) -> None:
     """Write one row per element of ``time`` (all arrays of the same length).
 
     ``compiled``: the compiled formatter (``True``: its C kernel if built, else numba's), the
     Python one (``False``), or chosen by :func:`compiled_pays` (``None``); all write the same
-    bytes."""
+    bytes. ``scratch``: a dict the caller keeps between calls (not concurrent ones), in which
+    the block and text buffers are kept and reused (a streamed run's segments: no fresh
+    memory to fault in for each)."""
     width = 1 + len(columns)
     if compiled is None:
         compiled = compiled_pays(time.size * width)
     kernel = floattext.kernel() if compiled else None
-    buffer = np.empty(min(time.size, BLOCK_ROWS) * width * (floattext.MAX_CHARS + 1), dtype=np.uint8) \
+    rows = min(time.size, BLOCK_ROWS)
+    buffer = _scratch(scratch, "text", rows * width * (floattext.MAX_CHARS + 1), np.uint8) \
         if compiled else None
+    blocks = _scratch(scratch, "block", rows * width, np.float64)
     row = ",".join(["%r"] * width) + "\n"
+    binary = _binary(stream)
     for start in range(0, time.size, BLOCK_ROWS):
         stop = min(start + BLOCK_ROWS, time.size)
-        block = np.empty((stop - start, width))
+        block = blocks[:(stop - start) * width].reshape(stop - start, width)
         block[:, 0] = time[start:stop]
         for j, column in enumerate(columns, start=1):
             block[:, j] = column[start:stop]
         if compiled:
             end = kernel(block.view(np.uint64), buffer, *floattext.tables())
-            _emit(stream, buffer[:end].tobytes())
+            if binary:  # (the buffer's bytes as they are: no copy)
+                stream.write(memoryview(buffer)[:end])
+            else:
+                _emit(stream, buffer[:end].tobytes())
         else:
             _emit(stream, (row * (stop - start)) % tuple(block.ravel().tolist()))
+
+
+def _scratch(scratch: dict[str, np.ndarray] | None, name: str, size: int, dtype) -> np.ndarray:
+    """A 1-D array of at least ``size`` elements of ``dtype``: ``scratch[name]`` if it is one,
+    else a new one (kept there when ``scratch`` is given)."""
+    array = None if scratch is None else scratch.get(name)
+    if array is None or array.size < size or array.dtype != dtype:
+        array = np.empty(size, dtype=dtype)
+        if scratch is not None:
+            scratch[name] = array
+    return array
 
 
 def write_csv(stream: TextIO | BinaryIO, time: np.ndarray, names: Sequence[str],
@@ -167,6 +186,7 @@ class CsvStream:
         self.expected = 0
         self._chunks: list[tuple[np.ndarray, list[np.ndarray], np.ndarray | None]] = []
         self._pending: _Background | None = None
+        self._scratch: dict[str, np.ndarray] = {}  # the writer's buffers (one chunk at a time)
         self._stack = ExitStack()
         try:
             with writing(target):
@@ -199,10 +219,11 @@ class CsvStream:
         if self.keep:
             self._chunks.append((time, columns, residual))
         if self.compiled and self.background:
-            self._pending = _Background(write_rows, self._stream, time, columns, compiled=True)
+            self._pending = _Background(write_rows, self._stream, time, columns, compiled=True,
+                                        scratch=self._scratch)
         else:
             with writing(self.target):
-                write_rows(self._stream, time, columns, compiled=self.compiled)
+                write_rows(self._stream, time, columns, compiled=self.compiled, scratch=self._scratch)
         self.rows += time.size
         self.last_time = float(time[-1])
         if residual is not None and residual.size:
