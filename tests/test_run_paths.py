@@ -34,13 +34,16 @@ R2 b 0 1k
 @given(table=st.lists(st.floats(0.0, 2e9, allow_nan=False), min_size=1, max_size=8, unique=True),
        values=st.lists(st.floats(0.0, 2e9, allow_nan=False), max_size=40))
 def test_ranks_are_numpys_searchsorted(table, values):
-    """Comparisons with a short table (and numpy's binary search with a longer one) rank every
-    value as ``np.searchsorted`` does, values in the table or not."""
+    """Comparisons with a short table (and numpy's binary search with a longer one, its ranks
+    as int64 from 128 entries on) rank every value as ``np.searchsorted`` does, values in the
+    table or not."""
     table = np.sort(np.array(table))
     values = np.array(values, dtype=float)
     ranks = _ranks(table, values)
-    assert ranks.dtype == np.int64
+    assert ranks.dtype == np.int8  # (fewer than 128 entries)
     np.testing.assert_array_equal(ranks, np.searchsorted(table, values))
+    long = np.arange(200.0)
+    np.testing.assert_array_equal(_ranks(long, values), np.searchsorted(long, values))
 
 
 def test_step_sizes_do_not_take_a_rare_middle_step_for_the_common_one():

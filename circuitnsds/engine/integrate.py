@@ -955,10 +955,11 @@ class _Stepping:
 def _sizes_and_classes(steps: np.ndarray) -> tuple[tuple[float, np.ndarray], np.ndarray]:
     """``((quantum, sizes), classes)``: the distinct step sizes of ``steps`` as integers of the
     quantum 1e-9 of the largest step (equal to that precision: one size), sorted, and the class
-    of each step: the rank of its size. Most steps have one size (the most frequent in a sample
-    of 64): only the others are sorted."""
+    of each step: the rank of its size (int8 when there are fewer than 128 sizes). Most steps
+    have one size (the most frequent in a sample of 64): only the others are sorted."""
     quantum = 1e-9 * steps.max()
-    rounded = np.round(steps / quantum)
+    rounded = np.divide(steps, quantum)
+    np.round(rounded, out=rounded)  # (in place: one array of the grid's size, not two)
     sample = rounded[::max(1, rounded.size // 64)].tolist()
     common = max(set(sample), key=sample.count)  # (not the middle step: that of a flyback's
     # 300,600 is one of the 1,200 its gate's threshold crossings split)
@@ -967,12 +968,14 @@ def _sizes_and_classes(steps: np.ndarray) -> tuple[tuple[float, np.ndarray], np.
 
 
 def _ranks(table: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """``np.searchsorted(table, values)`` as int64 (how many entries of the sorted ``table``
-    are below each value; no NaN): for a short table one comparison per entry, 5-10x faster
-    than numpy's binary search for each value."""
+    """``np.searchsorted(table, values)`` (how many entries of the sorted ``table`` are below
+    each value; no NaN), as int8 for a table of fewer than 128 entries, else int64: for a
+    short table one comparison per entry, 5-10x faster than numpy's binary search for each
+    value."""
     if table.size > 4:
-        return np.searchsorted(table, values).astype(np.int64)
-    ranks = np.zeros(values.size, dtype=np.int64)
+        ranks = np.searchsorted(table, values)
+        return ranks.astype(np.int8) if table.size < 128 else ranks.astype(np.int64)
+    ranks = np.zeros(values.size, dtype=np.int8)
     for entry in table.tolist():
         ranks += values > entry
     return ranks
