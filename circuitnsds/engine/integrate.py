@@ -70,6 +70,7 @@ from circuitnsds.errors import SimulationError
 from circuitnsds.solvers import LCPError, LCPNoSolution, MLCPSolver
 from circuitnsds.solvers.linalg import SIGN_TOL
 from circuitnsds.system.mlcs import MLCS
+from circuitnsds.system.stimuli import Dc
 
 if TYPE_CHECKING:
     from circuitnsds.engine.sparse_loop import CompiledSparseMap
@@ -993,7 +994,8 @@ def _source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) 
     values = np.empty((grid.size, len(mlcs.stimuli))) if out is None else out
     with np.errstate(all="ignore"):
         for column, stimulus in enumerate(mlcs.stimuli):
-            values[:, column] = stimulus.sample(grid)
+            # (a constant written as it is: no array of it made first)
+            values[:, column] = stimulus.level if type(stimulus) is Dc else stimulus.sample(grid)
         finite = np.isfinite(values.sum())  # (one pass: a NaN or an infinity makes the sum so)
     if not finite and not np.isfinite(values).all():  # (else a finite sum that overflowed)
         row, column = np.argwhere(~np.isfinite(values))[0]
@@ -1019,7 +1021,8 @@ def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
     states = np.zeros((steps, len(scheduled)), dtype=bool)
     if not scheduled:
         return np.zeros(0, dtype=np.int64), states, np.zeros(steps, dtype=np.int64)
-    middles = 0.5 * (grid[:-1] + grid[1:])
+    middles = np.add(grid[:-1], grid[1:])
+    middles *= 0.5  # (0.5·(a + b), in place: one array)
     for column, j in enumerate(scheduled):
         switch = mlcs.switches[j]
         stimulus, sign = switch.control_stimulus
