@@ -134,7 +134,7 @@ def setup_rows(repeats: int) -> list[dict]:
     initial = np.zeros(len(mlcs.switches), dtype=bool)
     seconds, _ = _best(lambda: engine._switch_schedule(mlcs, grid, sources, initial), repeats)
     rows.append({"case": "switch schedule (PULSE at every midpoint)", "s": seconds})
-    seconds, _ = _best(lambda: engine._step_classes(np.diff(grid)), repeats)
+    seconds, _ = _best(lambda: engine._sizes_and_classes(np.diff(grid)), repeats)
     rows.append({"case": "step classes", "s": seconds})
     seconds, _ = _best(lambda: engine._Stepping(mlcs, grid, 1.0, 1e-9, initial), repeats)
     rows.append({"case": "all of the stepping's set-up (_Stepping)", "s": seconds})

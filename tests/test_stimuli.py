@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from circuitnsds.engine.integrate import _step_classes
+from circuitnsds.engine.integrate import _sizes_and_classes
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.system.stimuli import Exp, Pulse, Pwl, Sin
 
@@ -92,7 +92,7 @@ def test_step_classes_number_equal_sizes_in_increasing_order(regular, count, oth
             steps[index] = regular * factor
     quantum = 1e-9 * steps.max()
     expected = np.unique(np.round(steps / quantum), return_inverse=True)[1].reshape(-1)
-    np.testing.assert_array_equal(_step_classes(steps), expected)
+    np.testing.assert_array_equal(_sizes_and_classes(steps)[1], expected)
 
 
 @given(step=st.floats(1e-7, 1.0), count=st.integers(1, 300),

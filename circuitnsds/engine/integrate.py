@@ -982,12 +982,6 @@ def _ranks(table: np.ndarray, values: np.ndarray) -> np.ndarray:
     return ranks
 
 
-def _step_classes(steps: np.ndarray) -> np.ndarray:
-    """Class of each step: equal step sizes (to 1e-9 of the largest) share one, numbered
-    in increasing size (see :func:`_sizes_and_classes`)."""
-    return _sizes_and_classes(steps)[1]
-
-
 def _source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """Every source's value at every grid point, shape ``(N, number of sources)`` (written
     into ``out`` when given)."""

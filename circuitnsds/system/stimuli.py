@@ -173,22 +173,18 @@ class Pulse(_TwoLevels):
         times = np.asarray(times, dtype=float)
         if self.period <= 0 or times.size == 0:
             return self._sample_corners(times)
-        runs = self._flat_runs(times)
-        if runs is not None:
-            result = runs
-            other = np.flatnonzero(np.isnan(result))
-            result[other] = self._sample_corners(times[other])
-            if self.count:
-                result[self._finished(times)] = self.initial
-            return result
-        local = np.maximum(times - self.delay, 0.0)
-        local -= np.floor(local / self.period) * self.period
-        margin = 2 * 64 * np.finfo(float).eps * max(float(np.max(np.abs(times))), self.period)
-        fall_start = self.rise + self.width
-        high = (local > self.rise + margin) & (local < fall_start - margin)
-        low = (local > fall_start + self.fall + margin) & (local < self.period - margin)
-        result = np.where(high, float(self.pulsed), float(self.initial))
-        other = ~(high | low)
+        result = self._flat_runs(times)
+        if result is not None:
+            other = np.isnan(result)
+        else:
+            local = np.maximum(times - self.delay, 0.0)
+            local -= np.floor(local / self.period) * self.period
+            margin = 2 * 64 * np.finfo(float).eps * max(float(np.max(np.abs(times))), self.period)
+            fall_start = self.rise + self.width
+            high = (local > self.rise + margin) & (local < fall_start - margin)
+            low = (local > fall_start + self.fall + margin) & (local < self.period - margin)
+            result = np.where(high, float(self.pulsed), float(self.initial))
+            other = ~(high | low)
         result[other] = self._sample_corners(times[other])
         if self.count:
             result[self._finished(times)] = self.initial
