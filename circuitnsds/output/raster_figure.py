@@ -465,17 +465,15 @@ def _paint(strokes: list[Stroke], width: int, height: int) -> Image.Image:
     :data:`SUPERSAMPLE` times the resolution, in order, then averaged down (antialiasing).
     In C (``_raster_native.c``) when it is built, else with Pillow's wide lines."""
     s = SUPERSAMPLE
+    palette = {(255, 255, 255): 0}  # RGB -> index in the canvas (0: the background)
+    indices = [palette.setdefault(ImageColor.getrgb(stroke.colour) if isinstance(stroke.colour, str)
+                                  else stroke.colour, len(palette)) for stroke in strokes]
     paint = _native_painter()
-    if paint is None:
+    if paint is None or len(palette) > 256:  # (more colours than a byte indexes: Pillow)
         return _paint_pillow(strokes, width * s, height * s).reduce(s)
     polyline, reduce = paint
-    palette = {(255, 255, 255): 0}
     canvas = np.zeros((height * s, width * s), dtype=np.uint8)
-    for stroke in strokes:
-        if len(palette) == 256:  # more colours than a byte indexes: Pillow paints them
-            return _paint_pillow(strokes, width * s, height * s).reduce(s)
-        colour = palette.setdefault(ImageColor.getrgb(stroke.colour) if isinstance(stroke.colour, str)
-                                    else stroke.colour, len(palette))
+    for stroke, colour in zip(strokes, indices):
         x = np.ascontiguousarray(stroke.x, dtype=np.float64)
         y = np.ascontiguousarray(stroke.y, dtype=np.float64)
         if x.size:
