@@ -5,6 +5,7 @@ from pathlib import Path
 import pytest
 
 import circuitnsds
+from circuitnsds import native
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 
@@ -17,3 +18,18 @@ def circuit_from(body: str, title: str = "test circuit"):
 @pytest.fixture
 def netlists() -> Path:
     return NETLISTS
+
+
+NATIVE_BUILD = "python setup.py build_ext --inplace (or pip install -e .) with a C compiler"
+"""How to build the C libraries, for the tests' failure messages."""
+
+
+def assert_native_library_current(name: str):
+    """The C library ``name`` (e.g. ``"solvers/_lu_native"``) is built, loads, and was built
+    from the source beside it (its baked digest is the source's now); returns it loaded."""
+    stem = native.PACKAGE / name
+    assert native._built(stem) is not None, f"{name}.c is not built: {NATIVE_BUILD}"
+    library = native.library(name)
+    assert library is not None, f"{name} is built but not loaded (stale? {NATIVE_BUILD})"
+    assert library.circuitnsds_source_digest().decode() == native.source_digest(stem.with_suffix(".c"))
+    return library

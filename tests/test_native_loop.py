@@ -37,6 +37,7 @@ import circuitnsds
 from circuitnsds import native
 from circuitnsds.engine import dense_loop
 from circuitnsds.engine.dense_loop import FreeSwitches, ModeMap, ModeTable, run_table
+from tests.conftest import assert_native_library_current
 
 ROOT = Path(__file__).parents[1]
 NETLISTS = ROOT / "netlists"
@@ -45,12 +46,8 @@ BUILD = "python setup.py build_ext --inplace (or pip install -e .) with a C comp
 
 
 def test_library_built_from_this_source_and_loaded() -> None:
-    stem = native.PACKAGE / "engine" / "_dense_native"
-    built = native._built(stem)
-    assert built is not None, f"the C loop is not built: {BUILD}"
+    assert_native_library_current("engine/_dense_native")
     assert dense_loop.native_loaded(), f"the C loop is built but not loaded (stale? {BUILD})"
-    library = native.library("engine/_dense_native")
-    assert library.circuitnsds_source_digest().decode() == native.source_digest(stem.with_suffix(".c"))
 
 
 # -- random tables: C, numba and Python loops on the same arguments ---------------------------

@@ -10,6 +10,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from circuitnsds.output import raster_figure
+from tests.conftest import assert_native_library_current
 
 WIDTH, HEIGHT = 40, 30
 EDGE = 1e-7  # centres this close to the shape's edge may go either way
@@ -17,9 +18,9 @@ EDGE = 1e-7  # centres this close to the shape's edge may go either way
 
 @pytest.fixture(scope="module")
 def painter():
+    assert_native_library_current(raster_figure.NATIVE)
     functions = raster_figure._native_painter()
-    assert functions is not None, ("circuitnsds/output/_raster_native.c is not built from this source: "
-                                   "pip install -e . (or python setup.py build_ext --inplace)")
+    assert functions is not None
     return functions
 
 
