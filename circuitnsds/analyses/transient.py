@@ -508,7 +508,8 @@ def _decimated(trajectory, every: float, breakpoints: np.ndarray):
         if trajectory.residual.size else trajectory.residual[index]
     return replace(trajectory, time=time[index], y=trajectory.y[index],
                    current=trajectory.current[index], impulse=impulse, residual=residual,
-                   active=trajectory.active[index], switches=trajectory.switches[index]), index
+                   active=trajectory.active[index], switches=trajectory.switches[index],
+                   tails={}), index
 
 
 HUGE = 1e100
@@ -600,9 +601,19 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
             charge = element.capacitance * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
             flow = np.zeros(time.size)
             flow[1:] = np.diff(charge) / np.diff(time)
+            tails = trajectory.tails
+            # a point ending a split step holds the state of its last part: the current of
+            # that part there (KCL holds with the other currents, which are that part's too)
+            for point, (y_start, length) in tails.items():
+                if point >= first:
+                    v = [0.0 if n == "0" else float(_row(f"v({n})", y_start[None, :],
+                                                         trajectory.current[point:point + 1])[0])
+                         for n in element.nodes[:2]]
+                    flow[point - first] = (charge[point - first]
+                                           - element.capacitance * (v[0] - v[1])) / length
             if periodic and time.size > 1:
                 flow[0] = flow[-1]
-            elif first > 0:
+            elif first > 0 and first not in tails:
                 v = [0.0 if n == "0" else float(_row(f"v({n})", trajectory.y[before:first],
                                                      trajectory.current[before:first])[0])
                      for n in element.nodes[:2]]

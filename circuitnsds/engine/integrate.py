@@ -130,6 +130,9 @@ class Trajectory:
             event_solves (partial steps solved to locate them), seconds).
         events: every switching, in time order: located instants of circuit-controlled
             switches, grid points of source-controlled ones.
+        tails: for each point ending a split step, the unknowns at the start of its last
+            part and that part's length [s] (what the point's capacitor currents are
+            taken over: the point holds that part's state).
     """
 
     time: np.ndarray
@@ -141,6 +144,7 @@ class Trajectory:
     switches: np.ndarray
     stats: dict[str, float] = field(default_factory=dict)
     events: list[SwitchEvent] = field(default_factory=list)
+    tails: dict[int, tuple[np.ndarray, float]] = field(default_factory=dict)
 
 
 def integrate(
@@ -249,6 +253,7 @@ def integrate(
 
     events: list[SwitchEvent] = []
     split_impulses: dict[int, np.ndarray] = {}  # the charge of each step split at a switching
+    tails: dict[int, tuple[np.ndarray, float]] = {}  # (y, length) of each split step's last part
     restart = False  # a switching located at the end of the previous step
 
     def so_far(last: int) -> list[SwitchEvent]:
@@ -271,6 +276,7 @@ def integrate(
         # sample obeys the device laws); the step's charge is the sum over its parts
         y[k], current[k], residual[k] = parts.result.u, parts.result.z, parts.result.residual
         split_impulses[k] = parts.impulse
+        tails[k] = (np.array(parts.parts[-1].y_start), parts.parts[-1].length)
         active[k] = guess = np.asarray(parts.result.active, dtype=bool)
         states[k] = parts.states
         events += parts.events
@@ -357,7 +363,7 @@ def integrate(
         segments.offset += count - 1
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
-    return Trajectory(grid, y, current, impulse, residual, active, states, stats, events)
+    return Trajectory(grid, y, current, impulse, residual, active, states, stats, events, tails)
 
 
 class _DenseMode(NamedTuple):
