@@ -48,3 +48,21 @@ def test_convergence_order_on_a_smooth_circuit(theta, order):
     rates = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
     for rate in rates:
         assert rate == pytest.approx(order, abs=0.15), (errors, rates)
+
+
+@pytest.mark.parametrize("theta", [1.0, 0.5])
+def test_no_ringing_after_a_source_corner(theta):
+    # C1 across an ideal source that ramps up in 10 us and falls in 1 us: the source current
+    # is C·dV/dt + V/R (KCL at a: -i(v1) = i(c1) + i(r1) at every row). With θ = 0.5 and no
+    # restart at the source's corners, the trapezoidal rule carried the slope before each
+    # corner into the next step: -i(v1) alternated 0.0004 / 0.2005 A during the ramp (true
+    # 0.1005) and ±2 A for ever after the fall (true 0). ngspice (method=trap) restarts with
+    # backward Euler after a breakpoint and shows no ringing here.
+    waves = circuit_from("V1 a 0 PULSE(0 1 100u 10u 1u 100u 1)\nC1 a 0 1u\nR1 a 0 1k\n"
+                         ".tran 1u 400u").transient(theta=theta)
+    source = -waves["i(v1)"]
+    np.testing.assert_allclose(source, waves["i(c1)"] + waves["i(r1)"], rtol=0, atol=1e-9)
+    during = (waves.time > 100.5e-6) & (waves.time < 109.5e-6)
+    np.testing.assert_allclose(source[during], 0.1 + waves["v(a)"][during] / 1e3, rtol=1e-9)
+    after = waves.time > 212e-6  # (the fall ends at 211 us)
+    np.testing.assert_allclose(source[after], waves["v(a)"][after] / 1e3, rtol=0, atol=1e-12)

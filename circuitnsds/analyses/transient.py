@@ -314,11 +314,17 @@ def _run_transient(
             exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
         raise
     fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
+    flows = None
     if report_step is not None:
         full_time = trajectory.time
-        trajectory = _decimated(trajectory, report_step, breakpoints)
+        every_step = _waveforms(circuit, mlcs, trajectory, full_time[0], stop)
+        capacitors = [name for name in every_step.names if name not in mlcs.output_names]
+        trajectory, kept = _decimated(trajectory, report_step, breakpoints)
+        # a capacitor's current at a reported point is that of the step into it, as every
+        # other signal is its value there (not ΔQ/Δt between reported points: KCL would fail)
+        flows = {name: np.asarray(every_step[name])[kept] for name in capacitors}
         fluxes = {name: _onto(flux, full_time, trajectory.time) for name, flux in fluxes.items()}
-    waves = _waveforms(circuit, mlcs, trajectory, start, stop)
+    waves = _waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
@@ -488,7 +494,8 @@ def _resolving_step(circuit: Circuit, tstep: float, stop: float) -> tuple[float,
 
 def _decimated(trajectory, every: float, breakpoints: np.ndarray):
     """The trajectory at the multiples of ``every`` [s] (and at breakpoints, the last point):
-    states as computed there, impulses summed over the dropped steps, residuals their maximum."""
+    states as computed there, impulses summed over the dropped steps, residuals their maximum;
+    and the indices of the kept points in ``trajectory``."""
     time = trajectory.time
     phase = time / every
     keep = np.abs(phase - np.round(phase)) <= 1e-6
@@ -501,7 +508,8 @@ def _decimated(trajectory, every: float, breakpoints: np.ndarray):
         if trajectory.residual.size else trajectory.residual[index]
     return replace(trajectory, time=time[index], y=trajectory.y[index],
                    current=trajectory.current[index], impulse=impulse, residual=residual,
-                   active=trajectory.active[index], switches=trajectory.switches[index])
+                   active=trajectory.active[index], switches=trajectory.switches[index],
+                   tails={}), index
 
 
 HUGE = 1e100
@@ -561,11 +569,13 @@ def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, 
 
 
 def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
-               periodic: bool = False) -> Waveforms:
+               periodic: bool = False, flows: dict[str, np.ndarray] | None = None) -> Waveforms:
     """Output signals of ``trajectory`` from ``start`` on (each computed when first read).
 
     ``periodic``: the trajectory is one period of a periodic solution (its first and last
-    points are the same instant), so the step into the first point is the last one."""
+    points are the same instant), so the step into the first point is the last one.
+    ``flows``: the capacitor currents [A] at each point of ``trajectory`` when it is a
+    decimated run (the step before a point is not in it); else ΔQ/Δt of its steps."""
     first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
     y, current = trajectory.y[first:], trajectory.current[first:]
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
@@ -584,14 +594,26 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
         return np.zeros(time.size) if node == "0" else _row(f"v({node})", y, current)
 
     def signal(name: str) -> np.ndarray:
+        if name in capacitors and flows is not None:
+            return flows[name][first:]
         if name in capacitors:
             element = capacitors[name]
             charge = element.capacitance * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
             flow = np.zeros(time.size)
             flow[1:] = np.diff(charge) / np.diff(time)
+            tails = trajectory.tails
+            # a point ending a split step holds the state of its last part: the current of
+            # that part there (KCL holds with the other currents, which are that part's too)
+            for point, (y_start, length) in tails.items():
+                if point >= first:
+                    v = [0.0 if n == "0" else float(_row(f"v({n})", y_start[None, :],
+                                                         trajectory.current[point:point + 1])[0])
+                         for n in element.nodes[:2]]
+                    flow[point - first] = (charge[point - first]
+                                           - element.capacitance * (v[0] - v[1])) / length
             if periodic and time.size > 1:
                 flow[0] = flow[-1]
-            elif first > 0:
+            elif first > 0 and first not in tails:
                 v = [0.0 if n == "0" else float(_row(f"v({n})", trajectory.y[before:first],
                                                      trajectory.current[before:first])[0])
                      for n in element.nodes[:2]]

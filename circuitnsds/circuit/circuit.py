@@ -239,7 +239,7 @@ class Circuit:
             max_step: upper bound on the step [s] (default ``.tran`` TMAX).
             theta: θ of the θ-method, in [0.5, 1]; 1 is implicit Euler (default:
                 ``.options theta``, else 1). The first step, and with θ < 1 the step
-                after a switch changes state, is implicit Euler.
+                after a switch changes state or a source's corner, is implicit Euler.
             uic: start from initial conditions instead of the operating point
                 (default: ``.tran``'s UIC flag).
             tol: complementarity tolerance of every step (scaled residual).

@@ -11,7 +11,8 @@ Impulses rather than currents keep a Dirac current (a capacitor charged from
 a voltage source through an ideal diode) finite: it shows as one step whose
 ``μ`` does not shrink with ``h``. The first step is always implicit Euler
 (θ = 1), because the initial state need not satisfy the algebraic rows; with
-θ < 1 so is the step after a switch changes state (see :class:`_Stepping`).
+θ < 1 so is the step after a switch changes state or a source's corner
+(see :class:`_Stepping`).
 Numerically the rows are divided by ``h`` and the solver's pair unknowns are
 the currents ``λ = μ/h``: the same solution, but the solver's normwise test
 then weighs currents (not tiny charges) against voltages.
@@ -129,6 +130,9 @@ class Trajectory:
             event_solves (partial steps solved to locate them), seconds).
         events: every switching, in time order: located instants of circuit-controlled
             switches, grid points of source-controlled ones.
+        tails: for each point ending a split step, the unknowns at the start of its last
+            part and that part's length [s] (what the point's capacitor currents are
+            taken over: the point holds that part's state).
     """
 
     time: np.ndarray
@@ -140,6 +144,7 @@ class Trajectory:
     switches: np.ndarray
     stats: dict[str, float] = field(default_factory=dict)
     events: list[SwitchEvent] = field(default_factory=list)
+    tails: dict[int, tuple[np.ndarray, float]] = field(default_factory=dict)
 
 
 def integrate(
@@ -248,6 +253,7 @@ def integrate(
 
     events: list[SwitchEvent] = []
     split_impulses: dict[int, np.ndarray] = {}  # the charge of each step split at a switching
+    tails: dict[int, tuple[np.ndarray, float]] = {}  # (y, length) of each split step's last part
     restart = False  # a switching located at the end of the previous step
 
     def so_far(last: int) -> list[SwitchEvent]:
@@ -270,6 +276,7 @@ def integrate(
         # sample obeys the device laws); the step's charge is the sum over its parts
         y[k], current[k], residual[k] = parts.result.u, parts.result.z, parts.result.residual
         split_impulses[k] = parts.impulse
+        tails[k] = (np.array(parts.parts[-1].y_start), parts.parts[-1].length)
         active[k] = guess = np.asarray(parts.result.active, dtype=bool)
         states[k] = parts.states
         events += parts.events
@@ -356,7 +363,7 @@ def integrate(
         segments.offset += count - 1
     if progress is not None and clock["reported"]:
         progress(grid[-1], grid[-1])
-    return Trajectory(grid, y, current, impulse, residual, active, states, stats, events)
+    return Trajectory(grid, y, current, impulse, residual, active, states, stats, events, tails)
 
 
 class _DenseMode(NamedTuple):
@@ -500,7 +507,8 @@ class _Stepping:
     restart step is implicit Euler whatever θ is: the first step, and with θ < 1 the step
     after a switch changes state, whose ``y_k`` holds the algebraic unknowns of the old
     switch state (the θ-method's explicit part would carry them into the new one, an
-    O(h) error at every switching instant).
+    O(h) error at every switching instant), and the step after a source's corner
+    (:func:`_corner_steps`).
     """
 
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
@@ -558,12 +566,16 @@ class _Stepping:
             mlcs, grid, self.sources, initial_states)
         # a restart step's class is its size's plus the number of sizes
         self.step_class = classes.astype(np.int64)  # (a copy: classes may be the whole grid's)
-        # a continued run's first step restarts only if a scheduled switch changes there
-        if not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
-                (self.schedule[0] != initial_states[self.scheduled]).any())):
-            self.step_class[0] += self.sizes
+        # a continued run's first step restarts only if a scheduled switch changes there (or,
+        # with θ < 1, a source's slope jumps there: as in one run)
+        restart = np.zeros(self.step_class.size, dtype=bool)
         if theta != 1.0:
-            self.step_class[1 + np.flatnonzero(self.sched_state[1:] != self.sched_state[:-1])] += self.sizes
+            restart[1 + np.flatnonzero(self.sched_state[1:] != self.sched_state[:-1])] = True
+            restart[_corner_steps(mlcs, grid)] = True
+            restart[0] &= continued
+        restart[0] |= not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
+            (self.schedule[0] != initial_states[self.scheduled]).any()))
+        self.step_class[restart] += self.sizes
         if hasattr(self, "_counted"):  # a new part: the counters start again
             self._counted = self.counters(absolute=True)
             self.built = 0
@@ -1000,6 +1012,27 @@ def _source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) 
             f"({', '.join(owners) or 'a source'}: {mlcs.stimuli[column]})", where=f"t = {grid[row]:.6g} s",
             time=float(grid[row]), unknowns=owners, cause=SimulationError.SOURCE_NOT_FINITE)
     return values
+
+
+def _corner_steps(mlcs: MLCS, grid: np.ndarray) -> np.ndarray:
+    """Indices of the steps of ``grid`` that start where a source's slope jumps (a breakpoint
+    of :meth:`MLCS.breakpoints`: a PULSE or PWL corner, a SIN's delay).
+
+    With θ < 1 such a step is a restart (implicit Euler), as ngspice takes a first-order step
+    after a breakpoint: the θ-method's explicit part would carry the slope before the corner
+    into the step after it, and the algebraic currents it sets (that of a capacitor across a
+    source) would alternate about their value for ever, the trapezoidal rule not damping."""
+    if grid.size < 2:
+        return np.zeros(0, dtype=np.int64)
+    points = np.asarray(mlcs.breakpoints(grid[-1]), dtype=float)
+    tolerance = 1e-9 * float(np.diff(grid).max())  # (breakpoints are grid points, merged to 1e-9·h)
+    points = points[(points >= grid[0] - tolerance) & (points < grid[-1] - tolerance)]
+    if not points.size:
+        return np.zeros(0, dtype=np.int64)
+    index = np.clip(np.searchsorted(grid, points), 1, grid.size - 1)
+    nearest = np.where(np.abs(grid[index - 1] - points) <= np.abs(grid[index] - points), index - 1, index)
+    found = nearest[np.abs(grid[nearest] - points) <= tolerance]
+    return found[found < grid.size - 1]
 
 
 def _switch_schedule(mlcs: MLCS, grid: np.ndarray, sources: np.ndarray,
