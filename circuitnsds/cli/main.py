@@ -631,8 +631,10 @@ def _info(args: argparse.Namespace) -> int:
         return 1
     if args.matrices:
         check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included])
-        with _writing(args.matrices):
-            circuit.mlcs().save(args.matrices)
+        from circuitnsds.output.files import atomic_path
+
+        with _writing(args.matrices), atomic_path(args.matrices) as temporary:
+            circuit.mlcs().save(temporary)
         print(f"matrices saved to {args.matrices}")
     return 0
 
