@@ -221,8 +221,16 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
         raise CircuitError(f"the step ({step:g} s) must lie in (0, period = {period:g} s]",
                            where=circuit.file)
     tol = tol if tol is not None else (spec.tol if spec is not None and spec.tol else DEFAULT_TOL)
-    max_iterations = max_iterations or (spec.iterations if spec is not None and spec.iterations
-                                        else DEFAULT_ITERATIONS)
+    if max_iterations is None:  # 0 is a choice: no Newton step, transient periods only
+        max_iterations = spec.iterations if spec is not None and spec.iterations else DEFAULT_ITERATIONS
+    for name, option, value, least in (("tol", "--tol", tol, None),
+                                       ("max_iterations", "--max-iterations", max_iterations, 0),
+                                       ("periods_warmup", "--warmup", periods_warmup, 0)):
+        if not (value > 0 and math.isfinite(value) if least is None else value >= least):
+            raise CircuitError(f"{name} = {value:g} must be "
+                               f"{'positive' if least is None else f'{least} or more'}",
+                               where=circuit.file, hint=f"{option} on the command line; see "
+                               "docs/pss.md for its meaning")
     if spec is not None and spec.stabilisation and periods_warmup == 0:
         periods_warmup = math.ceil(spec.stabilisation / period - 1e-9)
     uic = uic if uic is not None else ((spec.uic if spec is not None else False)
