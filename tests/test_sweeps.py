@@ -426,6 +426,26 @@ def test_waveforms_kept_or_written(tmp_path):
     assert header.startswith("time,") and "v(out)" in header
 
 
+def test_signals_without_waveforms_and_a_waveforms_file_are_errors_before_the_run(tmp_path, capsys):
+    # before: signals without keep_waveforms were dropped without a word (--signals v(zz) ran and
+    # exited 0), and --waveforms naming a file ran every point, then crashed in mkdir
+    # (FileExistsError, exit status 2)
+    from circuitnsds.cli.main import main
+
+    with pytest.raises(CircuitError, match="signals select the waveforms kept.*none are kept"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, signals=["v(out)"], workers=0)
+    a_file = tmp_path / "taken"
+    a_file.write_text("")
+    with pytest.raises(circuitnsds.CircuitnsdsError, match=f"cannot write {a_file}: not a folder"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, keep_waveforms=a_file, workers=0)
+    base = ["sweep", str(BUCK), "--param", "D=0.5", "--workers", "0", "-q", "--stop", "20u"]
+    assert main([*base, "--signals", "v(out)"]) == 1
+    assert "error: --signals: signals select the waveforms kept" in capsys.readouterr().err
+    assert main([*base, "--waveforms", str(a_file)]) == 1
+    assert f"error: {a_file}: cannot write {a_file}: not a folder" in capsys.readouterr().err
+    assert a_file.read_text() == ""
+
+
 def test_points_need_no_file_includes_are_shipped_resolved(tmp_path):
     (tmp_path / "models.lib").write_text(".model dfree D(Ron=1m)\n.param Rl=5\n")
     netlist = tmp_path / "top.cir"
