@@ -606,6 +606,25 @@ def test_cli_run_on_a_step_netlist_is_a_sweep_and_fails_with_the_failed_points(t
     assert list(written["status"]) == ["ok", "failed", "ok"] and "no solution" in written["error"][1]
 
 
+def test_cli_run_on_a_step_netlist_refuses_every_option_that_has_no_table_meaning(tmp_path, capsys):
+    # before: --events, --losses, --tstart, --tstop, --every, --mark-events and --ascii were
+    # dropped without a word on a netlist whose .step lines make `run` a sweep (exit 0)
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".tran 1u 10u\n.end\n")
+    base = ["run", str(path), "--workers", "0", "-q", "-o", str(tmp_path / "t.csv")]
+    for option in (["--events", str(tmp_path / "e.csv")], ["--losses"], ["--tstart", "1u"],
+                   ["--tstop", "5u"], ["--every", "2"], ["--mark-events"], ["--ascii"],
+                   ["-r", str(tmp_path / "t.raw")], ["--uic"]):
+        assert main([*base, *option]) == 1, option
+        err = capsys.readouterr().err
+        assert f"error: {path}: {option[0]}" in err and "not available when .step lines make" in err
+    assert not (tmp_path / "t.csv").exists()
+    assert main([*base, "--measure", "mean(i(r1))"]) == 0
+
+
 def test_cli_monte_carlo_histogram(tmp_path):
     from circuitnsds.cli.main import main
 

@@ -142,10 +142,15 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
 def run_steps(args: argparse.Namespace, builder=None) -> int:
     """``circuitnsds run`` on a netlist with ``.step`` lines: the sweep they describe, the
     ``run`` options that make sense for a table (``-o`` is the table's CSV)."""
-    if args.raw or args.show or args.uic:
-        used = [name for name, on in (("-r/--raw", args.raw), ("--show", args.show), ("--uic", args.uic))
-                if on]
+    used = [name for name, on in (("-r", args.raw), ("--ascii", args.ascii), ("--show", args.show),
+                                  ("--uic", args.uic), ("--events", args.events),
+                                  ("--mark-events", args.mark_events), ("--losses", args.losses is not None),
+                                  ("--tstart", args.tstart is not None),
+                                  ("--tstop", args.tstop is not None), ("--every", args.every != 1))
+            if on]
+    if used:  # options about one run's waveforms: a sweep writes a table
         raise CircuitError(f"{', '.join(used)}: not available when .step lines make `run` a sweep",
-                           where=str(args.netlist), hint="use circuitnsds sweep (see --help), or add "
-                           "UIC to the .tran line")
+                           where=str(args.netlist), hint="the sweep writes one row per point (-o, "
+                           "--plot, --measure); for one point's waveforms use circuitnsds sweep "
+                           "--waveforms DIR; for UIC add it to the .tran line")
     return run_sweep(args, builder)
