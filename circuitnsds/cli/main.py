@@ -299,6 +299,13 @@ def _shown(written: list[Path]) -> str:
 def _prepare(args: argparse.Namespace, builder=None):
     """Read the netlist (unless ``builder`` has read it) and check what can be checked before
     a long run (``run``, ``pss``)."""
+    if args.ascii and not args.raw:  # an option that qualifies an output not asked for
+        raise OutputError("--ascii is the format of the raw file, and no -r is given",
+                          where="--ascii", hint="add -r out.raw, or leave --ascii out")
+    if args.mark_events and not (args.plot or args.show):
+        raise OutputError("--mark-events draws on the figure, and neither --plot nor --show is given",
+                          where="--mark-events", hint="add --plot out.png, or use --events out.csv "
+                          "for the switching instants")
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
     # before a long run: never over the netlist, a file it includes, or another output
