@@ -45,6 +45,8 @@ def test_default_output_name_and_theta(tmp_path, monkeypatch):
         # options that only qualify another output: before, exit 0 with the option dropped
         ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--ascii"],
          "--ascii: --ascii is the format of the raw file, and no -r is given"),
+        ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--signals", " , "],  # was a CSV of time alone
+         "--signals: --signals ' , ' names no signal"),
         ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--mark-events"],
          "--mark-events: --mark-events draws on the figure, and neither --plot nor --show is given"),
     ],

@@ -302,6 +302,9 @@ def _prepare(args: argparse.Namespace, builder=None):
     if args.ascii and not args.raw:  # an option that qualifies an output not asked for
         raise OutputError("--ascii is the format of the raw file, and no -r is given",
                           where="--ascii", hint="add -r out.raw, or leave --ascii out")
+    if args.signals is not None and not _signal_names(args.signals):
+        raise OutputError(f"--signals {args.signals!r} names no signal", where="--signals",
+                          hint='list them, e.g. --signals "v(out),i(l1)"; leave --signals out for all')
     if args.mark_events and not (args.plot or args.show):
         raise OutputError("--mark-events draws on the figure, and neither --plot nor --show is given",
                           where="--mark-events", hint="add --plot out.png, or use --events out.csv "
