@@ -52,6 +52,8 @@ def test_default_csv_named_like_the_netlist_is_refused(tmp_path, capsys, monkeyp
      "-o", "{net}"],
     ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
      "--plot", "{net}"],
+    ["compare", "{net}", "--json", "{net}"],
+    ["info", "{net}", "--matrices", "{net}"],
 ])
 def test_every_command_refuses_to_write_over_the_netlist(tmp_path, capsys, argv):
     netlist = tmp_path / "hw.cir"
@@ -60,6 +62,22 @@ def test_every_command_refuses_to_write_over_the_netlist(tmp_path, capsys, argv)
     netlist.write_text(text)
     _refused(capsys, [a.replace("{net}", str(netlist)) for a in argv], "would overwrite the netlist input")
     assert netlist.read_text() == text
+
+
+@pytest.mark.parametrize("argv", [
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "-o", "{dir}/b.csv", "--plot", "{dir}/b.xyz"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "-o", "{dir}/t.csv", "--plot", "{dir}/t.xyz"],
+])
+def test_an_unknown_figure_format_is_refused_before_the_run(tmp_path, capsys, argv):
+    # before: ac and sweep found out after the whole run (a sweep of hours), run and pss before
+    netlist = tmp_path / "hw.cir"
+    netlist.write_text("rc\n.param R=1k\nV1 in 0 DC 1 AC 1\nR1 in out {R}\nC1 out 0 1u\n"
+                       ".tran 10u 1m\n.end\n")
+    _refused(capsys, [a.replace("{net}", str(netlist)).replace("{dir}", str(tmp_path)) for a in argv],
+             "'.xyz' is not a figure format")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hw.cir"]  # nothing ran, nothing written
+    assert capsys.readouterr().out == ""
 
 
 def test_output_over_an_included_file_is_refused(tmp_path, capsys):

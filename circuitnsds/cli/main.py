@@ -443,6 +443,10 @@ def _ac(args: argparse.Namespace) -> int:
     if args.plot:
         bode_outputs["--plot"] = args.plot
     check_outputs(bode_outputs, [circuit.file, *circuit.included])  # never over the netlist
+    if args.plot:  # an unknown figure format before the analysis, not after it
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
     started = time.perf_counter()
     result = circuit.ac(args.input, outputs, sweep.frequencies(), around=args.around)
     seconds = time.perf_counter() - started

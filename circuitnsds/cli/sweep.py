@@ -94,8 +94,11 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     netlist = builder.netlist
     check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot))
                    if path}, [netlist.file, *netlist.included])  # never over the netlist
-    if args.plot:
-        from circuitnsds.output import sweep_plot  # noqa: F401  (matplotlib present before the run)
+    if args.plot:  # matplotlib present and the figure format known, before the run
+        from circuitnsds.output import sweep_plot  # noqa: F401
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
     progress = CountBar(sys.stderr, enabled=False if args.quiet else None)
     try:
         table = sweep(builder, params, samples=getattr(args, "samples", None), measure=args.measure,
