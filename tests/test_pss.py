@@ -352,3 +352,18 @@ def test_bad_tolerance_iterations_or_warmup_are_errors_and_zero_iterations_is_ob
                    str(tmp_path / "p.csv"), "--max-iterations", "-2"])
     err = capsys.readouterr().err
     assert status == 1 and "half_wave_rectifier.cir: max_iterations = -2 must be 0 or more" in err
+
+
+def test_a_period_or_warm_up_needing_too_many_steps_is_an_error_not_a_crash(tmp_path, capsys):
+    # before: the time grid's ValueError escaped (exit status 2, "internal error"); the
+    # transient turns the same condition into an error naming the file
+    from circuitnsds.cli.main import main
+
+    circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
+    for keywords in ({"period": 1e300}, {"period": math.inf}, {"periods_warmup": 10**9}):
+        with pytest.raises(circuitnsds.CircuitError, match=r"steps requested \(limit 5e\+07\)"):
+            circuit.pss(**keywords)
+    status = main(["pss", str(NETLISTS / "half_wave_rectifier.cir"), "-q", "-o",
+                   str(tmp_path / "p.csv"), "--warmup", "1000000000"])
+    err = capsys.readouterr().err
+    assert status == 1 and "half_wave_rectifier.cir: 1e+12 steps requested (limit 5e+07)" in err

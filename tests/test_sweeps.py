@@ -446,6 +446,13 @@ def test_signals_without_waveforms_and_a_waveforms_file_are_errors_before_the_ru
     assert a_file.read_text() == ""
 
 
+def test_a_negative_seed_is_refused_before_the_run():
+    # before: every point failed with "internal error: ValueError: the seed and the point index
+    # are non-negative integers"
+    with pytest.raises(CircuitError, match="seed=-1 must be a non-negative integer"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, seed=-1, workers=0, stop=20e-6)
+
+
 def test_points_need_no_file_includes_are_shipped_resolved(tmp_path):
     (tmp_path / "models.lib").write_text(".model dfree D(Ron=1m)\n.param Rl=5\n")
     netlist = tmp_path / "top.cir"

@@ -240,15 +240,21 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
     defaults = (tran.source_defaults if tran is not None
                 else SourceDefaults(step, t0 + (periods_warmup + 1) * period))
     mlcs = circuit.mlcs(defaults)
-    grid = _period_grid(mlcs, step, t0, period)
+    start_time = t0 + periods_warmup * period
+    try:  # both grids before any work: a period or warm-up of too many steps is an error
+        grid = _period_grid(mlcs, step, t0, period)
+        whole = _whole_grid(mlcs, step, start_time) if start_time > 0 else None
+    except ValueError as exc:
+        raise CircuitError(str(exc), where=circuit.file,
+                           hint="check the period, the step and the warm-up periods (--period, "
+                           "--step, --warmup)") from None
 
     check_initial_conditions(circuit, circuit._resolved(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
-    start_time = t0 + periods_warmup * period
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
     try:
         if start_time > 0:  # into the periodic regime (and the warm-up periods)
-            run = integrate(mlcs, _whole_grid(mlcs, step, start_time), y, charge, None, active, switches)
+            run = integrate(mlcs, whole, y, charge, None, active, switches)
             y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
         shooter = _Shooter(circuit, mlcs, grid, period, tol)
         result = shooter.solve(y, charge, active, switches, max_iterations)

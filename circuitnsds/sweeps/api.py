@@ -108,6 +108,9 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
         raise CircuitError(f"the netlist neither defines nor uses the swept parameter(s) "
                            f"{', '.join(unknown)}", hint="check the spelling (names are case-insensitive)")
     seed = int(seed) if seed is not None else builder.default_seed
+    if seed < 0:
+        raise CircuitError(f"seed={seed} must be a non-negative integer", where="--seed",
+                           hint="any integer from 0 up; the same seed draws the same points")
     options = {key: value for key, value in (("step", step), ("stop", stop), ("theta", theta),
                                              ("uic", uic)) if value is not None}
     check_analysis(analysis, options)
