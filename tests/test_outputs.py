@@ -166,6 +166,20 @@ def test_dash_output_with_a_netlist_file(tmp_path, capsys):
     assert not (tmp_path / "rc.csv").exists() and not os.path.exists("-")
 
 
+def test_with_the_csv_on_stdout_every_report_goes_to_stderr(tmp_path, capsys):
+    # before: --losses, .meas and .four printed their lines on stdout after the CSV, so that
+    # `run NETLIST -o - > out.csv` gave a CSV with a power table and ngspice lines at its end
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text(RC.replace(".end", ".meas tran vavg AVG v(out)\n.four 1k v(out)\n.end"))
+    assert main(["run", str(netlist), "-o", "-", "-q", "--losses", "r1", "--uic"]) == 0
+    captured = capsys.readouterr()
+    rows = captured.out.splitlines()
+    assert rows[0] == "time,v(in),v(out),i(v1),i(r1),i(c1)" and len(rows) == 102
+    assert all(len(row.split(",")) == 6 for row in rows)
+    assert "power balance" in captured.err and "vavg" in captured.err
+    assert "Fourier analysis for v(out)" in captured.err
+
+
 def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monkeypatch):
     from circuitnsds.engine import integrate as engine
 

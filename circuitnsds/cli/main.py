@@ -480,23 +480,24 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None)
     here), print the measurements and the summary, show the figure."""
     names, written = _write_outputs(args, waves if stream is not None else _selected(args, waves),
                                     stream)
+    report = sys.stderr if "-" in map(str, written) else sys.stdout  # stdout holds the CSV alone
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
         table = format_table([evaluate(expression, waves, circuit) for expression in args.measure])
-        print(table, file=sys.stderr if "-" in map(str, written) else sys.stdout, flush=True)
+        print(table, file=report, flush=True)
     if getattr(args, "losses", None) is not None:
         from circuitnsds.output.measure import losses
 
         loads = tuple(name.strip() for name in args.losses.split(",") if name.strip())
-        print(losses(waves, circuit, outputs=loads).format(), flush=True)
+        print(losses(waves, circuit, outputs=loads).format(), file=report, flush=True)
     if circuit.measurements or circuit.fourier:  # printed as ngspice prints them
         from circuitnsds.output.meas import fourier, run_measurements
 
         for result in run_measurements(circuit.measurements, waves):
-            print(result.line, flush=True)
+            print(result.line, file=report, flush=True)
         for spec in circuit.fourier:
-            print(fourier(spec, waves), flush=True)
+            print(fourier(spec, waves), file=report, flush=True)
     if not args.quiet:
         print(f"circuitnsds: {summary}; wrote {_shown(written)}", file=sys.stderr)
     if args.show:
