@@ -632,6 +632,23 @@ def test_cli_run_on_a_step_netlist_refuses_every_option_that_has_no_table_meanin
     assert main([*base, "--measure", "mean(i(r1))"]) == 0
 
 
+def test_cli_table_to_standard_output_with_dash(tmp_path, capsys, monkeypatch):
+    # before: `-o -` wrote the table to a file named "-" in the current folder
+    from circuitnsds.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".tran 1u 10u\n.end\n")
+    for argv in (["run", str(path)], ["sweep", str(path), "--param", "R=1,2"]):
+        assert main([*argv, "--workers", "0", "-q", "--measure", "mean(i(r1))", "-o", "-"]) == 0
+        captured = capsys.readouterr()
+        assert captured.out.splitlines() == ["R,mean(i(r1)),status,error,warnings", "1,1,ok,,",
+                                             "2,0.5,ok,,"]
+        assert "mean(i(r1))" in captured.err  # the table for people, on stderr
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["stepped.cir"]
+
+
 def test_cli_monte_carlo_histogram(tmp_path):
     from circuitnsds.cli.main import main
 

@@ -111,7 +111,11 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     parameters = [c for c in table.columns if c not in (*args.measure, "status", "error", "warnings",
                                                         "file")]
     written = []
-    if args.output:
+    to_stdout = str(args.output) == "-"  # the CSV alone on stdout, the table for people on stderr
+    if to_stdout:
+        table.to_csv(sys.stdout, index=False, float_format="%.10g")
+        sys.stdout.flush()
+    elif args.output:
         from circuitnsds.output.files import atomic_path, writing
 
         with writing(args.output), atomic_path(args.output) as temporary:
@@ -120,7 +124,8 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     shown = table.drop(columns=[c for c in ("warnings", "file") if c in table.columns])
     if not (table["error"] != "").any():
         shown = shown.drop(columns=["status", "error"])
-    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"), flush=True)
+    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"),
+          file=sys.stderr if to_stdout else sys.stdout, flush=True)
     for message in dict.fromkeys(m for text in table["warnings"] if text for m in text.split("; ")):
         print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
     if args.plot:
