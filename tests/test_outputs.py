@@ -166,6 +166,43 @@ def test_dash_output_with_a_netlist_file(tmp_path, capsys):
     assert not (tmp_path / "rc.csv").exists() and not os.path.exists("-")
 
 
+@pytest.mark.parametrize("argv", [
+    ["run", "{net}", "-o", "{dir}/o.csv", "--plot", "-"],
+    ["run", "{net}", "-o", "{dir}/o.csv", "-r", "-"],
+    ["run", "{net}", "-o", "{dir}/o.csv", "--events", "-"],
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "-o", "{dir}/b.csv", "--plot", "-"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "--plot", "-"],
+    ["info", "{net}", "--matrices", "-"],
+    ["compare", "{net}", "--plot", "-"],
+    ["compare", "{net}", "--json", "-"],
+])
+def test_only_the_csv_goes_to_standard_output(tmp_path, capsys, monkeypatch, argv):
+    # before: each of these wrote a file named "-" in the current folder (info: "-.npz")
+    monkeypatch.chdir(tmp_path)
+    netlist = tmp_path / "hw.cir"
+    netlist.write_text("rc\n.param R=1k\nV1 in 0 PULSE(0 1 0 1u 1u 0.5m 1m) AC 1\nR1 in out {R}\n"
+                       "C1 out 0 1u\n.tran 10u 1m\n.end\n")
+    _refused(capsys, [a.replace("{net}", str(netlist)).replace("{dir}", str(tmp_path)) for a in argv],
+             "cannot go to standard output")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hw.cir"]
+
+
+def test_the_bode_table_to_standard_output(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text("rc\nV1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n.end\n")
+    assert main(["ac", str(netlist), "--fstart", "10", "--fstop", "1k", "--output", "v(out)",
+                 "-o", "-", "-q"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].startswith("frequency") and len(rows) == 1 + 41
+    f, magnitude = (float(x) for x in rows[-1].split(",")[:2])
+    # first-order low pass, corner 1/(2π·1 ms) = 159 Hz
+    assert f == pytest.approx(1e3) and magnitude == pytest.approx(
+        -10 * math.log10(1 + (2 * math.pi * 1e3 * 1e-3) ** 2), abs=1e-6)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rc.cir"]
+
+
 def test_with_the_csv_on_stdout_every_report_goes_to_stderr(tmp_path, capsys):
     # before: --losses, .meas and .four printed their lines on stdout after the CSV, so that
     # `run NETLIST -o - > out.csv` gave a CSV with a power table and ngspice lines at its end

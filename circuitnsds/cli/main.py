@@ -312,10 +312,7 @@ def _prepare(args: argparse.Namespace, builder=None):
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
     # before a long run: never over the netlist, a file it includes, or another output
-    check_outputs(outputs, [circuit.file, *circuit.included])
-    if str(outputs.get("-r")) == "-" or str(outputs.get("--plot")) == "-":
-        raise OutputError("only the CSV (-o -) can go to standard output", where="-r/--plot",
-                          hint="give -r and --plot file names")
+    check_outputs(outputs, [circuit.file, *circuit.included], stdout=("-o",))
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -442,7 +439,7 @@ def _ac(args: argparse.Namespace) -> int:
     bode_outputs = {"-o": args.csv or Path(args.netlist.stem + "_ac.csv")}
     if args.plot:
         bode_outputs["--plot"] = args.plot
-    check_outputs(bode_outputs, [circuit.file, *circuit.included])  # never over the netlist
+    check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
     if args.plot:  # an unknown figure format before the analysis, not after it
         from circuitnsds.output.plot import plot_format
 
@@ -459,10 +456,11 @@ def _ac(args: argparse.Namespace) -> int:
         marks["loop"] = (crossover, margin)
         print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
               f"{margin:.4g} deg" if np.isfinite(crossover) else
-              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep", flush=True)
+              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep",
+              file=sys.stderr if str(bode_outputs["-o"]) == "-" else sys.stdout, flush=True)
     written = [bode_outputs["-o"]]
     with _writing(written[0]):
-        write_bode_csv(result, written[0])
+        write_bode_csv(result, sys.stdout if str(written[0]) == "-" else written[0])
     if args.plot:
         with _writing(args.plot):
             plot_bode(result, args.plot, marks)
