@@ -649,6 +649,28 @@ def test_cli_table_to_standard_output_with_dash(tmp_path, capsys, monkeypatch):
         assert sorted(p.name for p in tmp_path.iterdir()) == ["stepped.cir"]
 
 
+def test_cli_run_on_a_step_netlist_obeys_strict_and_prints_each_warning_whole(tmp_path, capsys):
+    # before: --strict was ignored (the points' warnings printed, exit 0, table written), and a
+    # warning holding "; " was cut in two lines (the points' warnings were joined with "; ")
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".print tran v(a)\n.tran 1u 10u\n.end\n")
+    base = ["run", str(path), "--workers", "0", "-q", "--measure", "mean(i(r1))", "-o",
+            str(tmp_path / "t.csv")]
+    assert main(base) == 0
+    err = capsys.readouterr().err
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].endswith("choose columns with --signals or .save): "
+                                                     ".print tran v(a)")
+    (tmp_path / "t.csv").unlink()
+    assert main([*base, "--strict"]) == 1
+    err = capsys.readouterr().err
+    assert "error: the warnings above are errors under --strict" in err
+    assert not (tmp_path / "t.csv").exists()
+
+
 def test_cli_monte_carlo_histogram(tmp_path):
     from circuitnsds.cli.main import main
 

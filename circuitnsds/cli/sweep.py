@@ -110,6 +110,12 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         progress.close()
     parameters = [c for c in table.columns if c not in (*args.measure, "status", "error", "warnings",
                                                         "file")]
+    warned = list(dict.fromkeys(m for text in table["warnings"] if text for m in text.split("\n")))
+    if getattr(args, "strict", False) and warned:  # run --strict: nothing written
+        for message in warned:
+            print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
+        print("circuitnsds: error: the warnings above are errors under --strict", file=sys.stderr)
+        return 1
     written = []
     to_stdout = str(args.output) == "-"  # the CSV alone on stdout, the table for people on stderr
     if to_stdout:
@@ -126,7 +132,7 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         shown = shown.drop(columns=["status", "error"])
     print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"),
           file=sys.stderr if to_stdout else sys.stdout, flush=True)
-    for message in dict.fromkeys(m for text in table["warnings"] if text for m in text.split("; ")):
+    for message in warned:
         print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
     if args.plot:
         from circuitnsds.output.files import writing
