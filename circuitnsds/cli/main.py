@@ -583,8 +583,10 @@ def _selected(args: argparse.Namespace, waves):
         return waves
     signals = {name: np.asarray(waves[name])[index] for name in waves.names}
     signals.update({name: values[index] for name, values in extra.items()})
+    first, last = time[index[0]], time[index[-1]]  # the switchings in the window, all of them
     return Waveforms(time[index], signals, title=waves.title, stats=waves.stats,
-                     residual=None if waves.residual is None else waves.residual[index])
+                     residual=None if waves.residual is None else waves.residual[index],
+                     events=[event for event in waves.events if first <= event[0] <= last])
 
 
 def _write_outputs(args: argparse.Namespace, waves,
