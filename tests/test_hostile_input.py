@@ -195,3 +195,18 @@ def test_a_bad_sin_argument_is_not_explained_with_pwl_options():
     assert "PWL" not in str(error.value)
     with pytest.raises(NetlistError, match=r"PWL argument 'r' is not a number \(PWL options r= "):
         circuit_from("V1 a 0 PWL(0 0 1m 1 r=0)\nR1 a 0 1\n.tran 1u 1m")
+
+
+def test_an_ic_given_twice_with_two_values_is_a_warning():
+    # before: the second value silently replaced the first
+    import warnings as python_warnings
+
+    import circuitnsds
+
+    with python_warnings.catch_warnings(record=True) as caught:
+        python_warnings.simplefilter("always")
+        circuit = circuit_from("V1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(b)=1\n.ic v(b)=2 v(b)=2\n"
+                               ".tran 1u 1m uic")
+    messages = [str(w.message) for w in caught if issubclass(w.category, circuitnsds.NetlistWarning)]
+    assert messages == ["<text>:6: .ic v(b) is given twice, 1 (at <text>:5) and 2: the last one is used"]
+    assert circuit.initial_voltages["b"][0] == 2.0
