@@ -134,3 +134,5 @@ def test_a_sine_beyond_the_doubles_is_reported_not_a_crash(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "internal error" not in err and "RuntimeWarning" not in err
     assert "a source function is nan at t = 0 s (i(v1): Sin(" in err
+    assert "no results to write (the run stopped before its first step)" in err  # was "(before
+    # the failure before the first step)"

@@ -515,7 +515,8 @@ def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) ->
     elif partial is None or partial.time.size == 0:
         if stream is not None:
             stream.abort()
-        print(f"circuitnsds: no results to write ({when} before the first step)", file=sys.stderr)
+        print("circuitnsds: no results to write (the run stopped before its first step)",
+              file=sys.stderr)
         return
     else:
         last = partial.time[-1]
