@@ -203,6 +203,20 @@ def test_the_bode_table_to_standard_output(tmp_path, capsys, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rc.cir"]
 
 
+def test_standard_input_as_the_netlist(tmp_path, capsys, monkeypatch):
+    # before: `ac -` and `sweep -`/`compare -` said "cannot read the netlist '-': no such file"
+    # although run, pss and info read standard input
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.stdin", io.StringIO("rc\nV1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n"
+                                                 ".end\n"))
+    assert main(["ac", "-", "--fstart", "10", "--fstop", "1k", "--output", "v(out)", "-q"]) == 0
+    rows = capsys.readouterr().out.splitlines()  # the Bode table on stdout, as run's CSV
+    assert rows[0] == "frequency,mag(v(out)),phase(v(out))" and len(rows) == 42
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    for argv in (["sweep", "-", "--param", "R=1,2"], ["compare", "-"]):
+        _refused(capsys, argv, f"error: -: {argv[0]} reads a netlist file, not standard input")
+
+
 def test_with_the_csv_on_stdout_every_report_goes_to_stderr(tmp_path, capsys):
     # before: --losses, .meas and .four printed their lines on stdout after the CSV, so that
     # `run NETLIST -o - > out.csv` gave a CSV with a power table and ngspice lines at its end

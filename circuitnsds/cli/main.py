@@ -105,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ac = commands.add_parser("ac", help="small-signal AC (Bode) at the operating point or around "
                              "the periodic steady state")
-    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect); - reads it from "
+                    "standard input (the Bode table then goes to standard output)")
     ac.add_argument("--input", metavar="SOURCE",
                     help="the source whose value is perturbed, as named in the netlist: a supply "
                     "(line-to-output), a current source at the output (output impedance), the "
@@ -216,6 +217,10 @@ def main(argv: list[str] | None = None) -> int:
         if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
             warnings.filterwarnings("error", category=NetlistWarning)
         try:
+            if args.command in ("compare", "sweep") and str(args.netlist) == "-":
+                raise CircuitnsdsError(f"{args.command} reads a netlist file, not standard input",
+                                       where="-", hint="save the netlist to a file (run, pss, ac "
+                                       "and info read standard input)")
             if args.command == "compare":
                 from circuitnsds.compare.cli import run_compare
 
@@ -412,12 +417,11 @@ def _ac(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from circuitnsds import read_netlist
     from circuitnsds.errors import CircuitError
     from circuitnsds.output.bode import plot_bode, write_bode_csv
     from circuitnsds.specs import AcSpec
 
-    circuit = read_netlist(args.netlist)
+    circuit = _read(args.netlist)
     spec = circuit.analyses.get("ac")
     start = args.fstart if args.fstart is not None else (spec.start if spec else None)
     stop = args.fstop if args.fstop is not None else (spec.stop if spec else None)
@@ -436,7 +440,8 @@ def _ac(args: argparse.Namespace) -> int:
             raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
                                "(the injection source)", where="--loop-gain")
         outputs = list(dict.fromkeys([*(outputs or []), *loop]))
-    bode_outputs = {"-o": args.csv or Path(args.netlist.stem + "_ac.csv")}
+    stdin = str(args.netlist) == "-"
+    bode_outputs = {"-o": args.csv or Path("-" if stdin else args.netlist.stem + "_ac.csv")}
     if args.plot:
         bode_outputs["--plot"] = args.plot
     check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
