@@ -118,11 +118,24 @@ class AcSpec:
     def frequencies(self) -> np.ndarray:
         """The sweep's frequencies [Hz], as ngspice spaces them (DEC/OCT: N per decade/octave
         from FSTART while <= FSTOP; LIN: N points from FSTART to FSTOP)."""
+        base = 10.0 if self.sweep == "dec" else 2.0
+        count = (self.points if self.sweep == "lin" else
+                 int(np.floor(self.points * np.log(self.stop / self.start) / np.log(base) + 1e-9)) + 1)
+        if count > MAX_FREQUENCIES:  # each one a complex solve; the results would not fit
+            from circuitnsds.errors import CircuitError
+
+            raise CircuitError(f"{count:.3g} frequencies (limit {MAX_FREQUENCIES:.0e}) in "
+                               f"{self.sweep} {self.points:g} {self.start:g} {self.stop:g}",
+                               where=self.location if self.location is not None else "--points",
+                               hint="fewer points per decade (20 is usual) or a "
+                               "narrower range")
         if self.sweep == "lin":
             return np.linspace(self.start, self.stop, self.points)
-        base = 10.0 if self.sweep == "dec" else 2.0
-        count = int(np.floor(self.points * np.log(self.stop / self.start) / np.log(base) + 1e-9)) + 1
         return self.start * base ** (np.arange(count) / self.points)
+
+
+MAX_FREQUENCIES = 1_000_000
+"""Longest AC sweep [frequencies]: beyond it the results would not fit in memory."""
 
 
 AnalysisSpec = TransientSpec | PssSpec | AcSpec

@@ -124,6 +124,22 @@ def test_ac_errors():
         read(BUCK).ac("vin", "v(out)", [1e3], around="op")
 
 
+def test_a_sweep_too_long_to_hold_is_refused_before_it_starts(tmp_path, capsys):
+    # before: --points 1e8 built 3e8 frequencies, ran for 16 s, then failed in numpy
+    # (MemoryError: 235 GiB, exit status 2 "internal error")
+    from circuitnsds.cli.main import main
+    from circuitnsds.specs import AcSpec
+
+    with pytest.raises(circuitnsds.CircuitError, match=r"3e\+08 frequencies \(limit 1e\+06\)"):
+        AcSpec("dec", 100_000_000, 1.0, 1e3).frequencies()
+    assert AcSpec("dec", 20, 1.0, 1e3).frequencies().size == 61
+    netlist = tmp_path / "rlc.cir"
+    netlist.write_text(RLC)
+    assert main(["ac", str(netlist), "--input", "v1", "--fstart", "1", "--fstop", "1k", "--points",
+                 "100000000", "-q", "-o", str(tmp_path / "b.csv")]) == 1
+    assert "error: --points: 3e+08 frequencies (limit 1e+06)" in capsys.readouterr().err
+
+
 def test_ac_line_and_source_magnitudes():
     circuit = read(RLC.replace("AC 1", "AC 2 90").replace(".ac dec 10 100 1meg", ".ac oct 3 1k 8k"))
     assert circuit.analyses["ac"].frequencies() == pytest.approx(1e3 * 2 ** (np.arange(10) / 3))

@@ -42,6 +42,13 @@ def test_default_output_name_and_theta(tmp_path, monkeypatch):
         ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--signals", "v(zz)"], "unknown signal(s) v(zz)"),
         ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--theta", "0.2"], "theta = 0.2 is outside"),
         ("t\nV1 a 0 1\nV2 a 0 2\n.tran 1u 1m\n.end\n", [], "form a loop of voltage sources"),
+        # options that only qualify another output: before, exit 0 with the option dropped
+        ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--ascii"],
+         "--ascii: --ascii is the format of the raw file, and no -r is given"),
+        ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--signals", " , "],  # was a CSV of time alone
+         "--signals: --signals ' , ' names no signal"),
+        ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--mark-events"],
+         "--mark-events: --mark-events draws on the figure, and neither --plot nor --show is given"),
     ],
 )
 def test_bad_input_exits_1_with_a_located_message(tmp_path, capsys, netlist, args, message):

@@ -231,3 +231,25 @@ def test_malformed_options_are_usage_errors(args, message, capsys):
         main(["compare", str(NETLISTS / "half_wave_rectifier.cir"), *args])
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def test_outputs_over_the_netlist_its_includes_or_each_other_are_refused_before_the_run(tmp_path, capsys):
+    # before: `compare NETLIST --json NETLIST` replaced the netlist by the JSON report, exit 0
+    # ("wrote NETLIST"); an unknown --plot extension failed only after both simulations
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "top.cir"
+    (tmp_path / "models.lib").write_text(".model dideal D\n")
+    text = (NETLISTS / "half_wave_rectifier.cir").read_text().replace(".model dideal D",
+                                                                       ".include models.lib")
+    netlist.write_text(text)
+    for args, message in [(["--json", str(netlist)], f"--json {netlist} would overwrite the netlist"),
+                          (["--plot", str(tmp_path / "models.lib")], "would overwrite the netlist "
+                           f"input {tmp_path / 'models.lib'}"),
+                          (["--json", str(tmp_path / "a.x"), "--plot", str(tmp_path / "a.x")],
+                           "--json and --plot name the same file"),
+                          (["--plot", str(tmp_path / "c.xyz")], "'.xyz' is not a figure format")]:
+        assert main(["compare", str(netlist), *args]) == 1
+        assert message in capsys.readouterr().err
+    assert netlist.read_text() == text and (tmp_path / "models.lib").read_text() == ".model dideal D\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["models.lib", "top.cir"]

@@ -222,3 +222,27 @@ def test_command_line_writes_the_events_and_the_plot_marks_them(tmp_path, monkey
     draw(figure, waves, ["v(sw)"], events=True)
     (axis,) = figure.axes
     assert len(axis.lines) == 1 + len(waves.events)        # the signal and one mark per event
+
+
+def test_events_file_keeps_the_switchings_with_every_and_a_window(tmp_path):
+    # before: --every N, --tstart/--tstop and a differential --signals v(a,b) each rebuilt the
+    # waveforms without their events, so --events wrote a header alone (and --mark-events drew
+    # nothing); the buck's gate closes S1 at 5 ns + k·10 µs and opens it 5 µs later
+    from circuitnsds.cli.main import main
+    from tests.conftest import NETLISTS
+
+    netlist = str(NETLISTS / "buck_converter.cir")
+    base = ["run", netlist, "-q", "-o", str(tmp_path / "o.csv"), "--stop", "20u", "--events",
+            str(tmp_path / "e.csv")]
+
+    def switchings(*extra):
+        assert main([*base, *extra]) == 0
+        rows = (tmp_path / "e.csv").read_text().splitlines()
+        assert rows[0] == "time,element,state"
+        return [(round(float(t) * 1e9), s) for t, _, s in (row.split(",") for row in rows[1:])]
+
+    every = [(5, "1"), (5005, "0"), (10005, "1"), (15005, "0")]  # ns
+    assert switchings() == every
+    assert switchings("--every", "7") == every
+    assert switchings("--signals", "v(out,sw)") == every
+    assert switchings("--tstart", "6u", "--tstop", "16u") == every[2:]

@@ -170,3 +170,43 @@ def test_an_ic_contradicting_a_source_names_the_node():
     with pytest.raises(SimulationError, match=r":5: \.ic v\(a\)=2 contradicts the sources, which hold "
                                               r"a at 1 V"):
         circuit_from("V1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(a)=2\n.tran 1u 10u").transient()
+
+
+def test_a_command_on_the_title_line_is_named_when_it_is_not_read(tmp_path, capsys):
+    # the first line is the title, whatever it holds (as in SPICE): a netlist whose first line
+    # is its .tran failed with "no .tran line" and nothing saying why the line was not read
+    path = tmp_path / "untitled.cir"
+    path.write_text(".tran 1u 1m\nV1 a 0 1\nR1 a 0 1k\n.end\n")
+    assert main(["run", str(path), "-q", "-o", str(tmp_path / "o.csv")]) == 1
+    err = capsys.readouterr().err
+    assert (f"warning: {path}:1: the first line is the title and is not read, as in SPICE: "
+            "'.tran 1u 1m'") in err
+    assert "no .tran line" in err
+    # a title that merely starts with a dot is a title like any other
+    path.write_text(".title RC\nV1 a 0 1\nR1 a 0 1k\n.tran 1u 10u\n.end\n")
+    assert main(["run", str(path), "-q", "-o", str(tmp_path / "o.csv")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_a_bad_sin_argument_is_not_explained_with_pwl_options():
+    with pytest.raises(NetlistError) as error:
+        circuit_from("V1 a 0 SIN(0 \u221210 50)\nR1 a 0 1\n.tran 1u 1m")
+    assert "SIN argument '\u221210' is not a number" in str(error.value)
+    assert "PWL" not in str(error.value)
+    with pytest.raises(NetlistError, match=r"PWL argument 'r' is not a number \(PWL options r= "):
+        circuit_from("V1 a 0 PWL(0 0 1m 1 r=0)\nR1 a 0 1\n.tran 1u 1m")
+
+
+def test_an_ic_given_twice_with_two_values_is_a_warning():
+    # before: the second value silently replaced the first
+    import warnings as python_warnings
+
+    import circuitnsds
+
+    with python_warnings.catch_warnings(record=True) as caught:
+        python_warnings.simplefilter("always")
+        circuit = circuit_from("V1 a 0 1\nR1 a b 1k\nC1 b 0 1u\n.ic v(b)=1\n.ic v(b)=2 v(b)=2\n"
+                               ".tran 1u 1m uic")
+    messages = [str(w.message) for w in caught if issubclass(w.category, circuitnsds.NetlistWarning)]
+    assert messages == ["<text>:6: .ic v(b) is given twice, 1 (at <text>:5) and 2: the last one is used"]
+    assert circuit.initial_voltages["b"][0] == 2.0

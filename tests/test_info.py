@@ -64,3 +64,22 @@ def test_matrices(tmp_path, capsys):
                               extra=["--matrices", str(npz)])
     assert status == 0 and f"matrices saved to {npz}" in out
     assert np.load(npz)["E"].shape == (3, 3)  # v(in), v(out), i(v1)
+
+
+def test_matrices_go_to_the_file_named_or_fail(tmp_path, capsys):
+    # numpy's savez appends ".npz" to a name without it: --matrices m.txt wrote m.txt.npz and
+    # --matrices DIR/ wrote DIR.npz next to the folder, each while printing "saved to" the name
+    # given; the file is now written under the name given, a folder is an error
+    named = tmp_path / "m.txt"
+    status, out, _ = run_info(tmp_path, capsys, path=NETLISTS / "half_wave_rectifier.cir",
+                              extra=["--matrices", str(named)])
+    assert status == 0 and f"matrices saved to {named}" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.txt"]
+    assert np.load(named)["E"].shape == (3, 3)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    status, out, err = run_info(tmp_path, capsys, path=NETLISTS / "half_wave_rectifier.cir",
+                                extra=["--matrices", f"{folder}/"])
+    assert status == 1
+    assert f"error: {folder}: cannot write {folder}: Is a directory" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.txt", "out"]

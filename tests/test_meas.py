@@ -108,6 +108,21 @@ def test_meas_in_a_netlist_runs_from_the_command_line(tmp_path):
     assert ".meas ignored (only .meas tran" in done.stderr
 
 
+def test_a_four_line_that_cannot_be_evaluated_names_its_line(tmp_path, capsys):
+    # before: "measure: window -0.018 s .. 0.002 s is not inside ..." and "measure: no signal",
+    # with no file:line; .meas errors named theirs
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "rc.cir"
+    for four, message in [(".four 50 v(out)", "the run (0 s .. 5 ms) is shorter than one period "
+                           "of the fundamental (50 Hz: 20 ms)"),
+                          (".four 1k v(zz)", "no signal 'v(zz)'")]:
+        path.write_text("rc\n" + RC + f"\n{four}\n.end\n")
+        assert main(["run", str(path), "-q", "-o", str(tmp_path / "o.csv")]) == 1
+        err = capsys.readouterr().err
+        assert f"error: {path}:7: {message}" in err, err
+
+
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 

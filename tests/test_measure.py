@@ -66,6 +66,24 @@ def test_thd_without_the_fundamental_is_an_error(grid):
         measure.thd(grid, np.sin(2 * np.pi * 2 * F * grid), F)
 
 
+def test_a_count_without_harmonics_is_an_error_not_a_crash(grid, tmp_path, capsys):
+    # count=0 or a negative count indexed an empty spectrum (IndexError, exit status 2 from
+    # the command); count=1 gave a THD of 0 with no harmonic counted at all
+    sine = np.sin(2 * np.pi * F * grid)
+    for count in (-1, 0, 1):
+        with pytest.raises(MeasurementError, match=f"count={count} leaves no harmonic"):
+            measure.thd(grid, sine, F, count=count)
+    with pytest.raises(MeasurementError, match="count=0 must be at least 1"):
+        measure.harmonics(grid, sine, F, count=0)
+    with pytest.raises(MeasurementError, match=r"count=2\.5 is not a whole number"):
+        parse_measurement("thd(v(a), 50, count=2.5)")
+    status = main(["run", str(NETLISTS / "half_wave_rectifier.cir"), "-q", "-o",
+                   str(tmp_path / "o.csv"), "--measure", "thd(v(out), 50, count=0)"])
+    err = capsys.readouterr().err
+    assert status == 1, err
+    assert "error: --measure thd(v(out), 50, count=0): count=0 leaves no harmonic" in err
+
+
 def test_bad_windows_are_errors(grid):
     y = np.sin(grid)
     with pytest.raises(MeasurementError, match="is empty"):

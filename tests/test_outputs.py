@@ -52,6 +52,8 @@ def test_default_csv_named_like_the_netlist_is_refused(tmp_path, capsys, monkeyp
      "-o", "{net}"],
     ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
      "--plot", "{net}"],
+    ["compare", "{net}", "--json", "{net}"],
+    ["info", "{net}", "--matrices", "{net}"],
 ])
 def test_every_command_refuses_to_write_over_the_netlist(tmp_path, capsys, argv):
     netlist = tmp_path / "hw.cir"
@@ -60,6 +62,22 @@ def test_every_command_refuses_to_write_over_the_netlist(tmp_path, capsys, argv)
     netlist.write_text(text)
     _refused(capsys, [a.replace("{net}", str(netlist)) for a in argv], "would overwrite the netlist input")
     assert netlist.read_text() == text
+
+
+@pytest.mark.parametrize("argv", [
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "-o", "{dir}/b.csv", "--plot", "{dir}/b.xyz"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "-o", "{dir}/t.csv", "--plot", "{dir}/t.xyz"],
+])
+def test_an_unknown_figure_format_is_refused_before_the_run(tmp_path, capsys, argv):
+    # before: ac and sweep found out after the whole run (a sweep of hours), run and pss before
+    netlist = tmp_path / "hw.cir"
+    netlist.write_text("rc\n.param R=1k\nV1 in 0 DC 1 AC 1\nR1 in out {R}\nC1 out 0 1u\n"
+                       ".tran 10u 1m\n.end\n")
+    _refused(capsys, [a.replace("{net}", str(netlist)).replace("{dir}", str(tmp_path)) for a in argv],
+             "'.xyz' is not a figure format")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hw.cir"]  # nothing ran, nothing written
+    assert capsys.readouterr().out == ""
 
 
 def test_output_over_an_included_file_is_refused(tmp_path, capsys):
@@ -146,6 +164,71 @@ def test_dash_output_with_a_netlist_file(tmp_path, capsys):
     assert captured.out.startswith("time,")  # the CSV alone on stdout; the table on stderr
     assert "mean" in captured.err
     assert not (tmp_path / "rc.csv").exists() and not os.path.exists("-")
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", "{net}", "-o", "{dir}/o.csv", "--plot", "-"],
+    ["run", "{net}", "-o", "{dir}/o.csv", "-r", "-"],
+    ["run", "{net}", "-o", "{dir}/o.csv", "--events", "-"],
+    ["ac", "{net}", "--fstart", "10", "--fstop", "1k", "-o", "{dir}/b.csv", "--plot", "-"],
+    ["sweep", "{net}", "--param", "R=1k,2k", "--measure", "mean(v(out))", "--workers", "0",
+     "--plot", "-"],
+    ["info", "{net}", "--matrices", "-"],
+    ["compare", "{net}", "--plot", "-"],
+    ["compare", "{net}", "--json", "-"],
+])
+def test_only_the_csv_goes_to_standard_output(tmp_path, capsys, monkeypatch, argv):
+    # before: each of these wrote a file named "-" in the current folder (info: "-.npz")
+    monkeypatch.chdir(tmp_path)
+    netlist = tmp_path / "hw.cir"
+    netlist.write_text("rc\n.param R=1k\nV1 in 0 PULSE(0 1 0 1u 1u 0.5m 1m) AC 1\nR1 in out {R}\n"
+                       "C1 out 0 1u\n.tran 10u 1m\n.end\n")
+    _refused(capsys, [a.replace("{net}", str(netlist)).replace("{dir}", str(tmp_path)) for a in argv],
+             "cannot go to standard output")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hw.cir"]
+
+
+def test_the_bode_table_to_standard_output(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text("rc\nV1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n.end\n")
+    assert main(["ac", str(netlist), "--fstart", "10", "--fstop", "1k", "--output", "v(out)",
+                 "-o", "-", "-q"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].startswith("frequency") and len(rows) == 1 + 41
+    f, magnitude = (float(x) for x in rows[-1].split(",")[:2])
+    # first-order low pass, corner 1/(2π·1 ms) = 159 Hz
+    assert f == pytest.approx(1e3) and magnitude == pytest.approx(
+        -10 * math.log10(1 + (2 * math.pi * 1e3 * 1e-3) ** 2), abs=1e-6)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rc.cir"]
+
+
+def test_standard_input_as_the_netlist(tmp_path, capsys, monkeypatch):
+    # before: `ac -` and `sweep -`/`compare -` said "cannot read the netlist '-': no such file"
+    # although run, pss and info read standard input
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sys.stdin", io.StringIO("rc\nV1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n"
+                                                 ".end\n"))
+    assert main(["ac", "-", "--fstart", "10", "--fstop", "1k", "--output", "v(out)", "-q"]) == 0
+    rows = capsys.readouterr().out.splitlines()  # the Bode table on stdout, as run's CSV
+    assert rows[0] == "frequency,mag(v(out)),phase(v(out))" and len(rows) == 42
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    for argv in (["sweep", "-", "--param", "R=1,2"], ["compare", "-"]):
+        _refused(capsys, argv, f"error: -: {argv[0]} reads a netlist file, not standard input")
+
+
+def test_with_the_csv_on_stdout_every_report_goes_to_stderr(tmp_path, capsys):
+    # before: --losses, .meas and .four printed their lines on stdout after the CSV, so that
+    # `run NETLIST -o - > out.csv` gave a CSV with a power table and ngspice lines at its end
+    netlist = tmp_path / "rc.cir"
+    netlist.write_text(RC.replace(".end", ".meas tran vavg AVG v(out)\n.four 1k v(out)\n.end"))
+    assert main(["run", str(netlist), "-o", "-", "-q", "--losses", "r1", "--uic"]) == 0
+    captured = capsys.readouterr()
+    rows = captured.out.splitlines()
+    assert rows[0] == "time,v(in),v(out),i(v1),i(r1),i(c1)" and len(rows) == 102
+    assert all(len(row.split(",")) == 6 for row in rows)
+    assert "power balance" in captured.err and "vavg" in captured.err
+    assert "Fourier analysis for v(out)" in captured.err
 
 
 def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monkeypatch):

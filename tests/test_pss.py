@@ -329,3 +329,41 @@ def test_voltage_mode_buck_with_a_circuit_controlled_pwm_settles():
     with pytest.raises(circuitnsds.SimulationError, match=r"(?s)S1 are controlled by the circuit.*"
                        r"sequence.*tol="):
         circuitnsds.read_netlist(text).pss(step=0.2e-6, max_iterations=1)
+
+
+def test_bad_tolerance_iterations_or_warmup_are_errors_and_zero_iterations_is_obeyed(tmp_path, capsys):
+    # before: max_iterations=-2 crashed (TypeError, exit status 2 from the command), tol=-1 or nan
+    # ran every fallback round to fail with "Newton cycled" at residual 0, periods_warmup=-1 ran
+    # as 0, and max_iterations=0 was read as "not given" (10 Newton steps)
+    from circuitnsds.cli.main import main
+
+    circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
+    for keywords, message in [({"max_iterations": -2}, "max_iterations = -2 must be 0 or more"),
+                              ({"tol": -1.0}, "tol = -1 must be positive"),
+                              ({"tol": math.nan}, "tol = nan must be positive"),
+                              ({"periods_warmup": -1}, "periods_warmup = -1 must be 0 or more")]:
+        with pytest.raises(circuitnsds.CircuitError, match=message):
+            circuit.pss(**keywords)
+    # no Newton step allowed: the fallback's transient periods alone reach the steady state
+    result = circuitnsds.read_netlist(NETLISTS / "bridge_rectifier.cir").pss(max_iterations=0)
+    assert result.iterations == 0 and result.transient_periods >= 10
+    assert result.relative_residual <= 1e-9
+    status = main(["pss", str(NETLISTS / "half_wave_rectifier.cir"), "-q", "-o",
+                   str(tmp_path / "p.csv"), "--max-iterations", "-2"])
+    err = capsys.readouterr().err
+    assert status == 1 and "half_wave_rectifier.cir: max_iterations = -2 must be 0 or more" in err
+
+
+def test_a_period_or_warm_up_needing_too_many_steps_is_an_error_not_a_crash(tmp_path, capsys):
+    # before: the time grid's ValueError escaped (exit status 2, "internal error"); the
+    # transient turns the same condition into an error naming the file
+    from circuitnsds.cli.main import main
+
+    circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
+    for keywords in ({"period": 1e300}, {"period": math.inf}, {"periods_warmup": 10**9}):
+        with pytest.raises(circuitnsds.CircuitError, match=r"steps requested \(limit 5e\+07\)"):
+            circuit.pss(**keywords)
+    status = main(["pss", str(NETLISTS / "half_wave_rectifier.cir"), "-q", "-o",
+                   str(tmp_path / "p.csv"), "--warmup", "1000000000"])
+    err = capsys.readouterr().err
+    assert status == 1 and "half_wave_rectifier.cir: 1e+12 steps requested (limit 5e+07)" in err

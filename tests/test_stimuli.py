@@ -115,3 +115,24 @@ def test_grid_drops_exactly_the_regular_points_next_to_a_breakpoint(step, count,
     dropped = [k for k in range(1, count) if np.any(np.abs(inside - regular[k]) <= tolerance)]
     expected = np.sort(np.concatenate([np.delete(regular, dropped), inside]))
     np.testing.assert_array_equal(grid, expected)
+
+
+def test_a_sine_beyond_the_doubles_is_reported_not_a_crash(tmp_path, capsys):
+    # a SIN delayed by -1e308 s (a fuzzed case from Xyce's ic_rc test): sin() of an infinite
+    # phase raised "math domain error" (exit status 2, internal error); value() now gives NaN
+    # as sample() does, and the run fails on the non-finite source, naming it
+    from circuitnsds.cli.main import main
+    from circuitnsds.system.stimuli import Sin
+
+    wave = Sin(0.0, 1.0, 1e5, -1e308, 0.0)
+    with np.errstate(all="ignore"):
+        assert math.isnan(wave.value(0.0)) and math.isnan(wave.sample(np.array([0.0]))[0])
+        assert math.isinf(Sin(0.0, 1.0, 1e3, 0.0, -1e10).value(0.25e-3))  # grows past the doubles
+    path = tmp_path / "sin.cir"
+    path.write_text("t\nv1 1 0 sin 0 1V 1e5 -1e308 0\nr1 1 2 1k\nc1 2 0 2u\n.tran 1u 1m\n.end\n")
+    assert main(["run", str(path), "-q", "-o", str(tmp_path / "o.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "RuntimeWarning" not in err
+    assert "a source function is nan at t = 0 s (i(v1): Sin(" in err
+    assert "no results to write (the run stopped before its first step)" in err  # was "(before
+    # the failure before the first step)"

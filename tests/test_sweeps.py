@@ -426,6 +426,33 @@ def test_waveforms_kept_or_written(tmp_path):
     assert header.startswith("time,") and "v(out)" in header
 
 
+def test_signals_without_waveforms_and_a_waveforms_file_are_errors_before_the_run(tmp_path, capsys):
+    # before: signals without keep_waveforms were dropped without a word (--signals v(zz) ran and
+    # exited 0), and --waveforms naming a file ran every point, then crashed in mkdir
+    # (FileExistsError, exit status 2)
+    from circuitnsds.cli.main import main
+
+    with pytest.raises(CircuitError, match="signals select the waveforms kept.*none are kept"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, signals=["v(out)"], workers=0)
+    a_file = tmp_path / "taken"
+    a_file.write_text("")
+    with pytest.raises(circuitnsds.CircuitnsdsError, match=f"cannot write {a_file}: not a folder"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, keep_waveforms=a_file, workers=0)
+    base = ["sweep", str(BUCK), "--param", "D=0.5", "--workers", "0", "-q", "--stop", "20u"]
+    assert main([*base, "--signals", "v(out)"]) == 1
+    assert "error: --signals: signals select the waveforms kept" in capsys.readouterr().err
+    assert main([*base, "--waveforms", str(a_file)]) == 1
+    assert f"error: {a_file}: cannot write {a_file}: not a folder" in capsys.readouterr().err
+    assert a_file.read_text() == ""
+
+
+def test_a_negative_seed_is_refused_before_the_run():
+    # before: every point failed with "internal error: ValueError: the seed and the point index
+    # are non-negative integers"
+    with pytest.raises(CircuitError, match="seed=-1 must be a non-negative integer"):
+        circuitnsds.sweep(BUCK, {"D": [0.5]}, seed=-1, workers=0, stop=20e-6)
+
+
 def test_points_need_no_file_includes_are_shipped_resolved(tmp_path):
     (tmp_path / "models.lib").write_text(".model dfree D(Ron=1m)\n.param Rl=5\n")
     netlist = tmp_path / "top.cir"
@@ -584,6 +611,64 @@ def test_cli_run_on_a_step_netlist_is_a_sweep_and_fails_with_the_failed_points(t
 
     written = pd.read_csv(tmp_path / "t.csv", keep_default_na=False)
     assert list(written["status"]) == ["ok", "failed", "ok"] and "no solution" in written["error"][1]
+
+
+def test_cli_run_on_a_step_netlist_refuses_every_option_that_has_no_table_meaning(tmp_path, capsys):
+    # before: --events, --losses, --tstart, --tstop, --every, --mark-events and --ascii were
+    # dropped without a word on a netlist whose .step lines make `run` a sweep (exit 0)
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".tran 1u 10u\n.end\n")
+    base = ["run", str(path), "--workers", "0", "-q", "-o", str(tmp_path / "t.csv")]
+    for option in (["--events", str(tmp_path / "e.csv")], ["--losses"], ["--tstart", "1u"],
+                   ["--tstop", "5u"], ["--every", "2"], ["--mark-events"], ["--ascii"],
+                   ["-r", str(tmp_path / "t.raw")], ["--uic"]):
+        assert main([*base, *option]) == 1, option
+        err = capsys.readouterr().err
+        assert f"error: {path}: {option[0]}" in err and "not available when .step lines make" in err
+    assert not (tmp_path / "t.csv").exists()
+    assert main([*base, "--measure", "mean(i(r1))"]) == 0
+
+
+def test_cli_table_to_standard_output_with_dash(tmp_path, capsys, monkeypatch):
+    # before: `-o -` wrote the table to a file named "-" in the current folder
+    from circuitnsds.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".tran 1u 10u\n.end\n")
+    for argv in (["run", str(path)], ["sweep", str(path), "--param", "R=1,2"]):
+        assert main([*argv, "--workers", "0", "-q", "--measure", "mean(i(r1))", "-o", "-"]) == 0
+        captured = capsys.readouterr()
+        assert captured.out.splitlines() == ["R,mean(i(r1)),status,error,warnings", "1,1,ok,,",
+                                             "2,0.5,ok,,"]
+        assert "mean(i(r1))" in captured.err  # the table for people, on stderr
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["stepped.cir"]
+
+
+def test_cli_run_on_a_step_netlist_obeys_strict_and_prints_each_warning_whole(tmp_path, capsys):
+    # before: --strict was ignored (the points' warnings printed, exit 0, table written), and a
+    # warning holding "; " was cut in two lines (the points' warnings were joined with "; ")
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "stepped.cir"
+    path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
+                    ".print tran v(a)\n.tran 1u 10u\n.end\n")
+    base = ["run", str(path), "--workers", "0", "-q", "--measure", "mean(i(r1))", "-o",
+            str(tmp_path / "t.csv")]
+    assert main(base) == 0
+    err = capsys.readouterr().err
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].endswith("choose columns with --signals or .save): "
+                                                     ".print tran v(a)")
+    (tmp_path / "t.csv").unlink()
+    assert main([*base, "--strict"]) == 1
+    err = capsys.readouterr().err
+    assert "error: the warnings above are errors under --strict" in err
+    assert not (tmp_path / "t.csv").exists()
 
 
 def test_cli_monte_carlo_histogram(tmp_path):

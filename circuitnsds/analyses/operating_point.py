@@ -66,6 +66,7 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     check_source_loops(circuit.elements, operating_point=True)
     check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
     _warn_unused_element_ics(circuit)
+    integrate.source_values(mlcs, np.zeros(1))  # a source that is not finite at t = 0, named
     states = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
     seen: list[bytes] = []
     while True:

@@ -221,8 +221,16 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
         raise CircuitError(f"the step ({step:g} s) must lie in (0, period = {period:g} s]",
                            where=circuit.file)
     tol = tol if tol is not None else (spec.tol if spec is not None and spec.tol else DEFAULT_TOL)
-    max_iterations = max_iterations or (spec.iterations if spec is not None and spec.iterations
-                                        else DEFAULT_ITERATIONS)
+    if max_iterations is None:  # 0 is a choice: no Newton step, transient periods only
+        max_iterations = spec.iterations if spec is not None and spec.iterations else DEFAULT_ITERATIONS
+    for name, option, value, least in (("tol", "--tol", tol, None),
+                                       ("max_iterations", "--max-iterations", max_iterations, 0),
+                                       ("periods_warmup", "--warmup", periods_warmup, 0)):
+        if not (value > 0 and math.isfinite(value) if least is None else value >= least):
+            raise CircuitError(f"{name} = {value:g} must be "
+                               f"{'positive' if least is None else f'{least} or more'}",
+                               where=circuit.file, hint=f"{option} on the command line; see "
+                               "docs/pss.md for its meaning")
     if spec is not None and spec.stabilisation and periods_warmup == 0:
         periods_warmup = math.ceil(spec.stabilisation / period - 1e-9)
     uic = uic if uic is not None else ((spec.uic if spec is not None else False)
@@ -232,15 +240,21 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
     defaults = (tran.source_defaults if tran is not None
                 else SourceDefaults(step, t0 + (periods_warmup + 1) * period))
     mlcs = circuit.mlcs(defaults)
-    grid = _period_grid(mlcs, step, t0, period)
+    start_time = t0 + periods_warmup * period
+    try:  # both grids before any work: a period or warm-up of too many steps is an error
+        grid = _period_grid(mlcs, step, t0, period)
+        whole = _whole_grid(mlcs, step, start_time) if start_time > 0 else None
+    except ValueError as exc:
+        raise CircuitError(str(exc), where=circuit.file,
+                           hint="check the period, the step and the warm-up periods (--period, "
+                           "--step, --warmup)") from None
 
     check_initial_conditions(circuit, circuit._resolved(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
-    start_time = t0 + periods_warmup * period
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
     try:
         if start_time > 0:  # into the periodic regime (and the warm-up periods)
-            run = integrate(mlcs, _whole_grid(mlcs, step, start_time), y, charge, None, active, switches)
+            run = integrate(mlcs, whole, y, charge, None, active, switches)
             y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
         shooter = _Shooter(circuit, mlcs, grid, period, tol)
         result = shooter.solve(y, charge, active, switches, max_iterations)

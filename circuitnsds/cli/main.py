@@ -105,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ac = commands.add_parser("ac", help="small-signal AC (Bode) at the operating point or around "
                              "the periodic steady state")
-    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect)")
+    ac.add_argument("netlist", type=Path, help="SPICE netlist (ngspice dialect); - reads it from "
+                    "standard input (the Bode table then goes to standard output)")
     ac.add_argument("--input", metavar="SOURCE",
                     help="the source whose value is perturbed, as named in the netlist: a supply "
                     "(line-to-output), a current source at the output (output impedance), the "
@@ -216,6 +217,10 @@ def main(argv: list[str] | None = None) -> int:
         if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
             warnings.filterwarnings("error", category=NetlistWarning)
         try:
+            if args.command in ("compare", "sweep") and str(args.netlist) == "-":
+                raise CircuitnsdsError(f"{args.command} reads a netlist file, not standard input",
+                                       where="-", hint="save the netlist to a file (run, pss, ac "
+                                       "and info read standard input)")
             if args.command == "compare":
                 from circuitnsds.compare.cli import run_compare
 
@@ -299,13 +304,20 @@ def _shown(written: list[Path]) -> str:
 def _prepare(args: argparse.Namespace, builder=None):
     """Read the netlist (unless ``builder`` has read it) and check what can be checked before
     a long run (``run``, ``pss``)."""
+    if args.ascii and not args.raw:  # an option that qualifies an output not asked for
+        raise OutputError("--ascii is the format of the raw file, and no -r is given",
+                          where="--ascii", hint="add -r out.raw, or leave --ascii out")
+    if args.signals is not None and not _signal_names(args.signals):
+        raise OutputError(f"--signals {args.signals!r} names no signal", where="--signals",
+                          hint='list them, e.g. --signals "v(out),i(l1)"; leave --signals out for all')
+    if args.mark_events and not (args.plot or args.show):
+        raise OutputError("--mark-events draws on the figure, and neither --plot nor --show is given",
+                          where="--mark-events", hint="add --plot out.png, or use --events out.csv "
+                          "for the switching instants")
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
     # before a long run: never over the netlist, a file it includes, or another output
-    check_outputs(outputs, [circuit.file, *circuit.included])
-    if str(outputs.get("-r")) == "-" or str(outputs.get("--plot")) == "-":
-        raise OutputError("only the CSV (-o -) can go to standard output", where="-r/--plot",
-                          hint="give -r and --plot file names")
+    check_outputs(outputs, [circuit.file, *circuit.included], stdout=("-o",))
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -405,12 +417,11 @@ def _ac(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from circuitnsds import read_netlist
     from circuitnsds.errors import CircuitError
     from circuitnsds.output.bode import plot_bode, write_bode_csv
     from circuitnsds.specs import AcSpec
 
-    circuit = read_netlist(args.netlist)
+    circuit = _read(args.netlist)
     spec = circuit.analyses.get("ac")
     start = args.fstart if args.fstart is not None else (spec.start if spec else None)
     stop = args.fstop if args.fstop is not None else (spec.stop if spec else None)
@@ -429,10 +440,15 @@ def _ac(args: argparse.Namespace) -> int:
             raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
                                "(the injection source)", where="--loop-gain")
         outputs = list(dict.fromkeys([*(outputs or []), *loop]))
-    bode_outputs = {"-o": args.csv or Path(args.netlist.stem + "_ac.csv")}
+    stdin = str(args.netlist) == "-"
+    bode_outputs = {"-o": args.csv or Path("-" if stdin else args.netlist.stem + "_ac.csv")}
     if args.plot:
         bode_outputs["--plot"] = args.plot
-    check_outputs(bode_outputs, [circuit.file, *circuit.included])  # never over the netlist
+    check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
+    if args.plot:  # an unknown figure format before the analysis, not after it
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
     started = time.perf_counter()
     result = circuit.ac(args.input, outputs, sweep.frequencies(), around=args.around)
     seconds = time.perf_counter() - started
@@ -445,10 +461,11 @@ def _ac(args: argparse.Namespace) -> int:
         marks["loop"] = (crossover, margin)
         print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
               f"{margin:.4g} deg" if np.isfinite(crossover) else
-              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep", flush=True)
+              f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep",
+              file=sys.stderr if str(bode_outputs["-o"]) == "-" else sys.stdout, flush=True)
     written = [bode_outputs["-o"]]
     with _writing(written[0]):
-        write_bode_csv(result, written[0])
+        write_bode_csv(result, sys.stdout if str(written[0]) == "-" else written[0])
     if args.plot:
         with _writing(args.plot):
             plot_bode(result, args.plot, marks)
@@ -466,23 +483,24 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None)
     here), print the measurements and the summary, show the figure."""
     names, written = _write_outputs(args, waves if stream is not None else _selected(args, waves),
                                     stream)
+    report = sys.stderr if "-" in map(str, written) else sys.stdout  # stdout holds the CSV alone
     if args.measure:
         from circuitnsds.output.measure import evaluate, format_table
 
         table = format_table([evaluate(expression, waves, circuit) for expression in args.measure])
-        print(table, file=sys.stderr if "-" in map(str, written) else sys.stdout, flush=True)
+        print(table, file=report, flush=True)
     if getattr(args, "losses", None) is not None:
         from circuitnsds.output.measure import losses
 
         loads = tuple(name.strip() for name in args.losses.split(",") if name.strip())
-        print(losses(waves, circuit, outputs=loads).format(), flush=True)
+        print(losses(waves, circuit, outputs=loads).format(), file=report, flush=True)
     if circuit.measurements or circuit.fourier:  # printed as ngspice prints them
         from circuitnsds.output.meas import fourier, run_measurements
 
         for result in run_measurements(circuit.measurements, waves):
-            print(result.line, flush=True)
+            print(result.line, file=report, flush=True)
         for spec in circuit.fourier:
-            print(fourier(spec, waves), flush=True)
+            print(fourier(spec, waves), file=report, flush=True)
     if not args.quiet:
         print(f"circuitnsds: {summary}; wrote {_shown(written)}", file=sys.stderr)
     if args.show:
@@ -502,7 +520,8 @@ def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) ->
     elif partial is None or partial.time.size == 0:
         if stream is not None:
             stream.abort()
-        print(f"circuitnsds: no results to write ({when} before the first step)", file=sys.stderr)
+        print("circuitnsds: no results to write (the run stopped before its first step)",
+              file=sys.stderr)
         return
     else:
         last = partial.time[-1]
@@ -570,8 +589,10 @@ def _selected(args: argparse.Namespace, waves):
         return waves
     signals = {name: np.asarray(waves[name])[index] for name in waves.names}
     signals.update({name: values[index] for name, values in extra.items()})
+    first, last = time[index[0]], time[index[-1]]  # the switchings in the window, all of them
     return Waveforms(time[index], signals, title=waves.title, stats=waves.stats,
-                     residual=None if waves.residual is None else waves.residual[index])
+                     residual=None if waves.residual is None else waves.residual[index],
+                     events=[event for event in waves.events if first <= event[0] <= last])
 
 
 def _write_outputs(args: argparse.Namespace, waves,
@@ -631,8 +652,10 @@ def _info(args: argparse.Namespace) -> int:
         return 1
     if args.matrices:
         check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included])
-        with _writing(args.matrices):
-            circuit.mlcs().save(args.matrices)
+        from circuitnsds.output.files import atomic_path
+
+        with _writing(args.matrices), atomic_path(args.matrices) as temporary:
+            circuit.mlcs().save(temporary)
         print(f"matrices saved to {args.matrices}")
     return 0
 

@@ -93,9 +93,12 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
 
     netlist = builder.netlist
     check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot))
-                   if path}, [netlist.file, *netlist.included])  # never over the netlist
-    if args.plot:
-        from circuitnsds.output import sweep_plot  # noqa: F401  (matplotlib present before the run)
+                   if path}, [netlist.file, *netlist.included], stdout=("-o",))  # not over the netlist
+    if args.plot:  # matplotlib present and the figure format known, before the run
+        from circuitnsds.output import sweep_plot  # noqa: F401
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
     progress = CountBar(sys.stderr, enabled=False if args.quiet else None)
     try:
         table = sweep(builder, params, samples=getattr(args, "samples", None), measure=args.measure,
@@ -107,8 +110,18 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         progress.close()
     parameters = [c for c in table.columns if c not in (*args.measure, "status", "error", "warnings",
                                                         "file")]
+    warned = list(dict.fromkeys(m for text in table["warnings"] if text for m in text.split("\n")))
+    if getattr(args, "strict", False) and warned:  # run --strict: nothing written
+        for message in warned:
+            print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
+        print("circuitnsds: error: the warnings above are errors under --strict", file=sys.stderr)
+        return 1
     written = []
-    if args.output:
+    to_stdout = str(args.output) == "-"  # the CSV alone on stdout, the table for people on stderr
+    if to_stdout:
+        table.to_csv(sys.stdout, index=False, float_format="%.10g")
+        sys.stdout.flush()
+    elif args.output:
         from circuitnsds.output.files import atomic_path, writing
 
         with writing(args.output), atomic_path(args.output) as temporary:
@@ -117,8 +130,9 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     shown = table.drop(columns=[c for c in ("warnings", "file") if c in table.columns])
     if not (table["error"] != "").any():
         shown = shown.drop(columns=["status", "error"])
-    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"), flush=True)
-    for message in dict.fromkeys(m for text in table["warnings"] if text for m in text.split("; ")):
+    print(shown.to_string(index=False, float_format=lambda v: f"{v:.6g}"),
+          file=sys.stderr if to_stdout else sys.stdout, flush=True)
+    for message in warned:
         print(f"circuitnsds: warning (in some points): {message}", file=sys.stderr)
     if args.plot:
         from circuitnsds.output.files import writing
@@ -142,10 +156,15 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
 def run_steps(args: argparse.Namespace, builder=None) -> int:
     """``circuitnsds run`` on a netlist with ``.step`` lines: the sweep they describe, the
     ``run`` options that make sense for a table (``-o`` is the table's CSV)."""
-    if args.raw or args.show or args.uic:
-        used = [name for name, on in (("-r/--raw", args.raw), ("--show", args.show), ("--uic", args.uic))
-                if on]
+    used = [name for name, on in (("-r", args.raw), ("--ascii", args.ascii), ("--show", args.show),
+                                  ("--uic", args.uic), ("--events", args.events),
+                                  ("--mark-events", args.mark_events), ("--losses", args.losses is not None),
+                                  ("--tstart", args.tstart is not None),
+                                  ("--tstop", args.tstop is not None), ("--every", args.every != 1))
+            if on]
+    if used:  # options about one run's waveforms: a sweep writes a table
         raise CircuitError(f"{', '.join(used)}: not available when .step lines make `run` a sweep",
-                           where=str(args.netlist), hint="use circuitnsds sweep (see --help), or add "
-                           "UIC to the .tran line")
+                           where=str(args.netlist), hint="the sweep writes one row per point (-o, "
+                           "--plot, --measure); for one point's waveforms use circuitnsds sweep "
+                           "--waveforms DIR; for UIC add it to the .tran line")
     return run_sweep(args, builder)

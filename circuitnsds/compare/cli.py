@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
-from circuitnsds.output.files import writing
+from circuitnsds.output.files import atomic_path, writing
 from circuitnsds.values import parse_value
 
 
@@ -78,6 +78,25 @@ def convergence_path(plot: Path) -> Path:
     return plot.with_name(f"{plot.stem}-convergence{plot.suffix or '.png'}")
 
 
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Before both runs: no output over the netlist, a file it includes or another output,
+    and a figure format that exists."""
+    from circuitnsds.frontend.build import CircuitBuilder
+    from circuitnsds.output.files import check_outputs
+
+    outputs = {option: path for option, path in (("--json", args.json), ("--plot", args.plot)) if path}
+    if args.plot and args.n and len(args.n) > 1:
+        outputs["--plot (convergence)"] = convergence_path(args.plot)
+    if not outputs:
+        return
+    netlist = CircuitBuilder.load(args.netlist).netlist
+    check_outputs(outputs, [netlist.file, *netlist.included])
+    if args.plot:
+        from circuitnsds.output.plot import plot_format
+
+        plot_format(args.plot)
+
+
 def run_compare(args: argparse.Namespace) -> int:
     """Run the comparison described by the parsed arguments; print the table."""
     from circuitnsds.compare.api import compare
@@ -85,23 +104,24 @@ def run_compare(args: argparse.Namespace) -> int:
     signals = None
     if args.signals:
         signals = [name.strip() for name in args.signals.split(",") if name.strip()]
+    _check_outputs(args)
     comparison = compare(args.netlist, signals=signals, window=args.window, n=args.n, is_=args.is_,
                          rs=args.rs, cjo=args.cjo, step=args.step, stop=args.stop,
                          theta=args.theta, ngspice_options=args.ngspice_options)
     print(comparison.table(), flush=True)
     written = []
-    if args.json:
-        with writing(args.json, CompareError):
-            comparison.to_json(args.json)
+    if args.json:  # each file all or nothing, as every output of the command
+        with writing(args.json, CompareError), atomic_path(args.json) as temporary:
+            comparison.to_json(temporary)
         written.append(args.json)
     if args.plot:
-        with writing(args.plot, CompareError):
-            comparison.plot(args.plot)
+        with writing(args.plot, CompareError), atomic_path(args.plot) as temporary:
+            comparison.plot(temporary)
         written.append(args.plot)
         if len(comparison.runs) > 1 and all(run.overrides.n is not None for run in comparison.runs):
             path = convergence_path(args.plot)
-            with writing(path, CompareError):
-                comparison.plot_convergence(path)
+            with writing(path, CompareError), atomic_path(path) as temporary:
+                comparison.plot_convergence(temporary)
             written.append(path)
     if written:
         print(f"circuitnsds: wrote {', '.join(map(str, written))}", file=sys.stderr)

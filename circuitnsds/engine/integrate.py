@@ -559,7 +559,7 @@ class _Stepping:
         a run continued in segments builds each of them once (see :class:`Segments`)."""
         mlcs, theta = self.mlcs, self.theta
         self.grid = grid
-        self.sources = _source_values(mlcs, grid, None if buffers is None else _work(
+        self.sources = source_values(mlcs, grid, None if buffers is None else _work(
             buffers, "sources", (grid.size, len(mlcs.stimuli)), float, zero=False))
         self.base_class = classes
         self.scheduled, self.schedule, self.sched_state = _switch_schedule(
@@ -994,7 +994,7 @@ def _ranks(table: np.ndarray, values: np.ndarray) -> np.ndarray:
     return ranks
 
 
-def _source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def source_values(mlcs: MLCS, grid: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """Every source's value at every grid point, shape ``(N, number of sources)`` (written
     into ``out`` when given)."""
     values = np.empty((grid.size, len(mlcs.stimuli))) if out is None else out

@@ -103,7 +103,18 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
         last = netlist.statements[-1].location.line if netlist.statements else 1
         warn_at(SourceLocation(netlist.file, last),
                 "the netlist has no .end line; read to the end of the file")
+    title_word = netlist.title.split(None, 1)[0].lower() if netlist.title.strip() else ""
+    if title_word in TITLE_LIKE_COMMANDS:
+        warn_at(SourceLocation(netlist.file, 1), "the first line is the title and is not read, as in "
+                f"SPICE: {netlist.title!r}; put a title line above it")
     return circuit
+
+
+TITLE_LIKE_COMMANDS = frozenset({
+    ".tran", ".include", ".inc", ".lib", ".model", ".param", ".subckt", ".options", ".option",
+    ".ic", ".save", ".meas", ".measure", ".four", ".pss", ".ac", ".step", ".func", ".global"})
+"""Commands that, on the first line, are the netlist's title and not read (a warning says so);
+``.title`` and any other first line are titles without a word."""
 
 
 def _element(statement: Statement, models: dict[str, object],

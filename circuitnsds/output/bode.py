@@ -10,14 +10,19 @@ from circuitnsds.output.files import atomic_path
 from circuitnsds.output.plot import save_figure
 
 
-def write_bode_csv(result, path: str | Path) -> None:
-    """CSV: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg] per output."""
+def write_bode_csv(result, path) -> None:
+    """CSV: ``frequency`` [Hz], then ``mag(OUT)`` [dB] and ``phase(OUT)`` [deg] per output;
+    ``path`` a file name (written all or nothing) or an open text stream (``sys.stdout``)."""
     names = list(result.transfer)
     columns = [result.frequencies]
     header = ["frequency"]
     for name in names:
         columns += [result.magnitude_db(name), result.phase_deg(name)]
         header += [f"mag({name})", f"phase({name})"]
+    if hasattr(path, "write"):
+        np.savetxt(path, np.column_stack(columns), delimiter=",", header=",".join(header),
+                   comments="", fmt="%.10g")
+        return
     with atomic_path(path) as temporary:
         np.savetxt(temporary, np.column_stack(columns), delimiter=",", header=",".join(header),
                    comments="", fmt="%.10g")

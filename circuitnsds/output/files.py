@@ -75,14 +75,22 @@ def same_file(first: Path, second: Path) -> bool:
     return os.path.realpath(first) == os.path.realpath(second)
 
 
-def check_outputs(outputs: Mapping[str, Path], inputs: Iterable[str | Path]) -> None:
-    """Raise :class:`OutputError` if an output is an input or two outputs are one file.
+def check_outputs(outputs: Mapping[str, Path], inputs: Iterable[str | Path],
+                  stdout: Iterable[str] = ()) -> None:
+    """Raise :class:`OutputError` if an output is an input, two outputs are one file, or
+    an output other than those of ``stdout`` is ``-`` (standard output).
 
     Args:
-        outputs: option -> path (``{"-o": Path("out.csv"), "--plot": ...}``); ``-``
-            (standard output) is exempt.
+        outputs: option -> path (``{"-o": Path("out.csv"), "--plot": ...}``).
         inputs: the netlist and every file it includes.
+        stdout: the options whose ``-`` means standard output (a text table: ``("-o",)``).
     """
+    allowed = set(stdout)
+    for label, path in outputs.items():
+        if str(path) == "-" and label not in allowed:
+            which = f"only {', '.join(sorted(allowed))} can" if allowed else "no output of this command can"
+            raise OutputError(f"{label} cannot go to standard output ('-')", where=label,
+                              hint=f"give {label} a file name ({which} be '-')")
     files = {label: Path(path) for label, path in outputs.items() if str(path) != "-"}
     sources = [Path(p) for p in inputs if str(p) not in {"-", "<text>", "<stdin>"}]
     for label, path in files.items():

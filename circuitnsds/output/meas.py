@@ -213,10 +213,28 @@ def fourier_coefficients(waves: Waveforms, signal: str, frequency: float,
 
 
 def fourier(spec, waves: Waveforms) -> str:
-    """ngspice-style Fourier table of each output over the last period of the run."""
+    """ngspice-style Fourier table of each output over the last period of the run.
+
+    Raises:
+        MeasurementError: at the ``.four`` line: an unknown signal, or a run shorter than
+            one period of the fundamental.
+    """
+    from circuitnsds.units import format_si
+
+    where = str(spec.location or ".four")
+    span = float(waves.time[-1] - waves.time[0])
+    if span < (1 - 1e-9) / spec.frequency:
+        raise MeasurementError(
+            f"the run ({format_si(float(waves.time[0]), 's')} .. {format_si(float(waves.time[-1]), 's')}) "
+            f"is shorter than one period of the fundamental ({format_si(spec.frequency, 'Hz')}: "
+            f"{format_si(1 / spec.frequency, 's')})", where=where,
+            hint="simulate at least one period (the table is of the last one)")
     blocks = []
     for signal in spec.signals:
-        dc, magnitudes, phases = fourier_coefficients(waves, signal, spec.frequency)
+        try:
+            dc, magnitudes, phases = fourier_coefficients(waves, signal, spec.frequency)
+        except MeasurementError as exc:
+            raise MeasurementError(exc.message, where=where, hint=exc.hint) from None
         fundamental = magnitudes[0]
         thd = (math.sqrt(float(np.sum(magnitudes[1:] ** 2))) / fundamental * 100
                if fundamental else math.nan)

@@ -199,6 +199,9 @@ def harmonics(source, signal, frequency: float, t0=None, t1=None, *, count: int 
     if not frequency > 0:
         raise MeasurementError(f"fundamental frequency {frequency:g} Hz must be positive",
                                where="measure")
+    if count is not None and not count >= 1:
+        raise MeasurementError(f"count={count} must be at least 1", where="measure",
+                               hint="count is the highest harmonic, 1 the fundamental")
     period = 1.0 / frequency
     t, y = window(source, signal, t0, t1, period=period)
     periods = int(round((t[-1] - t[0]) / period))
@@ -221,6 +224,9 @@ def thd(source, signal, frequency: float, t0=None, t1=None, *, count: int | None
     fundamental at ``frequency`` [Hz]. A pure sine gives 0, a square wave
     ``sqrt(π²/8 - 1) ≈ 0.483``. ngspice's ``.four`` counts only harmonics 2 to 9.
     """
+    if count is not None and not count >= 2:
+        raise MeasurementError(f"count={count} leaves no harmonic to measure", where="measure",
+                               hint="count is the highest harmonic counted, at least 2 (default: all)")
     a = harmonics(source, signal, frequency, t0, t1, count=count,
                   samples_per_period=samples_per_period)
     if not a[1] > 1e-6 * max(np.abs(a[1:]).max(), 1e-300):  # below: interpolation noise
@@ -321,7 +327,11 @@ def parse_measurement(expression: str) -> ParsedMeasurement:
                                    hint=f"write {name}({pattern})")
         try:
             if equals:
-                keywords[key] = _KEYWORDS[key](parse_value(value))
+                number = parse_value(value)
+                if _KEYWORDS[key] is int and number != int(number):
+                    raise MeasurementError(f"{key}={value.strip()} is not a whole number",
+                                           where=where, hint=f"write {name}({pattern})")
+                keywords[key] = _KEYWORDS[key](number)
             else:
                 numbers.append(parse_value(argument))
         except ValueError:

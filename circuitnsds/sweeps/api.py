@@ -16,6 +16,7 @@ from pathlib import Path
 from circuitnsds.errors import CircuitError
 from circuitnsds.frontend.build import CircuitBuilder
 from circuitnsds.netlist.steps import Step, StepSyntaxError, grid, linear_values, steps_from_mapping
+from circuitnsds.output.files import OutputError, writing
 from circuitnsds.output.measure import parse_measurement
 from circuitnsds.sweeps.task import Job, Point, check_analysis
 
@@ -107,10 +108,23 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
         raise CircuitError(f"the netlist neither defines nor uses the swept parameter(s) "
                            f"{', '.join(unknown)}", hint="check the spelling (names are case-insensitive)")
     seed = int(seed) if seed is not None else builder.default_seed
+    if seed < 0:
+        raise CircuitError(f"seed={seed} must be a non-negative integer", where="--seed",
+                           hint="any integer from 0 up; the same seed draws the same points")
     options = {key: value for key, value in (("step", step), ("stop", stop), ("theta", theta),
                                              ("uic", uic)) if value is not None}
     check_analysis(analysis, options)
+    if signals and not keep_waveforms:
+        raise CircuitError("signals select the waveforms kept, and none are kept", where="--signals",
+                           hint="keep them: keep_waveforms=True or a folder (sweep --waveforms DIR); "
+                           "or leave the signals out (a sweep's table holds measurements only)")
     directory = None if isinstance(keep_waveforms, bool) else Path(keep_waveforms)
+    if directory is not None:  # before the run, not after it
+        with writing(directory):
+            if directory.exists() and not directory.is_dir():
+                raise OutputError(f"cannot write {directory}: not a folder", where=str(directory),
+                                  hint="--waveforms (keep_waveforms) names a folder, made if missing")
+            directory.mkdir(parents=True, exist_ok=True)
     job = Job(builder.source(), analysis, options, tuple(measure),
               tuple(signals) if signals else None, bool(keep_waveforms))
     points = [Point(index, values, seed) for index, values in enumerate(grid(steps))]
@@ -124,12 +138,12 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
         "warnings": [row["warnings"] for row in rows],
     })
     if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
         files = []
         for row in rows:
             path = directory / f"point_{row['index']:04d}.csv"
             if row["waveforms"] is not None:
-                row["waveforms"].to_csv(path)
+                with writing(path):
+                    row["waveforms"].to_csv(path)
                 files.append(str(path))
             else:
                 files.append("")

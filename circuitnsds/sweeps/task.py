@@ -90,7 +90,7 @@ def run_point(job: Job, point: Point) -> dict:
 
     Returns:
         ``{"index", "params", "values" (measurement -> float), "status" ("ok" or "failed"),
-        "error" (message or ""), "warnings" (messages joined by "; "), "seconds" (wall time),
+        "error" (message or ""), "warnings" (messages, one a line), "seconds" (wall time),
         "cpu_seconds" (CPU time of the process while it ran: less than "seconds" when other
         work shares the cores),
         "waveforms" (kept waveforms or None)}``.
@@ -118,6 +118,6 @@ def run_point(job: Job, point: Point) -> dict:
             status, error, waves = "failed", f"internal error: {type(exc).__name__}: {exc}", None
     messages = list(dict.fromkeys(str(w.message) for w in caught))
     return {"index": point.index, "params": point.params, "values": values, "status": status,
-            "error": error, "warnings": "; ".join(messages), "seconds": time.perf_counter() - started,
+            "error": error, "warnings": "\n".join(messages), "seconds": time.perf_counter() - started,
             "cpu_seconds": time.process_time() - cpu,
             "waveforms": waves if job.keep_waveforms else None}

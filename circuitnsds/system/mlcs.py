@@ -186,15 +186,12 @@ class MLCS:
         return (self.Y_out @ np.asarray(y).T + self.L_out @ np.asarray(current).T).T
 
     def save(self, path: str | Path) -> None:
-        """Write every matrix and name to a ``.npz`` file (dense arrays, readable with numpy)."""
+        """Write every matrix and name to a ``.npz`` file (dense arrays, readable with numpy)
+        named exactly ``path`` (numpy's own ``savez`` would append ``.npz`` to another name)."""
         arrays = {name: getattr(self, name).toarray() for name in ("E", "A", "B", "C", "D", "S")}
-        np.savez(
-            path,
-            **arrays,
-            e=self.e,
-            unknowns=np.array(self.unknowns),
-            pairs=np.array(self.pairs),
-        )
+        with open(path, "wb") as file:
+            np.savez(file, **arrays, e=self.e, unknowns=np.array(self.unknowns),
+                     pairs=np.array(self.pairs))
 
     def __str__(self) -> str:
         lines = [

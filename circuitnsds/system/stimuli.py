@@ -80,9 +80,13 @@ class Sin:
         if t <= self.delay:
             return self.offset + self.amplitude * math.sin(phase)
         tau = t - self.delay
-        return self.offset + self.amplitude * math.exp(-tau * self.damping) * math.sin(
-            2 * math.pi * self.frequency * tau + phase
-        )
+        try:
+            return self.offset + self.amplitude * math.exp(-tau * self.damping) * math.sin(
+                2 * math.pi * self.frequency * tau + phase
+            )
+        except (ValueError, OverflowError):  # a phase or a growth beyond the doubles: inf or
+            with np.errstate(all="ignore"):  # NaN as sample() gives, which the engine reports
+                return float(self.sample(np.array([t]))[0])
 
     def sample(self, times: np.ndarray) -> np.ndarray:
         """:meth:`value` at every instant of ``times`` [s]."""

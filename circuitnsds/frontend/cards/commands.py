@@ -269,6 +269,11 @@ def _initial_conditions(circuit: Circuit, reader: StatementReader) -> None:
             raise reader.error(".ic: expected v(node)=value")
         if node == "0":
             raise reader.error(".ic cannot set the ground node: it is 0 V by definition")
-        circuit.initial_voltages[node] = (reader.value(f".ic value of v({node})"), reader.location)
+        value = reader.value(f".ic value of v({node})")
+        earlier = circuit.initial_voltages.get(node)
+        if earlier is not None and earlier[0] != value:
+            reader.warn(f".ic v({node}) is given twice, {earlier[0]:g} (at {earlier[1]}) and "
+                        f"{value:g}: the last one is used")
+        circuit.initial_voltages[node] = (value, reader.location)
 
 

@@ -169,8 +169,9 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
     while not reader.done() and reader.peek() != ")":
         if not is_value(reader.peek()):
             if parenthesised:
+                options = " (PWL options r= and td= are not supported)" if kind == "pwl" else ""
                 raise reader.error(f"{name}: {kind.upper()} argument {reader.peek()!r} "
-                                   "is not a number (PWL options r= and td= are not supported)")
+                                   f"is not a number{options}")
             break
         args.append(reader.value(f"{kind.upper()} argument"))
     if parenthesised:
