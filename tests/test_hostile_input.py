@@ -109,6 +109,22 @@ def test_a_run_whose_results_cannot_fit_in_memory_is_refused_before_starting(mon
         circuit.transient()
 
 
+def test_a_periodic_steady_state_that_cannot_fit_in_memory_is_refused_before_starting(monkeypatch):
+    """pss kept no check: 1e6 steps per period peaked at 1 GB, 1e7 grew 25 MB/s until stopped."""
+    import circuitnsds.analyses.transient as transient
+    from circuitnsds.errors import CircuitError
+    monkeypatch.setattr(transient, "available_memory", lambda: 100 * 2**20)   # 100 MiB
+    circuit = circuit_from("V1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 1u\n.tran 1u 1m")
+    unknowns = circuit.mlcs().n
+    # 1,000,000 steps × 4 × (unknowns + 1 source value + 4 per-point numbers) × 8 bytes
+    expected = 4 * 1_000_001 * 8 * (unknowns + 5) / 2**30
+    with pytest.raises(CircuitError, match=rf"periodic steady state would take {expected:.3g} GiB "
+                       rf"\(1,000,000 steps per period, {unknowns} unknowns and 0 pairs\)"):
+        circuit.pss(period=1e-3, step=1e-9)
+    with pytest.raises(CircuitError, match=r"\(1,000 steps per period, warm-up 20,000,000 steps"):
+        circuit.pss(period=1e-3, step=1e-6, periods_warmup=20_000)   # the warm-up run: ~1 GB
+
+
 def test_reading_is_linear_in_the_number_of_elements():
     """Circuit.add once scanned every element (16k elements: 13.7 s). Counted, not timed:
     the element lookups a read makes do not grow with the circuit."""

@@ -23,10 +23,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.analyses.transient import _waveforms, advise
+from circuitnsds.analyses.transient import _waveforms, advise, refuse_beyond_memory
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.engine.integrate import integrate
+from circuitnsds.engine.integrate import integrate, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
@@ -248,6 +248,7 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the period, the step and the warm-up periods (--period, "
                            "--step, --warmup)") from None
+    _check_memory(circuit, mlcs, grid, whole)
 
     check_initial_conditions(circuit, circuit._resolved(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
@@ -255,7 +256,10 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
     try:
         if start_time > 0:  # into the periodic regime (and the warm-up periods)
             run = integrate(mlcs, whole, y, charge, None, active, switches)
-            y, charge, active, switches = run.y[-1], None, run.active[-1], run.switches[-1]
+            # copies: the warm-up's trajectory is freed before the period maps are built
+            y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
+            charge = None
+            del run
         shooter = _Shooter(circuit, mlcs, grid, period, tol)
         result = shooter.solve(y, charge, active, switches, max_iterations)
     except SimulationError as exc:
@@ -290,6 +294,28 @@ def _period_grid(mlcs: MLCS, step: float, t0: float, period: float) -> np.ndarra
 
 def _whole_grid(mlcs: MLCS, step: float, stop: float) -> np.ndarray:
     return time_grid(step, stop, mlcs.breakpoints(stop))
+
+
+PERIOD_MAP_BYTES = 4
+"""The period map's memory per step, in multiples of a run's per point
+(:func:`~circuitnsds.engine.integrate.trajectory_bytes`): the run through the period, each
+step's map and mode key, and the composition. Measured 2.5-3.2 (tracemalloc and resident
+memory, 1e5-4e5 steps per period, an RLC and the buck converter, 2026-11-23), with a margin."""
+
+
+def _check_memory(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, whole: np.ndarray | None) -> None:
+    """Refuse, before starting, a periodic steady state whose period maps (or warm-up run,
+    freed before them) cannot fit in memory."""
+    from circuitnsds.units import format_si
+
+    needed = max(PERIOD_MAP_BYTES * trajectory_bytes(mlcs, grid.size),
+                 trajectory_bytes(mlcs, whole.size) if whole is not None else 0)
+    warm_up = f", warm-up {whole.size - 1:,} steps" if whole is not None else ""
+    refuse_beyond_memory(
+        needed, "the periodic steady state",
+        f"{grid.size - 1:,} steps per period{warm_up}, {mlcs.n} unknowns and {mlcs.m} pairs", circuit,
+        hint=f"a longer step (--step; now {format_si(float(np.diff(grid).max()), 's')}), fewer "
+        "warm-up periods (--warmup), or a smaller circuit")
 
 
 class _Shooter:
@@ -385,10 +411,17 @@ class _Shooter:
         _, y, charge, active, switches = best
         grid = np.concatenate([self.grid[:-1] + j * self.period for j in range(periods)]
                               + [[self.grid[-1] + (periods - 1) * self.period]])
+        refuse_beyond_memory(
+            trajectory_bytes(self.mlcs, grid.size)
+            + PERIOD_MAP_BYTES * trajectory_bytes(self.mlcs, self.grid.size),
+            f"a fallback of {periods} transient periods", f"{grid.size - 1:,} steps, beside the "
+            "period maps", self.circuit, hint="a longer step (--step), or more warm-up periods "
+            "(--warmup) so that Newton needs no fallback")
         run = integrate(self.mlcs, grid, y, charge, None, active, switches)
         self.transient_periods += periods
-        # back to the first period's instants (the sources are periodic)
-        return run.y[-1], None, run.active[-1], run.switches[-1]
+        # back to the first period's instants (the sources are periodic); copies, so that the
+        # run's trajectory is freed
+        return run.y[-1].copy(), None, run.active[-1].copy(), run.switches[-1].copy()
 
     def _result(self, maps: StepMaps, phi: np.ndarray, residual: float, relative: float) -> PSSResult:
         run = maps.trajectory

@@ -427,15 +427,21 @@ def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray, signals: Sequence[st
         needed = trajectory_bytes(mlcs, grid.size)
     else:
         needed = 8 * grid.size * (len(signals) + 2) + 2 * SEGMENT_BYTES
+    refuse_beyond_memory(
+        needed, "the results", f"{grid.size:,} time points × {mlcs.n} unknowns and {mlcs.m} pairs",
+        circuit, hint=f"a longer step (now {format_si(float(np.diff(grid).max()), 's')}), a shorter "
+        ".tran, a smaller circuit, or fewer signals kept (--signals v(out))")
+
+
+def refuse_beyond_memory(needed: int, what: str, sizes: str, circuit: Circuit, hint: str) -> None:
+    """Raise :class:`CircuitError` when ``what`` would need more than :data:`MEMORY_SHARE`
+    of the memory available: ``needed`` [bytes], estimated from ``sizes`` (words for the
+    message). Nothing when the memory available is unknown."""
     available = available_memory()
     if available is None or needed <= MEMORY_SHARE * available:
         return
-    raise CircuitError(
-        f"the results would take {needed / 2**30:.3g} GiB ({grid.size:,} time points × "
-        f"{mlcs.n} unknowns and {mlcs.m} pairs), more than the {available / 2**30:.3g} GiB of memory "
-        "available", where=circuit.file,
-        hint=f"a longer step (now {format_si(float(np.diff(grid).max()), 's')}), a shorter .tran, "
-        "a smaller circuit, or fewer signals kept (--signals v(out))")
+    raise CircuitError(f"{what} would take {needed / 2**30:.3g} GiB ({sizes}), more than the "
+                       f"{available / 2**30:.3g} GiB of memory available", where=circuit.file, hint=hint)
 
 
 def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
