@@ -85,6 +85,20 @@ def test_a_signal_sitting_at_the_level_is_not_a_crossing_at_each_sample():
     assert math.isnan(meas("s WHEN v(a)=0", waves).value)
 
 
+
+def test_min_at_and_max_at_take_the_last_of_equal_extremes_as_ngspice():
+    # ngspice 39 (`ngspice -b` on V1 a 0 PWL(0 1 1m 0 3m 0 4m 1 5m 1 6m 0 8m 0 9m 1), .tran
+    # 0.1m 10m) prints MIN_AT v(a) = 8 ms and MAX_AT v(a) = 10 ms: of equal samples, the last
+    t = np.round(np.linspace(0, 10e-3, 101), 12)
+    x = np.interp(t, [0, 1e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 9e-3, 10e-3],
+                  [1, 0, 0, 1, 1, 0, 0, 1, 1])
+    waves = Waveforms(t, {"v(a)": x})
+    assert meas("a MIN_AT v(a)", waves).value == pytest.approx(8e-3)
+    assert meas("b MAX_AT v(a)", waves).value == pytest.approx(10e-3)
+    low = meas("c MIN v(a)", waves)
+    assert low.value == 0.0 and low.extra["at"] == pytest.approx(8e-3)
+
+
 def test_printed_like_ngspice(rc):
     assert meas("t50 WHEN v(out)=0.5", rc).line.startswith("t50                 =  6.93")
     assert " from=  0.000000e+00 to=  5.000000e-03" in meas("a AVG v(out) from=0 to=5m", rc).line

@@ -5,7 +5,8 @@ Supported (ngspice manual, "MEASUREMENTS"; semantics of ngspice 39's ``com_measu
 * ``.meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG|MIN_AT|MAX_AT OUT [FROM=t] [TO=t] [TD=t]``:
   AVG is the trapezoidal average over the grid points inside the window, RMS and INTEG
   integrate the piecewise-linear curve with the window's ends interpolated, MIN/MAX (and
-  their instants, MIN_AT/MAX_AT) are taken over the grid points inside the window; PP is
+  their instants, MIN_AT/MAX_AT: the last of equal ones, as ngspice) are taken over the
+  grid points inside the window; PP is
   MAX − MIN. ``TD`` moves the window's start (``max(FROM, TD)``).
 * ``.meas tran NAME WHEN OUT=VAL [RISE=n|FALL=n|CROSS=n|...=LAST] [TD=t] [FROM=t] [TO=t]``:
   the instant of that crossing (linear interpolation between grid points); ``OUT=OUT2``
@@ -154,7 +155,8 @@ def _run(spec, waves: Waveforms) -> MeasureResult:
                 value = math.sqrt(squares / (wt[-1] - wt[0]))
             extra = {"from": float(wt[0]), "to": float(wt[-1])}
             return MeasureResult(spec.name, value, _line(spec.name, value, **extra), extra)
-        low, high = int(np.argmin(v)), int(np.argmax(v))
+        # of equal extremes, the last (ngspice compares with <= and >=)
+        low, high = v.size - 1 - int(np.argmin(v[::-1])), v.size - 1 - int(np.argmax(v[::-1]))
         if kind == "pp":
             value = float(v[high] - v[low])
             extra = {"from": start, "to": stop}
