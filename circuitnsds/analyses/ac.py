@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.errors import CircuitError, SimulationError
+from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.specs import AcSpec
 from circuitnsds.system.stimuli import Dc, Pwl
 
@@ -119,9 +119,55 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
     else:
         from circuitnsds.engine.small_signal import periodic_response
 
+        _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
         values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
     return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
+
+
+DEGENERATE = 1e-8
+"""A pair whose gap ``|w|`` and current ``λ`` are both below this fraction of their largest
+values over the period has neither (:func:`_warn_one_sided`)."""
+
+ONE_SIDED_SHARE = 0.01
+"""Share of the period's steps above which a one-sided pair is warned about (a diode at the
+threshold for a step or two, where a sine crosses zero on the grid, changes little)."""
+
+
+def _warn_one_sided(circuit: Circuit, mlcs, maps, inputs: np.ndarray, frequencies: np.ndarray) -> None:
+    """Warn about each complementarity pair that, over more than :data:`ONE_SIDED_SHARE` of
+    the period, carries neither current nor voltage in the periodic steady state (a diode
+    blocking at exactly 0 V, its node held there by the rest of the circuit) while the
+    small-signal response would move it (:func:`~circuitnsds.engine.small_signal.one_sided_pairs`):
+    there a perturbation of one sign turns it on and of the other does not, so the response
+    is not linear and the transfer function (the modes kept) is not what a small sine gives."""
+    from circuitnsds.engine.small_signal import one_sided_pairs
+
+    trajectory = maps.trajectory
+    if not mlcs.pairs:
+        return
+    current = np.asarray(trajectory.current[1:], dtype=float)
+    C, D = mlcs.C.tocsr(), mlcs.D.tocsr()
+    gap = (C @ np.asarray(trajectory.y[1:], dtype=float).T + D @ current.T).T + mlcs.e
+    gap_scale = max(float(np.abs(gap).max(initial=0.0)), 1e-300)
+    current_scale = max(float(np.abs(current).max(initial=0.0)), 1e-300)
+    neither = ((np.abs(gap) <= DEGENERATE * gap_scale)
+               & (np.abs(current) <= DEGENERATE * current_scale))
+    if neither.sum(axis=0).max(initial=0) <= ONE_SIDED_SHARE * neither.shape[0]:
+        return
+    counts = one_sided_pairs(maps, inputs, frequencies, C, D, neither)
+    found = [f"{mlcs.pairs[j]} ({counts[j]} of {neither.shape[0]} steps)"
+             for j in np.flatnonzero(counts > ONE_SIDED_SHARE * neither.shape[0])]
+    if found:
+        import warnings
+
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: small-signal AC around the periodic steady state: "
+            f"{', '.join(found)} carry neither current nor voltage there, at the threshold of "
+            "conducting, and the perturbation moves them: one sign turns them on, the other does "
+            "not, so the response is not linear and the transfer function shown (each kept in "
+            "its state) is not what a small sine gives; give the node a defined bias (a "
+            "resistor to a source) or check with a sine-injection transient"), stacklevel=4)
 
 
 def _inputs(circuit: Circuit, mlcs, input: str | None) -> np.ndarray:

@@ -76,23 +76,17 @@ def operating_point_response(mlcs: MLCS, states: np.ndarray, active: np.ndarray,
     return result
 
 
-def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
-                      outputs: sp.csr_matrix, output_pairs: sp.csr_matrix) -> np.ndarray:
-    """Responses of each output (their Fourier coefficient at each frequency) to the sources'
-    phasors ``inputs`` around the periodic steady state whose one-period run is ``maps``,
-    shape ``(frequencies, outputs)``.
-
-    ``inputs``, ``outputs``, ``output_pairs`` as for :func:`operating_point_response`.
-    """
+def _periodic_steps(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray):
+    """``(k, full, active)`` for each step ``k`` of the period around the periodic steady state:
+    ``full`` the steady response ``[δy_{k+1}; δλ_α]`` to the sources' phasors ``inputs``, one
+    row per frequency, ``active`` the pairs of ``δλ_α`` (see :func:`periodic_response`)."""
     inputs = np.asarray(inputs, dtype=complex)
     time = maps.trajectory.time
     t0 = time[0]
     period = time[-1] - t0
     omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
-    phase = np.exp(1j * np.outer(omega, time - t0))  # e^{jω (t_k − t0)}, (F, N + 1)
     state = maps.state
     size = state.size
-    n = maps.trajectory.y.shape[1]
 
     def drive(k: int) -> np.ndarray:
         """``[δy_{k+1}; δλ_α]`` from the input alone (δx_k = 0), one row per frequency."""
@@ -112,18 +106,66 @@ def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarra
     ring = np.exp(1j * omega * period)
     for row in range(omega.size):
         start[row] = np.linalg.solve(ring[row] * np.eye(size) - phi, forced[row])
-    # second pass: every output's samples, summed into its Fourier coefficient at ω
-    weights = np.diff(time) / period
-    on_y, on_pairs = outputs.toarray().T, output_pairs.toarray().T
-    result = np.zeros((omega.size, outputs.shape[0]), dtype=complex)
+    # second pass: every step's response
     x = start
     for k in range(maps.steps):
         Y, _ = maps.full_map(k)
         full = x @ Y.T + drive(k)  # [δy_{k+1}; δλ_α], (F, n + a)
+        yield k, full, maps.active_pairs(k)
+        x = full[:, state]
+
+
+def periodic_response(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
+                      outputs: sp.csr_matrix, output_pairs: sp.csr_matrix) -> np.ndarray:
+    """Responses of each output (their Fourier coefficient at each frequency) to the sources'
+    phasors ``inputs`` around the periodic steady state whose one-period run is ``maps``,
+    shape ``(frequencies, outputs)``.
+
+    ``inputs``, ``outputs``, ``output_pairs`` as for :func:`operating_point_response`.
+    """
+    time = maps.trajectory.time
+    omega = 2 * np.pi * np.asarray(frequencies, dtype=float)
+    phase = np.exp(1j * np.outer(omega, time - time[0]))  # e^{jω (t_k − t0)}, (F, N + 1)
+    n = maps.trajectory.y.shape[1]
+    weights = np.diff(time) / (time[-1] - time[0])
+    on_y, on_pairs = outputs.toarray().T, output_pairs.toarray().T
+    result = np.zeros((omega.size, outputs.shape[0]), dtype=complex)
+    for k, full, active in _periodic_steps(maps, inputs, frequencies):
         values = full[:, :n] @ on_y
-        active = maps.active_pairs(k)
         if active.size:
             values += full[:, n:] @ on_pairs[active]
         result += (weights[k] * np.conj(phase[:, k + 1]))[:, None] * values
-        x = full[:, state]
     return result
+
+
+def one_sided_pairs(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
+                    gaps: sp.csr_matrix, gap_pairs: sp.csr_matrix, degenerate: np.ndarray,
+                    relative: float = 1e-6) -> np.ndarray:
+    """How many steps each pair is *degenerate* (``degenerate``, shape ``(steps, m)``: neither
+    current nor gap in the steady state) while the small-signal response moves the quantity
+    its mode holds at zero (an active pair's current, a blocking pair's gap ``w = C y + D λ
+    + e``: ``gaps``, ``gap_pairs`` are ``C`` and ``D``); shape ``(m,)``.
+
+    Such a pair is at the threshold of changing state: a perturbation of one sign drives that
+    quantity negative, which its mode cannot follow, so the response is one-sided there and
+    :func:`periodic_response` (the modes kept) is not the response of a small sine. "Moves":
+    above ``relative`` of the largest response of any unknown over the period."""
+    n = maps.trajectory.y.shape[1]
+    count = np.zeros(degenerate.shape[1], dtype=int)
+    if not degenerate.any():
+        return count
+    moves, scale = [], 1e-300
+    for k, full, active in _periodic_steps(maps, inputs, frequencies):
+        scale = max(scale, float(np.abs(full).max(initial=0.0)))
+        pairs = np.flatnonzero(degenerate[k])
+        if not pairs.size:
+            continue
+        current = np.zeros((full.shape[0], degenerate.shape[1]), dtype=complex)
+        current[:, active] = full[:, n:]
+        gap = full[:, :n] @ gaps.T.toarray() + current @ gap_pairs.T.toarray()
+        held = np.where(np.isin(pairs, active), np.abs(current[:, pairs]).max(axis=0),
+                        np.abs(gap[:, pairs]).max(axis=0))
+        moves.append((pairs, held))
+    for pairs, held in moves:
+        count[pairs[held > relative * scale]] += 1
+    return count

@@ -5,11 +5,14 @@ Supported (ngspice manual, "MEASUREMENTS"; semantics of ngspice 39's ``com_measu
 * ``.meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG|MIN_AT|MAX_AT OUT [FROM=t] [TO=t] [TD=t]``:
   AVG is the trapezoidal average over the grid points inside the window, RMS and INTEG
   integrate the piecewise-linear curve with the window's ends interpolated, MIN/MAX (and
-  their instants, MIN_AT/MAX_AT) are taken over the grid points inside the window; PP is
+  their instants, MIN_AT/MAX_AT: the last of equal ones, as ngspice) are taken over the
+  grid points inside the window; PP is
   MAX − MIN. ``TD`` moves the window's start (``max(FROM, TD)``).
 * ``.meas tran NAME WHEN OUT=VAL [RISE=n|FALL=n|CROSS=n|...=LAST] [TD=t] [FROM=t] [TO=t]``:
   the instant of that crossing (linear interpolation between grid points); ``OUT=OUT2``
-  compares two signals. Without RISE/FALL/CROSS: the first crossing.
+  compares two signals. Without RISE/FALL/CROSS: the first crossing. As in ngspice, a
+  sample equal to VAL counts as reaching it, so a stretch lying at VAL counts a crossing at
+  each sample; such a crossing has no instant and fails ("out of interval", as ngspice's).
 * ``.meas tran NAME FIND OUT AT=t`` and ``FIND OUT WHEN OUT2=VAL ...``: the value of OUT there;
   ``DERIV OUT AT=t`` / ``DERIV OUT WHEN ...``: its time derivative there (the slope of the
   grid segment that holds the instant).
@@ -80,7 +83,10 @@ def crossing_time(waves: Waveforms, condition) -> float:
                                                             and not falling):
             continue
         slope = v[k] - v[k - 1]
-        instant = t[k] if slope == 0 else t[k - 1] - v[k - 1] * (t[k] - t[k - 1]) / slope
+        # a segment lying at the level (both ends equal to it) is counted, as ngspice counts
+        # it, but has no crossing instant: ngspice's interpolation is 0/0 there, "out of
+        # interval" (placing it at t[k] put a crossing at every sample of a flat stretch)
+        instant = math.nan if slope == 0 else t[k - 1] - v[k - 1] * (t[k] - t[k - 1]) / slope
         found.append(float(instant))
         if condition.count in (0, len(found)):
             return found[-1]
@@ -149,7 +155,8 @@ def _run(spec, waves: Waveforms) -> MeasureResult:
                 value = math.sqrt(squares / (wt[-1] - wt[0]))
             extra = {"from": float(wt[0]), "to": float(wt[-1])}
             return MeasureResult(spec.name, value, _line(spec.name, value, **extra), extra)
-        low, high = int(np.argmin(v)), int(np.argmax(v))
+        # of equal extremes, the last (ngspice compares with <= and >=)
+        low, high = v.size - 1 - int(np.argmin(v[::-1])), v.size - 1 - int(np.argmax(v[::-1]))
         if kind == "pp":
             value = float(v[high] - v[low])
             extra = {"from": start, "to": stop}

@@ -443,6 +443,17 @@ class LossTable:
         return "\n".join(lines)
 
 
+def _source_current(source, circuit, time: np.ndarray) -> np.ndarray:
+    """An independent current source's current [A] at ``time`` (from ``n+`` through it to
+    ``n-``): its function, with the omitted fields filled from the netlist's ``.tran`` line
+    (else from the grid: its first step and its end), as the run fills them."""
+    tran = circuit.analyses.get("tran") if hasattr(circuit, "analyses") else None
+    defaults = ((tran.step, tran.stop) if tran is not None
+                else (float(time[1] - time[0]), float(time[-1])))
+    with np.errstate(all="ignore"):
+        return np.asarray(source.function.resolve(*defaults).sample(time), dtype=float)
+
+
 def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
            outputs: tuple[str, ...] = ()) -> LossTable:
     """Where the power delivered by the sources goes, element by element.
@@ -451,10 +462,12 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
     sign convention, as :func:`power`): sources with a net delivery are ``input`` rows,
     elements named in ``outputs`` (the load resistors) ``output`` rows, the other resistors,
     switches (``Ron·i²`` closed, ``v²/Roff`` open), diodes (``Vfwd·i + Ron·i²``) and
-    controlled sources ``loss`` rows; inductors, capacitors and couplings give one
-    ``stored`` row, ``ΔE/(t1 − t0)``. A periodic steady state over whole periods has no
-    stored term, and the balance (:attr:`LossTable.unaccounted`) closes to the energy of
-    impulses and the stepper's numerical dissipation.
+    controlled sources ``loss`` rows (a current source, which has no ``i(name)`` signal, by its
+    function sampled on the grid, with the ``.tran`` line's TSTEP/TSTOP for omitted fields);
+    inductors, capacitors and couplings give one ``stored`` row, ``ΔE/(t1 − t0)``. A periodic
+    steady state over whole periods has no stored term, and the balance
+    (:attr:`LossTable.unaccounted`) closes to the energy of impulses and the stepper's
+    numerical dissipation.
 
     Args:
         waves: the full results (node voltages and element currents).
@@ -486,10 +499,15 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
                              for name in element.inductors)
             stored += element.mutual * (first[1] * second[1] - first[0] * second[0])
             continue
-        if f"i({element.name})" not in waves or len(element.nodes) < 2:
+        if len(element.nodes) < 2:
             continue
-        absorbed = mean(time, element_voltage(waves, element) * waves[f"i({element.name})"],
-                        start, stop)
+        if f"i({element.name})" in waves:
+            current = waves[f"i({element.name})"]
+        elif hasattr(element, "function"):  # a current source: no signal holds its current
+            current = _source_current(element, circuit, time)
+        else:
+            continue
+        absorbed = mean(time, element_voltage(waves, element) * current, start, stop)
         if hasattr(element, "function"):  # an independent source
             rows.append(LossRow(element.name, "input", -absorbed))
         else:
