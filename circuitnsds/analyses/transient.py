@@ -101,12 +101,14 @@ def _fitted_peaks(circuit: Circuit, waves: Waveforms,
     return peaks
 
 
-def _forward_peaks(circuit: Circuit, mlcs, trajectory, peaks: dict[str, float]) -> dict[str, float]:
-    """Model name -> the largest forward current [A] per unit area through the instances of each
-    Shockley-fitted diode model over every row of ``trajectory`` (what
-    :func:`_fitted_peaks` gives first, the same number), taken together with ``peaks`` (of
-    earlier segments of the same run), which is updated and returned. Each current is
-    computed only at the rows where its largest value can be (:func:`_largest_rows`)."""
+def _diode_peaks(circuit: Circuit, mlcs, trajectory,
+                 peaks: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
+    """Model name -> the largest forward and reverse current [A] per unit area through the
+    instances of each Shockley-fitted diode model over every row of ``trajectory`` (what
+    :func:`_fitted_peaks` gives from the waveforms, the same numbers), taken together with
+    ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
+    current is computed only at the rows where its largest value (or, for the reverse peak,
+    its largest negated value) can be (:func:`_largest_rows`)."""
     from circuitnsds.circuit.elements import Diode
 
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
@@ -116,14 +118,18 @@ def _forward_peaks(circuit: Circuit, mlcs, trajectory, peaks: dict[str, float]) 
             row = rows.get(f"i({element.name})")
             if row is None:
                 continue
-            terms = _signal_terms(mlcs, row)
-            where = _largest_rows(terms, trajectory, bounds)
-            states, currents = trajectory.y, trajectory.current
-            if where is not None:
-                states, currents = states[where], currents[where]
-            current = _output_values(terms, states, currents) / element.area
-            peaks[element.model.name] = max(peaks.get(element.model.name, 0.0),
-                                            float(current.max(initial=0.0)))
+            largest = []
+            for sign in (1.0, -1.0):  # forward, reverse
+                terms = [(source, column, sign * weight)
+                         for source, column, weight in _signal_terms(mlcs, row)]
+                where = _largest_rows(terms, trajectory, bounds)
+                states, currents = trajectory.y, trajectory.current
+                if where is not None:
+                    states, currents = states[where], currents[where]
+                current = _output_values(terms, states, currents) / element.area
+                largest.append(float(current.max(initial=0.0)))
+            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
+            peaks[element.model.name] = (max(forward, largest[0]), max(reverse, largest[1]))
     return peaks
 
 
@@ -186,28 +192,40 @@ FIT_DROP_TOLERANCE = 0.02
 current beyond which the run notes that the fit range misses the circuit's currents."""
 
 
-def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, float]) -> None:
-    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward
-    current (``peaks``: :func:`_forward_peaks`) lies outside the range its line was fitted over,
-    where the line misses the curve by more than :data:`FIT_DROP_TOLERANCE` (the answer is then
-    the line's, not the model's)."""
+def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
+    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward or
+    reverse (breakdown) current (``peaks``: :func:`_diode_peaks`) lies outside the range its
+    forward or breakdown line was fitted over, where the line misses the curve by more than
+    :data:`FIT_DROP_TOLERANCE` (the answer is then the line's, not the model's)."""
     from circuitnsds.circuit.elements import Diode
 
     models = {e.model.name: e.model for e in circuit.elements
               if isinstance(e, Diode) and e.model.fit_range is not None}
-    for name, peak in peaks.items():
+    for name, (forward, reverse) in peaks.items():
         model = models.get(name)
-        if model is None or peak <= 1e-12:
+        if model is None:
             continue
-        low, high = model.fit_range
-        line = model.forward_drop + model.on_resistance * peak
-        error = abs(line - float(model.shockley.forward_voltage(peak)))
-        if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
-            warnings.warn(RunNote(
-                f"{circuit.file}: .model {name} was fitted over {low:.3g}..{high:.3g} A but its "
-                f"diodes carry up to {peak:.3g} A, where the fitted line misses the model's curve by "
-                f"{error * 1e3:.3g} mV: set .options pwlfit={peak:.3g} (or pwlfit=auto) to fit it "
-                "where the circuit works"), stacklevel=4)
+        branches = [("", forward, model.fit_range, model.forward_drop, model.on_resistance,
+                     model.shockley.forward_voltage)]
+        if model.breakdown_fit_range is not None and model.breakdown_voltage is not None:
+            branches.append((" breakdown", reverse, model.breakdown_fit_range,
+                             model.breakdown_voltage, model.breakdown_resistance,
+                             model.shockley.breakdown_drop))
+        for branch, peak, (low, high), drop, slope, curve in branches:
+            if peak <= 1e-12:
+                continue
+            error = abs(drop + slope * peak - float(curve(peak)))
+            if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
+                what = f".model {name}'s breakdown line was" if branch else f".model {name} was"
+                way = " in breakdown" if branch else ""
+                miss = f"{error:.3g} V" if error >= 1 else f"{error * 1e3:.3g} mV"
+                fix = (f"set .options pwlfit={peak:.3g} (pwlfit=auto refits once, to the peaks of "
+                       "a first run, and they moved)" if circuit.options.get("pwlfit") == "auto"
+                       else f"set .options pwlfit={peak:.3g} (or pwlfit=auto)")
+                warnings.warn(RunNote(
+                    f"{circuit.file}: {what} fitted over {low:.3g}..{high:.3g} A but its diodes "
+                    f"carry up to {peak:.3g} A{way}, where the fitted line misses the model's "
+                    f"curve by {miss}: {fix} to fit it where the circuit works"), stacklevel=4)
 
 
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
@@ -328,8 +346,7 @@ def _run_transient(
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
-        _note_fits_outside_their_range(circuit, {name: forward for name, (forward, _)
-                                                 in _fitted_peaks(circuit, waves).items()})
+        _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -709,7 +726,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     residuals: list[np.ndarray] = []
     events: list = []
     stats: dict[str, float] = {}
-    peaks: dict[str, float] = {}  # forward, of the fitted diode models, over every segment
+    peaks: dict[str, tuple[float, float]] = {}  # forward, reverse: fitted diodes, every segment
     progress = options.pop("progress")
     total = grid[-1]
     report = None if progress is None else (lambda t, _end: progress(t, total))
@@ -722,7 +739,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
 
     def keep(trajectory, first: int) -> None:
         waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
-        _forward_peaks(circuit, mlcs, trajectory, peaks)
+        _diode_peaks(circuit, mlcs, trajectory, peaks)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
             # (not views of the trajectory's arrays: the next segment reuses them while the
