@@ -54,6 +54,32 @@ def test_switch_at_threshold_semantics():
     assert info.elements[1].model.thresholds() == pytest.approx((0.7, 0.3))
 
 
+def test_a_switch_starting_exactly_at_its_threshold_is_warned_about():
+    """VH = 0 and a control exactly at VT at the operating point (the 0/1 V gate of
+    netlists/external/buck_sw_ron_only.cir and of the PWL test above): circuitnsds starts the
+    switch open, ngspice 39 closed (run here: `ngspice -b` on the PWL netlist above gives
+    i(v2) = -0.5 A at 0.5 ms; on the buck, v(out) = 11.94 V at t = 0). Before: no word, and
+    `compare` showed the buck 192 % apart at t = 0."""
+    from circuitnsds.errors import NetlistWarning
+
+    def warned(body):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            circuit_from(body).transient()
+        return [str(w.message) for w in caught if issubclass(w.category, NetlistWarning)
+                and "exactly at its threshold" in str(w.message)]
+
+    at_vt = warned("V1 c 0 PWL(0 0 1m 0 1.001m 1 2m 1)\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                   ".model sw SW(RON=1)\n.tran 10u 2m")
+    assert len(at_vt) == 1 and "s1" in at_vt[0] and "ngspice" in at_vt[0], at_vt
+    assert not warned("V1 c 0 PWL(0 0 1m 0 1.001m 1 2m 1)\nS1 a 0 c 0 sw\nR1 a b 1\n"
+                      "V2 b 0 1\n.model sw SW(RON=1 VT=0.5)\n.tran 10u 2m")  # VT mid-swing
+    assert not warned("V1 c 0 -1\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                      ".model sw SW(RON=1)\n.tran 10u 1m")  # below VT: open in both
+    assert not warned("V1 c 0 0\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                      ".model sw SW(RON=1 VH=0.1)\n.tran 10u 1m")  # in a real band: OFF in both
+
+
 # problem 3: LTspice PWL diode defaults (Ron = 1 ohm, Rrev = Ron)
 
 def test_ltspice_diode_defaults_follow_ltspice_help():
