@@ -228,6 +228,61 @@ def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[floa
                     f"curve by {miss}: {fix} to fit it where the circuit works"), stacklevel=4)
 
 
+WEAK_DRIVE_SHARE = 0.5
+"""Share of a MOSFET's conducting time spent with a weak gate drive (an overdrive ``|Vgs| - Vto``
+below half of the one its on-resistance was computed at) beyond which the run notes it."""
+
+
+def _mosfet_drives(circuit: Circuit, mlcs, trajectory,
+                   drives: dict[str, list[float]]) -> dict[str, list[float]]:
+    """MOSFET name -> ``[conducting time, time of it with a weak gate drive, smallest |Vgs|]``
+    ([s], [s], [V]) over the steps of ``trajectory``, added to ``drives`` (of earlier segments of
+    the same run), which is updated and returned. A step counts with the state it ran in and the
+    gate drive at its end; "weak": an overdrive below half of ``gate_drive - Vto``."""
+    from circuitnsds.circuit.elements.mosfet import Mosfet
+
+    mosfets = {e.name: e for e in circuit.elements if isinstance(e, Mosfet)}
+    if not mosfets or trajectory.time.size < 2:
+        return drives
+    lengths = np.diff(trajectory.time)
+    for j, switch in enumerate(mlcs.switches):
+        element = mosfets.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        if not closed.any():
+            continue
+        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+        threshold = element.model.threshold
+        weak = closed & (control < threshold + 0.5 * (element.gate_drive - threshold))
+        total = drives.setdefault(switch.name, [0.0, 0.0, math.inf])
+        total[0] += float(lengths[closed].sum())
+        total[1] += float(lengths[weak].sum())
+        total[2] = min(total[2], float(np.min(control[closed])))
+    return drives
+
+
+def _note_weak_gate_drives(circuit: Circuit, drives: dict[str, list[float]]) -> None:
+    """A :class:`RunNote` for each MOSFET that spends more than :data:`WEAK_DRIVE_SHARE` of its
+    conducting time with a weak gate drive (``drives``: :func:`_mosfet_drives`): read as a switch
+    whose Ron was computed at ``gate_drive``, it is then not what the circuit does."""
+    from circuitnsds.circuit.elements.mosfet import Mosfet
+
+    for element in circuit.elements:
+        if not isinstance(element, Mosfet) or element.name not in drives:
+            continue
+        conducting, weak, lowest = drives[element.name]
+        if conducting > 0 and weak > WEAK_DRIVE_SHARE * conducting:
+            threshold = element.model.threshold
+            warnings.warn(RunNote(
+                f"{circuit.file}: {element.describe()} spends {100 * weak / conducting:.0f} % of "
+                f"its conducting time at a weak gate drive (|Vgs| down to {lowest:.3g} V, "
+                f"threshold {threshold:g} V), while its Ron is computed at |Vgs| = "
+                f"{element.gate_drive:g} V: there its channel resistance is several times Ron and "
+                "the MOSFET is not a switch; set .options mosdrive to the gate drive it works "
+                "at, or drive its gate to that level"), stacklevel=4)
+
+
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
     """A copy of ``circuit`` whose fitted diode models are refitted to the peak currents
     ``waves`` shows through their instances (a model that never conducts keeps its fit)."""
@@ -332,6 +387,7 @@ def _run_transient(
             exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
         raise
     fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
+    full_trajectory = trajectory
     flows = None
     if report_step is not None:
         full_time = trajectory.time
@@ -347,6 +403,7 @@ def _run_transient(
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
         _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
+        _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -727,6 +784,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     events: list = []
     stats: dict[str, float] = {}
     peaks: dict[str, tuple[float, float]] = {}  # forward, reverse: fitted diodes, every segment
+    drives: dict[str, list[float]] = {}  # MOSFETs' conducting and weak-drive time, every segment
     progress = options.pop("progress")
     total = grid[-1]
     report = None if progress is None else (lambda t, _end: progress(t, total))
@@ -740,6 +798,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     def keep(trajectory, first: int) -> None:
         waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
         _diode_peaks(circuit, mlcs, trajectory, peaks)
+        _mosfet_drives(circuit, mlcs, trajectory, drives)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
             # (not views of the trajectory's arrays: the next segment reuses them while the
@@ -796,4 +855,5 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         first = last
     if note_fits:
         _note_fits_outside_their_range(circuit, peaks)
+        _note_weak_gate_drives(circuit, drives)
     return result()
