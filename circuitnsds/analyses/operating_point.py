@@ -293,7 +293,8 @@ def _warn_switches_at_threshold(circuit: Circuit, mlcs: MLCS, states: np.ndarray
     HYST_ON, and stays on until its control rises above ``VT`` and returns)."""
     from circuitnsds.circuit.elements import Switch
 
-    elements = {e.name: e for e in circuit.elements if isinstance(e, Switch)}
+    elements = {e.name: e for e in circuit.elements if isinstance(e, Switch)  # S and W, not M
+                and not is_loaded_instance(e, "circuitnsds.circuit.elements.mosfet", "Mosfet")}
     for switch, on in zip(mlcs.switches, states):
         element = elements.get(switch.name)
         if on or switch.crossing is None or element is None:

@@ -17,6 +17,7 @@ from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
+from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
@@ -228,6 +229,9 @@ def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[floa
                     f"curve by {miss}: {fix} to fit it where the circuit works"), stacklevel=4)
 
 
+MOSFET = "circuitnsds.circuit.elements.mosfet"
+"""The module of :class:`~circuitnsds.circuit.elements.mosfet.Mosfet`, not imported by runs
+without MOSFETs (:func:`~circuitnsds.lazy.is_loaded_instance`)."""
 WEAK_DRIVE_SHARE = 0.5
 """Share of a MOSFET's conducting time spent with a weak gate drive (an overdrive ``|Vgs| - Vto``
 below half of the one its on-resistance was computed at) beyond which the run notes it."""
@@ -239,9 +243,7 @@ def _mosfet_drives(circuit: Circuit, mlcs, trajectory,
     ([s], [s], [V]) over the steps of ``trajectory``, added to ``drives`` (of earlier segments of
     the same run), which is updated and returned. A step counts with the state it ran in and the
     gate drive at its end; "weak": an overdrive below half of ``gate_drive - Vto``."""
-    from circuitnsds.circuit.elements.mosfet import Mosfet
-
-    mosfets = {e.name: e for e in circuit.elements if isinstance(e, Mosfet)}
+    mosfets = {e.name: e for e in circuit.elements if is_loaded_instance(e, MOSFET, "Mosfet")}
     if not mosfets or trajectory.time.size < 2:
         return drives
     lengths = np.diff(trajectory.time)
@@ -266,10 +268,8 @@ def _note_weak_gate_drives(circuit: Circuit, drives: dict[str, list[float]]) -> 
     """A :class:`RunNote` for each MOSFET that spends more than :data:`WEAK_DRIVE_SHARE` of its
     conducting time with a weak gate drive (``drives``: :func:`_mosfet_drives`): read as a switch
     whose Ron was computed at ``gate_drive``, it is then not what the circuit does."""
-    from circuitnsds.circuit.elements.mosfet import Mosfet
-
     for element in circuit.elements:
-        if not isinstance(element, Mosfet) or element.name not in drives:
+        if element.name not in drives or not is_loaded_instance(element, MOSFET, "Mosfet"):
             continue
         conducting, weak, lowest = drives[element.name]
         if conducting > 0 and weak > WEAK_DRIVE_SHARE * conducting:
