@@ -54,6 +54,32 @@ def test_switch_at_threshold_semantics():
     assert info.elements[1].model.thresholds() == pytest.approx((0.7, 0.3))
 
 
+def test_a_switch_starting_exactly_at_its_threshold_is_warned_about():
+    """VH = 0 and a control exactly at VT at the operating point (the 0/1 V gate of
+    netlists/external/buck_sw_ron_only.cir and of the PWL test above): circuitnsds starts the
+    switch open, ngspice 39 closed (run here: `ngspice -b` on the PWL netlist above gives
+    i(v2) = -0.5 A at 0.5 ms; on the buck, v(out) = 11.94 V at t = 0). Before: no word, and
+    `compare` showed the buck 192 % apart at t = 0."""
+    from circuitnsds.errors import NetlistWarning
+
+    def warned(body):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            circuit_from(body).transient()
+        return [str(w.message) for w in caught if issubclass(w.category, NetlistWarning)
+                and "exactly at its threshold" in str(w.message)]
+
+    at_vt = warned("V1 c 0 PWL(0 0 1m 0 1.001m 1 2m 1)\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                   ".model sw SW(RON=1)\n.tran 10u 2m")
+    assert len(at_vt) == 1 and "s1" in at_vt[0] and "ngspice" in at_vt[0], at_vt
+    assert not warned("V1 c 0 PWL(0 0 1m 0 1.001m 1 2m 1)\nS1 a 0 c 0 sw\nR1 a b 1\n"
+                      "V2 b 0 1\n.model sw SW(RON=1 VT=0.5)\n.tran 10u 2m")  # VT mid-swing
+    assert not warned("V1 c 0 -1\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                      ".model sw SW(RON=1)\n.tran 10u 1m")  # below VT: open in both
+    assert not warned("V1 c 0 0\nS1 a 0 c 0 sw\nR1 a b 1\nV2 b 0 1\n"
+                      ".model sw SW(RON=1 VH=0.1)\n.tran 10u 1m")  # in a real band: OFF in both
+
+
 # problem 3: LTspice PWL diode defaults (Ron = 1 ohm, Rrev = Ron)
 
 def test_ltspice_diode_defaults_follow_ltspice_help():
@@ -292,3 +318,37 @@ C1 out 0 100n
         warnings.simplefilter("always")
         circuitnsds.read_netlist(text.replace(".tran", ".options pwlfit=auto\n.tran")).transient()
     assert not any("misses the model's curve" in str(w.message) for w in caught)
+
+
+def test_a_breakdown_fit_far_from_the_circuits_currents_is_noted():
+    """Xyce_Regression Netlists/SENS/fullWaveRectDiode.cir (netlists/external/
+    xy_fullwave_bridge_sens.cir): a bridge of BV = 7.255 V diodes straight across a 15 V sine,
+    two of them in breakdown at a time, RS = 10.8 ohm. The breakdown line is fitted over
+    IBV/10..IBV = 0.1..1 mA, where its slope is 68 ohm; the circuit carries ~0.3 A, where the
+    model's curve is nearly RS. Before: the run gave 89 mA peaks (ngspice: 0.30 A) without a
+    word, since only the forward fit range was checked."""
+    from circuitnsds.errors import RunNote
+
+    path = NETLISTS / "external" / "xy_fullwave_bridge_sens.cir"
+    for signals in (None, ["v(2)"]):  # also when only v(2) is kept (segments, no i(d1))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            waves = circuitnsds.read_netlist(path).transient(signals=signals)
+        notes = [str(w.message) for w in caught if issubclass(w.category, RunNote)]
+        assert any("breakdown" in note and "0.0001..0.001 A" in note and "pwlfit=" in note
+                   for note in notes), (signals, notes)
+    # the peak the fitted lines give: Vfwd + Ron i + Vrev + Rrev i = 15 V (one forward, one in
+    # breakdown per path), far below the model's own (solved from the Shockley curves)
+    model = circuitnsds.read_netlist(path).models["mod1"]
+    lines = (15 - model.forward_drop - model.breakdown_voltage) / (
+        model.on_resistance + model.breakdown_resistance)
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+
+    def drops(i):  # forward + breakdown drop of the model (IS=1e-14 N=1 RS=10.8 BV=7.255 IBV=1m)
+        return vt * math.log1p(i / 1e-14) + 7.255 + vt * math.log(i / 1e-3) + 2 * 10.8 * i
+
+    low, high = 1e-3, 1.0
+    for _ in range(80):
+        low, high = ((low + high) / 2, high) if drops((low + high) / 2) < 15 else (low, (low + high) / 2)
+    assert low > 0.3 and lines < 0.1  # the note's reason: a wrong answer by a factor of 3
+    assert np.max(waves["v(2)"]) > 0  # the run itself still runs (the note is not an error)

@@ -18,7 +18,7 @@ import circuitnsds
 from circuitnsds.circuit.elements.diode_fit import THERMAL_VOLTAGE, ShockleyDiode, fit_forward
 from circuitnsds.cli.info import circuit_report
 from circuitnsds.errors import NetlistError
-from tests.conftest import circuit_from
+from tests.conftest import NETLISTS, circuit_from
 
 # Vendor VDMOS lines as LTspice's standard.mos publishes them, copied from
 # kicad-spice-library/KiCad-Spice-Library @a8688952bcaab19f567bc4db237b60bde03ef310,
@@ -270,3 +270,27 @@ def test_ngspice_vdmos_inverter_switches_when_the_gates_cross_their_thresholds()
     assert p_opens < n_closes                                   # no shoot-through
     assert waves["v(3)"][waves.time < 15e-9].min() > 4.99
     assert np.abs(waves["v(3)"][(waves.time > 30e-9) & (waves.time < 150e-9)]).max() < 1e-3
+
+
+def test_mosfets_conducting_with_a_weak_gate_drive_are_noted():
+    """ngspice examples/vdmos/ro_11_vdmos.sp (netlists/external/ng_vdmos_ring_osc.sp): a CMOS
+    ring oscillator of VDMOS (Vto = ±1 V, Kp = 1e-5). ngspice oscillates rail to rail; read as
+    switches, both devices of every inverter close at |Vgs| = 1.7..3.3 V and the ring freezes at
+    3.33 V (a divider of Ron computed at |Vgs| = 10 V). Before: exit 0 without a word. A
+    switching buck whose gates are driven hard (netlists/mosfet/sync_buck_vdmos.cir) gets no
+    such note."""
+    from circuitnsds.errors import RunNote
+
+    def notes(path, **kwargs):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            waves = circuitnsds.read_netlist(path).transient(**kwargs)
+        return waves, [str(w.message) for w in caught if issubclass(w.category, RunNote)
+                       and "gate drive" in str(w.message)]
+
+    ring = NETLISTS / "external" / "ng_vdmos_ring_osc.sp"
+    for signals in (None, ["v(2)"]):  # the waveform path and the kept-signals (segments) path
+        waves, found = notes(ring, step=1e-9, stop=1e-6, signals=signals)
+        assert np.ptp(waves["v(2)"]) < 1e-6  # frozen: the answer the note warns about
+        assert any("xinv1.mn1" in note and "mosdrive" in note for note in found), found
+    assert not notes(NETLISTS / "mosfet" / "sync_buck_vdmos.cir")[1]

@@ -85,8 +85,8 @@ def test_largest_rows_hold_the_largest_value(data, rows, small):
         assert transient._output_values(terms, y[where], current[where]).max() == whole.max()
 
 
-def test_forward_peaks_are_those_of_the_waveforms():
-    """A run's fitted-diode forward peaks from the rows where they can be (the segments'
+def test_diode_peaks_are_those_of_the_waveforms():
+    """A run's fitted-diode forward and reverse peaks from the rows where they can be (the segments'
     path) are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a
     diode whose current is one pair's and a Zener whose current is two pairs' (each plus its
     off-conductance's)."""
@@ -108,8 +108,8 @@ def test_forward_peaks_are_those_of_the_waveforms():
     kept = [transient._largest_rows(transient._signal_terms(mlcs, mlcs.output_names.index(name)),
                                     trajectory, {}) for name in ("i(d1)", "i(d2)")]
     assert kept[0].size < 20 and kept[1] is None
-    peaks = transient._forward_peaks(circuit, mlcs, trajectory, {})
-    assert peaks == {name: forward for name, (forward, _) in reference.items()}
+    peaks = transient._diode_peaks(circuit, mlcs, trajectory, {})
+    assert peaks == reference
 
 
 @settings(max_examples=60, deadline=None)

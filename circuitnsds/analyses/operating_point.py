@@ -88,6 +88,7 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     if not np.all(np.isfinite(y)):
         raise SimulationError("the DC operating point is not finite", where="operating point",
                               hint="add UIC to .tran to start from initial conditions")
+    _warn_switches_at_threshold(circuit, mlcs, states, y)
     return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
                         active=np.asarray(result.active, dtype=bool), switches=states)
 
@@ -281,6 +282,35 @@ def _voltage(circuit: Circuit, y: np.ndarray, node: str) -> float:
 
 def _index(circuit: Circuit, node: str) -> int:
     return -1 if node == "0" else circuit.nodes.index(node)
+
+
+def _warn_switches_at_threshold(circuit: Circuit, mlcs: MLCS, states: np.ndarray,
+                                y: np.ndarray) -> None:
+    """Warn about each open switch without hysteresis whose control sits exactly at ``VT`` at
+    the operating point: circuitnsds starts it open (the control is not above ``VT``), ngspice
+    39 closed (its ``swload.c``/``cswload.c`` take ``VH <= 0`` as "negative hysteresis": at
+    ``VT`` a switch coming from REALLY_OFF, the operating point's previous state, becomes
+    HYST_ON, and stays on until its control rises above ``VT`` and returns)."""
+    from circuitnsds.circuit.elements import Switch
+
+    elements = {e.name: e for e in circuit.elements if isinstance(e, Switch)  # S and W, not M
+                and not is_loaded_instance(e, "circuitnsds.circuit.elements.mosfet", "Mosfet")}
+    for switch, on in zip(mlcs.switches, states):
+        element = elements.get(switch.name)
+        if on or switch.crossing is None or element is None:
+            continue
+        control = _control_at_zero(mlcs, switch, y)
+        margin = switch.on_threshold - switch.crossing
+        if switch.crossing - margin <= control <= switch.on_threshold:
+            level, band, unit = (("IT", "IH", "A") if element.model.current_controlled
+                                 else ("VT", "VH", "V"))
+            warnings.warn(
+                f"{element.describe()}: its control starts exactly at its threshold "
+                f"({level} = {switch.crossing:g} {unit}, {band} = 0): circuitnsds starts the "
+                f"switch open, ngspice 39 starts it closed and keeps it closed until the control "
+                f"rises above {level} and comes back; set {level} between the control's levels "
+                f"(e.g. {level}=0.5 for a 0/1 {unit} control) or give {band} > 0 to make the start "
+                "unambiguous", NetlistWarning, stacklevel=4)
 
 
 def _warn_unused_element_ics(circuit: Circuit) -> None:

@@ -17,6 +17,7 @@ from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
+from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
@@ -101,12 +102,14 @@ def _fitted_peaks(circuit: Circuit, waves: Waveforms,
     return peaks
 
 
-def _forward_peaks(circuit: Circuit, mlcs, trajectory, peaks: dict[str, float]) -> dict[str, float]:
-    """Model name -> the largest forward current [A] per unit area through the instances of each
-    Shockley-fitted diode model over every row of ``trajectory`` (what
-    :func:`_fitted_peaks` gives first, the same number), taken together with ``peaks`` (of
-    earlier segments of the same run), which is updated and returned. Each current is
-    computed only at the rows where its largest value can be (:func:`_largest_rows`)."""
+def _diode_peaks(circuit: Circuit, mlcs, trajectory,
+                 peaks: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
+    """Model name -> the largest forward and reverse current [A] per unit area through the
+    instances of each Shockley-fitted diode model over every row of ``trajectory`` (what
+    :func:`_fitted_peaks` gives from the waveforms, the same numbers), taken together with
+    ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
+    current is computed only at the rows where its largest value (or, for the reverse peak,
+    its largest negated value) can be (:func:`_largest_rows`)."""
     from circuitnsds.circuit.elements import Diode
 
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
@@ -116,14 +119,18 @@ def _forward_peaks(circuit: Circuit, mlcs, trajectory, peaks: dict[str, float]) 
             row = rows.get(f"i({element.name})")
             if row is None:
                 continue
-            terms = _signal_terms(mlcs, row)
-            where = _largest_rows(terms, trajectory, bounds)
-            states, currents = trajectory.y, trajectory.current
-            if where is not None:
-                states, currents = states[where], currents[where]
-            current = _output_values(terms, states, currents) / element.area
-            peaks[element.model.name] = max(peaks.get(element.model.name, 0.0),
-                                            float(current.max(initial=0.0)))
+            largest = []
+            for sign in (1.0, -1.0):  # forward, reverse
+                terms = [(source, column, sign * weight)
+                         for source, column, weight in _signal_terms(mlcs, row)]
+                where = _largest_rows(terms, trajectory, bounds)
+                states, currents = trajectory.y, trajectory.current
+                if where is not None:
+                    states, currents = states[where], currents[where]
+                current = _output_values(terms, states, currents) / element.area
+                largest.append(float(current.max(initial=0.0)))
+            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
+            peaks[element.model.name] = (max(forward, largest[0]), max(reverse, largest[1]))
     return peaks
 
 
@@ -186,28 +193,94 @@ FIT_DROP_TOLERANCE = 0.02
 current beyond which the run notes that the fit range misses the circuit's currents."""
 
 
-def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, float]) -> None:
-    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward
-    current (``peaks``: :func:`_forward_peaks`) lies outside the range its line was fitted over,
-    where the line misses the curve by more than :data:`FIT_DROP_TOLERANCE` (the answer is then
-    the line's, not the model's)."""
+def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
+    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward or
+    reverse (breakdown) current (``peaks``: :func:`_diode_peaks`) lies outside the range its
+    forward or breakdown line was fitted over, where the line misses the curve by more than
+    :data:`FIT_DROP_TOLERANCE` (the answer is then the line's, not the model's)."""
     from circuitnsds.circuit.elements import Diode
 
     models = {e.model.name: e.model for e in circuit.elements
               if isinstance(e, Diode) and e.model.fit_range is not None}
-    for name, peak in peaks.items():
+    for name, (forward, reverse) in peaks.items():
         model = models.get(name)
-        if model is None or peak <= 1e-12:
+        if model is None:
             continue
-        low, high = model.fit_range
-        line = model.forward_drop + model.on_resistance * peak
-        error = abs(line - float(model.shockley.forward_voltage(peak)))
-        if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
+        branches = [("", forward, model.fit_range, model.forward_drop, model.on_resistance,
+                     model.shockley.forward_voltage)]
+        if model.breakdown_fit_range is not None and model.breakdown_voltage is not None:
+            branches.append((" breakdown", reverse, model.breakdown_fit_range,
+                             model.breakdown_voltage, model.breakdown_resistance,
+                             model.shockley.breakdown_drop))
+        for branch, peak, (low, high), drop, slope, curve in branches:
+            if peak <= 1e-12:
+                continue
+            error = abs(drop + slope * peak - float(curve(peak)))
+            if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
+                what = f".model {name}'s breakdown line was" if branch else f".model {name} was"
+                way = " in breakdown" if branch else ""
+                miss = f"{error:.3g} V" if error >= 1 else f"{error * 1e3:.3g} mV"
+                fix = (f"set .options pwlfit={peak:.3g} (pwlfit=auto refits once, to the peaks of "
+                       "a first run, and they moved)" if circuit.options.get("pwlfit") == "auto"
+                       else f"set .options pwlfit={peak:.3g} (or pwlfit=auto)")
+                warnings.warn(RunNote(
+                    f"{circuit.file}: {what} fitted over {low:.3g}..{high:.3g} A but its diodes "
+                    f"carry up to {peak:.3g} A{way}, where the fitted line misses the model's "
+                    f"curve by {miss}: {fix} to fit it where the circuit works"), stacklevel=4)
+
+
+MOSFET = "circuitnsds.circuit.elements.mosfet"
+"""The module of :class:`~circuitnsds.circuit.elements.mosfet.Mosfet`, not imported by runs
+without MOSFETs (:func:`~circuitnsds.lazy.is_loaded_instance`)."""
+WEAK_DRIVE_SHARE = 0.5
+"""Share of a MOSFET's conducting time spent with a weak gate drive (an overdrive ``|Vgs| - Vto``
+below half of the one its on-resistance was computed at) beyond which the run notes it."""
+
+
+def _mosfet_drives(circuit: Circuit, mlcs, trajectory,
+                   drives: dict[str, list[float]]) -> dict[str, list[float]]:
+    """MOSFET name -> ``[conducting time, time of it with a weak gate drive, smallest |Vgs|]``
+    ([s], [s], [V]) over the steps of ``trajectory``, added to ``drives`` (of earlier segments of
+    the same run), which is updated and returned. A step counts with the state it ran in and the
+    gate drive at its end; "weak": an overdrive below half of ``gate_drive - Vto``."""
+    mosfets = {e.name: e for e in circuit.elements if is_loaded_instance(e, MOSFET, "Mosfet")}
+    if not mosfets or trajectory.time.size < 2:
+        return drives
+    lengths = np.diff(trajectory.time)
+    for j, switch in enumerate(mlcs.switches):
+        element = mosfets.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        if not closed.any():
+            continue
+        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+        threshold = element.model.threshold
+        weak = closed & (control < threshold + 0.5 * (element.gate_drive - threshold))
+        total = drives.setdefault(switch.name, [0.0, 0.0, math.inf])
+        total[0] += float(lengths[closed].sum())
+        total[1] += float(lengths[weak].sum())
+        total[2] = min(total[2], float(np.min(control[closed])))
+    return drives
+
+
+def _note_weak_gate_drives(circuit: Circuit, drives: dict[str, list[float]]) -> None:
+    """A :class:`RunNote` for each MOSFET that spends more than :data:`WEAK_DRIVE_SHARE` of its
+    conducting time with a weak gate drive (``drives``: :func:`_mosfet_drives`): read as a switch
+    whose Ron was computed at ``gate_drive``, it is then not what the circuit does."""
+    for element in circuit.elements:
+        if element.name not in drives or not is_loaded_instance(element, MOSFET, "Mosfet"):
+            continue
+        conducting, weak, lowest = drives[element.name]
+        if conducting > 0 and weak > WEAK_DRIVE_SHARE * conducting:
+            threshold = element.model.threshold
             warnings.warn(RunNote(
-                f"{circuit.file}: .model {name} was fitted over {low:.3g}..{high:.3g} A but its "
-                f"diodes carry up to {peak:.3g} A, where the fitted line misses the model's curve by "
-                f"{error * 1e3:.3g} mV: set .options pwlfit={peak:.3g} (or pwlfit=auto) to fit it "
-                "where the circuit works"), stacklevel=4)
+                f"{circuit.file}: {element.describe()} spends {100 * weak / conducting:.0f} % of "
+                f"its conducting time at a weak gate drive (|Vgs| down to {lowest:.3g} V, "
+                f"threshold {threshold:g} V), while its Ron is computed at |Vgs| = "
+                f"{element.gate_drive:g} V: there its channel resistance is several times Ron and "
+                "the MOSFET is not a switch; set .options mosdrive to the gate drive it works "
+                "at, or drive its gate to that level"), stacklevel=4)
 
 
 def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
@@ -314,6 +387,7 @@ def _run_transient(
             exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
         raise
     fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
+    full_trajectory = trajectory
     flows = None
     if report_step is not None:
         full_time = trajectory.time
@@ -328,8 +402,8 @@ def _run_transient(
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
-        _note_fits_outside_their_range(circuit, {name: forward for name, (forward, _)
-                                                 in _fitted_peaks(circuit, waves).items()})
+        _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
+        _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -709,7 +783,8 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     residuals: list[np.ndarray] = []
     events: list = []
     stats: dict[str, float] = {}
-    peaks: dict[str, float] = {}  # forward, of the fitted diode models, over every segment
+    peaks: dict[str, tuple[float, float]] = {}  # forward, reverse: fitted diodes, every segment
+    drives: dict[str, list[float]] = {}  # MOSFETs' conducting and weak-drive time, every segment
     progress = options.pop("progress")
     total = grid[-1]
     report = None if progress is None else (lambda t, _end: progress(t, total))
@@ -722,7 +797,8 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
 
     def keep(trajectory, first: int) -> None:
         waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
-        _forward_peaks(circuit, mlcs, trajectory, peaks)
+        _diode_peaks(circuit, mlcs, trajectory, peaks)
+        _mosfet_drives(circuit, mlcs, trajectory, drives)
         if sink is not None:
             first = max(first, int(np.searchsorted(trajectory.time, threshold)))
             # (not views of the trajectory's arrays: the next segment reuses them while the
@@ -779,4 +855,5 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         first = last
     if note_fits:
         _note_fits_outside_their_range(circuit, peaks)
+        _note_weak_gate_drives(circuit, drives)
     return result()

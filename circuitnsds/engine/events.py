@@ -89,8 +89,22 @@ def regula_falsi(g: Callable[[float], float], a: float, b: float, ga: float, gb:
     return b
 
 
-def chattering_error(name: str, t0: float, t1: float, count: int) -> SimulationError:
-    """The error for a switch that changed state ``count`` times in the step ``[t0, t1]``."""
+def chattering_error(name: str, t0: float, t1: float, events: list[SwitchEvent]) -> SimulationError:
+    """The error for a step ``[t0, t1]`` in which ``events`` (as many as
+    :data:`MAX_EVENTS_PER_STEP`) were located and ``name`` is about to switch again: one switch
+    toggling back and forth chatters; switchings of several switches (a ring oscillator, a
+    fast converter) mean the circuit switches faster than the step resolves."""
+    count = len(events)
+    names = {event.element for event in events}
+    own = sum(event.element == name for event in events)
+    if len(names) > 1 and own <= count // 2:
+        shown = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+        return SimulationError(
+            f"{count} switchings of {len(names)} switches ({shown}) within the step from "
+            f"t = {t0:.9g} s to {t1:.9g} s: the circuit switches faster than the step resolves",
+            where=f"t = {t0:.9g} s", time=float(t0),
+            hint=f"shorten the time step (--step, or .tran TSTEP) well below {t1 - t0:.3g} s, "
+                 "to a fraction of the fastest switching interval")
     return SimulationError(
         f"switch {name} chatters: its control crosses its threshold again right after each "
         f"switching ({count} switchings within the step from t = {t0:.9g} s to {t1:.9g} s)",

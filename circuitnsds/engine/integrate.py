@@ -732,7 +732,7 @@ class _Stepping:
                 return _Split(end, impulse, states, events, False, parts)
             if len(events) >= MAX_EVENTS_PER_STEP:
                 name = self.mlcs.switches[self.free[rows[0]]].name
-                raise chattering_error(name, self.grid[k], self.grid[k + 1], len(events))
+                raise chattering_error(name, self.grid[k], self.grid[k + 1], events)
             first, row = min(self._crossing_time(k, start, rest, theta, states, charge, y, guess,
                                                  end, r) for r in rows)
             j = int(self.free[row])

@@ -42,6 +42,8 @@ class DiodeModel:
             it can be refitted (``.options pwlfit=auto``).
         fit_range: the forward currents ``(low, high)`` [A] the line was fitted over, for a
             fitted model.
+        breakdown_fit_range: the reverse currents ``(low, high)`` [A] the breakdown line was
+            fitted over, for a fitted model with ``BV``.
         location: where the card was written.
     """
 
@@ -54,6 +56,7 @@ class DiodeModel:
     origin: str = "ideal"
     shockley: ShockleyDiode | None = None
     fit_range: tuple[float, float] | None = None
+    breakdown_fit_range: tuple[float, float] | None = None
     location: SourceLocation | None = None
 
     @property
@@ -81,7 +84,8 @@ def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float
         reverse = fit_breakdown(diode, breakdown_current)
         origin += "; " + reverse.describe("Vrev", "Rrev")
         model = replace(model, breakdown_voltage=max(reverse.drop, 1e-9),
-                        breakdown_resistance=reverse.resistance)
+                        breakdown_resistance=reverse.resistance,
+                        breakdown_fit_range=(reverse.low, reverse.high))
     return replace(model, origin=origin)
 
 

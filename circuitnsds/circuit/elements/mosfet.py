@@ -31,12 +31,15 @@ class Mosfet(Switch):
         polarity: ``+1`` n-channel, ``-1`` p-channel.
         device: ``vdmos``, ``nmos`` or ``pmos`` (the model type).
         on_resistance_rule: how ``model.on_resistance`` was obtained, in words (for ``info``).
+        gate_drive: ``|Vgs|`` [V] at which the channel's on-resistance was computed
+            (``.options mosdrive``).
         parts: names of the companion elements (body diode, capacitors, gate resistor).
     """
 
     polarity: int = 1
     device: str = "vdmos"
     on_resistance_rule: str = ""
+    gate_drive: float = 10.0
     parts: tuple[str, ...] = ()
 
     @property

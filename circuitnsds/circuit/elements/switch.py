@@ -13,10 +13,11 @@ The model gives ``VT``/``VH`` (or ``IT``/``IH``), ``RON`` and ``ROFF``:
   exactly at ``VT`` opens a closed switch and keeps an open one open, as ngspice 39's
   ``swload.c``/``cswload.c`` do (there ``VH <= 0`` takes the "negative hysteresis" branch:
   ``v > VT`` on, ``v < VT`` off, and at ``v = VT`` a switch coming from REALLY_ON becomes
-  HYST_OFF; at the operating point a switch without ``ON`` starts HYST_OFF): both
-  thresholds are then ``VT + AT_THRESHOLD·max(1, |VT|)``, so a 0/1 V gate with ``VT = 0``
-  opens the switch at 0 V. (ngspice would close a switch whose control rises from below
-  ``VT`` to exactly ``VT``; circuitnsds keeps it open.)
+  HYST_OFF): both thresholds are then ``VT + AT_THRESHOLD·max(1, |VT|)``, so a 0/1 V gate
+  with ``VT = 0`` opens the switch at 0 V. (ngspice closes a switch whose control rises
+  from below ``VT`` to exactly ``VT``, and one whose control starts at ``VT``: at its
+  operating point the previous state is REALLY_OFF, so it becomes HYST_ON; circuitnsds keeps
+  both open, and warns about the second, see ``analyses/operating_point.py``.)
 
 ``i(name)`` flows from ``n+`` through the switch to ``n-``. The switch is an
 exogenous mode, not a complementarity pair: its state is decided from the

@@ -225,7 +225,7 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
                                capacitance=output * count))
     switch = Mosfet(name, (drain, source, inner_gate), location, model=switch_model,
                     polarity=model.polarity, device=model.kind, on_resistance_rule=rule,
-                    parts=tuple(p.name for p in parts))
+                    gate_drive=drive, parts=tuple(p.name for p in parts))
     return [switch, *parts]
 
 
