@@ -65,34 +65,36 @@ def test_crossing_counts_rise_fall_cross_and_last():
     assert meas("e WHEN v(x)=0.5 RISE=1 TD=1.5", waves).value == pytest.approx(2 + 1 / 12, abs=1e-6)
 
 
+def _plateaus() -> Waveforms:
+    """v(a) = PWL(0 1 1m 0 3m 0 4m 1 5m 1 6m 0 8m 0 9m 1) sampled every 0.1 ms up to 10 ms:
+    flat at 0 over 1-3 ms and 6-8 ms, at 1 over 4-5 ms and from 9 ms on."""
+    t = np.round(np.linspace(0, 10e-3, 101), 12)
+    x = np.interp(t, [0, 1e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 9e-3, 10e-3],
+                  [1, 0, 0, 1, 1, 0, 0, 1, 1])
+    return Waveforms(t, {"v(a)": x})
+
 
 def test_a_signal_sitting_at_the_level_is_not_a_crossing_at_each_sample():
     # hunt3: on a stretch where the signal equals VAL exactly (a diode current at 0, a node
     # at 0 before its source starts), the crossing was placed at a sample inside the flat
     # stretch (here 1.1 ms, 1.2 ms, ...). ngspice 39 (`ngspice -b`, this PWL on a 0.1 ms
     # grid) prints "out of interval" for these: the crossing's instant is 0/0 there.
-    t = np.round(np.linspace(0, 10e-3, 101), 12)
-    x = np.interp(t, [0, 1e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 9e-3, 10e-3],
-                  [1, 0, 0, 1, 1, 0, 0, 1, 1])
-    waves = Waveforms(t, {"v(a)": x})
+    waves = _plateaus()
     assert meas("c1 WHEN v(a)=0 CROSS=1", waves).value == pytest.approx(1e-3)
     for line in ("c2 WHEN v(a)=0 CROSS=2", "c3 WHEN v(a)=0 CROSS=3", "r1 WHEN v(a)=0 RISE=1",
                  "f2 WHEN v(a)=0 FALL=2"):
         result = meas(line, waves)
         assert math.isnan(result.value) and "out of interval" in result.line, line
     # a signal at the level from its first sample does not cross it at the second
+    t = waves.time
     waves = Waveforms(t, {"v(a)": np.where(t < 5e-3, 0.0, t - 5e-3)})
     assert math.isnan(meas("s WHEN v(a)=0", waves).value)
-
 
 
 def test_min_at_and_max_at_take_the_last_of_equal_extremes_as_ngspice():
     # ngspice 39 (`ngspice -b` on V1 a 0 PWL(0 1 1m 0 3m 0 4m 1 5m 1 6m 0 8m 0 9m 1), .tran
     # 0.1m 10m) prints MIN_AT v(a) = 8 ms and MAX_AT v(a) = 10 ms: of equal samples, the last
-    t = np.round(np.linspace(0, 10e-3, 101), 12)
-    x = np.interp(t, [0, 1e-3, 3e-3, 4e-3, 5e-3, 6e-3, 8e-3, 9e-3, 10e-3],
-                  [1, 0, 0, 1, 1, 0, 0, 1, 1])
-    waves = Waveforms(t, {"v(a)": x})
+    waves = _plateaus()
     assert meas("a MIN_AT v(a)", waves).value == pytest.approx(8e-3)
     assert meas("b MAX_AT v(a)", waves).value == pytest.approx(10e-3)
     low = meas("c MIN v(a)", waves)
