@@ -143,8 +143,9 @@ def one_sided_pairs(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
                     relative: float = 1e-6) -> np.ndarray:
     """How many steps each pair is *degenerate* (``degenerate``, shape ``(steps, m)``: neither
     current nor gap in the steady state) while the small-signal response moves the quantity
-    its mode holds at zero (an active pair's current, a blocking pair's gap ``w = C y + D λ
-    + e``: ``gaps``, ``gap_pairs`` are ``C`` and ``D``); shape ``(m,)``.
+    its mode leaves free and which must stay >= 0 (an active pair's current λ, a blocking
+    pair's gap ``w = C y + D λ + e``; the other one the mode holds at zero): ``gaps``,
+    ``gap_pairs`` are ``C`` and ``D``; shape ``(m,)``.
 
     Such a pair is at the threshold of changing state: a perturbation of one sign drives that
     quantity negative, which its mode cannot follow, so the response is one-sided there and
@@ -155,6 +156,7 @@ def one_sided_pairs(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
     if not degenerate.any():
         return count
     moves, scale = [], 1e-300
+    on_y, on_pairs = gaps.T.toarray(), gap_pairs.T.toarray()  # (once, not per step)
     for k, full, active in _periodic_steps(maps, inputs, frequencies):
         scale = max(scale, float(np.abs(full).max(initial=0.0)))
         pairs = np.flatnonzero(degenerate[k])
@@ -162,7 +164,7 @@ def one_sided_pairs(maps: StepMaps, inputs: np.ndarray, frequencies: np.ndarray,
             continue
         current = np.zeros((full.shape[0], degenerate.shape[1]), dtype=complex)
         current[:, active] = full[:, n:]
-        gap = full[:, :n] @ gaps.T.toarray() + current @ gap_pairs.T.toarray()
+        gap = full[:, :n] @ on_y + current @ on_pairs
         held = np.where(np.isin(pairs, active), np.abs(current[:, pairs]).max(axis=0),
                         np.abs(gap[:, pairs]).max(axis=0))
         moves.append((pairs, held))
