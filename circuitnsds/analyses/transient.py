@@ -326,9 +326,13 @@ def _run_transient(
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
-    if step <= 0 or stop <= 0:
-        raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
-                           where=circuit.file)
+    for name, value in (("step", step), ("stop", stop), ("max_step", spec.max_step), ("tol", tol)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
+            raise CircuitError(f"{name} = {value:g} must be positive and finite", where=circuit.file,
+                               hint="tol is the scaled complementarity residual of a step (default "
+                               "1e-9)" if name == "tol" else "step, stop and max_step are times in "
+                               "seconds (--step, --stop on the command line); leave one out for the "
+                               "netlist's .tran value")
     if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
