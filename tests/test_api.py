@@ -82,3 +82,18 @@ def test_bad_transient_arguments_are_errors_naming_them(argument, value):
     circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
     with pytest.raises(circuitnsds.CircuitError, match=rf"^.*\b{argument} = .* must be positive and finite"):
         circuit.transient(**{argument: value})
+
+
+def test_a_source_too_fast_for_any_grid_is_one_error_naming_it_without_a_refinement_note():
+    # before: a note "integrated with a step of 5e-302 s (TSTEP/2000...0)" (a 300-digit factor)
+    # came first, then an error blaming "the units of TSTEP/TMAX and TSTOP"
+    import warnings
+
+    circuit = circuitnsds.read_netlist("sin\nV1 a 0 SIN(0 1 1e300)\nR1 a 0 1k\n.tran 1u 1m\n.end\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(circuitnsds.CircuitError, match=r"steps requested.*v1 needs a step of at most "
+                           r"5e-302 s") as error:
+            circuit.transient()
+    assert "frequencies of the sources" in error.value.hint
+    assert not [w for w in caught if "TSTEP/" in str(w.message)]

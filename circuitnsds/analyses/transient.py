@@ -357,16 +357,20 @@ def _run_transient(
         else:
             factor = math.ceil(h / needed[0] - 1e-9)
             report_step, h = h, h / factor
-            warnings.warn(RunNote(
-                f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
-                f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
-                stacklevel=2)
     breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
     try:
         grid = time_grid(h, stop, breakpoints)
     except ValueError as exc:
+        if report_step is not None:  # the step the sources need, not TSTEP, is too small
+            raise CircuitError(f"{exc}: {what}", where=circuit.file,
+                               hint="check the frequencies of the sources (and their units)") from None
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
+    if report_step is not None:  # noted once the grid exists (a failed refinement is an error)
+        warnings.warn(RunNote(
+            f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
+            f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
+            stacklevel=2)
     check_initial_conditions(circuit, circuit._resolved(spec.source_defaults), uic)
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
