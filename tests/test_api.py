@@ -69,3 +69,31 @@ def test_stepping_option_is_checked():
         np.testing.assert_allclose(paths[path]["v(b)"], paths["compiled"]["v(b)"], rtol=0, atol=1e-9)
     with pytest.raises(circuitnsds.CircuitError, match="stepping"):
         circuit.transient(stepping="fast")
+
+
+@pytest.mark.parametrize("argument, value", [
+    ("tol", -1.0), ("tol", 0.0), ("tol", float("nan")), ("max_step", 0.0), ("max_step", -1e-6),
+    ("max_step", float("inf")), ("step", -1e-5), ("step", float("nan")), ("stop", float("inf")),
+    ("stop", 0.0)])
+def test_bad_transient_arguments_are_errors_naming_them(argument, value):
+    """A non-positive or non-finite tol, max_step, step or stop is a CircuitError naming the
+    argument, before any work: tol=-1 used to be reported as "the DC operating point has no
+    solution", and max_step=0 was taken as "not given" (while .tran's TMAX = 0 is an error)."""
+    circuit = circuitnsds.read_netlist(NETLISTS / "half_wave_rectifier.cir")
+    with pytest.raises(circuitnsds.CircuitError, match=rf"^.*\b{argument} = .* must be positive and finite"):
+        circuit.transient(**{argument: value})
+
+
+def test_a_source_too_fast_for_any_grid_is_one_error_naming_it_without_a_refinement_note():
+    # before: a note "integrated with a step of 5e-302 s (TSTEP/2000...0)" (a 300-digit factor)
+    # came first, then an error blaming "the units of TSTEP/TMAX and TSTOP"
+    import warnings
+
+    circuit = circuitnsds.read_netlist("sin\nV1 a 0 SIN(0 1 1e300)\nR1 a 0 1k\n.tran 1u 1m\n.end\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(circuitnsds.CircuitError, match=r"steps requested.*v1 needs a step of at most "
+                           r"5e-302 s") as error:
+            circuit.transient()
+    assert "frequencies of the sources" in error.value.hint
+    assert not [w for w in caught if "TSTEP/" in str(w.message)]

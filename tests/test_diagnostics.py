@@ -355,3 +355,16 @@ def test_non_finite_source_value_is_caught_before_the_first_step():
                              Resistor("r1", ("a", "0")))
     with pytest.raises(SimulationError, match=r"a source function is inf at t = 0.003 s \(source v1"):
         circuit.transient(1e-3, 10e-3)
+
+
+@pytest.mark.parametrize("keywords, message", [
+    ({"step": -1.0}, "step = -1 must be positive and finite"),
+    ({"step": 0.0}, "step = 0 must be positive and finite"),
+    ({"step": float("inf")}, "step = inf must be positive and finite"),
+    ({"theta": 2.0}, r"theta = 2 is outside \[0.5, 1\]")])
+def test_well_posedness_refuses_a_bad_step_or_theta(keywords, message):
+    # before: step=-1 (a negative K) and theta=2 returned verdicts, step=0 was taken as "not given"
+    circuit = read("V1 a 0 SIN(0 1 1k)\nD1 a b dd\nR1 b 0 1k\nC1 b 0 1u\n.model dd D(Ron=1)\n.tran 10u 3m")
+    assert circuit.well_posedness()  # the defaults work
+    with pytest.raises(circuitnsds.CircuitError, match=message):
+        circuit.well_posedness(**keywords)

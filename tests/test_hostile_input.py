@@ -226,3 +226,17 @@ def test_an_ic_given_twice_with_two_values_is_a_warning():
     messages = [str(w.message) for w in caught if issubclass(w.category, circuitnsds.NetlistWarning)]
     assert messages == ["<text>:6: .ic v(b) is given twice, 1 (at <text>:5) and 2: the last one is used"]
     assert circuit.initial_voltages["b"][0] == 2.0
+
+
+@pytest.mark.parametrize("invisible", ["\u200b", "\u00ad", "\ufeff", "\x07"])
+def test_an_invisible_character_in_a_name_is_an_error_at_its_line(invisible):
+    # before: "R\u200b1" was an element of its own, its name (with the zero-width space) in the
+    # CSV header, where nobody could type it back (--signals i(r1) did not find it)
+    import circuitnsds
+
+    text = f"t\nV1 a 0 1\nR{invisible}1 a 0 1k\n.tran 1u 10u\n.end\n"
+    with pytest.raises(NetlistError, match=rf"U\+{ord(invisible):04X}") as error:
+        circuitnsds.read_netlist(text)
+    assert error.value.where.line == 3 and "delete it" in error.value.hint
+    # the title and comments may hold anything
+    circuitnsds.read_netlist(f"t{invisible}\n* c{invisible}\nV1 a 0 1\nR1 a 0 1k\n.tran 1u 10u\n.end\n")

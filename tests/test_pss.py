@@ -358,6 +358,12 @@ def test_bad_tolerance_iterations_or_warmup_are_errors_and_zero_iterations_is_ob
                               ({"periods_warmup": -1}, "periods_warmup = -1 must be 0 or more")]:
         with pytest.raises(circuitnsds.CircuitError, match=message):
             circuit.pss(**keywords)
+    # tol = 0 too, also for a circuit without states (its first period is periodic at residual 0)
+    stateless = circuitnsds.read_netlist("no states\nV1 a 0 SIN(0 1 1k)\nD1 a b dd\nR1 b 0 1k\n"
+                                         ".model dd D(Ron=1)\n.tran 10u 3m\n.end\n")
+    assert stateless.pss().relative_residual == 0.0
+    with pytest.raises(circuitnsds.CircuitError, match="tol = 0 must be positive"):
+        stateless.pss(tol=0.0)
     # no Newton step allowed: the fallback's transient periods alone reach the steady state
     result = circuitnsds.read_netlist(NETLISTS / "bridge_rectifier.cir").pss(max_iterations=0)
     assert result.iterations == 0 and result.transient_periods >= 10

@@ -712,3 +712,18 @@ def test_the_progress_bar_counts_finished_points():
     bar.close()
     lines = stream.getvalue().split("\r")
     assert "1/2 points" in lines[1] and "2/2 points" in lines[2] and stream.getvalue().endswith("\n")
+
+
+def test_waveforms_to_standard_output_is_refused_before_the_run(tmp_path, capsys, monkeypatch):
+    # before: sweep --waveforms - ran every point and wrote them into a folder named "-"
+    from circuitnsds.cli.main import main
+
+    monkeypatch.chdir(tmp_path)
+    base = ["sweep", str(BUCK), "--param", "D=0.5", "--workers", "0", "-q", "--stop", "20u"]
+    assert main([*base, "--waveforms", "-"]) == 1
+    err = capsys.readouterr().err
+    assert "--waveforms cannot go to standard output ('-')" in err and "give --waveforms a path" in err
+    assert not (tmp_path / "-").exists()
+    assert main([*base, "-o", "same", "--waveforms", "same"]) == 1
+    assert "-o and --waveforms name the same file" in capsys.readouterr().err
+    assert not (tmp_path / "same").exists()

@@ -326,9 +326,13 @@ def _run_transient(
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
-    if step <= 0 or stop <= 0:
-        raise CircuitError(f"step ({step:g} s) and stop ({stop:g} s) must be positive",
-                           where=circuit.file)
+    for name, value in (("step", step), ("stop", stop), ("max_step", spec.max_step), ("tol", tol)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
+            raise CircuitError(f"{name} = {value:g} must be positive and finite", where=circuit.file,
+                               hint="tol is the scaled complementarity residual of a step (default "
+                               "1e-9)" if name == "tol" else "step, stop and max_step are times in "
+                               "seconds (--step, --stop on the command line); leave one out for the "
+                               "netlist's .tran value")
     if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
@@ -353,16 +357,20 @@ def _run_transient(
         else:
             factor = math.ceil(h / needed[0] - 1e-9)
             report_step, h = h, h / factor
-            warnings.warn(RunNote(
-                f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
-                f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
-                stacklevel=2)
     breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
     try:
         grid = time_grid(h, stop, breakpoints)
     except ValueError as exc:
+        if report_step is not None:  # the step the sources need, not TSTEP, is too small
+            raise CircuitError(f"{exc}: {what}", where=circuit.file,
+                               hint="check the frequencies of the sources (and their units)") from None
         raise CircuitError(str(exc), where=circuit.file,
                            hint="check the units of TSTEP/TMAX and TSTOP") from None
+    if report_step is not None:  # noted once the grid exists (a failed refinement is an error)
+        warnings.warn(RunNote(
+            f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
+            f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
+            stacklevel=2)
     check_initial_conditions(circuit, circuit._resolved(spec.source_defaults), uic)
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)

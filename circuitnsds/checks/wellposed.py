@@ -52,6 +52,7 @@ at a voltage of about ``I·Roff``): the ideal diode in series with a current sou
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,6 +63,7 @@ from circuitnsds.solvers.linalg import RCOND_MIN, factorise
 from circuitnsds.solvers.pivot_transform import PivotTransform, completion_mask
 from circuitnsds.specs import SourceDefaults
 from circuitnsds.system.mlcs import MLCS
+from circuitnsds.theta import theta_in_range
 
 EXACT_LIMIT = 12
 """Up to this many pairs the P-matrix test checks all ``2**m - 1`` principal minors."""
@@ -423,7 +425,14 @@ def analyse_circuit(circuit, step: float | None = None, *, states=None,
                     theta: float = 1.0) -> list[WellPosedness]:
     """:func:`analyse` for each switch configuration, with the ideal-limit notes."""
     tran = circuit.analyses.get("tran")  # the step examined is the transient's, unless given
-    step = step or (tran.step if tran else 1.0)
+    if step is None:
+        step = tran.step if tran else 1.0
+    elif not (step > 0 and math.isfinite(step)):
+        raise CircuitError(f"step = {step:g} must be positive and finite", where=circuit.file,
+                           hint="the time step [s] of the LCP examined; leave it out for .tran's TSTEP")
+    if not theta_in_range(theta):
+        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+                           hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     mlcs = circuit.mlcs(SourceDefaults(step, tran.stop if tran else max(step, 1.0)))
     reports = []
     for configuration in switch_configurations(mlcs.switches, states):

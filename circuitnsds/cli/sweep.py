@@ -92,7 +92,8 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     from circuitnsds.output.files import check_outputs
 
     netlist = builder.netlist
-    check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot))
+    check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot),
+                                                     ("--waveforms", getattr(args, "waveforms", None)))
                    if path}, [netlist.file, *netlist.included], stdout=("-o",))  # not over the netlist
     if args.plot:  # matplotlib present and the figure format known, before the run
         from circuitnsds.output import sweep_plot  # noqa: F401

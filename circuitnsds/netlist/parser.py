@@ -23,6 +23,7 @@ Included files have no title line (``parse_netlist(..., has_title=False)``).
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -169,6 +170,20 @@ def tokenize(text: str, strict: bool = True) -> tuple[str, ...]:
     return tuple(tokens)
 
 
+def _check_visible(tokens: tuple[str, ...], location: SourceLocation) -> None:
+    """Refuse a control or format character (a zero-width space, a soft hyphen, a BOM, a
+    bell...) inside a token outside quotes: it would become part of a name nobody can type
+    back (``R\u200b1`` is not ``r1``). Tabs are blanks; quoted strings may hold anything."""
+    for token in tokens:
+        if token.isprintable() or token[0] in _CLOSING:
+            continue
+        for char in token:
+            if char != "\t" and unicodedata.category(char) in {"Cc", "Cf"}:
+                raise NetlistError(f"invisible character U+{ord(char):04X} in {token!r}",
+                                   where=location, hint="delete it (it is not a blank either: "
+                                   "use a space or a tab between fields)")
+
+
 def physical_lines(text: str) -> list[str]:
     """Split at ``\\n``, ``\\r\\n`` and ``\\r`` only, as ngspice does: ``str.splitlines`` also
     splits at form feeds and other separators that may sit inside a line."""
@@ -282,6 +297,7 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
         except _TokenError as exc:
             raise NetlistError(f"cannot read {line.text!r}: {exc}", where=location,
                                hint="expressions are written {a*2} or 'a*2', paths \"my file.lib\"") from None
+        _check_visible(tokens, location)
         if not tokens or tokens[0] in {"(", ")", "="}:
             raise NetlistError(f"cannot read {line.text!r}: a statement starts with "
                                "an element name or a dot command", where=location)

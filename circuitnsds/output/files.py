@@ -90,7 +90,7 @@ def check_outputs(outputs: Mapping[str, Path], inputs: Iterable[str | Path],
         if str(path) == "-" and label not in allowed:
             which = f"only {', '.join(sorted(allowed))} can" if allowed else "no output of this command can"
             raise OutputError(f"{label} cannot go to standard output ('-')", where=label,
-                              hint=f"give {label} a file name ({which} be '-')")
+                              hint=f"give {label} a path ({which} be '-')")
     files = {label: Path(path) for label, path in outputs.items() if str(path) != "-"}
     sources = [Path(p) for p in inputs if str(p) not in {"-", "<text>", "<stdin>"}]
     for label, path in files.items():
