@@ -440,8 +440,9 @@ def _ac(args: argparse.Namespace) -> int:
             raise CircuitError("--loop-gain takes RETURN,INJECTED (two signals) and needs --input "
                                "(the injection source)", where="--loop-gain")
         outputs = list(dict.fromkeys([*(outputs or []), *loop]))
-    stdin = str(args.netlist) == "-"
-    bode_outputs = {"-o": args.csv or Path("-" if stdin else args.netlist.stem + "_ac.csv")}
+    default_csv = "-" if str(args.netlist) == "-" else args.netlist.stem + "_ac.csv"
+    bode_outputs = {"-o": args.csv or Path(default_csv)}
+    to_stdout = str(bode_outputs["-o"]) == "-"  # the Bode table; what is printed goes to stderr
     if args.plot:
         bode_outputs["--plot"] = args.plot
     check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
@@ -462,10 +463,10 @@ def _ac(args: argparse.Namespace) -> int:
         print(f"loop gain -{loop[0]}/{loop[1]}: crossover {crossover:.6g} Hz, phase margin "
               f"{margin:.4g} deg" if np.isfinite(crossover) else
               f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep",
-              file=sys.stderr if str(bode_outputs["-o"]) == "-" else sys.stdout, flush=True)
+              file=sys.stderr if to_stdout else sys.stdout, flush=True)
     written = [bode_outputs["-o"]]
     with _writing(written[0]):
-        write_bode_csv(result, sys.stdout if str(written[0]) == "-" else written[0])
+        write_bode_csv(result, sys.stdout if to_stdout else written[0])
     if args.plot:
         with _writing(args.plot):
             plot_bode(result, args.plot, marks)
