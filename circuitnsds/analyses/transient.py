@@ -694,21 +694,21 @@ def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
             # that part there (KCL holds with the other currents, which are that part's too)
             for point, (y_start, length) in tails.items():
                 if point >= first:
-                    v = [0.0 if n == "0" else float(_row(f"v({n})", y_start[None, :],
-                                                         trajectory.current[point:point + 1])[0])
-                         for n in element.nodes[:2]]
-                    flow[point - first] = (charge[point - first]
-                                           - element.capacitance * (v[0] - v[1])) / length
+                    flow[point - first] = (charge[point - first] - charge_at(
+                        element, y_start[None, :], trajectory.current[point:point + 1])) / length
             if periodic and time.size > 1:
                 flow[0] = flow[-1]
             elif first > 0 and first not in tails:
-                v = [0.0 if n == "0" else float(_row(f"v({n})", trajectory.y[before:first],
-                                                     trajectory.current[before:first])[0])
-                     for n in element.nodes[:2]]
                 step = time[0] - trajectory.time[before]
-                flow[0] = (charge[0] - element.capacitance * (v[0] - v[1])) / step
+                flow[0] = (charge[0] - charge_at(element, trajectory.y[before:first],
+                                                 trajectory.current[before:first])) / step
             return flow
         return _row(name, y, current)
+
+    def charge_at(element: Capacitor, states: np.ndarray, currents: np.ndarray) -> float:
+        """The capacitor's charge [C] (n1 over n2) at one point: ``states``/``currents`` one row."""
+        v = [0.0 if n == "0" else float(_row(f"v({n})", states, currents)[0]) for n in element.nodes[:2]]
+        return element.capacitance * (v[0] - v[1])
 
     def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
         """Signal ``name``: the sum, in stamped order, of its rows' weighted unknowns."""
