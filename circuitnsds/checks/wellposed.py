@@ -63,7 +63,7 @@ from circuitnsds.solvers.linalg import RCOND_MIN, factorise
 from circuitnsds.solvers.pivot_transform import PivotTransform, completion_mask
 from circuitnsds.specs import SourceDefaults
 from circuitnsds.system.mlcs import MLCS
-from circuitnsds.theta import theta_in_range
+from circuitnsds.theta import THETA_HINT, theta_in_range
 
 EXACT_LIMIT = 12
 """Up to this many pairs the P-matrix test checks all ``2**m - 1`` principal minors."""
@@ -432,7 +432,7 @@ def analyse_circuit(circuit, step: float | None = None, *, states=None,
                            hint="the time step [s] of the LCP examined; leave it out for .tran's TSTEP")
     if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
-                           hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
+                           hint=f"theta: {THETA_HINT}")
     mlcs = circuit.mlcs(SourceDefaults(step, tran.stop if tran else max(step, 1.0)))
     reports = []
     for configuration in switch_configurations(mlcs.switches, states):
