@@ -471,6 +471,8 @@ class Segments:
         steps = np.diff(np.asarray(grid, dtype=float))
         self.sizes, self.classes = _sizes_and_classes(steps)  # (classes: of every step)
         self.total = steps.size  # steps of the whole run
+        self.grid = grid
+        self.corners: np.ndarray | None = None  # with θ < 1: the whole grid's corner steps
         self.offset = 0  # steps of the parts done
         self.stepping: _Stepping | None = None
         self.choice: LoopChoice | None = None
@@ -482,12 +484,18 @@ class Segments:
               ) -> tuple[_Stepping, LoopChoice]:
         """The stepping state and loop choice for the next part, ``grid``."""
         classes = self.classes[self.offset:self.offset + grid.size - 1]
+        corners = None
+        if theta != 1.0:  # found once for the whole grid (each part's search began at t = 0)
+            if self.corners is None:
+                self.corners = _corner_steps(mlcs, self.grid)
+            end = self.offset + grid.size - 1
+            corners = self.corners[(self.corners >= self.offset) & (self.corners < end)] - self.offset
         if self.stepping is None or self.stepping.mlcs is not mlcs:
             self.stepping = _Stepping(mlcs, grid, theta, tol, initial_states, continued, self.sizes,
-                                      classes, self.buffers)
+                                      classes, self.buffers, corners)
             self.choice = LoopChoice(loop, unknowns=mlcs.n, watched=self.stepping.free.size)
         else:
-            self.stepping.target(grid, initial_states, continued, classes, self.buffers)
+            self.stepping.target(grid, initial_states, continued, classes, self.buffers, corners)
         return self.stepping, self.choice
 
 
@@ -514,14 +522,14 @@ class _Stepping:
     def __init__(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
                  initial_states: np.ndarray, continued: bool = False,
                  sizes: tuple[float, np.ndarray] | None = None, classes: np.ndarray | None = None,
-                 buffers: dict | None = None):
+                 buffers: dict | None = None, corners: np.ndarray | None = None):
         self.mlcs, self.theta, self.tol = mlcs, theta, tol
         self.differential = mlcs.differential_rows
         if sizes is None or classes is None:  # (else the whole grid's sizes, this grid's classes)
             sizes, classes = _sizes_and_classes(np.diff(grid))
         self.step_sizes = sizes
         self.sizes = self.step_sizes[1].size
-        self.target(grid, initial_states, continued, classes, buffers)
+        self.target(grid, initial_states, continued, classes, buffers, corners)
         free = [j for j, s in enumerate(mlcs.switches) if s.control_stimulus is None]
         self.free = np.array(free, dtype=np.int64)
         controls = np.zeros((len(free), mlcs.n))
@@ -550,13 +558,16 @@ class _Stepping:
         self._counted = self.counters(absolute=True)  # the solvers' counters before this grid
 
     def target(self, grid: np.ndarray, initial_states: np.ndarray, continued: bool,
-               classes: np.ndarray, buffers: dict | None = None) -> None:
+               classes: np.ndarray, buffers: dict | None = None,
+               corners: np.ndarray | None = None) -> None:
         """Aim at ``grid`` (a part of the grid whose step sizes :attr:`step_sizes` numbers, or
         the whole of it; ``classes``: the class of each of its steps, by those sizes): the
         sources' values (into the array ``"sources"`` of ``buffers``, the parts' per-step
         arrays, when given), step classes and switch schedule of its steps.
         The step solvers, maps and mode table, keyed by class and switch states, stay:
-        a run continued in segments builds each of them once (see :class:`Segments`)."""
+        a run continued in segments builds each of them once (see :class:`Segments`).
+        ``corners``: with θ < 1, the steps of ``grid`` that start at a source's corner, when
+        known (:class:`Segments` finds them once for the whole grid); else found here."""
         mlcs, theta = self.mlcs, self.theta
         self.grid = grid
         self.sources = source_values(mlcs, grid, None if buffers is None else _work(
@@ -571,7 +582,7 @@ class _Stepping:
         restart = np.zeros(self.step_class.size, dtype=bool)
         if theta != 1.0:
             restart[1 + np.flatnonzero(self.sched_state[1:] != self.sched_state[:-1])] = True
-            restart[_corner_steps(mlcs, grid)] = True
+            restart[_corner_steps(mlcs, grid) if corners is None else corners] = True
             restart[0] &= continued
         restart[0] |= not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
             (self.schedule[0] != initial_states[self.scheduled]).any()))
