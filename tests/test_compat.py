@@ -115,7 +115,8 @@ def test_shockley_fit_matches_the_curve_and_its_slope():
 
 def test_fit_line_stays_physical():
     line = fit_line(lambda i: 0.5 * np.ones_like(i), 1.0)
-    assert line.resistance == 0 and line.drop == pytest.approx(0.5)
+    # a flat curve: no slope beyond the least-squares fit's round-off, never a negative one
+    assert 0 <= line.resistance < 1e-12 and line.drop == pytest.approx(0.5)
     with pytest.raises(ValueError):
         fit_line(lambda i: i, 0.0)
 
