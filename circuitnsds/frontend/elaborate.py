@@ -12,14 +12,7 @@ element names may be hierarchical (``x1.d3`` is a diode).
 from __future__ import annotations
 
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import (
-    Diode,
-    Element,
-    Inductor,
-    MutualInductance,
-    Resistor,
-    Switch,
-)
+from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.frontend.cards import commands, devices, sources
@@ -161,7 +154,7 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     is positive semidefinite (else the magnetic energy could be negative). A zero
     eigenvalue is perfect coupling (``|k| = 1``, an ideal transformer with its magnetising
     inductance), which ngspice accepts too."""
-    inductors = {e.name: e for e in circuit.elements if isinstance(e, Inductor)}
+    inductors = {e.name: e for e in circuit.elements if e.topology == "inductor"}
     couplings: list[MutualInductance] = []
     for statement in statements:
         for coupling in devices.mutual_inductance(StatementReader(statement), inductors):
@@ -194,14 +187,7 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
 
 
 def _check_unused_models(circuit: Circuit) -> None:
-    used = set()
-    for element in circuit.elements:
-        if isinstance(element, (Diode, Switch)):
-            used.add(element.model.name)
-        elif (isinstance(element, Resistor) or is_loaded_instance(
-                element, "circuitnsds.circuit.elements.behavioural", "BehaviouralSource", "Integrator"
-        )) and element.model:
-            used.add(element.model)
+    used = {element.model_name for element in circuit.elements}
     for name, model in circuit.models.items():
         if name not in used:
             kind = model if isinstance(model, str) else model.kind if is_loaded_instance(

@@ -20,6 +20,16 @@ class Resistor(Element):
     resistance: float = 1.0
     model: str | None = None
 
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        errors = super().value_errors()
+        if self.resistance <= 0:
+            errors.append((f"resistance must be positive, got {self.resistance:g}",
+                           "use a 0 V voltage source for a short circuit"))
+        return errors
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return [(f"R = {self.resistance:.3g} Ω", 1.0 / self.resistance)]
+
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)
         builder.add_conductance("A", a, b, -1.0 / self.resistance)
@@ -34,6 +44,20 @@ class Capacitor(Element):
     capacitance: float = 1.0
     initial_voltage: float | None = None
     topology: ClassVar[str] = "capacitor"
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        errors = super().value_errors()
+        if self.capacitance < 0:
+            errors.append((f"capacitance must not be negative, got {self.capacitance:g} F", None))
+        return errors
+
+    def value_warnings(self) -> list[str]:
+        return ["0 F capacitor: it is an open circuit (and adds no state)"] if self.capacitance == 0 else []
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        if self.capacitance > 0:
+            return [(f"C = {self.capacitance:.3g} F", self.capacitance / step)]
+        return []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)
@@ -51,6 +75,21 @@ class Inductor(Element):
     inductance: float = 1.0
     initial_current: float | None = None
     topology: ClassVar[str] = "inductor"
+    owns_branch_current: ClassVar[bool] = True
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        errors = super().value_errors()
+        if self.inductance < 0:
+            errors.append((f"inductance must not be negative, got {self.inductance:g} H", None))
+        return errors
+
+    def value_warnings(self) -> list[str]:
+        return ["0 H inductor: it is a short circuit (a 0 V voltage source)"] if self.inductance == 0 else []
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        if self.inductance > 0:
+            return [(f"L = {self.inductance:.3g} H", step / self.inductance)]
+        return []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)

@@ -24,6 +24,7 @@ class IndependentSource(Element):
 
     function: Stimulus = Dc(0.0)
     ac: tuple[float, float] | None = None
+    independent_source: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,7 @@ class VoltageSource(IndependentSource):
     """Independent voltage source (``function`` in volts)."""
 
     topology: ClassVar[str] = "voltage"
+    owns_branch_current: ClassVar[bool] = True
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
