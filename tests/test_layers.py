@@ -28,7 +28,8 @@ ALLOWED = {
     "cli": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
             "analyses", "compare", "sweeps"},
 }
-FOUNDATION = {"errors", "units", "values", "theta", "specs", "native", "_blas", "arrays", "lazy"}
+FOUNDATION = {"errors", "units", "values", "theta", "specs", "native", "_blas", "arrays", "lazy",
+              "element_letters"}
 
 
 def _module_level_imports(path: Path) -> list[tuple[int, str]]:

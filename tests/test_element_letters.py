@@ -1,0 +1,58 @@
+"""The element-letter tables: one letter -> its nodes (foundation, read by subcircuit
+flattening) and its card reader (frontend); a letter in one is in the other."""
+
+import inspect
+from dataclasses import fields
+
+import pytest
+
+from circuitnsds import read_netlist
+from circuitnsds.element_letters import ELEMENT_LETTERS, SUPPORTED_LETTERS, mosfet_node_count
+from circuitnsds.errors import NetlistError
+from circuitnsds.frontend.cards.by_letter import CARD_READERS, CardContext
+
+HANDLED_BY_THE_ELABORATOR = {"k", "x"}  # couplings are read last; instances are expanded before
+
+
+def test_every_supported_letter_has_a_reader_and_every_reader_a_supported_letter():
+    supported = {letter for letter, kind in ELEMENT_LETTERS.items() if kind.supported}
+    assert set(CARD_READERS) == supported - HANDLED_BY_THE_ELABORATOR
+    for letter in supported:
+        assert letter.upper() in SUPPORTED_LETTERS
+
+
+@pytest.mark.parametrize("letter", sorted(CARD_READERS))
+def test_each_reader_takes_the_line_and_the_context_fields_it_names(letter):
+    card = CARD_READERS[letter]
+    parameters = list(inspect.signature(card.load()).parameters)
+    assert parameters[0] == "reader"
+    assert set(card.arguments) <= {f.name for f in fields(CardContext)}
+    assert parameters[1:] == [{"models": "models", "voltage_sources": "voltage_sources"}.get(a, a)
+                              for a in card.arguments]
+
+
+@pytest.mark.parametrize(("tokens", "nodes"), [
+    (("m1", "d", "g", "s", "nch"), 3), (("m1", "d", "g", "s", "b", "nch"), 4),
+    (("m1", "d", "g", "s", "nch", "off"), 3), (("m1", "d", "g", "s", "nch", "w", "=", "1"), 3),
+    (("m1", "d", "g", "s", "b", "nch", "l", "=", "1"), 4),
+])
+def test_mosfet_nodes_are_counted_from_the_words_before_the_parameters(tokens, nodes):
+    assert mosfet_node_count(tokens) == nodes
+
+
+def test_nodes_inside_a_subcircuit_are_renamed_by_the_table():
+    circuit = read_netlist("t\n.subckt cell a b\nm1 a g b b nch\nvg g b 5\nw1 a x vg sw\nrx x b 1\n"
+                           ".model nch nmos(vto=1 kp=1)\n.model sw csw(it=1)\n.ends\n"
+                           "v1 in 0 10\nx1 in 0 cell\n.end\n")
+    assert circuit.element("x1.m1").nodes[:2] == ("in", "0")
+    assert circuit.element("x1.w1").control == "x1.vg"
+    assert circuit.element("x1.w1").nodes == ("in", "x1.x")
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("q1 c b e qmod", r"q1: bipolar transistors \('Q' lines\) are not supported"),
+    ("%1 a 0 1", "unknown element type '%'"),
+])
+def test_a_letter_without_a_reader_is_refused_by_name(line, message):
+    with pytest.raises(NetlistError, match=message):
+        read_netlist(f"t\nv1 a 0 1\n{line}\n.end\n")
