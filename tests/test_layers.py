@@ -29,7 +29,7 @@ ALLOWED = {
             "analyses", "compare", "sweeps"},
 }
 FOUNDATION = {"errors", "units", "values", "theta", "specs", "native", "_blas", "arrays", "lazy",
-              "element_letters"}
+              "element_letters", "jit", "graphs"}
 
 
 def _module_level_imports(path: Path) -> list[tuple[int, str]]:

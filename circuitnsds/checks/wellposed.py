@@ -328,7 +328,7 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
     """Node groups joined to the rest, over one step, only by current sources and devices
     that can block (diodes, open switches): the current sources force their current
     through those devices (see the module docstring, "Ideal limit")."""
-    from circuitnsds.checks.topology import connected_components
+    from circuitnsds.graphs import connected_components
 
     edges = []
     for element in circuit.elements:

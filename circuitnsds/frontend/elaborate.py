@@ -21,6 +21,7 @@ from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
+from circuitnsds.graphs import connected_components
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.netlist import Netlist, Statement
 
@@ -142,8 +143,6 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     if not couplings:
         return
     import numpy as np
-
-    from circuitnsds.checks.topology import connected_components
 
     for group in connected_components((), (c.inductors for c in couplings)):
         members = [inductors[name] for name in sorted(group)]
