@@ -212,8 +212,7 @@ def check_stamps(elements: Sequence[Element], mlcs) -> None:
                 element.stamp(builder)
             except (ZeroDivisionError, OverflowError):
                 pass
-        values = [v for triplets in builder._triplets.values() for _, _, v in triplets] + builder.e
-        if not np.isfinite(values).all():
+        if not np.isfinite(builder.stamped_values()).all():
             raise CircuitError(f"{element.name}: its equations hold numbers that are not finite "
                                "(a value too small or too large: e.g. 1/R overflows)",
                                where=element.location or element.name,
