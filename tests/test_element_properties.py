@@ -101,3 +101,14 @@ def test_only_elements_owning_a_branch_current_may_control_w_f_h():
         else:
             with pytest.raises(CircuitError, match="controlling source 'vs' has no current unknown"):
                 check_circuit(circuit)
+
+
+def test_the_elements_f_h_and_w_may_sense_are_v_l_e_h_and_switches():
+    from circuitnsds.circuit import elements
+
+    owners = {name for name in elements.__all__
+              if isinstance(getattr(elements, name), type) and issubclass(getattr(elements, name), Element)
+              and getattr(elements, name)("x", ("a", "0")).owns_branch_current}
+    assert owners == {"VoltageSource", "Inductor", "Switch", "VoltageControlledVoltageSource",
+                      "CurrentControlledVoltageSource"}
+    assert not Mosfet("m1", ("d", "s", "g")).owns_branch_current

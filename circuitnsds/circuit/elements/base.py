@@ -25,7 +25,8 @@ class Element:
             (one that a control opens and closes; ``model`` gives ``on_resistance`` and
             ``off_resistance``, ``initially_on`` its state at the start), ``None`` (none).
         owns_branch_current: it adds the unknown ``i(name)`` that ``F``, ``H`` and ``W``
-            may sense.
+            may sense: by default a voltage-defined element (``topology == "voltage"``, whose
+            branch current is an unknown of MNA); inductors and switches declare it too.
         independent_source: its value is a known function of time (``function``), not of
             the circuit's unknowns.
     """
@@ -35,12 +36,15 @@ class Element:
     location: SourceLocation | None = None
     topology: ClassVar[str] = "conductive"
     junction: ClassVar[str | None] = None
-    owns_branch_current: ClassVar[bool] = False
     independent_source: ClassVar[bool] = False
 
     def stamp(self, builder: MLCSBuilder) -> None:
         """Add this element's entries to the MLCS under construction."""
         raise NotImplementedError
+
+    @property
+    def owns_branch_current(self) -> bool:
+        return self.topology == "voltage"
 
     @property
     def model_name(self) -> str | None:
@@ -67,6 +71,11 @@ class Element:
     def describe(self) -> str:
         """Short human description for messages: ``r1 (line 4)``."""
         return f"{self.name} ({self.location})" if self.location else self.name
+
+
+def negative_value(value: float, what: str, unit: str) -> list[tuple[str, str | None]]:
+    """The error ``(message, hint)`` of a ``value`` [``unit``] that must not be negative."""
+    return [(f"{what} must not be negative, got {value:g} {unit}", None)] if value < 0 else []
 
 
 def junction_conductances(model) -> list[tuple[str, float]]:

@@ -36,7 +36,6 @@ class VoltageControlledVoltageSource(_VoltageControlled):
 
     gain: float = 1.0
     topology: ClassVar[str] = "voltage"
-    owns_branch_current: ClassVar[bool] = True
 
     def stamp(self, builder: MLCSBuilder) -> None:
         k = stamp_voltage_branch(builder, self.name, *(builder.node(n) for n in self.nodes[:2]))
@@ -91,7 +90,6 @@ class CurrentControlledVoltageSource(_CurrentControlled):
 
     transresistance: float = 1.0
     topology: ClassVar[str] = "voltage"
-    owns_branch_current: ClassVar[bool] = True
 
     def stamp(self, builder: MLCSBuilder) -> None:
         k = stamp_voltage_branch(builder, self.name, *(builder.node(n) for n in self.nodes))

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, negative_value
 from circuitnsds.system.mlcs import MLCSBuilder
 
 
@@ -46,18 +46,13 @@ class Capacitor(Element):
     topology: ClassVar[str] = "capacitor"
 
     def value_errors(self) -> list[tuple[str, str | None]]:
-        errors = super().value_errors()
-        if self.capacitance < 0:
-            errors.append((f"capacitance must not be negative, got {self.capacitance:g} F", None))
-        return errors
+        return super().value_errors() + negative_value(self.capacitance, "capacitance", "F")
 
     def value_warnings(self) -> list[str]:
         return ["0 F capacitor: it is an open circuit (and adds no state)"] if self.capacitance == 0 else []
 
     def conductances(self, step: float) -> list[tuple[str, float]]:
-        if self.capacitance > 0:
-            return [(f"C = {self.capacitance:.3g} F", self.capacitance / step)]
-        return []
+        return [(f"C = {self.capacitance:.3g} F", self.capacitance / step)] if self.capacitance > 0 else []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)
@@ -78,18 +73,13 @@ class Inductor(Element):
     owns_branch_current: ClassVar[bool] = True
 
     def value_errors(self) -> list[tuple[str, str | None]]:
-        errors = super().value_errors()
-        if self.inductance < 0:
-            errors.append((f"inductance must not be negative, got {self.inductance:g} H", None))
-        return errors
+        return super().value_errors() + negative_value(self.inductance, "inductance", "H")
 
     def value_warnings(self) -> list[str]:
         return ["0 H inductor: it is a short circuit (a 0 V voltage source)"] if self.inductance == 0 else []
 
     def conductances(self, step: float) -> list[tuple[str, float]]:
-        if self.inductance > 0:
-            return [(f"L = {self.inductance:.3g} H", step / self.inductance)]
-        return []
+        return [(f"L = {self.inductance:.3g} H", step / self.inductance)] if self.inductance > 0 else []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)

@@ -32,7 +32,6 @@ class VoltageSource(IndependentSource):
     """Independent voltage source (``function`` in volts)."""
 
     topology: ClassVar[str] = "voltage"
-    owns_branch_current: ClassVar[bool] = True
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = (builder.node(n) for n in self.nodes)
