@@ -26,7 +26,7 @@ def test_each_reader_takes_the_line_and_the_context_fields_it_names(letter):
     card = CARD_READERS[letter]
     parameters = list(inspect.signature(card.load()).parameters)
     assert parameters[0] == "reader"
-    assert set(card.arguments) <= {f.name for f in fields(CardContext)}
+    assert set(card.arguments) <= {"letter"} | {f.name for f in fields(CardContext)}
     assert parameters[1:] == [{"models": "models", "voltage_sources": "voltage_sources"}.get(a, a)
                               for a in card.arguments]
 

@@ -61,6 +61,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     voltage_sources = {s.keyword for s in statements
                        if not s.is_command and element_letter(s.keyword) == "v"}
     couplings: list[Statement] = []
+    context = CardContext(circuit.models, voltage_sources, circuit.options, off_resistance)
     for statement in statements:
         if statement.keyword == ".model" or statement.keyword in commands.OPTION_KEYWORDS:
             continue
@@ -69,8 +70,6 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
         else:
-            context = CardContext(element_letter(statement.keyword), circuit.models, voltage_sources,
-                                  circuit.options, off_resistance)
             made = _element(statement, context)
             for element in made if isinstance(made, list) else [made]:  # A, M lines: several
                 circuit.add(element, statement.location)
@@ -103,14 +102,14 @@ TITLE_LIKE_COMMANDS = frozenset({
 def _element(statement: Statement, context: CardContext) -> Element | list[Element]:
     """The element(s) of one element line, by the card reader of its letter
     (:data:`~circuitnsds.frontend.cards.by_letter.CARD_READERS`)."""
-    letter = context.letter
+    letter = element_letter(statement.keyword)
     reader = StatementReader(statement)
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
         raise reader.error(f"{statement.keyword}: not an element name",
                            hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
     card = reader_for(letter, statement.tokens)
     if card is not None:
-        return card.load()(reader, *(getattr(context, name) for name in card.arguments))
+        return card.read(reader, letter, context)
     if letter == "x":
         raise reader.error(f"{statement.keyword}: subcircuit instance reached the elaborator "
                            "unexpanded", hint="read netlists with circuitnsds.read_netlist")

@@ -13,21 +13,20 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache
 
 
 @dataclass(frozen=True)
 class CardContext:
-    """What a card reader may need besides its line.
+    """What a card reader may need besides its line and its letter (one for the whole netlist).
 
     Attributes:
-        letter: the element letter, lower case.
         models: the circuit's ``.model`` definitions by name.
         voltage_sources: names of the netlist's ``V`` elements (what ``F``/``H``/``W`` sense).
         options: the circuit's ``.options``.
         off_resistance: the default ``Roff`` [Ω] (``1/gmin``).
     """
 
-    letter: str
     models: dict[str, object] = field(default_factory=dict)
     voltage_sources: set[str] = field(default_factory=set)
     options: dict[str, float | str] = field(default_factory=dict)
@@ -37,8 +36,8 @@ class CardContext:
 @dataclass(frozen=True)
 class CardReader:
     """A reader ``function(reader, *arguments)`` in ``circuitnsds.frontend.cards.<module>``;
-    ``arguments`` are names of :class:`CardContext` fields, in the order the function takes
-    them. It returns one element or a list of them."""
+    ``arguments`` are ``"letter"`` or names of :class:`CardContext` fields, in the order the
+    function takes them. It returns one element or a list of them."""
 
     module: str
     function: str
@@ -46,7 +45,17 @@ class CardReader:
 
     def load(self) -> Callable:
         """The reading function (its module imported on first use)."""
-        return getattr(importlib.import_module(f"circuitnsds.frontend.cards.{self.module}"), self.function)
+        return _function(self.module, self.function)
+
+    def read(self, reader, letter: str, context: CardContext):
+        """The element(s) of the line ``reader`` walks, whose type letter is ``letter``."""
+        return self.load()(reader, *(letter if name == "letter" else getattr(context, name)
+                                     for name in self.arguments))
+
+
+@cache
+def _function(module: str, name: str) -> Callable:
+    return getattr(importlib.import_module(f"circuitnsds.frontend.cards.{module}"), name)
 
 
 _PASSIVE = CardReader("devices", "passive", ("letter", "models"))
