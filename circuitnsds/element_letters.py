@@ -14,15 +14,17 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 
-def mosfet_node_count(tokens: Sequence[str]) -> int:
-    """Nodes of an ``M`` line: 3 (``d g s MODEL``) or 4 (``d g s b MODEL``), counted from the
-    words before the first ``key=value`` (the ``off`` flag aside); ``tokens[0]`` is the name."""
-    words = 0
+def mosfet_node_indexes(tokens: Sequence[str]) -> tuple[int, ...]:
+    """Indexes of the nodes of an ``M`` line (``tokens[0]`` is the name): 3 (``d g s MODEL``) or
+    4 (``d g s b MODEL``), the first words before the first ``key=value``, the ``off`` flag
+    aside wherever it stands (as the card reader reads the line)."""
+    words = []
     for index in range(1, len(tokens)):
         if tokens[index] == "=" or (index + 1 < len(tokens) and tokens[index + 1] == "="):
             break
-        words += tokens[index] != "off"
-    return 4 if words >= 5 else 3
+        if tokens[index] != "off":
+            words.append(index)
+    return tuple(words[:4 if len(words) >= 5 else 3])
 
 
 @dataclass(frozen=True)
@@ -31,21 +33,23 @@ class ElementLetter:
 
     Attributes:
         what: the elements it writes, plural, for messages (``"resistors"``).
-        nodes: how many words after the name are nodes, or the function counting them from
-            the line's tokens (name first).
+        nodes: how many words after the name are nodes, or the function giving their indexes
+            in the line's tokens (the name is 0).
         controls: indexes of the tokens (the name is 0) that name another element (the
             sensing source of ``F``/``H``/``W``, the inductors of ``K``).
         supported: whether circuitnsds reads it (else a line with it is refused by name).
     """
 
     what: str
-    nodes: int | Callable[[Sequence[str]], int] = 2
+    nodes: int | Callable[[Sequence[str]], tuple[int, ...]] = 2
     controls: tuple[int, ...] = ()
     supported: bool = True
 
-    def node_count(self, tokens: Sequence[str]) -> int:
-        """Nodes of the line ``tokens`` (its name first)."""
-        return self.nodes if isinstance(self.nodes, int) else self.nodes(tokens)
+    def node_indexes(self, tokens: Sequence[str]) -> tuple[int, ...]:
+        """Indexes of the nodes in the line ``tokens`` (its name first, at 0)."""
+        if isinstance(self.nodes, int):
+            return tuple(range(1, min(1 + self.nodes, len(tokens))))
+        return self.nodes(tokens)
 
 
 ELEMENT_LETTERS: dict[str, ElementLetter] = {
@@ -63,7 +67,7 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
     "d": ElementLetter("diodes"),
     "s": ElementLetter("voltage-controlled switches", 4),
     "w": ElementLetter("current-controlled switches", 2, (3,)),
-    "m": ElementLetter("MOSFETs", mosfet_node_count),
+    "m": ElementLetter("MOSFETs", mosfet_node_indexes),
     # XSPICE ports are marked and bracketed: netlist/subcircuits renames them by their own rule
     "a": ElementLetter("XSPICE code models", 0),
     "x": ElementLetter("subcircuit instances", 0),

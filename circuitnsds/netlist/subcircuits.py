@@ -331,17 +331,17 @@ class _Flattener:
             _rename_code_model(tokens, context)
             return
         layout = letter_of(tokens[0])
-        nodes, controls = layout.node_count(tokens), layout.controls
+        nodes, controls = layout.node_indexes(tokens), layout.controls
         if behavioural:  # only the output nodes are known (the elaborator refuses the rest)
-            nodes, controls = 2, ()
+            nodes, controls = tuple(range(1, min(3, len(tokens)))), ()
         tokens[0] = context.prefixed(tokens[0])
-        for index in range(1, min(1 + nodes, len(tokens))):
+        for index in nodes:
             if tokens[index] not in _PUNCTUATION:
                 tokens[index] = context.node(tokens[index])
         for index in controls:
             if index < len(tokens):
                 tokens[index] = context.element(tokens[index])
-        for index in range(1 + nodes, len(tokens)):
+        for index in range(1 + max(nodes, default=0), len(tokens)):
             beside_equals = "=" in (tokens[index - 1], tokens[index + 1] if index + 1 < len(tokens) else "")
             if index not in controls and not beside_equals and context.is_local_model(tokens[index]):
                 tokens[index] = context.model(tokens[index])
