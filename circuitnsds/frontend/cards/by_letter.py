@@ -25,12 +25,15 @@ class CardContext:
         voltage_sources: names of the netlist's ``V`` elements (what ``F``/``H``/``W`` sense).
         options: the circuit's ``.options``.
         off_resistance: the default ``Roff`` [Ω] (``1/gmin``).
+        bound: each reader with its arguments, made on its first line (``(module, function,
+            letter)`` -> a function of the line's :class:`StatementReader`).
     """
 
     models: dict[str, object] = field(default_factory=dict)
     voltage_sources: set[str] = field(default_factory=set)
     options: dict[str, float | str] = field(default_factory=dict)
     off_resistance: float = 1e12
+    bound: dict[tuple[str, str, str], Callable] = field(default_factory=dict, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -49,8 +52,13 @@ class CardReader:
 
     def read(self, reader, letter: str, context: CardContext):
         """The element(s) of the line ``reader`` walks, whose type letter is ``letter``."""
-        return self.load()(reader, *(letter if name == "letter" else getattr(context, name)
-                                     for name in self.arguments))
+        key = (self.module, self.function, letter)
+        bound = context.bound.get(key)
+        if bound is None:
+            function = self.load()
+            values = tuple(letter if name == "letter" else getattr(context, name) for name in self.arguments)
+            bound = context.bound[key] = lambda line: function(line, *values)
+        return bound(reader)
 
 
 @cache
