@@ -144,11 +144,11 @@ def whole_processes(rows: int, repeats: int, folder: Path) -> list[tuple[str, fl
     root = str(HERE.parent)
     path = str(folder / "process.csv")
     warm = str(folder / "cache")
-    from circuitnsds.engine.warmup import main as warm_everything
+    from circuitnsds.engine.warmup import main as warm_loops
 
     os.environ["CIRCUITNSDS_CACHE_DIR"] = warm
-    warm_everything()  # compiled loops in the warm cache, marker set
-    floattext.warm()  # and the numba formatter (warm_everything skips it when the C one is built)
+    warm_loops()  # compiled loops in the warm cache, marker set
+    floattext.warm()  # and the numba formatter (its own main() skips it when the C one is built)
     floattext.ready_marker().touch()
     table = []
 

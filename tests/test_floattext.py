@@ -173,12 +173,12 @@ def test_both_csv_writers_write_the_same_bytes(monkeypatch, block_rows, kind):
 def test_with_the_c_formatter_any_file_is_compiled(monkeypatch):
     """The C kernel costs nothing to load: even a one-number file uses it, numba's cache or
     warm-up never consulted."""
-    from circuitnsds.engine import loop_choice
+    from circuitnsds import jit
 
     monkeypatch.setattr(floattext, "loaded", lambda: False)
     monkeypatch.setattr(csvfile, "_numba_in_use", lambda: False)
     monkeypatch.setattr(floattext, "ready_marker", lambda: pytest.fail("numba's marker consulted"))
-    monkeypatch.setattr(loop_choice, "start_warmup", lambda: pytest.fail("warm-up started"))
+    monkeypatch.setattr(jit, "start_warmup", lambda module: pytest.fail("warm-up started"))
     assert csvfile.compiled_pays(1) and csvfile.compiled_pays(10**9)
 
 
@@ -235,18 +235,19 @@ def test_the_formatter_is_chosen_by_size(monkeypatch):
 
 
 def test_an_uncached_formatter_is_compiled_in_the_background(monkeypatch, tmp_path):
-    """A large file with the formatter not cached: written in Python, and the warm-up started."""
-    from circuitnsds.engine import loop_choice
+    """A large file with the formatter not cached: written in Python, and the formatter's
+    warm-up started (its own: the stepping loops are not compiled for it)."""
+    from circuitnsds import jit
 
     started = []
     monkeypatch.setattr(floattext, "has_native", lambda: False)
     monkeypatch.setattr(floattext, "loaded", lambda: False)
     monkeypatch.setattr(csvfile, "_numba_in_use", lambda: True)
     monkeypatch.setattr(floattext, "ready_marker", lambda: tmp_path / "ready-missing")
-    monkeypatch.setattr(loop_choice, "start_warmup", lambda: started.append(1))
-    assert not csvfile.compiled_pays(10**7) and started == [1]
+    monkeypatch.setattr(jit, "start_warmup", started.append)
+    assert not csvfile.compiled_pays(10**7) and started == ["circuitnsds.output.floattext"]
     (tmp_path / "ready-missing").touch()
-    assert csvfile.compiled_pays(10**7) and started == [1]
+    assert csvfile.compiled_pays(10**7) and started == ["circuitnsds.output.floattext"]
 
 
 @pytest.mark.parametrize("compiled", [True, False])

@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 import circuitnsds
-from circuitnsds.engine import dense_loop, jit, sparse_loop
+from circuitnsds import jit
+from circuitnsds.engine import dense_loop, sparse_loop
 from tests.conftest import NETLISTS
 
 PACKAGE = Path(circuitnsds.__file__).resolve().parent
@@ -119,9 +120,9 @@ def test_the_warmup_process_does_not_run_the_users_files(tmp_path, monkeypatch):
     (tmp_path / "numpy.py").write_text(f"open({str(marker)!r}, 'w').close()\nraise SystemExit(0)\n")
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("CIRCUITNSDS_CACHE_DIR", str(tmp_path / "cache"))  # a stopped child harms no cache
-    monkeypatch.setattr(loop_choice, "_warmup", [])
+    monkeypatch.setattr(jit, "_warmups", {})
     loop_choice.start_warmup()
-    child = loop_choice._warmup[0]
+    child = jit._warmups[loop_choice.WARMUP]
     assert child is not None
     try:
         deadline = time.monotonic() + 3.0  # the child imports numpy within a fraction of this

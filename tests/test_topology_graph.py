@@ -6,7 +6,8 @@ import networkx as nx
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from circuitnsds.checks.topology import LoopFinder, connected_components
+from circuitnsds.checks.topology import LoopFinder
+from circuitnsds.graphs import connected_components
 
 NODES = st.sampled_from(["0", "a", "b", "c", "d", "e", "f", "g"])
 EDGES = st.lists(st.tuples(NODES, NODES), max_size=14)

@@ -50,19 +50,8 @@ from dataclasses import fields, is_dataclass
 import numpy as np
 
 from circuitnsds.checks.topology import GROUND, LoopFinder, is_short, isolated_groups
-from circuitnsds.circuit.elements import (
-    Capacitor,
-    Element,
-    Inductor,
-    MutualInductance,
-    Resistor,
-    Switch,
-)
+from circuitnsds.circuit.elements import Element
 from circuitnsds.errors import CircuitError, CircuitWarning
-
-OWNS_CURRENT = {"VoltageSource", "Inductor", "Switch", "VoltageControlledVoltageSource",
-                "CurrentControlledVoltageSource"}
-"""Element classes that own a current unknown ``i(name)`` (what F, H and W may sense)."""
 
 MISMATCH = 1e-6
 """Relative tolerance of the start-up loop (KVL) and cutset (KCL) sums."""
@@ -98,11 +87,9 @@ def _parallel_ideal_diodes(elements: Sequence[Element]) -> Iterable[str]:
     """Diodes without on-resistance side by side, in the same direction: while they conduct
     nothing decides how they share the current (the step's solution is not unique; the
     solver returns one split, arbitrary). Same for the breakdown branches of Zeners."""
-    from circuitnsds.circuit.elements import Diode
-
     branches: dict[tuple[str, str, float], list[Element]] = {}
     for element in elements:
-        if not isinstance(element, Diode) or element.nodes[0] == element.nodes[1]:
+        if element.junction != "diode" or element.nodes[0] == element.nodes[1]:
             continue
         model = element.model
         anode, cathode = element.nodes[:2]
@@ -128,22 +115,8 @@ more than this factor make a circuit's equations too ill-conditioned for double 
 def conductance_scales(elements: Sequence[Element], step: float) -> list[tuple[Element, str, float]]:
     """``(element, what, siemens)`` for every element with a conductance-like stamp: what the
     step's equations hold for it (``1/R``, ``C/h``, ``h/L``, ``1/Ron``, ``1/Roff``) [S]."""
-    from circuitnsds.circuit.elements import Diode
-
-    scales = []
-    for element in elements:
-        if isinstance(element, Resistor):
-            scales.append((element, f"R = {element.resistance:.3g} Ω", 1.0 / element.resistance))
-        elif isinstance(element, Capacitor) and element.capacitance > 0:
-            scales.append((element, f"C = {element.capacitance:.3g} F", element.capacitance / step))
-        elif isinstance(element, Inductor) and element.inductance > 0:
-            scales.append((element, f"L = {element.inductance:.3g} H", step / element.inductance))
-        elif isinstance(element, (Diode, Switch)):
-            model = element.model
-            scales.append((element, f"Roff = {model.off_resistance:.3g} Ω", 1.0 / model.off_resistance))
-            if model.on_resistance > 0:
-                scales.append((element, f"Ron = {model.on_resistance:.3g} Ω", 1.0 / model.on_resistance))
-    return scales
+    return [(element, what, siemens) for element in elements
+            for what, siemens in element.conductances(step)]
 
 
 def ill_conditioning(elements: Sequence[Element], step: float) -> str | None:
@@ -239,8 +212,7 @@ def check_stamps(elements: Sequence[Element], mlcs) -> None:
                 element.stamp(builder)
             except (ZeroDivisionError, OverflowError):
                 pass
-        values = [v for triplets in builder._triplets.values() for _, _, v in triplets] + builder.e
-        if not np.isfinite(values).all():
+        if not np.isfinite(builder.stamped_values()).all():
             raise CircuitError(f"{element.name}: its equations hold numbers that are not finite "
                                "(a value too small or too large: e.g. 1/R overflows)",
                                where=element.location or element.name,
@@ -299,35 +271,25 @@ def _check_values(element: Element) -> None:
             raise CircuitError(f"{element.name}: {name} is {value} (not a finite number)",
                                where=element.location or element.name,
                                hint="check the value or the expression that computes it")
-    if len(element.nodes) < 2 and not isinstance(element, MutualInductance):
-        raise CircuitError(f"{element.name}: needs two terminals, has {len(element.nodes)}",
-                           where=element.location or element.name)
-    if isinstance(element, Resistor) and element.resistance <= 0:
-        raise CircuitError(f"{element.name}: resistance must be positive, got {element.resistance:g}",
-                           where=element.location or element.name,
-                           hint="use a 0 V voltage source for a short circuit")
-    if isinstance(element, Capacitor) and element.capacitance < 0:
-        raise CircuitError(f"{element.name}: capacitance must not be negative, got "
-                           f"{element.capacitance:g} F", where=element.location or element.name)
-    if isinstance(element, Inductor) and element.inductance < 0:
-        raise CircuitError(f"{element.name}: inductance must not be negative, got "
-                           f"{element.inductance:g} H", where=element.location or element.name)
+    errors = element.value_errors()  # the most basic first
+    if errors:
+        message, hint = errors[0]
+        raise CircuitError(f"{element.name}: {message}", where=element.location or element.name,
+                           hint=hint)
 
 
 def _check_references(elements: Sequence[Element]) -> None:
     by_name = {element.name: element for element in elements}
     for element in elements:
-        if isinstance(element, MutualInductance):
-            for name in element.inductors:
-                if not isinstance(by_name.get(name), Inductor):
-                    raise CircuitError(
-                        f"{element.name}: {name!r} is not an inductor of this circuit",
-                        where=element.location or element.name,
-                        hint="K couples two L elements by name: K1 L1 L2 0.99")
+        for name in element.inductors if element.topology == "coupling" else ():
+            if name not in by_name or by_name[name].topology != "inductor":
+                raise CircuitError(f"{element.name}: {name!r} is not an inductor of this circuit",
+                                   where=element.location or element.name,
+                                   hint="K couples two L elements by name: K1 L1 L2 0.99")
         control = getattr(element, "control", None)
         if isinstance(control, str) and control:
             owner = by_name.get(control)
-            if owner is None or type(owner).__name__ not in OWNS_CURRENT:
+            if owner is None or not owner.owns_branch_current:
                 what = "does not exist" if owner is None else "has no current unknown"
                 raise CircuitError(
                     f"{element.name}: controlling source {control!r} {what}",
@@ -341,12 +303,8 @@ def _check_references(elements: Sequence[Element]) -> None:
 
 def _element_warnings(elements: Sequence[Element]) -> Iterable[str]:
     for element in elements:
-        if isinstance(element, Capacitor) and element.capacitance == 0:
-            yield (f"{_where(element)}{element.name}: 0 F capacitor: it is an open circuit "
-                   "(and adds no state)")
-        if isinstance(element, Inductor) and element.inductance == 0:
-            yield (f"{_where(element)}{element.name}: 0 H inductor: it is a short circuit "
-                   "(a 0 V voltage source)")
+        for sentence in element.value_warnings():
+            yield f"{_where(element)}{element.name}: {sentence}"
         if (len(element.nodes) >= 2 and element.nodes[0] == element.nodes[1]
                 and element.topology != "voltage"):
             yield (f"{_where(element)}{element.name}: both terminals are node {element.nodes[0]}: "
@@ -366,7 +324,7 @@ def _dangling_nodes(elements: Sequence[Element], nodes: Sequence[str]) -> Iterab
                    f"terminal, no current flows through {element.name} (a typo in a node name?)")
 
 
-def _closes(switch: Switch) -> bool:
+def _closes(switch: Element) -> bool:
     return switch.model.on_resistance == 0.0
 
 
@@ -377,13 +335,13 @@ def _switch_loops(elements: Sequence[Element]) -> Iterable[str]:
         if element.topology == "voltage" or is_short(element):
             finder.add(element)
     for element in elements:
-        if not isinstance(element, Switch) or not _closes(element) or len(set(element.nodes[:2])) == 1:
+        if element.junction != "switch" or not _closes(element) or len(set(element.nodes[:2])) == 1:
             continue
         closed = finder.add(element)
         if closed is None:
             continue
         loop = [e for e, _ in reversed(closed)]
-        switches = [e.name for e in loop if isinstance(e, Switch)]
+        switches = [e.name for e in loop if e.junction == "switch"]
         yield (f"{_where(element)}{', '.join(e.name for e in loop)} form a loop of voltage "
                f"sources and switches with RON=0: while {' and '.join(switches)} "
                f"{'is' if len(switches) == 1 else 'are'} closed the loop's currents are "
@@ -395,10 +353,10 @@ def _switch_cutsets(elements: Sequence[Element], nodes: Sequence[str]) -> Iterab
     with at least one current source and one switch among them."""
     for group, crossing in _cutsets(elements, nodes, {"current", "inductor", "switch"}):
         sources = [e.name for e in crossing if e.topology == "current"]
-        switches = [e.name for e in crossing if isinstance(e, Switch)]
-        if not sources or not switches or any(isinstance(e, Inductor) for e in crossing):
+        switches = [e.name for e in crossing if e.junction == "switch"]
+        if not sources or not switches or any(e.topology == "inductor" for e in crossing):
             continue
-        ohms = min(e.model.off_resistance for e in crossing if isinstance(e, Switch))
+        ohms = min(e.model.off_resistance for e in crossing if e.junction == "switch")
         yield (f"node(s) {', '.join(sorted(group))} connect to the rest of the circuit only through "
                f"{', '.join(e.name for e in crossing)}: while {', '.join(switches)} "
                f"{'is' if len(switches) == 1 else 'are'} open, the current of {', '.join(sources)} "
@@ -410,7 +368,7 @@ def _cutsets(elements: Sequence[Element], nodes: Sequence[str],
     """Groups of nodes (without ground) that only elements of ``kinds`` join to the rest,
     with those elements; ``kinds`` holds topologies and ``switch`` for switches."""
     return isolated_groups(elements, nodes, lambda element: (
-        "switch" if isinstance(element, Switch) else element.topology) in kinds)
+        "switch" if element.junction == "switch" else element.topology) in kinds)
 
 
 # ---------------------------------------------------------------- start-up (UIC)
@@ -424,7 +382,7 @@ def _initial_voltage(circuit, element: Element) -> float | None:
         return None if function is None else float(function.value(0.0))
     if is_short(element):
         return 0.0
-    if isinstance(element, Capacitor):
+    if element.topology == "capacitor":
         if element.initial_voltage is not None:
             return element.initial_voltage
         values = circuit.initial_voltages
@@ -438,7 +396,7 @@ def _inconsistent_loops(circuit, elements: Sequence[Element]) -> Iterable[str]:
     initial voltages do not sum to zero."""
     finder = LoopFinder()
     members = [e for e in elements if e.topology == "voltage" or is_short(e)]
-    members += [e for e in elements if isinstance(e, Capacitor) and e.capacitance > 0]
+    members += [e for e in elements if e.topology == "capacitor" and e.capacitance > 0]
     for element in members:
         if element.nodes[0] == element.nodes[1]:
             continue
@@ -452,7 +410,7 @@ def _inconsistent_loops(circuit, elements: Sequence[Element]) -> Iterable[str]:
         scale = max(1.0, *(abs(value) for _, value in terms))
         if abs(total) > MISMATCH * scale:
             names = ", ".join(e.name for e, _ in loop)
-            kinds = ("capacitors" if all(isinstance(e, Capacitor) for e, _ in loop)
+            kinds = ("capacitors" if all(e.topology == "capacitor" for e, _ in loop)
                      else "voltage sources and capacitors")
             yield (f"{_where(element)}{names} form a loop of {kinds} whose "
                    f"initial voltages (UIC) do not add up (they miss by {abs(total):.4g} V): the "
@@ -463,11 +421,11 @@ def _inconsistent_loops(circuit, elements: Sequence[Element]) -> Iterable[str]:
 def _inconsistent_cutsets(circuit, elements: Sequence[Element]) -> Iterable[str]:
     """Cutsets of current sources and inductors whose initial currents do not sum to zero."""
     for group, crossing in _cutsets(elements, circuit.nodes, {"current", "inductor"}):
-        if not any(isinstance(e, Inductor) for e in crossing):
+        if not any(e.topology == "inductor" for e in crossing):
             continue
         total, scale = 0.0, 1.0
         for element in crossing:
-            if isinstance(element, Inductor):
+            if element.topology == "inductor":
                 value = element.initial_current or 0.0
             else:
                 function = getattr(element, "function", None)

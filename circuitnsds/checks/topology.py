@@ -14,10 +14,11 @@ Functions take the element list and return nothing; they raise
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 
 from circuitnsds.circuit.elements import Element
 from circuitnsds.errors import CircuitError
+from circuitnsds.graphs import connected_components
 
 GROUND = "0"
 
@@ -25,33 +26,6 @@ GROUND = "0"
 def is_short(element: Element) -> bool:
     """An inductor of 0 H: its branch equation is ``0 = v+ - v-``, a 0 V voltage source."""
     return element.topology == "inductor" and getattr(element, "inductance", 1.0) == 0.0
-
-
-def connected_components(nodes: Iterable[str], edges: Iterable[tuple[str, str]]) -> list[set[str]]:
-    """The sets of nodes joined by ``edges`` (every node of ``nodes`` and of an edge is in
-    one set), in the order of each set's first node (``nodes`` first, then the edges').
-
-    A union-find with path halving: a few microseconds per edge, no graph library (networkx
-    costs ~0.15 s to import, more than these checks take on any netlist)."""
-    parent: dict[str, str] = {}
-
-    def root(node: str) -> str:
-        parent.setdefault(node, node)
-        while parent[node] != node:
-            parent[node] = parent[parent[node]]
-            node = parent[node]
-        return node
-
-    for node in nodes:
-        root(node)
-    for a, b in edges:
-        first, second = root(a), root(b)
-        if first != second:
-            parent[second] = first
-    groups: dict[str, set[str]] = {}
-    for node in list(parent):
-        groups.setdefault(root(node), set()).add(node)
-    return list(groups.values())
 
 
 class LoopFinder:

@@ -328,18 +328,17 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
     """Node groups joined to the rest, over one step, only by current sources and devices
     that can block (diodes, open switches): the current sources force their current
     through those devices (see the module docstring, "Ideal limit")."""
-    from circuitnsds.checks.topology import connected_components
-    from circuitnsds.circuit.elements import Capacitor, Diode, Switch
+    from circuitnsds.graphs import connected_components
 
     edges = []
     for element in circuit.elements:
         if len(element.nodes) < 2:
             continue
-        if isinstance(element, Diode) or element.topology == "current":
+        if element.junction == "diode" or element.topology == "current":
             continue
-        if isinstance(element, Switch) and not states.get(element.name, element.initially_on):
+        if element.junction == "switch" and not states.get(element.name, element.initially_on):
             continue
-        if isinstance(element, Capacitor) and element.capacitance == 0:
+        if element.topology == "capacitor" and element.capacitance == 0:
             continue
         edges.append(element.nodes[:2])
     notes = []
@@ -349,7 +348,7 @@ def forced_currents(circuit, states: dict[str, bool]) -> list[str]:
         crossing = [e for e in circuit.elements
                     if len(e.nodes) >= 2 and (e.nodes[0] in group) != (e.nodes[1] in group)]
         sources = [e.name for e in crossing if e.topology == "current"]
-        blocking = [e.name for e in crossing if isinstance(e, (Diode, Switch))]
+        blocking = [e.name for e in crossing if e.junction is not None]
         if sources and blocking:
             notes.append(f"the current of {', '.join(sources)} into node(s) {', '.join(sorted(group))} "
                          f"can pass only through {', '.join(blocking)}: when it flows against them the "
@@ -373,17 +372,16 @@ def blocked_currents(circuit, times: np.ndarray) -> list[tuple[str, str, bool]]:
     concerned has an ``Roff`` of its own (then ``I·Roff`` is the model's answer).
     """
     from circuitnsds.checks.topology import isolated_groups
-    from circuitnsds.circuit.elements import CurrentSource, Diode, Switch
     from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 
     found = []
     groups = isolated_groups(circuit.elements, circuit.nodes,
-                             lambda e: isinstance(e, (Diode, Switch)) or e.topology == "current")
+                             lambda e: e.junction is not None or e.topology == "current")
     for group, crossing in groups:
-        diodes = [e for e in crossing if isinstance(e, Diode)]
+        diodes = [e for e in crossing if e.junction == "diode"]
         sources = [e for e in crossing if e.topology == "current"]
-        if (not diodes or not sources or any(isinstance(e, Switch) for e in crossing)
-                or not all(isinstance(e, CurrentSource) for e in sources)):
+        if (not diodes or not sources or any(e.junction == "switch" for e in crossing)
+                or not all(e.independent_source for e in sources)):
             continue
         # SPICE's current source pushes its current from its first node to its second
         with np.errstate(all="ignore"):

@@ -190,17 +190,17 @@ def compare(
         NgspiceUnavailable: PySpice or ngspice's shared library is missing (the hint
             says how to install them).
     """
-    import circuitnsds
+    from circuitnsds.frontend.build import CircuitBuilder
 
     source = netlist
     grid = _grid(n)
     overrides = [DiodeOverrides(n=value, is_=is_, rs=rs, cjo=cjo) for value in grid]
     version = ngspice_version()  # a missing ngspice is reported before circuitnsds runs
-    circuit = circuitnsds.read_netlist(source)
+    circuit = CircuitBuilder.load(source).build()
     fitted = n is not None and any(str(getattr(model, "origin", "")).startswith("Shockley fit")
                                    for model in circuit.models.values())
     if fitted:  # a study in N converges to the ideal diode, not to the fitted PWL one
-        circuit = circuitnsds.read_netlist(source, options={"diode": "ideal"})
+        circuit = CircuitBuilder.load(source).build(options={"diode": "ideal"})
     _warm_up()
     started = time.perf_counter()
     waves = circuit.transient(step, stop, theta=theta)
@@ -278,13 +278,14 @@ def _warm_up() -> None:
         return
     import warnings
 
-    import circuitnsds
+    from circuitnsds.errors import CircuitnsdsError
+    from circuitnsds.frontend.build import CircuitBuilder
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            circuitnsds.read_netlist(_WARM_UP).transient()
-        except circuitnsds.CircuitnsdsError:  # pragma: no cover - only timing depends on it
+            CircuitBuilder.load(_WARM_UP).build().transient()
+        except CircuitnsdsError:  # pragma: no cover - only timing depends on it
             pass
     _warmed_up = True
 

@@ -37,7 +37,7 @@ The loop exists three times, one logic: ``stepping="compiled"`` (and ``auto`` on
 pays) runs it compiled, **in C** when the library ``_dense_native`` was built at install
 (``_dense_native.c``, loaded with ctypes by :mod:`circuitnsds.native`: nothing to load or
 compile at run time, so a run goes compiled from its first step and never imports numba
-for it), **else compiled by numba** (:mod:`circuitnsds.engine.jit`: on its first compiled
+for it), **else compiled by numba** (:mod:`circuitnsds.jit`: on its first compiled
 call, cached per user; ~0.6 s to load in each process). The two give the same numbers bit
 for bit (the C source keeps every floating-point operation of the scalar functions here,
 in the same order, built without contraction or reassociation; edit them together).
@@ -55,8 +55,8 @@ from typing import NamedTuple
 import numpy as np
 
 from circuitnsds import native
-from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 from circuitnsds.engine.step_system import ModeBlocks
+from circuitnsds.jit import AVAILABLE, jit, python_version
 from circuitnsds.solvers.linalg import SIGN_TOL, factorise
 
 STOP_LEFT_MODE = 0

@@ -35,7 +35,7 @@ Python, first :data:`FIRST_CHUNK` steps (enough to see how often the mode change
 chunks of ~:data:`CHUNK_US` of modelled work, and goes compiled once the modelled saving
 of the steps left exceeds :data:`LOAD_US`. It then loads the compiled loop if
 the per-user cache holds it for this very source (the warm-up's marker,
-:func:`~circuitnsds.engine.jit.ready_marker`); otherwise it starts a background process
+:func:`~circuitnsds.jit.ready_marker`); otherwise it starts a background process
 (:func:`start_warmup`) that imports numba, compiles the loops into the cache and marks
 it, then exits. The run goes on in Python meanwhile (a second core does the
 compiling); once that process has finished, and if the steps left are still worth it,
@@ -46,11 +46,9 @@ A loop already loaded in the process (an earlier run) is used at once.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
+from circuitnsds import jit
 from circuitnsds.engine import dense_loop
-from circuitnsds.engine.jit import numba_available, ready_marker
+from circuitnsds.jit import numba_available, ready_marker
 
 STEP_US = 18.0
 """Modelled cost of one step of the table loop in Python [µs]: the numpy products of the
@@ -87,33 +85,19 @@ def python_step_us(unknowns: int, watched: int) -> float:
     return STEP_US + SWITCH_TERM_US * unknowns * watched
 
 
-_warmup: list = []  # the process's background compilation (a subprocess.Popen), if started
+WARMUP = "circuitnsds.engine.warmup"
+"""The module whose ``main()`` compiles the stepping loops in the background."""
 
 
 def start_warmup() -> None:
-    """Start (once per process) ``python -m`` :mod:`circuitnsds.engine.warmup` in the
-    background, on this very package (not whatever ``circuitnsds`` the child would
-    find first on its path)."""
-    if _warmup:
-        return
-    import subprocess  # (here: a run that never warms numba up does not import it)
-
-    package_parent = str(Path(__file__).resolve().parents[2])
-    code = (f"import sys; sys.path.insert(0, {package_parent!r}); "
-            "from circuitnsds.engine.warmup import main; main()")
-    try:
-        _warmup.append(subprocess.Popen(
-            # -P: not the current folder first on the path (a user's numpy.py or pickle.py
-            # there would be imported and run in place of the module)
-            [sys.executable, "-P", "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL, close_fds=True))
-    except OSError:  # no process can be started here: stay in Python
-        _warmup.append(None)
+    """Start (once per process) :mod:`circuitnsds.engine.warmup` in the background
+    (:func:`circuitnsds.jit.start_warmup`)."""
+    jit.start_warmup(WARMUP)
 
 
 def warmup_done() -> bool:
-    """Whether the background compilation has finished successfully."""
-    return bool(_warmup) and _warmup[0] is not None and _warmup[0].poll() == 0
+    """Whether the background compilation of the loops has finished successfully."""
+    return jit.warmup_done(WARMUP)
 
 
 class LoopChoice:

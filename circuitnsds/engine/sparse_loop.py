@@ -44,8 +44,8 @@ from typing import NamedTuple
 import numpy as np
 
 from circuitnsds.engine.dense_loop import STOP_END, STOP_LEFT_MODE, STOP_SCHEDULE, STOP_SWITCH
-from circuitnsds.engine.jit import AVAILABLE, jit, python_version
 from circuitnsds.engine.step_system import ModeBlocks
+from circuitnsds.jit import AVAILABLE, jit, python_version
 from circuitnsds.solvers.linalg import factorise_sparse
 
 

@@ -1,6 +1,5 @@
-"""Compile (or load from the per-user cache) the stepping loops and the CSV formatter's numba
-kernel (:mod:`circuitnsds.output.floattext`; not when its C kernel is built), for the
-signatures a run uses.
+"""Compile (or load from the per-user cache) the stepping loops, for the signatures a run uses
+(the CSV formatter's numba kernel has its own warm-up: :func:`circuitnsds.output.floattext.main`).
 
 Run in a background process by :func:`circuitnsds.engine.loop_choice.start_warmup`:
 each loop is called once on a tiny problem whose arguments have the types, shapes and
@@ -64,21 +63,12 @@ def warm_sparse() -> int:
 
 
 def main() -> None:
-    """Compile or load both loops, mark the cache ready for them, then the same for the CSV
-    formatter's numba kernel unless its C kernel is there (built at install: the writers then
-    never use numba's)."""
-    from circuitnsds.engine.jit import ready_marker
-    from circuitnsds.output import floattext  # every compiled kernel of the package is warmed here
+    """Compile or load both loops, then mark the cache ready for them."""
+    from circuitnsds.jit import ready_marker
 
     warm_dense()
     warm_sparse()
     marker = ready_marker()
-    if marker is not None:  # the loops first: a run waiting for them switches at once
-        marker.touch()
-    if floattext.has_native():
-        return
-    floattext.warm()
-    marker = floattext.ready_marker()
     if marker is not None:
         marker.touch()
 

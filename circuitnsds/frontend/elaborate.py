@@ -12,31 +12,18 @@ element names may be hierarchical (``x1.d3`` is a diode).
 from __future__ import annotations
 
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import (
-    Diode,
-    Element,
-    Inductor,
-    MutualInductance,
-    Resistor,
-    Switch,
-)
+from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
+from circuitnsds.element_letters import ELEMENT_LETTERS, SUPPORTED_LETTERS, element_letter
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import commands, devices, sources
+from circuitnsds.frontend.cards import commands, devices
+from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
+from circuitnsds.graphs import connected_components
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.netlist import Netlist, Statement
-from circuitnsds.netlist.subcircuits import element_letter
-
-UNSUPPORTED_ELEMENTS = {
-    "j": "JFETs",
-    "o": "lossy transmission lines", "p": "coupled transmission lines",
-    "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
-    "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
-}
-SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A and X (subcircuit instances)"
 
 
 def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -> Circuit:
@@ -74,6 +61,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     voltage_sources = {s.keyword for s in statements
                        if not s.is_command and element_letter(s.keyword) == "v"}
     couplings: list[Statement] = []
+    context = CardContext(circuit.models, voltage_sources, circuit.options, off_resistance)
     for statement in statements:
         if statement.keyword == ".model" or statement.keyword in commands.OPTION_KEYWORDS:
             continue
@@ -81,15 +69,9 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
             commands.command(circuit, statement)
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
-        elif element_letter(statement.keyword) == "m":
-            from circuitnsds.frontend.cards import mosfets
-
-            for element in mosfets.mosfet(StatementReader(statement), circuit.models,
-                                          circuit.options, off_resistance):
-                circuit.add(element, statement.location)
         else:
-            made = _element(statement, circuit.models, voltage_sources)
-            for element in made if isinstance(made, list) else [made]:  # an A line: one per output
+            made = _element(statement, context)
+            for element in made if isinstance(made, list) else [made]:  # A, M lines: several
                 circuit.add(element, statement.location)
     _couple(circuit, couplings)
     _check_unused_models(circuit)
@@ -117,37 +99,23 @@ TITLE_LIKE_COMMANDS = frozenset({
 ``.title`` and any other first line are titles without a word."""
 
 
-def _element(statement: Statement, models: dict[str, object],
-             voltage_sources: set[str]) -> Element | list[Element]:
+def _element(statement: Statement, context: CardContext) -> Element | list[Element]:
+    """The element(s) of one element line, by the card reader of its letter
+    (:data:`~circuitnsds.frontend.cards.by_letter.CARD_READERS`)."""
     letter = element_letter(statement.keyword)
     reader = StatementReader(statement)
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
         raise reader.error(f"{statement.keyword}: not an element name",
                            hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
-    if letter in "rcl":
-        return devices.passive(reader, letter, models)
-    if letter in "vi":
-        return sources.independent_source(reader, letter)
-    if letter == "b" or (letter in "eg" and statement.tokens[3:4] in {("value",), ("table",)}):
-        from circuitnsds.frontend.cards import behavioural
-
-        return behavioural.behavioural_source(reader, letter, voltage_sources)
-    if letter in "efgh":
-        return sources.controlled_source(reader, letter, voltage_sources)
-    if letter == "d":
-        return devices.diode(reader, models)
-    if letter in "sw":
-        return devices.switch(reader, letter, models, voltage_sources)
-    if letter == "a":
-        from circuitnsds.frontend.cards import xspice
-
-        return xspice.analog_block(reader, models)
+    card = reader_for(letter, statement.tokens)
+    if card is not None:
+        return card.read(reader, letter, context)
     if letter == "x":
         raise reader.error(f"{statement.keyword}: subcircuit instance reached the elaborator "
                            "unexpanded", hint="read netlists with circuitnsds.read_netlist")
-    if letter in UNSUPPORTED_ELEMENTS:
+    if letter in ELEMENT_LETTERS:
         raise reader.error(
-            f"{statement.keyword}: {UNSUPPORTED_ELEMENTS[letter]} ('{letter.upper()}' lines) "
+            f"{statement.keyword}: {ELEMENT_LETTERS[letter].what} ('{letter.upper()}' lines) "
             "are not supported by the ideal engine",
             hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
             "with an S switch driven by its gate signal, or a MOSFET (M line)",
@@ -161,7 +129,7 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     is positive semidefinite (else the magnetic energy could be negative). A zero
     eigenvalue is perfect coupling (``|k| = 1``, an ideal transformer with its magnetising
     inductance), which ngspice accepts too."""
-    inductors = {e.name: e for e in circuit.elements if isinstance(e, Inductor)}
+    inductors = {e.name: e for e in circuit.elements if e.topology == "inductor"}
     couplings: list[MutualInductance] = []
     for statement in statements:
         for coupling in devices.mutual_inductance(StatementReader(statement), inductors):
@@ -174,8 +142,6 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
     if not couplings:
         return
     import numpy as np
-
-    from circuitnsds.checks.topology import connected_components
 
     for group in connected_components((), (c.inductors for c in couplings)):
         members = [inductors[name] for name in sorted(group)]
@@ -194,14 +160,7 @@ def _couple(circuit: Circuit, statements: list[Statement]) -> None:
 
 
 def _check_unused_models(circuit: Circuit) -> None:
-    used = set()
-    for element in circuit.elements:
-        if isinstance(element, (Diode, Switch)):
-            used.add(element.model.name)
-        elif (isinstance(element, Resistor) or is_loaded_instance(
-                element, "circuitnsds.circuit.elements.behavioural", "BehaviouralSource", "Integrator"
-        )) and element.model:
-            used.add(element.model)
+    used = {element.model_name for element in circuit.elements}
     for name, model in circuit.models.items():
         if name not in used:
             kind = model if isinstance(model, str) else model.kind if is_loaded_instance(

@@ -26,6 +26,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
+from circuitnsds.element_letters import element_letter, letter_of
 from circuitnsds.errors import NetlistError
 from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
@@ -45,27 +46,9 @@ _PUNCTUATION = frozenset({"(", ")", "="})
 SUBSTITUTED_COMMANDS = frozenset({".model", ".tran", ".ic"})
 """Commands whose ``{expr}`` tokens are evaluated (others are passed on as written)."""
 
-# element letter -> (number of nodes after the name, token indexes naming another element)
-_LAYOUT: dict[str, tuple[int, tuple[int, ...]]] = {
-    "r": (2, ()), "c": (2, ()), "l": (2, ()), "d": (2, ()), "v": (2, ()), "i": (2, ()),
-    "e": (4, ()), "g": (4, ()), "f": (2, (3,)), "h": (2, (3,)), "s": (4, ()), "w": (2, (3,)),
-    "k": (0, (1, 2)), "b": (2, ()),
-}
-
 # B sources and the expression forms of E/G/F/H hold run-time expressions (v(), i(), time):
 # they are passed on unevaluated, and the elaborator says they are not supported.
 _BEHAVIOURAL_KEYWORDS = frozenset({"value", "vol", "cur", "table", "laplace", "freq", "poly"})
-
-
-def _mosfet_nodes(tokens: list[str]) -> int:
-    """Nodes of an ``M`` line: 3 (``d g s MODEL``) or 4 (``d g s b MODEL``), counted from the
-    words before the first ``key=value`` (the ``off`` flag aside)."""
-    words = 0
-    for index in range(1, len(tokens)):
-        if tokens[index] == "=" or (index + 1 < len(tokens) and tokens[index + 1] == "="):
-            break
-        words += tokens[index] != "off"
-    return 4 if words >= 5 else 3
 
 
 def _behavioural(statement: Statement) -> bool:
@@ -109,12 +92,6 @@ MAX_STATEMENTS = 250_000
 """Most statements the expansion of subcircuits may produce: each instance copies its
 subcircuit, so 30 levels of two instances each would make 2^30 elements from a few lines
 (250,000 elements take about a minute to read and check, 250 MB)."""
-
-
-def element_letter(name: str) -> str:
-    """The type letter of an element: the first letter of its last dotted component
-    (``x1.d3`` is a diode, so a flat netlist flattens to itself)."""
-    return name.rsplit(".", 1)[-1][:1]
 
 
 @dataclass(eq=False)
@@ -353,19 +330,18 @@ class _Flattener:
         if element_letter(tokens[0]) == "a":
             _rename_code_model(tokens, context)
             return
-        nodes, controls = _LAYOUT.get(element_letter(tokens[0]), (0, ()))
-        if element_letter(tokens[0]) == "m":
-            nodes = _mosfet_nodes(tokens)
+        layout = letter_of(tokens[0])
+        nodes, controls = layout.node_indexes(tokens), layout.controls
         if behavioural:  # only the output nodes are known (the elaborator refuses the rest)
-            nodes, controls = 2, ()
+            nodes, controls = tuple(range(1, min(3, len(tokens)))), ()
         tokens[0] = context.prefixed(tokens[0])
-        for index in range(1, min(1 + nodes, len(tokens))):
+        for index in nodes:
             if tokens[index] not in _PUNCTUATION:
                 tokens[index] = context.node(tokens[index])
         for index in controls:
             if index < len(tokens):
                 tokens[index] = context.element(tokens[index])
-        for index in range(1 + nodes, len(tokens)):
+        for index in range(1 + max(nodes, default=0), len(tokens)):
             beside_equals = "=" in (tokens[index - 1], tokens[index + 1] if index + 1 < len(tokens) else "")
             if index not in controls and not beside_equals and context.is_local_model(tokens[index]):
                 tokens[index] = context.model(tokens[index])

@@ -60,18 +60,16 @@ def compiled_pays(values: int) -> bool:
     the warm-up process compiles it in the background for the next runs)."""
     if floattext.has_native() or floattext.loaded():
         return True
-    from circuitnsds.engine.jit import numba_available
+    from circuitnsds import jit
 
-    if not numba_available() or values < (LOADED_VALUES if _numba_in_use() else COLD_VALUES):
+    if not jit.numba_available() or values < (LOADED_VALUES if _numba_in_use() else COLD_VALUES):
         return False
     marker = floattext.ready_marker()
     if marker is None:
         return False
     if not marker.exists():
-        if values >= COLD_VALUES:  # worth compiling for the next runs: the loops' warm-up does it
-            from circuitnsds.engine.loop_choice import start_warmup
-
-            start_warmup()
+        if values >= COLD_VALUES:  # worth compiling for the next runs, in the background
+            jit.start_warmup("circuitnsds.output.floattext")
         return False
     return True
 

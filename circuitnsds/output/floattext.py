@@ -41,7 +41,7 @@ three times, writing the same bytes (the tests check each against ``repr``):
   integer arithmetic, compiled into a shared library when the package is installed with a
   C compiler, loaded with ctypes (:mod:`circuitnsds.native`; ~0.05 µs per number, nothing
   to load but the library). Used whenever it is there;
-* compiled by numba (:mod:`circuitnsds.engine.jit`, cached per user; ~0.07-0.15 µs per
+* compiled by numba (:mod:`circuitnsds.jit`, cached per user; ~0.07-0.15 µs per
   number, but importing numba and loading the code costs ~1 s in a fresh process): used
   without the C library, for files large enough to pay for that
   (:func:`circuitnsds.output.csvfile.compiled_pays`);
@@ -360,7 +360,7 @@ def _native_kernel():
 def _bind_numba() -> None:
     """Bind the numba kernel and the Python one (the helpers inlined into the compiled
     kernel: a call per number would cost the arrays' reference counts)."""
-    from circuitnsds.engine.jit import AVAILABLE, jit, python_version
+    from circuitnsds.jit import AVAILABLE, jit, python_version
 
     if AVAILABLE:
         from numba import njit
@@ -386,8 +386,7 @@ def kernel(kind: str | None = None):
     ~0.4 s to import numba and ~0.6 s to load the cached code at its first call in a
     process; without numba installed, the Python code); ``"python"`` its Python original.
     ``None``: the C kernel if its library is there, numba otherwise.
-    :mod:`circuitnsds.engine.jit` is imported only for numba's and Python's (``output/``
-    imports no other layer at module level).
+    :mod:`circuitnsds.jit` is imported only for numba's and Python's.
 
     Raises:
         RuntimeError: ``"native"`` asked for and the library is not there.
@@ -429,10 +428,10 @@ def loaded() -> bool:
 
 def ready_marker():
     """The file whose existence says that the numba kernel of this very source is in the per-user
-    cache (written by :mod:`circuitnsds.engine.warmup` after :func:`warm`), or ``None``."""
+    cache (written by :func:`main` after :func:`warm`), or ``None``."""
     from pathlib import Path
 
-    from circuitnsds.engine.jit import ready_marker as marker
+    from circuitnsds.jit import ready_marker as marker
 
     return marker((Path(__file__).resolve(),))
 
@@ -440,3 +439,15 @@ def ready_marker():
 def warm() -> None:
     """Compile (or load from the cache) the numba kernel, for the types the writers pass."""
     csv_bytes(np.array([[0.1, -2.5e-300]]), kind="numba")
+
+
+def main() -> None:
+    """Compile (or load) the numba kernel and mark the cache ready for it, unless the C kernel
+    is built (the writers then never use numba's): run in a background process
+    (:func:`circuitnsds.jit.start_warmup`) when a large file is written without either."""
+    if has_native():
+        return
+    warm()
+    marker = ready_marker()
+    if marker is not None:
+        marker.touch()

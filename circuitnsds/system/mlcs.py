@@ -281,6 +281,10 @@ class MLCSBuilder:
             return
         self._triplets[matrix].append((row, col, value))
 
+    def stamped_values(self) -> list[float]:
+        """Every value stamped so far, in all matrices and in ``e`` (to check that they are finite)."""
+        return [value for triplets in self._triplets.values() for _, _, value in triplets] + self.e
+
     def add_conductance(self, matrix: str, a: int, b: int, value: float) -> None:
         """Stamp the two-terminal pattern ``+value`` on the diagonal, ``-value`` off it.
 

@@ -180,6 +180,7 @@ class BehaviouralSource(Element):
     auxiliaries: tuple[MinMax | Select, ...] = ()
     expression: str = ""
     model: str | None = None
+    owns_branch_current: ClassVar[bool] = False  # F, H and W sense V, L, E, H and switches only
 
     @property
     def topology(self) -> str:  # type: ignore[override]
@@ -232,6 +233,7 @@ class Integrator(Element):
     upper: float | None = None
     model: str | None = None
     topology: ClassVar[str] = "voltage"
+    owns_branch_current: ClassVar[bool] = False  # F, H and W sense V, L, E, H and switches only
 
     @property
     def initial_charge(self) -> float:

@@ -33,6 +33,9 @@ class MutualInductance(Element):
     coupling: float = 1.0
     topology: ClassVar[str] = "coupling"
 
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        return []  # no terminals of its own: the inductors it names are checked by the circuit
+
     @property
     def mutual(self) -> float:
         """``M = k·sqrt(L1·L2)`` [H]."""

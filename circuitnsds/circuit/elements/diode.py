@@ -15,8 +15,9 @@ diodes in parallel: ``Ron``, ``Rrev`` and ``Roff`` are divided by it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, junction_conductances
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
@@ -95,6 +96,10 @@ class Diode(Element):
 
     model: DiodeModel = DiodeModel("ideal")
     area: float = 1.0
+    junction: ClassVar[str | None] = "diode"
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return junction_conductances(self.model)
 
     def stamp(self, builder: MLCSBuilder) -> None:
         anode, cathode = (builder.node(n) for n in self.nodes)

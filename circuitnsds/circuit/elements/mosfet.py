@@ -19,6 +19,7 @@ channel current from drain to source [A] (body diode and capacitor currents excl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from circuitnsds.circuit.elements.switch import Switch
 
@@ -41,6 +42,7 @@ class Mosfet(Switch):
     on_resistance_rule: str = ""
     gate_drive: float = 10.0
     parts: tuple[str, ...] = ()
+    owns_branch_current: ClassVar[bool] = False  # F, H and W do not sense an M line (as in SPICE)
 
     @property
     def gate(self) -> str:

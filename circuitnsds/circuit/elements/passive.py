@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, negative_value
 from circuitnsds.system.mlcs import MLCSBuilder
 
 
@@ -19,6 +19,16 @@ class Resistor(Element):
 
     resistance: float = 1.0
     model: str | None = None
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        errors = super().value_errors()
+        if self.resistance <= 0:
+            errors.append((f"resistance must be positive, got {self.resistance:g}",
+                           "use a 0 V voltage source for a short circuit"))
+        return errors
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return [(f"R = {self.resistance:.3g} Ω", 1.0 / self.resistance)]
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)
@@ -34,6 +44,15 @@ class Capacitor(Element):
     capacitance: float = 1.0
     initial_voltage: float | None = None
     topology: ClassVar[str] = "capacitor"
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        return super().value_errors() + negative_value(self.capacitance, "capacitance", "F")
+
+    def value_warnings(self) -> list[str]:
+        return ["0 F capacitor: it is an open circuit (and adds no state)"] if self.capacitance == 0 else []
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return [(f"C = {self.capacitance:.3g} F", self.capacitance / step)] if self.capacitance > 0 else []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)
@@ -51,6 +70,16 @@ class Inductor(Element):
     inductance: float = 1.0
     initial_current: float | None = None
     topology: ClassVar[str] = "inductor"
+    owns_branch_current: ClassVar[bool] = True
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        return super().value_errors() + negative_value(self.inductance, "inductance", "H")
+
+    def value_warnings(self) -> list[str]:
+        return ["0 H inductor: it is a short circuit (a 0 V voltage source)"] if self.inductance == 0 else []
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return [(f"L = {self.inductance:.3g} H", step / self.inductance)] if self.inductance > 0 else []
 
     def stamp(self, builder: MLCSBuilder) -> None:
         a, b = (builder.node(n) for n in self.nodes)

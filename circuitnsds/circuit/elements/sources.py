@@ -24,6 +24,7 @@ class IndependentSource(Element):
 
     function: Stimulus = Dc(0.0)
     ac: tuple[float, float] | None = None
+    independent_source: ClassVar[bool] = True
 
 
 @dataclass(frozen=True)

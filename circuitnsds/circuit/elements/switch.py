@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from circuitnsds.circuit.elements.base import Element
+from circuitnsds.circuit.elements.base import Element, junction_conductances
 from circuitnsds.system.mlcs import MLCSBuilder
 
 DEFAULT_OFF_RESISTANCE = 1e12
@@ -78,6 +78,11 @@ class Switch(Element):
     control: str | None = None
     initially_on: bool = False
     topology: ClassVar[str] = "conductive"
+    junction: ClassVar[str | None] = "switch"
+    owns_branch_current: ClassVar[bool] = True
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        return junction_conductances(self.model)
 
     def stamp(self, builder: MLCSBuilder) -> None:
         plus, minus = builder.node(self.nodes[0]), builder.node(self.nodes[1])

@@ -108,11 +108,8 @@ def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
     name = reader.name
     nodes = reader.nodes(2)
     model_name = reader.next("model name")
-    if model_name not in models:
-        raise reader.error(f"{name}: diode model {model_name!r} is not defined",
-                           hint=f"add a line such as: .model {model_name} D()  "
-                           f"(an ideal diode) or .model {model_name} D(Vfwd=0.7 Ron=10m)")
-    model = models[model_name]
+    model = reader.model(models, model_name, "diode model", f"add a line such as: .model {model_name} D()  "
+                         f"(an ideal diode) or .model {model_name} D(Vfwd=0.7 Ron=10m)")
     if not isinstance(model, DiodeModel):
         raise reader.error(f"{name}: model {model_name!r} is {_kind(model)} model, "
                            "not a diode (D) model",
@@ -157,12 +154,9 @@ def switch(reader: StatementReader, letter: str, models: dict[str, object],
                                hint="a W switch senses the current of a V source (0 V is fine)")
     model_name = reader.next("model name")
     wanted = "SW" if letter == "s" else "CSW"
-    if model_name not in models:
-        raise reader.error(f"{name}: switch model {model_name!r} is not defined",
-                           hint=f"add a line such as: .model {model_name} {wanted}("
-                           + ("VT=2.5 VH=0.1" if letter == "s" else "IT=1m IH=0.1m")
-                           + " RON=10m ROFF=1meg)")
-    model = models[model_name]
+    thresholds = "VT=2.5 VH=0.1" if letter == "s" else "IT=1m IH=0.1m"
+    model = reader.model(models, model_name, "switch model",
+                         f"add a line such as: .model {model_name} {wanted}({thresholds} RON=10m ROFF=1meg)")
     if not isinstance(model, SwitchModel) or model.current_controlled != (letter == "w"):
         raise reader.error(f"{name}: model {model_name!r} is {_kind(model)} model, "
                            f"a {letter.upper()} switch needs a {wanted} model")

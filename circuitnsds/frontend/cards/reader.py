@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 
 from circuitnsds.errors import NetlistError, NetlistWarning, SourceLocation
 from circuitnsds.netlist import Statement
@@ -62,6 +62,13 @@ class StatementReader:
         column of the token read last (the offending one, usually)."""
         return NetlistError(message, where=self.location, hint=hint, text=self.statement.text,
                             column=token_column(self.statement, max(0, self.position - 1)))
+
+    def model(self, models: Mapping[str, object], model_name: str, what: str, hint: str) -> object:
+        """The ``.model`` called ``model_name`` in ``models``; if there is none, the error
+        ``"<element>: <what> '<model_name>' is not defined"`` with ``hint`` (the line to add)."""
+        if model_name not in models:
+            raise self.error(f"{self.name}: {what} {model_name!r} is not defined", hint=hint)
+        return models[model_name]
 
     def warn(self, message: str) -> None:
         warn_at(self.location, message)

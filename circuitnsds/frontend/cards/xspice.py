@@ -132,11 +132,8 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
         raise reader.error(f"{name}: unbalanced brackets in the port list: every '[' needs its ']'",
                            hint=HINT)
     model_name = tokens[-1]
-    if model_name not in models:
-        raise reader.error(f"{name}: model {model_name!r} is not defined",
-                           hint=f"add .model {model_name} KIND(...), KIND one of "
-                           f"{', '.join(CODE_MODELS)}")
-    model = models[model_name]
+    model = reader.model(models, model_name, "model",
+                         f"add .model {model_name} KIND(...), KIND one of {', '.join(CODE_MODELS)}")
     if not isinstance(model, XspiceModel):
         kind = model if isinstance(model, str) else type(model).__name__
         what = "an XSPICE digital or mixed-signal" if str(kind).startswith(("d_", "adc", "dac")) \

@@ -1,4 +1,7 @@
-"""Compile the engine's loops with numba, on first use and cached per user; run the same code in Python.
+"""Compile loops with numba, on first use and cached per user; run the same code in Python.
+
+A foundation module: the engine's stepping loops and the CSV formatter of ``output/`` both
+use it, and neither layer may import the other.
 
 The mode loops (:mod:`circuitnsds.engine.dense_loop`, :mod:`circuitnsds.engine.sparse_loop`)
 are written once as plain Python over numpy arrays. :func:`jit` wraps such a function in
@@ -37,7 +40,8 @@ import types
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["AVAILABLE", "Compiled", "cache_root", "jit", "python_version", "ready_marker"]
+__all__ = ["AVAILABLE", "Compiled", "cache_root", "jit", "python_version", "ready_marker",
+           "start_warmup", "warmup_done"]
 
 AVAILABLE = importlib.util.find_spec("numba") is not None
 """Whether numba is installed (the loops can run compiled); numba is not imported."""
@@ -85,7 +89,7 @@ def cache_candidates() -> list[Path]:
 
 def cache_root() -> Path | None:
     """The first writable folder of :func:`cache_candidates` (created), or ``None``."""
-    package = Path(__file__).resolve().parents[1]
+    package = Path(__file__).resolve().parent
     for folder in cache_candidates():
         resolved = folder.expanduser().resolve()
         if resolved == package or package in resolved.parents:
@@ -112,14 +116,47 @@ def ready_marker(sources: tuple[Path, ...] = ()) -> Path | None:
         digest.update(version("numba").encode())
     except PackageNotFoundError:
         return None
-    folder = Path(__file__).resolve().parent
-    files = [*sources, folder / "jit.py"] if sources else \
-        [folder / name for name in ("dense_loop.py", "sparse_loop.py", "jit.py")]
+    folder = Path(__file__).resolve().parent / "engine"  # where the stepping loops are
+    this = Path(__file__).resolve()
+    files = [*sources, this] if sources else [folder / "dense_loop.py", folder / "sparse_loop.py", this]
     digest.update((str(folder) if not sources else "|".join(map(str, sources))).encode())  # numba's
     # cache is per source path as well
     for path in files:
         digest.update(Path(path).read_bytes())
     return root / f"ready-{digest.hexdigest()[:20]}"
+
+
+_warmups: dict[str, object] = {}
+"""Module -> its background warm-up process (a ``subprocess.Popen``; ``None`` when none could
+be started), each started at most once per process."""
+
+
+def start_warmup(module: str) -> None:
+    """Start (once per process) ``main()`` of ``module`` (which compiles its loops into the
+    cache and marks them ready, e.g. :mod:`circuitnsds.engine.warmup`) in a background Python
+    process, on this very package (not whatever ``circuitnsds`` the child would find first
+    on its path)."""
+    if module in _warmups:
+        return
+    import subprocess  # (here: a run that never warms numba up does not import it)
+
+    package_parent = str(Path(__file__).resolve().parents[1])
+    code = (f"import sys; sys.path.insert(0, {package_parent!r}); "
+            f"from {module} import main; main()")
+    try:
+        _warmups[module] = subprocess.Popen(
+            # -P: not the current folder first on the path (a user's numpy.py or pickle.py
+            # there would be imported and run in place of the module)
+            [sys.executable, "-P", "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL, close_fds=True)
+    except OSError:  # no process can be started here: stay in Python
+        _warmups[module] = None
+
+
+def warmup_done(module: str) -> bool:
+    """Whether the background warm-up of ``module`` has finished successfully."""
+    process = _warmups.get(module)
+    return process is not None and process.poll() == 0
 
 
 def _cache_for(function: Callable, root: Path):
