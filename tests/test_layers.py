@@ -20,13 +20,14 @@ ALLOWED = {
     "checks": {"circuit", "engine", "solvers", "system"},
     "frontend": {"netlist", "circuit", "system"},
     "output": set(),
+    "thermal": {"netlist", "output"},
     "analyses": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output"},
     "compare": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
                 "analyses"},
     "sweeps": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
-               "analyses"},
+               "analyses", "thermal"},
     "cli": {"netlist", "system", "solvers", "engine", "circuit", "checks", "frontend", "output",
-            "analyses", "compare", "sweeps"},
+            "analyses", "compare", "sweeps", "thermal"},
 }
 FOUNDATION = {"errors", "units", "values", "theta", "specs", "native", "_blas", "arrays", "lazy"}
 
