@@ -214,3 +214,35 @@ def test_a_missing_thermal_file_is_an_error_at_the_model_line(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 1
     assert "m.cir:3" in done.stderr and "Nowhere.xml" in done.stderr
+
+
+def e_rr(i, v):
+    """Recovery energy [J] against the negative blocking voltage vendors write for diodes."""
+    return 1e-6 * (0.2 + 0.05 * i - 0.01 * v - 0.002 * i * v)
+
+
+DIODE_XML = (
+    '<?xml version="1.0"?>\n<Package class="Diode" vendor="Test" partnumber="D1">'
+    '<SemiconductorData type="Diode"><TurnOffLoss><ComputationMethod>Table only</ComputationMethod>'
+    "<CurrentAxis>0 20</CurrentAxis><VoltageAxis>-40 0</VoltageAxis><TemperatureAxis>25</TemperatureAxis>"
+    '<Energy scale="1e-6"><Temperature>'
+    + "".join(f"<Voltage>{e_rr(0, v) * 1e6:.17g} {e_rr(20, v) * 1e6:.17g}</Voltage>" for v in (-40, 0))
+    + "</Temperature></Energy></TurnOffLoss></SemiconductorData></Package>\n")
+
+
+def test_diode_recovery_is_charged_at_each_turn_off(buck):
+    (buck / "diode.xml").write_text(DIODE_XML)
+    netlist = buck / "buck_diode.cir"
+    netlist.write_text(BUCK.replace("D(Ron=1m)", 'D(Ron=1m thermal="diode.xml")'))
+    circuit = circuitnsds.read_netlist(netlist)
+    waves = circuit.transient()
+    result = thermal_run(waves, devices_of(circuit), ThermalSetup(TCASE, period=PERIOD))
+    t0, t1 = 0.5e-3, 1e-3
+    current, across = waves["i(d1)"], -waves["v(sw)"]  # anode at ground, cathode at sw
+    on = current > 1e-6
+    expected = sum(e_rr(current[k - 1], across[k]) for k in np.flatnonzero(on[:-1] & ~on[1:]) + 1
+                   if t0 <= waves.time[k - 1] < t1)
+    parts = result.losses["d1"].average(t0, t1)
+    assert expected > 0
+    assert parts["recovery"] == pytest.approx(expected / (t1 - t0), rel=0.01)
+    assert parts["turn_on"] == 0.0 and parts["turn_off"] == 0.0
