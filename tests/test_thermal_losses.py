@@ -246,3 +246,23 @@ def test_diode_recovery_is_charged_at_each_turn_off(buck):
     assert expected > 0
     assert parts["recovery"] == pytest.approx(expected / (t1 - t0), rel=0.01)
     assert parts["turn_on"] == 0.0 and parts["turn_off"] == 0.0
+
+
+def test_a_sweep_adds_each_points_losses_as_columns(buck):
+    from circuitnsds.sweeps.api import sweep
+
+    netlist = buck / "sweep.cir"
+    netlist.write_text(BUCK.replace("Rload out 0 5", "Rload out 0 {rl}\n.param rl=5")
+                       .replace(".tran 0.1u 1m", ".tran 0.1u 0.3m"))
+    table = sweep(netlist, {"rl": [2, 5]}, workers=0, losses=["rload"])
+    assert list(table["status"]) == ["ok", "ok"]
+    for k, rl in enumerate((2, 5)):
+        single = buck / f"single_{rl}.cir"
+        single.write_text(netlist.read_text().replace(".param rl=5", f".param rl={rl}"))
+        circuit = circuitnsds.read_netlist(single)
+        waves = circuit.transient()
+        parts = thermal_run(waves, devices_of(circuit), ThermalSetup(TCASE, period=PERIOD)
+                            ).losses["s1"].average(waves.time[0], waves.time[-1])
+        assert table["s1.turn_on_W"][k] == pytest.approx(parts["turn_on"], rel=1e-9)
+        assert table["s1.conduction_W"][k] == pytest.approx(parts["conduction"], rel=1e-9)
+    assert 0 < table["efficiency"][0] < 1 and "max(tj(s1))" in table.columns

@@ -505,7 +505,6 @@ def _junctions(args: argparse.Namespace, circuit, waves, *, steady: bool, period
     networks with the average loss of each period of the sources (the instantaneous loss
     when they have no common period); a periodic steady state gives the thermal steady state."""
     from circuitnsds.errors import CircuitError
-    from circuitnsds.output.waveforms import Waveforms
     from circuitnsds.thermal import junction
 
     start = 0.0
@@ -516,14 +515,9 @@ def _junctions(args: argparse.Namespace, circuit, waves, *, steady: bool, period
             period, start = source_period(circuit)
         except CircuitError:
             period = None
-    setup = junction.setup_from_options(circuit.options, period, start)
-    run = junction.steady_state if steady else junction.thermal_run
-    result = run(waves, args.thermal_devices, setup)
-    junction.warn_clamped(args.thermal_devices)
-    signals = {name: waves[name] for name in waves.names}
-    signals.update({f"tj({name})": values for name, values in result.junction.items()})
-    waves = Waveforms(waves.time, signals, waves.impulses, waves.residual, waves.title, waves.stats,
-                      waves.events, waves.flux_impulses)
+    result = junction.analyse(circuit, waves, steady=steady, period=period, start=start,
+                              devices=args.thermal_devices)
+    waves = junction.with_junction_temperatures(waves, result)
     if steady and not args.quiet:
         for name, values in result.junction.items():
             print(f"circuitnsds: thermal steady state: tj({name}) = {values[0]:.4g} °C",

@@ -213,3 +213,45 @@ def warn_clamped(devices: list[tuple[object, DeviceData]]) -> None:
             warnings.warn(f"{element.name}: the {label} table of {data.path} was read outside its "
                           f"range ({table.clamps.describe(units, axes)}); its edge values were "
                           "used", CircuitWarning, stacklevel=2)
+
+
+def analyse(circuit, waves: Waveforms, *, steady: bool, period: float | None = None,
+            start: float = 0.0, devices: list[tuple[object, DeviceData]] | None = None
+            ) -> ThermalResult:
+    """The losses and junction temperatures of ``circuit``'s devices with a datasheet for
+    its results ``waves``: a transient's (:func:`thermal_run`, driven period by period when
+    ``period`` [s] is given) or a periodic steady state's (``steady``: :func:`steady_state`),
+    with the case or heatsink of its ``.options``; one warning per table read outside its
+    range."""
+    devices = devices_of(circuit) if devices is None else devices
+    setup = setup_from_options(circuit.options, period, start)
+    result = (steady_state if steady else thermal_run)(waves, devices, setup)
+    warn_clamped(devices)
+    return result
+
+
+def with_junction_temperatures(waves: Waveforms, result: ThermalResult) -> Waveforms:
+    """``waves`` with a signal ``tj(DEVICE)`` [°C] per device with a thermal network."""
+    signals = {name: waves[name] for name in waves.names}
+    signals.update({f"tj({name})": values for name, values in result.junction.items()})
+    return Waveforms(waves.time, signals, waves.impulses, waves.residual, waves.title, waves.stats,
+                     waves.events, waves.flux_impulses)
+
+
+def loss_columns(table, result: ThermalResult | None) -> dict[str, float]:
+    """A sweep point's loss figures: ``efficiency`` (when the table has outputs),
+    ``losses_W`` (the loss rows' sum), ``stored_W`` (energy going into L and C), each datasheet device's parts
+    ``NAME.conduction_W`` … ``NAME.recovery_W`` and ``max(tj(NAME))`` [°C]."""
+    columns = {}
+    if table.has_outputs:
+        columns["efficiency"] = table.efficiency
+    columns["losses_W"] = float(sum(row.power for row in table.rows if row.kind == "loss"))
+    columns["stored_W"] = table.total("stored")
+    devices = result.losses if result is not None else {}
+    for row in table.rows:
+        if row.element in devices:
+            for part in ("conduction", "turn_on", "turn_off", "recovery"):
+                columns[f"{row.element}.{part}_W"] = getattr(row, part)
+    for name, values in (result.junction.items() if result is not None else ()):
+        columns[f"max(tj({name}))"] = float(np.max(values))
+    return columns
