@@ -3,7 +3,8 @@
 Ideal switches and diodes commutate in zero time, so their switching energy is the
 datasheet's, charged at each commutation:
 
-* a switch (``S``, ``W``, a MOSFET's channel) at each of its events (``waves.events``):
+* a switch (``S``, ``W``, a MOSFET's channel) at each of its events (``waves.events``, and
+  a change of state in the first step, which the engine does not list as an event):
   turn-on ``E_on(i, v, Tj)`` with the current it takes on (the first sample after the event)
   and the voltage it blocked (the last sample at or before it); turn-off ``E_off`` with the
   current it carried (last sample at or before) and the voltage it blocks (first after);
@@ -125,16 +126,20 @@ def device_losses(waves: Waveforms, element, data: DeviceData,
         model = element.model
         conducting = (np.abs(voltage - model.on_resistance * current)
                       <= np.abs(voltage - model.off_resistance * current))
-        for event_time, name, closed in waves.events:
-            if name != element.name:
-                continue
+        switchings = [(float(t), closed) for t, name, closed in waves.events if name == element.name]
+        if time.size > 1 and conducting[0] != conducting[1] and not any(
+                time[0] <= t <= time[1] for t, _ in switchings):
+            # the first step's switching is the start's, which the engine does not list (a
+            # gate stepping at t = 0, the period's first commutation in a periodic steady state)
+            switchings.insert(0, (float(time[0]), bool(conducting[1])))
+        for event_time, closed in switchings:
             after = min(int(np.searchsorted(time, event_time, side="right")), time.size - 1)
             before = max(after - 1, 0)
             if closed:
                 joules = _switching(data.turn_on, current[after], voltage[before], tj[before], False)
             else:
                 joules = _switching(data.turn_off, current[before], voltage[after], tj[before], False)
-            events.append((float(event_time), "turn_on" if closed else "turn_off", joules))
+            events.append((event_time, "turn_on" if closed else "turn_off", joules))
         magnitude = np.where(conducting, np.abs(current), 0.0)
     electrical = voltage * current
     if data.conduction is None:

@@ -25,15 +25,30 @@ class ThermalDataError(CircuitnsdsError):
     """A thermal description that cannot be read or used (file:line of the XML)."""
 
 
+SLACK = 1e-3
+"""A lookup beyond a table's edge by less than this fraction of its span takes the edge
+without being counted as outside (a 600.4 V blocking voltage against a 600 V axis)."""
+
+
+def _outside(axis: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Which ``values`` lie beyond the axis by more than its slack (:data:`SLACK`); none for
+    an axis of one value (the table does not depend on that variable)."""
+    if axis.size == 1:
+        return np.zeros(np.shape(values), dtype=bool)
+    slack = SLACK * (axis[-1] - axis[0])
+    return (values < axis[0] - slack) | (values > axis[-1] + slack)
+
+
 def _interpolate_axis(axis: np.ndarray, x: float) -> tuple[int, int, float, bool]:
     """``(lower, upper, weight of upper, clamped)`` of ``x`` on an increasing ``axis``."""
+    clamped = bool(_outside(axis, np.array([x]))[0])
     if axis.size == 1:
-        return 0, 0, 0.0, False
+        return 0, 0, 0.0, clamped
     if x <= axis[0]:
-        return 0, 0, 0.0, bool(x < axis[0])
+        return 0, 0, 0.0, clamped
     if x >= axis[-1]:
         last = axis.size - 1
-        return last, last, 0.0, bool(x > axis[-1])
+        return last, last, 0.0, clamped
     upper = int(np.searchsorted(axis, x, side="right"))
     lower = upper - 1
     return lower, upper, float((x - axis[lower]) / (axis[upper] - axis[lower])), False
@@ -134,7 +149,7 @@ class ConductionTable:
         temperature = np.broadcast_to(np.asarray(temperature, dtype=float), current.shape)
         for axis, values, name in ((self.current, current, "current"),
                                    (self.temperature, temperature, "temperature")):
-            outside = (values < axis[0]) | (values > axis[-1])
+            outside = _outside(axis, values)
             if outside.any():
                 beyond = values[outside]
                 far = beyond[np.argmax(np.maximum(axis[0] - beyond, beyond - axis[-1]))]
