@@ -284,3 +284,34 @@ def test_the_sic_buck_example_agrees_with_the_datasheet_estimate(tmp_path):
     for key in ("turn_on", "turn_off", "conduction", "recovery", "switch"):
         assert rows["simulated"][key] == pytest.approx(rows["estimate"][key], rel=0.01), key
     assert rows["simulated"]["tj_switch"] == pytest.approx(rows["estimate"]["tj_switch"], abs=0.5)
+
+
+def test_a_heatsink_shared_by_the_devices_sets_their_case(buck):
+    (buck / "diode.xml").write_text(DIODE_XML.replace(
+        "</SemiconductorData>", '</SemiconductorData><ThermalModel><Branch type="Cauer">'
+        '<RCElement R="0.3" C="0.01"/><RCElement R="0.2" C="0.5"/></Branch></ThermalModel>'))
+    netlist = buck / "sink.cir"
+    netlist.write_text(BUCK.replace("D(Ron=1m)", 'D(Ron=1m thermal="diode.xml")')
+                       .replace(f".options tcase={TCASE:g}", ".options rthsa=0.5 cthsa=2 tamb=30"))
+    circuit = circuitnsds.read_netlist(netlist)
+    pss = circuit.pss(PERIOD, step=0.1e-6)
+    from circuitnsds.thermal.junction import analyse
+
+    result = analyse(circuit, pss.waveforms, steady=True, period=PERIOD)
+    span = pss.waveforms.time[-1] - pss.waveforms.time[0]
+    power = {name: device.energy()[-1] / span for name, device in result.losses.items()}
+    case = 30 + 0.5 * (power["s1"] + power["d1"])
+    assert result.junction["s1"][0] == pytest.approx(case + sum(FOSTER[0]) * power["s1"], rel=1e-6)
+    assert result.junction["d1"][0] == pytest.approx(case + 0.5 * power["d1"], rel=1e-6)
+
+
+@pytest.mark.parametrize(("options", "words"), [
+    (".options tcase=50 rthsa=1", "both fix the case temperature"),
+    (".options tamb=40", "rthsa is not given"),
+    (".options rthsa=0", "must be positive"),
+])
+def test_contradictory_thermal_options_are_errors_at_their_line(options, words):
+    from circuitnsds.errors import NetlistError
+
+    with pytest.raises(NetlistError, match=words):
+        circuitnsds.read_netlist(f"t\nV1 a 0 1\nR1 a 0 1\n{options}\n.tran 1u 2u\n.end\n")

@@ -35,7 +35,10 @@ from circuitnsds.thermal.tables import EnergyTable
 KINDS = ("turn_on", "turn_off", "recovery")
 """The kinds of switching event, as the loss table's columns name them."""
 DIODE_ON = 1e-9
-"""A diode conducts when its forward current exceeds this fraction of its largest one."""
+"""A diode conducts when its forward current exceeds this fraction of its largest one (and
+:data:`DIODE_FLOOR`)."""
+DIODE_FLOOR = 1e-12
+"""[A]: below this a diode's forward current is round-off (SPICE's gmin current at 1 V)."""
 
 Temperature = Callable[[np.ndarray], np.ndarray]
 """Junction temperature [°C] at given instants [s]."""
@@ -112,7 +115,7 @@ def device_losses(waves: Waveforms, element, data: DeviceData,
     if diode:
         leak = getattr(element, "area", 1.0) / element.model.off_resistance
         forward = current - voltage * leak
-        conducting = forward > DIODE_ON * max(float(np.abs(forward).max()), 1e-300)
+        conducting = forward > max(DIODE_ON * float(np.abs(forward).max()), DIODE_FLOOR)
         changes = np.flatnonzero(conducting[1:] != conducting[:-1]) + 1
         for k in changes:
             if conducting[k]:  # turned on: current after, voltage before
