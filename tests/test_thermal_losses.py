@@ -315,3 +315,18 @@ def test_contradictory_thermal_options_are_errors_at_their_line(options, words):
 
     with pytest.raises(NetlistError, match=words):
         circuitnsds.read_netlist(f"t\nV1 a 0 1\nR1 a 0 1\n{options}\n.tran 1u 2u\n.end\n")
+
+
+def test_mosfet_and_resistor_models_and_thermal(tmp_path):
+    from circuitnsds.errors import NetlistError
+
+    (tmp_path / "Fet.xml").write_text(SWITCH_XML)
+    netlist = tmp_path / "fet.cir"
+    netlist.write_text("t\nV1 d 0 10\nVg g 0 10\nM1 d g 0 fet\n"
+                       ".model fet VDMOS(Rd=5m Vto=3 thermal=\"Fet.xml\")\n.tran 1u 2u\n.end\n")
+    fet = circuitnsds.read_netlist(netlist).element("m1")
+    assert fet.model.thermal == str(tmp_path / "Fet.xml")  # the case of the path kept
+    netlist.write_text("t\nV1 a 0 1\nR1 a 0 rm\n.model rm R(R=1 thermal=\"Fet.xml\")\n"
+                       ".tran 1u 2u\n.end\n")
+    with pytest.raises(NetlistError, match="thermal= names a device's datasheet"):
+        circuitnsds.read_netlist(netlist)

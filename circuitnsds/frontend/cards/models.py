@@ -125,7 +125,11 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
     for key, text in reader.keyword_values():
         if key in params or (key == "thermal" and thermal is not None):
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
-        if key == "thermal" and kind in {"d", "sw", "csw"}:
+        if key == "thermal":
+            if kind not in {"d", "sw", "csw"}:
+                raise reader.error(f".model {name} {kind.upper()}: thermal= names a device's "
+                                   "datasheet losses", hint="D, SW, CSW, VDMOS, NMOS and PMOS "
+                                   "models take thermal=\"file.xml\"")
             thermal = thermal_path(reader, text)
             continue
         if key in TEXT_PARAMETERS:
