@@ -330,3 +330,16 @@ def test_mosfet_and_resistor_models_and_thermal(tmp_path):
                        ".tran 1u 2u\n.end\n")
     with pytest.raises(NetlistError, match="thermal= names a device's datasheet"):
         circuitnsds.read_netlist(netlist)
+
+
+def test_junction_temperatures_get_their_own_panel_in_degrees(buck):
+    from circuitnsds.output.plot import figure_data
+    from circuitnsds.thermal.junction import analyse, with_junction_temperatures
+
+    circuit = circuitnsds.read_netlist(buck / "buck.cir")
+    waves = circuit.transient(0.1e-6, 0.1e-3)
+    waves = with_junction_temperatures(waves, analyse(circuit, waves, steady=False, period=PERIOD))
+    panels = {panel.ylabel: [name for name, _ in panel.traces] for panel in figure_data(waves).panels}
+    assert panels["junction temperature [°C]"] == ["tj(s1)"]  # shown without --signals, unscaled
+    line = next(values for name, values in figure_data(waves).panels[-1].traces if name == "tj(s1)")
+    assert line[0] == pytest.approx(TCASE)
