@@ -343,3 +343,9 @@ def test_junction_temperatures_get_their_own_panel_in_degrees(buck):
     assert panels["junction temperature [°C]"] == ["tj(s1)"]  # shown without --signals, unscaled
     line = next(values for name, values in figure_data(waves).panels[-1].traces if name == "tj(s1)")
     assert line[0] == pytest.approx(TCASE)
+
+
+def test_info_names_each_devices_datasheet(buck):
+    done = _run(buck, "info", "buck.cir")
+    line = next(text for text in done.stdout.splitlines() if text.strip().startswith("s1 "))
+    assert "datasheet losses and junction temperature from" in line and "switch.xml" in line
