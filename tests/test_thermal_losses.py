@@ -349,3 +349,13 @@ def test_info_names_each_devices_datasheet(buck):
     done = _run(buck, "info", "buck.cir")
     line = next(text for text in done.stdout.splitlines() if text.strip().startswith("s1 "))
     assert "datasheet losses and junction temperature from" in line and "switch.xml" in line
+
+
+def test_the_networks_are_driven_per_switching_period_not_per_mains_period():
+    from circuitnsds.thermal.junction import switching_period
+    from tests.conftest import circuit_from
+
+    circuit = circuit_from("Vref r 0 SIN(0 1 50)\nVtri c 0 PULSE(-1 1 2u 25u 25u 0 50u)\n"
+                           "R1 r 0 1\nR2 c 0 1\nVdc d 0 DC 3\nR3 d 0 1\n.tran 1u 20m")
+    assert switching_period(circuit) == (50e-6, 2e-6)
+    assert switching_period(circuit_from("V1 a 0 DC 1\nR1 a 0 1\n.tran 1u 1m")) == (None, 0.0)

@@ -502,19 +502,14 @@ def _junctions(args: argparse.Namespace, circuit, waves, *, steady: bool, period
     """The devices' losses and junction temperatures (:mod:`circuitnsds.thermal.junction`):
     ``waves`` with a ``tj(DEVICE)`` signal [°C] per device whose file has a thermal network,
     and the :class:`~circuitnsds.thermal.junction.ThermalResult`. A transient drives the
-    networks with the average loss of each period of the sources (the instantaneous loss
-    when they have no common period); a periodic steady state gives the thermal steady state."""
-    from circuitnsds.errors import CircuitError
+    networks with the average loss of each switching period (the shortest period of the
+    sources; the instantaneous loss without one); a periodic steady state gives the thermal
+    steady state."""
     from circuitnsds.thermal import junction
 
     start = 0.0
     if period is None:
-        from circuitnsds.analyses.pss import source_period
-
-        try:
-            period, start = source_period(circuit)
-        except CircuitError:
-            period = None
+        period, start = junction.switching_period(circuit)
     result = junction.analyse(circuit, waves, steady=steady, period=period, start=start,
                               devices=args.thermal_devices)
     waves = junction.with_junction_temperatures(waves, result)

@@ -85,16 +85,12 @@ class Point:
 def _loss_columns(job: Job, circuit: Circuit, waves) -> dict[str, float]:
     """The point's loss table as columns (:func:`circuitnsds.thermal.junction.loss_columns`),
     its datasheet devices driven period by period as ``run --losses`` drives them."""
-    from circuitnsds.analyses.pss import source_period
     from circuitnsds.output.measure import losses
     from circuitnsds.thermal import junction
 
     result = None
     if any(getattr(getattr(element, "model", None), "thermal", None) for element in circuit.elements):
-        try:
-            period, start = source_period(circuit)
-        except CircuitError:
-            period, start = None, 0.0
+        period, start = junction.switching_period(circuit)
         result = junction.analyse(circuit, waves, steady=job.analysis == "pss", period=period,
                                   start=start)
     parts = None if result is None else (

@@ -165,6 +165,23 @@ def _constant(value: float):
     return lambda instants: np.full(np.shape(instants), value)
 
 
+def switching_period(circuit) -> tuple[float | None, float]:
+    """The shortest period [s] among the circuit's periodic sources (a PULSE with PER, an
+    undamped SIN) and that source's delay [s]: the switching period whose averages drive
+    the networks (a carrier at 20 kHz, not the 50 Hz of an inverter's references, whose
+    ripple of Tj stays visible); ``(None, 0)`` without one."""
+    best: tuple[float, float] | None = None
+    for element in circuit.elements:
+        function = getattr(element, "function", None)
+        period = getattr(function, "period", None)
+        if not period and getattr(function, "frequency", None) and not getattr(
+                function, "damping", 0.0) and getattr(function, "amplitude", 0.0):
+            period = 1.0 / function.frequency
+        if period and period > 0 and (best is None or period < best[0]):
+            best = (float(period), float(getattr(function, "delay", 0.0) or 0.0))
+    return best if best is not None else (None, 0.0)
+
+
 def setup_from_options(options: dict, period: float | None = None, start: float = 0.0) -> ThermalSetup:
     """The :class:`ThermalSetup` of a circuit's ``.options`` (``tcase``; or a heatsink:
     ``rthsa`` [K/W], ``cthsa`` [J/K], ``tamb`` [°C]) and its switching period [s]."""
