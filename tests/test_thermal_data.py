@@ -4,6 +4,8 @@ networks against closed forms."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from circuitnsds.thermal.networks import CauerNetwork, FosterNetwork, cauer_to_foster
 from circuitnsds.thermal.plecs import read_thermal_description
@@ -183,3 +185,31 @@ def test_reader_takes_foster_and_cauer_branches(tmp_path):
         "", '<ThermalModel><Branch type="Cauer"><RCElement R="0.1" C="0.01"/>'
         '</Branch></ThermalModel>\n'), "c.xml"))
     assert cauer.network == CauerNetwork((0.1,), (0.01,))
+
+
+axes_values = st.lists(st.floats(-1e3, 1e3, allow_nan=False), min_size=1, max_size=4, unique=True)
+
+
+@settings(max_examples=40, deadline=None)
+@given(currents=axes_values, voltages=axes_values, temperatures=axes_values, data=st.data())
+def test_any_table_reads_back_its_samples_and_interpolates_between_them(
+        tmp_path_factory, currents, voltages, temperatures, data):
+    currents, voltages, temperatures = sorted(currents), sorted(voltages), sorted(temperatures)
+    energy = np.array(data.draw(st.lists(st.floats(0, 10, allow_nan=False),
+                                         min_size=len(currents) * len(voltages) * len(temperatures),
+                                         max_size=len(currents) * len(voltages) * len(temperatures))))
+    energy = energy.reshape(len(temperatures), len(voltages), len(currents))
+    planes = "".join("<Temperature>" + "".join(f"<Voltage>{_rows(row)}</Voltage>" for row in plane)
+                     + "</Temperature>" for plane in energy)
+    block = (f"<TurnOnLoss><CurrentAxis>{_rows(currents)}</CurrentAxis><VoltageAxis>"
+             f"{_rows(voltages)}</VoltageAxis><TemperatureAxis>{_rows(temperatures)}"
+             f"</TemperatureAxis><Energy scale=\"0.5\">{planes}</Energy></TurnOnLoss>")
+    table = read_thermal_description(write(tmp_path_factory.mktemp("h"), description(block))).turn_on
+    for t, temperature in enumerate(temperatures):
+        for v, voltage in enumerate(voltages):
+            for i, current in enumerate(currents):
+                assert table(current, voltage, temperature) == pytest.approx(0.5 * energy[t, v, i])
+    point = [data.draw(st.floats(axis[0], axis[-1])) for axis in (currents, voltages, temperatures)]
+    value = table(*point)
+    assert 0.5 * energy.min() - 1e-9 <= value <= 0.5 * energy.max() + 1e-9
+    assert not table.clamps.counts
