@@ -359,3 +359,13 @@ def test_the_networks_are_driven_per_switching_period_not_per_mains_period():
                            "R1 r 0 1\nR2 c 0 1\nVdc d 0 DC 3\nR3 d 0 1\n.tran 1u 20m")
     assert switching_period(circuit) == (50e-6, 2e-6)
     assert switching_period(circuit_from("V1 a 0 DC 1\nR1 a 0 1\n.tran 1u 1m")) == (None, 0.0)
+
+
+def test_a_diodes_file_on_a_switch_is_an_error_naming_both(buck):
+    from circuitnsds.errors import CircuitError
+
+    (buck / "diode.xml").write_text(DIODE_XML)
+    netlist = buck / "swapped.cir"
+    netlist.write_text(BUCK.replace('thermal="sub/switch.xml"', 'thermal="diode.xml"'))
+    with pytest.raises(CircuitError, match="s1 is a switch and its thermal description .* Diode's"):
+        devices_of(circuitnsds.read_netlist(netlist))

@@ -201,7 +201,11 @@ def setup_from_options(options: dict, period: float | None = None, start: float 
 
 def devices_of(circuit) -> list[tuple[object, DeviceData]]:
     """The circuit's devices whose model names a thermal description, with its data (each
-    file read once)."""
+    file read once).
+
+    Raises:
+        CircuitError: a diode given a switch's file, or a switch a diode's (``class="Diode"``).
+    """
     from circuitnsds.thermal.plecs import read_thermal_description
 
     read: dict[str, DeviceData] = {}
@@ -211,7 +215,17 @@ def devices_of(circuit) -> list[tuple[object, DeviceData]]:
         if path:
             if path not in read:
                 read[path] = read_thermal_description(path)
-            devices.append((element, read[path]))
+            data = read[path]
+            diode = hasattr(element.model, "forward_drop")
+            if data.device_class and data.is_diode != diode:
+                from circuitnsds.errors import CircuitError
+
+                raise CircuitError(
+                    f"{element.name} is a {'diode' if diode else 'switch'} and its thermal "
+                    f"description {path} is a {data.device_class}'s", where=element.name,
+                    hint="a diode takes a class=\"Diode\" file (its turn-off is its recovery), a "
+                    "switch or MOSFET any other")
+            devices.append((element, data))
     return devices
 
 
