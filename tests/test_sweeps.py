@@ -622,7 +622,8 @@ def test_cli_run_on_a_step_netlist_refuses_every_option_that_has_no_table_meanin
     path.write_text("stepped\n.param R=1\n.step param R 1 2 1\nV1 a 0 1\nR1 a 0 {R}\n"
                     ".tran 1u 10u\n.end\n")
     base = ["run", str(path), "--workers", "0", "-q", "-o", str(tmp_path / "t.csv")]
-    for option in (["--events", str(tmp_path / "e.csv")], ["--losses"], ["--tstart", "1u"],
+    for option in (["--events", str(tmp_path / "e.csv")], ["--losses-csv", str(tmp_path / "l.csv")],
+                   ["--tstart", "1u"],
                    ["--tstop", "5u"], ["--every", "2"], ["--mark-events"], ["--ascii"],
                    ["-r", str(tmp_path / "t.raw")], ["--uic"]):
         assert main([*base, *option]) == 1, option
@@ -630,6 +631,8 @@ def test_cli_run_on_a_step_netlist_refuses_every_option_that_has_no_table_meanin
         assert f"error: {path}: {option[0]}" in err and "not available when .step lines make" in err
     assert not (tmp_path / "t.csv").exists()
     assert main([*base, "--measure", "mean(i(r1))"]) == 0
+    assert main([*base, "--losses"]) == 0  # issue 35: a column per loss figure
+    assert "losses_W" in (tmp_path / "t.csv").read_text().splitlines()[0]
 
 
 def test_cli_table_to_standard_output_with_dash(tmp_path, capsys, monkeypatch):

@@ -121,6 +121,9 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
     for kind, elements in kinds.items():
         lines.append(f"  {kind} ({len(elements)}): {', '.join(e.name for e in elements)}")
     details = [(e, _model_detail(e)) for e in circuit.elements]
+    details = [(e, d if not getattr(getattr(e, "model", None), "thermal", None) else
+                f"{d}; datasheet losses and junction temperature from {e.model.thermal} "
+                "(docs/losses.md)") for e, d in details]
     details = [(e, d) for e, d in details if d]
     if details:
         lines.append("devices:")

@@ -71,10 +71,6 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--tstop", type=_seconds, metavar="T1", help="write (and plot) only up to T1 [s]")
     run.add_argument("--every", type=int, metavar="N", default=1,
                      help="write every N-th time point (and the last)")
-    run.add_argument("--losses", nargs="?", const="", metavar="LOADS",
-                     help="print the power balance of every element over the run (sources, "
-                     "switches, diodes, resistors, stored energy, what is unaccounted); LOADS: "
-                     "comma-separated load elements counted as output, e.g. rload")
     run.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
     run.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
     run.add_argument("--theta", type=float, default=None,
@@ -182,6 +178,14 @@ def _add_output_arguments(command: argparse.ArgumentParser) -> None:
                          'syntax "tran vavg AVG v(out) from=1m to=2m"; repeatable; printed as a table')
     command.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
                          "(default: all)")
+    command.add_argument("--losses", nargs="?", const="", metavar="LOADS",
+                         help="print the power balance of every element (sources, switches, diodes "
+                         "with their conduction and switching parts, resistors, stored energy, what "
+                         "is unaccounted) over the run, or --tstart..--tstop; LOADS: comma-separated "
+                         "load elements counted as output, e.g. rload (then the efficiency)")
+    command.add_argument("--losses-csv", type=Path, metavar="CSV",
+                         help="write the loss table as CSV: element,kind,power_W,conduction_W,"
+                         "turn_on_W,turn_off_W,recovery_W (LOADS from --losses)")
     _add_quiet_and_strict(command, "no progress or summary on stderr")
 
 
@@ -294,6 +298,8 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
         outputs["--plot"] = args.plot
     if getattr(args, "events", None):
         outputs["--events"] = args.events
+    if getattr(args, "losses_csv", None):
+        outputs["--losses-csv"] = args.losses_csv
     return outputs
 
 
@@ -316,8 +322,15 @@ def _prepare(args: argparse.Namespace, builder=None):
                           "for the switching instants")
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
+    thermal_files = sorted({element.model.thermal for element in circuit.elements
+                            if getattr(getattr(element, "model", None), "thermal", None)})
     # before a long run: never over the netlist, a file it includes, or another output
-    check_outputs(outputs, [circuit.file, *circuit.included], stdout=("-o",))
+    check_outputs(outputs, [circuit.file, *circuit.included, *thermal_files], stdout=("-o",))
+    args.thermal_devices = []
+    if thermal_files:  # the datasheets read (and their errors shown) before the run
+        from circuitnsds.thermal.junction import devices_of
+
+        args.thermal_devices = devices_of(circuit)
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -357,7 +370,7 @@ def _run(args: argparse.Namespace) -> int:
     names = [name for name in _signal_names(args.signals or "") if name != "time"]
     plain = names and all("," not in name for name in names)  # v(a,b) is computed from two
     needs_all = args.measure or getattr(args, "losses", None) is not None or circuit.measurements \
-        or circuit.fourier
+        or circuit.fourier or args.losses_csv or args.thermal_devices
     kept = names if plain and not needs_all else None
     stream = _csv_stream(args, kept)  # the CSV written as the run goes
     try:
@@ -381,9 +394,12 @@ def _run(args: argparse.Namespace) -> int:
     residual = stream.max_residual if stream is not None else waves.residual.max()
     if stream is not None:
         waves = stream.waveforms(waves)  # the rows kept for the raw file and figure, if any
+    thermal = None
+    if args.thermal_devices:
+        waves, thermal = _junctions(args, circuit, waves, steady=False)
     return _finish(args, circuit, waves, f"{stats['steps']} steps in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-                   f"max residual {residual:.1e}", stream)
+                   f"max residual {residual:.1e}", stream, thermal)
 
 
 def _csv_stream(args: argparse.Namespace, kept: list[str] | None):
@@ -408,8 +424,11 @@ def _pss(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     result = circuit.pss(args.period, step=args.step, periods_warmup=args.warmup, tol=args.tol,
                          max_iterations=args.max_iterations, uic=True if args.uic else None)
-    return _finish(args, circuit, result.waveforms,
-                   f"{result.summary()}; {time.perf_counter() - started:.3g} s")
+    waves, thermal = result.waveforms, None
+    if args.thermal_devices:
+        waves, thermal = _junctions(args, circuit, waves, steady=True, period=result.period)
+    return _finish(args, circuit, waves,
+                   f"{result.summary()}; {time.perf_counter() - started:.3g} s", thermal=thermal)
 
 
 def _ac(args: argparse.Namespace) -> int:
@@ -479,9 +498,33 @@ def _ac(args: argparse.Namespace) -> int:
     return 0
 
 
-def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None) -> int:
+def _junctions(args: argparse.Namespace, circuit, waves, *, steady: bool, period=None):
+    """The devices' losses and junction temperatures (:mod:`circuitnsds.thermal.junction`):
+    ``waves`` with a ``tj(DEVICE)`` signal [°C] per device whose file has a thermal network,
+    and the :class:`~circuitnsds.thermal.junction.ThermalResult`. A transient drives the
+    networks with the average loss of each switching period (the shortest period of the
+    sources; the instantaneous loss without one); a periodic steady state gives the thermal
+    steady state."""
+    from circuitnsds.thermal import junction
+
+    start = 0.0
+    if period is None:
+        period, start = junction.switching_period(circuit)
+    result = junction.analyse(circuit, waves, steady=steady, period=period, start=start,
+                              devices=args.thermal_devices)
+    waves = junction.with_junction_temperatures(waves, result)
+    if steady and not args.quiet:
+        for name, values in result.junction.items():
+            print(f"circuitnsds: thermal steady state: tj({name}) = {values[0]:.4g} °C",
+                  file=sys.stderr)
+    return waves, result
+
+
+def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None,
+            thermal=None) -> int:
     """Write the files asked for (``stream``: the CSV written during the run, put in place
-    here), print the measurements and the summary, show the figure."""
+    here), print the measurements, the loss table (``thermal``: the devices' datasheet
+    losses) and the summary, show the figure."""
     names, written = _write_outputs(args, waves if stream is not None else _selected(args, waves),
                                     stream)
     report = sys.stderr if "-" in map(str, written) else sys.stdout  # stdout holds the CSV alone
@@ -490,11 +533,22 @@ def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None)
 
         table = format_table([evaluate(expression, waves, circuit) for expression in args.measure])
         print(table, file=report, flush=True)
-    if getattr(args, "losses", None) is not None:
+    if getattr(args, "losses", None) is not None or getattr(args, "losses_csv", None):
         from circuitnsds.output.measure import losses
 
-        loads = tuple(name.strip() for name in args.losses.split(",") if name.strip())
-        print(losses(waves, circuit, outputs=loads).format(), file=report, flush=True)
+        loads = tuple(name.strip() for name in (args.losses or "").split(",") if name.strip())
+        parts = None
+        if thermal is not None:
+            def parts(t0, t1):
+                return {name: result.average(t0, t1) for name, result in thermal.losses.items()}
+        table = losses(waves, circuit, getattr(args, "tstart", None), getattr(args, "tstop", None),
+                       outputs=loads, devices=parts)
+        if args.losses is not None:
+            print(table.format(), file=report, flush=True)
+        if args.losses_csv:
+            with _writing(args.losses_csv):
+                table.to_csv(args.losses_csv)
+            written.append(args.losses_csv)
     if circuit.measurements or circuit.fourier:  # printed as ngspice prints them
         from circuitnsds.output.meas import fourier, run_measurements
 

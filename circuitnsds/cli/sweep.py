@@ -49,6 +49,10 @@ def add_sweep_parser(commands) -> None:
     sweep.add_argument("--measure", action="append", default=[], metavar="EXPR",
                        help='measurement per point, e.g. "mean(v(out), 1m, 2m)"; repeatable; '
                        "a column each")
+    sweep.add_argument("--losses", nargs="?", const="", metavar="LOADS",
+                       help="add each point's loss figures as columns: efficiency (with LOADS, "
+                       "comma-separated load elements), losses_W, each datasheet device's "
+                       "conduction/turn-on/turn-off/recovery power and max(tj(DEVICE))")
     sweep.add_argument("-o", "--output", type=Path, metavar="CSV", help="write the table as CSV")
     sweep.add_argument("--plot", type=Path, metavar="PNG",
                        help="figure: each measurement against the first swept parameter (a line per "
@@ -106,10 +110,13 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
                       signals=signals, workers=getattr(args, "workers", None),
                       scheduler=getattr(args, "scheduler", None), seed=getattr(args, "seed", None),
                       keep_waveforms=getattr(args, "waveforms", None) or False, step=args.step,
-                      stop=args.stop, theta=args.theta, progress=progress)
+                      stop=args.stop, theta=args.theta, progress=progress,
+                      losses=None if getattr(args, "losses", None) is None else
+                      [name.strip() for name in args.losses.split(",") if name.strip()])
     finally:
         progress.close()
-    parameters = [c for c in table.columns if c not in (*args.measure, "status", "error", "warnings",
+    figures = [*args.measure, *table.attrs["loss_columns"]]
+    parameters = [c for c in table.columns if c not in (*figures, "status", "error", "warnings",
                                                         "file")]
     warned = list(dict.fromkeys(m for text in table["warnings"] if text for m in text.split("\n")))
     if getattr(args, "strict", False) and warned:  # run --strict: nothing written
@@ -140,7 +147,7 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         from circuitnsds.output.sweep_plot import plot_sweep
 
         with writing(args.plot):
-            plot_sweep(table, parameters, args.measure, args.plot)
+            plot_sweep(table, parameters, figures, args.plot)
         written.append(args.plot)
     failed = int((table["status"] != "ok").sum())
     if not args.quiet:
@@ -159,7 +166,7 @@ def run_steps(args: argparse.Namespace, builder=None) -> int:
     ``run`` options that make sense for a table (``-o`` is the table's CSV)."""
     used = [name for name, on in (("-r", args.raw), ("--ascii", args.ascii), ("--show", args.show),
                                   ("--uic", args.uic), ("--events", args.events),
-                                  ("--mark-events", args.mark_events), ("--losses", args.losses is not None),
+                                  ("--mark-events", args.mark_events), ("--losses-csv", args.losses_csv),
                                   ("--tstart", args.tstart is not None),
                                   ("--tstop", args.tstop is not None), ("--every", args.every != 1))
             if on]

@@ -392,16 +392,37 @@ def format_table(measurements: list[Measurement]) -> str:
 
 # --- loss table: where the input power goes ---
 
+LOSS_COLUMNS = ("conduction", "turn_on", "turn_off", "recovery")
+"""The parts of a loss row [W]: conduction and the switching energies per second."""
+
+
 @dataclass(frozen=True)
 class LossRow:
     """One element's share [W] (average over the window): ``kind`` is ``input`` (power
     delivered by a source), ``output`` (a load named by the caller), ``loss`` (absorbed by a
     resistor, switch, diode or controlled source) or ``stored`` (rate of change of the
-    energy of inductors and capacitors, ``ΔE/T``)."""
+    energy of inductors and capacitors, ``ΔE/T``).
+
+    A loss row also has its parts (:data:`LOSS_COLUMNS`; ``None`` on the other rows): a
+    device with a datasheet (``thermal=``) its conduction and switching powers, any other
+    its whole power as conduction. ``electrical`` is what the circuit itself dissipates in
+    it (``mean(v·i)``, the balance's term): the datasheet's switching energy is beyond it, as
+    an ideal switch commutates without loss.
+    """
 
     element: str
     kind: str
     power: float
+    conduction: float | None = None
+    turn_on: float | None = None
+    turn_off: float | None = None
+    recovery: float | None = None
+    electrical: float | None = None
+
+    @property
+    def circuit_power(self) -> float:
+        """The row's term in the electrical balance [W]."""
+        return self.power if self.electrical is None else self.electrical
 
 
 @dataclass
@@ -410,15 +431,19 @@ class LossTable:
 
     ``unaccounted`` is what no row holds: the energy dissipated in impulses (a capacitor
     discharged through an ideal switch or diode in zero time: ``½CΔv²``) and the numerical
-    dissipation of the time stepper; ``relative`` is it divided by the input power.
+    dissipation of the time stepper; ``relative`` is it divided by the input power. Losses
+    from datasheets beyond the circuit's own (``datasheet_extra``: switching energy, a
+    conduction table's excess) are not drawn from the ideal circuit's sources: the
+    efficiency adds them to the input, as the real converter would draw them.
     """
 
     rows: list[LossRow]
     t0: float
     t1: float
+    has_outputs: bool = True
 
     def total(self, kind: str) -> float:
-        return float(sum(row.power for row in self.rows if row.kind == kind))
+        return float(sum(row.circuit_power for row in self.rows if row.kind == kind))
 
     @property
     def unaccounted(self) -> float:
@@ -431,21 +456,57 @@ class LossTable:
         return self.unaccounted / inflow if inflow else float("nan")
 
     @property
+    def datasheet_extra(self) -> float:
+        """Loss [W] the datasheets add to the circuit's own (see the class docstring)."""
+        return float(sum(row.power - row.circuit_power for row in self.rows if row.kind == "loss"))
+
+    @property
     def efficiency(self) -> float:
-        inflow = self.total("input")
+        inflow = self.total("input") + self.datasheet_extra
         return self.total("output") / inflow if inflow else float("nan")
 
     def format(self) -> str:
+        watts = [("power", "power")] + [(column, column.replace("_", "-")) for column in LOSS_COLUMNS]
         lines = [f"power balance over {format_si(self.t0, 's')} .. {format_si(self.t1, 's')}",
-                 f"  {'element':<16}{'kind':<8}{'power':>12}{'share':>9}"]
+                 f"  {'element':<16}{'kind':<8}" + "".join(f"{title:>12}" for _, title in watts)
+                 + f"{'share':>9}"]
         inflow = self.total("input") or float("nan")
         for row in self.rows:
-            lines.append(f"  {row.element:<16}{row.kind:<8}{format_si(row.power, 'W'):>12}"
+            values = (getattr(row, field) for field, _ in watts)
+            cells = "".join(f"{'' if value is None else format_si(value, 'W'):>12}"
+                            for value in values)
+            lines.append(f"  {row.element:<16}{row.kind:<8}{cells}"
                          f"{100 * row.power / inflow:>8.3g}%")
         lines.append(f"  {'unaccounted':<16}{'':<8}{format_si(self.unaccounted, 'W'):>12}"
-                     f"{100 * self.relative:>8.3g}%  (impulses, numerical dissipation)")
-        lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
+                     f"{'':>48}{100 * self.relative:>8.3g}%  (impulses, numerical dissipation)")
+        extra = self.datasheet_extra
+        if extra:
+            lines.append(f"  datasheet losses beyond the circuit's own: {format_si(extra, 'W')} "
+                         "(switching energy, conduction tables; not drawn by the ideal circuit)")
+        if self.has_outputs:
+            lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / (inputs + "
+                         "datasheet losses))" if extra else
+                         f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
         return "\n".join(lines)
+
+    def to_csv(self, path) -> None:
+        """Write the rows as CSV: ``element,kind,power_W,conduction_W,turn_on_W,turn_off_W,
+        recovery_W`` (empty parts on rows that are not losses), then the ``unaccounted`` row."""
+        import csv
+
+        from circuitnsds.output.files import atomic_path
+
+        def number(value: float | None) -> str:
+            return "" if value is None else f"{value:.12g}"
+
+        with atomic_path(path) as temporary, open(temporary, "w", encoding="utf-8",
+                                                  newline="") as handle:
+            writer = csv.writer(handle, lineterminator="\n")
+            writer.writerow(["element", "kind", "power_W", *(f"{c}_W" for c in LOSS_COLUMNS)])
+            for row in self.rows:
+                writer.writerow([row.element, row.kind, number(row.power),
+                                 *(number(getattr(row, c)) for c in LOSS_COLUMNS)])
+            writer.writerow(["unaccounted", "balance", number(self.unaccounted), "", "", "", ""])
 
 
 def _source_current(source, circuit, time: np.ndarray) -> np.ndarray:
@@ -460,7 +521,9 @@ def _source_current(source, circuit, time: np.ndarray) -> np.ndarray:
 
 
 def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
-           outputs: tuple[str, ...] = ()) -> LossTable:
+           outputs: tuple[str, ...] = (),
+           devices: Callable[[float, float], dict[str, dict[str, float]]] | None = None
+           ) -> LossTable:
     """Where the power delivered by the sources goes, element by element.
 
     Every element's average absorbed power ``mean(v·i)`` over the window (SPICE's passive
@@ -474,11 +537,18 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
     (:attr:`LossTable.unaccounted`) closes to the energy of impulses and the stepper's
     numerical dissipation.
 
+    An element named in ``outputs`` is an ``output`` row whatever its kind (a current sink
+    as load); a controlled source (E, F, G, H, B) that delivers power on average (a gate
+    driver) is an ``input`` row, as the supply it stands for pays it.
+
     Args:
         waves: the full results (node voltages and element currents).
         circuit: the circuit that produced them.
         t0, t1, period: the window [s], as for :func:`mean`.
         outputs: names of the load elements (``("rload",)``).
+        devices: the parts of the devices with datasheets over a window ``(t0, t1)``:
+            name -> ``conduction``, ``turn_on``, ``turn_off``, ``recovery``, ``total``,
+            ``electrical`` [W] (:meth:`circuitnsds.thermal.device_losses.DeviceLosses.average`).
     """
     wanted = {name.lower() for name in outputs}
     unknown = wanted - {element.name for element in circuit.elements}
@@ -487,6 +557,7 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
                                hint="name the load resistors, e.g. outputs=('rload',)")
     time = np.asarray(waves.time, dtype=float)
     start, stop = window(time, time, t0, t1, period=period)[0][[0, -1]]
+    parts = devices(float(start), float(stop)) if devices is not None else {}
     rows: list[LossRow] = []
     stored = 0.0
     for element in circuit.elements:
@@ -513,10 +584,17 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
         else:
             continue
         absorbed = mean(time, element_voltage(waves, element) * current, start, stop)
-        if hasattr(element, "function"):  # an independent source
-            rows.append(LossRow(element.name, "input", -absorbed))
+        dissipative = hasattr(element, "resistance") or hasattr(element, "model") and \
+            hasattr(element.model, "on_resistance")
+        if element.name in wanted:
+            rows.append(LossRow(element.name, "output", absorbed))
+        elif hasattr(element, "function") or (not dissipative and absorbed < 0):
+            rows.append(LossRow(element.name, "input", -absorbed))  # a source, a gate driver
+        elif element.name in parts:
+            part = parts[element.name]
+            rows.append(LossRow(element.name, "loss", part["total"],
+                                *(part[column] for column in LOSS_COLUMNS), electrical=absorbed))
         else:
-            rows.append(LossRow(element.name, "output" if element.name in wanted else "loss",
-                                absorbed))
+            rows.append(LossRow(element.name, "loss", absorbed, absorbed, 0.0, 0.0, 0.0))
     rows.append(LossRow("L, C, K", "stored", stored / (stop - start)))
-    return LossTable(rows, float(start), float(stop))
+    return LossTable(rows, float(start), float(stop), has_outputs=bool(wanted))

@@ -28,7 +28,7 @@ from circuitnsds.units import engineering_scale, time_unit
 MAX_DEFAULT_SIGNALS = 8
 """Default plots show at most this many node voltages and this many device currents."""
 
-KINDS = (("v(", "voltage", "V"), ("i(", "current", "A"))
+KINDS = (("v(", "voltage", "V"), ("i(", "current", "A"), ("tj(", "junction temperature", "°C"))
 """Signal-name prefix, quantity and unit of each panel kind, in panel order."""
 
 _NON_INTERACTIVE = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
@@ -48,10 +48,12 @@ class PlotError(CircuitnsdsError):
 
 
 def default_signals(waves: Waveforms) -> list[str]:
-    """Up to 8 node voltages and up to 8 currents of devices other than resistors."""
+    """Up to 8 node voltages, up to 8 currents of devices other than resistors and up to 8
+    junction temperatures ``tj(...)`` (devices with datasheets, docs/losses.md)."""
     voltages = [n for n in waves.names if n.startswith("v(")][:MAX_DEFAULT_SIGNALS]
     currents = [n for n in waves.names if n.startswith("i(") and not n.startswith("i(r")]
-    return voltages + currents[:MAX_DEFAULT_SIGNALS]
+    junctions = [n for n in waves.names if n.startswith("tj(")]
+    return voltages + currents[:MAX_DEFAULT_SIGNALS] + junctions[:MAX_DEFAULT_SIGNALS]
 
 
 def _panels(names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
@@ -121,7 +123,7 @@ def figure_data(waves: Waveforms, names: Sequence[str] | None = None,
     panels = []
     for quantity, unit, group in groups:
         peak = max(_finite_peak(waves[n]) for n in group)
-        factor, prefix = engineering_scale(peak) if unit else (1.0, "")
+        factor, prefix = engineering_scale(peak) if unit and unit != "°C" else (1.0, "")
         panels.append(Panel(f"{quantity} [{prefix}{unit}]" if unit else quantity,
                             [(n, np.asarray(waves[n], dtype=float) * factor) for n in group]))
     marks = [(time_of * t_factor, bool(closed)) for time_of, _, closed in waves.events] if events else []

@@ -53,7 +53,8 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
           scheduler: str | None = None, seed: int | None = None,
           keep_waveforms: bool | str | Path = False, step: float | None = None,
           stop: float | None = None, theta: float | None = None, uic: bool | None = None,
-          progress: Callable[[int, int], None] | None = None):
+          progress: Callable[[int, int], None] | None = None,
+          losses: Sequence[str] | None = None):
     """Run a netlist at every point of a parameter grid or Monte Carlo sample.
 
     Args:
@@ -77,6 +78,10 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
             written there as ``point_0007.csv`` and a column ``file`` names it.
         step, stop, theta, uic: the transient's settings (defaults from the netlist).
         progress: ``progress(finished, total)``, called as points finish.
+        losses: the load elements of each point's loss table (``()``: a table without
+            outputs; ``None``: none): columns ``efficiency`` (with loads), ``losses_W``, ``stored_W``, each
+            datasheet device's ``NAME.conduction_W`` … ``NAME.recovery_W`` and
+            ``max(tj(NAME))`` (docs/losses.md), named in ``attrs["loss_columns"]``.
 
     Returns:
         a pandas DataFrame, one row per point in grid order: the parameter columns (names
@@ -126,13 +131,18 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
                                   hint="--waveforms (keep_waveforms) names a folder, made if missing")
             directory.mkdir(parents=True, exist_ok=True)
     job = Job(builder.source(), analysis, options, tuple(measure),
-              tuple(signals) if signals else None, bool(keep_waveforms))
+              tuple(signals) if signals else None, bool(keep_waveforms),
+              None if losses is None else tuple(name.lower() for name in losses))
     points = [Point(index, values, seed) for index, values in enumerate(grid(steps))]
     rows = run_points(job, points, executor=executor, workers=workers, scheduler=scheduler,
                       progress=progress)
+    loss_columns = list(dict.fromkeys(key for row in rows for key in row["values"]
+                                      if key not in measure))
     table = pd.DataFrame({
         **{s.name: [row["params"][s.name] for row in rows] for s in steps},
         **{expression: [row["values"][expression] for row in rows] for expression in measure},
+        **{column: [row["values"].get(column, float("nan")) for row in rows]
+           for column in loss_columns},
         "status": [row["status"] for row in rows],
         "error": [row["error"] for row in rows],
         "warnings": [row["warnings"] for row in rows],
@@ -150,7 +160,7 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
         table["file"] = files
     elif keep_waveforms:
         table["waveforms"] = [row["waveforms"] for row in rows]
-    table.attrs.update(seed=seed, seconds=time.perf_counter() - started,
+    table.attrs.update(seed=seed, seconds=time.perf_counter() - started, loss_columns=loss_columns,
                        point_seconds=[row["seconds"] for row in rows],
                        point_cpu_seconds=[row["cpu_seconds"] for row in rows])
     return table

@@ -60,6 +60,8 @@ class Job:
         measure: measurement expressions (:func:`circuitnsds.output.measure.evaluate`).
         signals: signals kept with ``keep_waveforms`` (``None``: all).
         keep_waveforms: return each point's waveforms with its row.
+        losses: the loads of the loss table whose figures each point adds to its values
+            (:func:`circuitnsds.thermal.junction.loss_columns`); ``None``: no loss table.
     """
 
     source: NetlistSource
@@ -68,6 +70,7 @@ class Job:
     measure: tuple[str, ...] = ()
     signals: tuple[str, ...] | None = None
     keep_waveforms: bool = False
+    losses: tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,22 @@ class Point:
     index: int
     params: dict[str, float]
     seed: int
+
+
+def _loss_columns(job: Job, circuit: Circuit, waves) -> dict[str, float]:
+    """The point's loss table as columns (:func:`circuitnsds.thermal.junction.loss_columns`),
+    its datasheet devices driven period by period as ``run --losses`` drives them."""
+    from circuitnsds.output.measure import losses
+    from circuitnsds.thermal import junction
+
+    result = None
+    if any(getattr(getattr(element, "model", None), "thermal", None) for element in circuit.elements):
+        period, start = junction.switching_period(circuit)
+        result = junction.analyse(circuit, waves, steady=job.analysis == "pss", period=period,
+                                  start=start)
+    parts = None if result is None else (
+        lambda t0, t1: {name: device.average(t0, t1) for name, device in result.losses.items()})
+    return junction.loss_columns(losses(waves, circuit, outputs=job.losses, devices=parts), result)
 
 
 @functools.lru_cache(maxsize=8)
@@ -106,6 +125,8 @@ def run_point(job: Job, point: Point) -> dict:
             waves = getattr(result, "waveforms", result)  # pss: one settled period
             for expression in job.measure:
                 values[expression] = evaluate(parse_measurement(expression), waves, circuit).value
+            if job.losses is not None:
+                values.update(_loss_columns(job, circuit, waves))
             if job.keep_waveforms:
                 unknown = [name for name in job.signals or () if name not in waves]
                 if unknown:

@@ -46,6 +46,8 @@ class DiodeModel:
         breakdown_fit_range: the reverse currents ``(low, high)`` [A] the breakdown line was
             fitted over, for a fitted model with ``BV``.
         location: where the card was written.
+        thermal: the PLECS thermal description of its losses and junction-to-case network
+            (``thermal="file.xml"``; used by the loss table and ``tj(...)``), or ``None``.
     """
 
     name: str
@@ -59,6 +61,7 @@ class DiodeModel:
     fit_range: tuple[float, float] | None = None
     breakdown_fit_range: tuple[float, float] | None = None
     location: SourceLocation | None = None
+    thermal: str | None = None
 
     @property
     def kind(self) -> str:

@@ -50,6 +50,8 @@ class SwitchModel:
         hysteresis: ``VH`` or ``IH`` (its magnitude is used, as a half-width).
         on_resistance: ``RON`` [Ω], may be 0 (ngspice default 1 Ω).
         off_resistance: ``ROFF`` [Ω] (> 0).
+        thermal: the PLECS thermal description of its losses and junction-to-case network
+            (``thermal="file.xml"``; used by the loss table and ``tj(...)``), or ``None``.
     """
 
     name: str
@@ -59,6 +61,7 @@ class SwitchModel:
     on_resistance: float = 1.0
     off_resistance: float = DEFAULT_OFF_RESISTANCE
     location: object | None = None
+    thermal: str | None = None
 
     def thresholds(self) -> tuple[float, float]:
         """``(on, off)``: the switch closes when the control exceeds ``on`` and opens when it

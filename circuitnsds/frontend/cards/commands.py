@@ -36,7 +36,12 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
                 "fitted by a PWL diode, or 'auto': the peak current of a first run",
                 "diode": "'ideal' to read Shockley diode models as ideal diodes",
-                "seed": "seed of the Monte Carlo functions (agauss, mc, ...; a positive integer)"}
+                "seed": "seed of the Monte Carlo functions (agauss, mc, ...; a positive integer)",
+                "tcase": "case temperature [°C] of the devices with thermal= data (default 25)",
+                "tamb": "ambient temperature [°C] of the heatsink (with rthsa)",
+                "rthsa": "thermal resistance [K/W] of the heatsink shared by the devices with "
+                "thermal= data, to ambient",
+                "cthsa": "thermal capacitance [J/K] of the heatsink (with rthsa; default 0)"}
 TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
 
@@ -69,11 +74,20 @@ def read_options(reader: StatementReader) -> dict[str, float | str]:
         value = reader.number(key, text)
         if key == "theta" and not theta_in_range(value):
             raise reader.error(f".options theta={value:g} must lie in [0.5, 1]", hint=THETA_HINT)
-        if key in {"gmin", "mosdrive", "pwlfit"} and value <= 0:
+        if key in {"gmin", "mosdrive", "pwlfit", "rthsa"} and value <= 0:
             raise reader.error(f".options {key}={value:g} must be positive")
+        if key == "cthsa" and value < 0:
+            raise reader.error(f".options cthsa={value:g} must not be negative")
         if key == "seed" and (value != int(value) or value < 0):
             raise reader.error(f".options seed={value:g} must be a non-negative integer")
         used[key] = value
+    if ("tamb" in used or "cthsa" in used) and "rthsa" not in used:
+        raise reader.error(".options tamb/cthsa describe a heatsink, and rthsa is not given",
+                           hint="give the heatsink's rthsa=K/W (and tamb=°C, cthsa=J/K), or "
+                           "tcase=°C for a case at a fixed temperature")
+    if "tcase" in used and "rthsa" in used:
+        raise reader.error(".options tcase and a heatsink (rthsa) both fix the case temperature",
+                           hint="give tcase=°C for a fixed case, or rthsa/cthsa/tamb for a heatsink")
     if ignored:
         reader.warn(f".options {' '.join(ignored)} ignored (circuitnsds uses only "
                     f"{', '.join(USED_OPTIONS)})")

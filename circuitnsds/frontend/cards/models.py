@@ -121,17 +121,48 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
     if kind not in MODEL_KINDS:
         return name, kind
     params: dict[str, float] = {}
+    thermal = None
     for key, text in reader.keyword_values():
-        if key in params:
+        if key in params or (key == "thermal" and thermal is not None):
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        if key == "thermal":
+            if kind not in {"d", "sw", "csw"}:
+                raise reader.error(f".model {name} {kind.upper()}: thermal= names a device's "
+                                   "datasheet losses", hint="D, SW, CSW, VDMOS, NMOS and PMOS "
+                                   "models take thermal=\"file.xml\"")
+            thermal = thermal_path(reader, text)
+            continue
         if key in TEXT_PARAMETERS:
             continue
         params[key] = reader.number(key, text)
     if kind == "d":
-        return name, _diode_model(name, params, reader, off_resistance, diodes)
+        return name, replace(_diode_model(name, params, reader, off_resistance, diodes),
+                             thermal=thermal)
     if kind in {"sw", "csw"}:
-        return name, _switch_model(name, kind, params, reader, off_resistance)
+        return name, replace(_switch_model(name, kind, params, reader, off_resistance),
+                             thermal=thermal)
     return name, _resistor_model(name, params, reader)
+
+
+def thermal_path(reader: StatementReader, token: str) -> str:
+    """The file named by ``thermal="path.xml"`` (the PLECS thermal description of the device's
+    losses and junction-to-case network), as written (the tokens are lower-case), relative to
+    the file holding the card; it must exist."""
+    from pathlib import Path
+
+    start = reader.statement.text.lower().find(token)
+    written = reader.statement.text[start:start + len(token)] if start >= 0 else token
+    if written[:1] in "\"'" and written[-1:] == written[:1] and len(written) >= 2:
+        written = written[1:-1]
+    path = Path(written)
+    home = reader.location.file
+    if not path.is_absolute() and not home.startswith("<"):
+        path = Path(home).parent / path
+    if not path.is_file():
+        raise reader.error(f"{reader.name}: thermal={written!r}: no such file ({path})",
+                           hint="thermal= names a PLECS thermal description (.xml), relative to "
+                           "the netlist")
+    return str(path)
 
 
 def _diode_model(name: str, params: dict[str, float], reader: StatementReader,

@@ -129,7 +129,11 @@ def read_mos_model(name: str, kind: str, reader: StatementReader) -> MosfetModel
         value = reader.next(f"value of {key}")
         if key in params or key in text:
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
-        if key in TEXT_PARAMETERS:
+        if key == "thermal":
+            from circuitnsds.frontend.cards.models import thermal_path
+
+            text[key] = thermal_path(reader, value)
+        elif key in TEXT_PARAMETERS:
             text[key] = value
         else:
             params[key] = reader.number(key, value)
@@ -202,7 +206,7 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
     off = model.get("rds", off_resistance) if model.kind == "vdmos" else off_resistance
     switch_model = SwitchModel(model.name, threshold=model.polarity * model.threshold,
                                on_resistance=on_resistance, off_resistance=off / count,
-                               location=model.location)
+                               location=model.location, thermal=model.text.get("thermal"))
     location = reader.location
     parts: list[Element] = []
     inner_gate = gate
