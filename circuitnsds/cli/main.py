@@ -7,7 +7,8 @@ exit with status 1; no traceback. ``--debug`` shows tracebacks.
 Exit status (:data:`EXIT_STATUS`): 0 success; 1 the netlist, the circuit or the
 simulation is at fault (any :class:`~circuitnsds.errors.CircuitnsdsError`, and any
 warning under ``--strict``); 2 bad command-line arguments, or an internal error of
-circuitnsds (a bug: please report it); 130 interrupted (Ctrl-C).
+circuitnsds (a bug: please report it); 130 interrupted (Ctrl-C), 143 (SIGTERM) and
+129 (SIGHUP), which stop a command as Ctrl-C does (:mod:`circuitnsds.cli.interrupts`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from circuitnsds.cli.interrupts import described, exit_status, terminations_interrupt
 from circuitnsds.cli.progress import ProgressBar
 from circuitnsds.errors import (
     CircuitnsdsError,
@@ -34,7 +36,8 @@ from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
                "under --strict)", 2: "bad command-line arguments, or an internal error (a bug)",
-               130: "interrupted"}
+               129: "stopped by SIGHUP (as by Ctrl-C)", 130: "interrupted (Ctrl-C)",
+               143: "stopped by SIGTERM (as by Ctrl-C)"}
 """The exit statuses of the command and their meaning (docs/usage.md lists them)."""
 STRICT_HELP = "treat every warning (ignored constructs, suspicious circuits) as an error"
 
@@ -211,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
     errors as one line each; returns the exit status (0 success, 1 bad input or a failed
     run, 2 an internal error, 130 interrupted)."""
     args = build_parser().parse_args(argv)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, terminations_interrupt():
         warnings.simplefilter("always")
         strict = getattr(args, "strict", False)
         if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
@@ -243,10 +246,10 @@ def main(argv: list[str] | None = None) -> int:
                 raise
             print(f"circuitnsds: error: {as_error(warning)}", file=sys.stderr)
             return 1
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
             _print_warnings(caught)
-            print("circuitnsds: interrupted", file=sys.stderr)
-            return 130
+            print(f"circuitnsds: {described(exc)}", file=sys.stderr)
+            return exit_status(exc)
         except BrokenPipeError:  # output piped into `head` and the like: not an error
             sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (interpreter exit flushes it)
             return 0
@@ -297,6 +300,11 @@ def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     return outputs
 
 
+def _stdin(args: argparse.Namespace) -> list[str]:
+    """``["-"]`` when the netlist is read from standard input (its file is an input too)."""
+    return ["-"] if str(args.netlist) == "-" else []
+
+
 def _shown(written: list[Path]) -> str:
     return ", ".join("standard output" if str(path) == "-" else str(path) for path in written)
 
@@ -317,7 +325,7 @@ def _prepare(args: argparse.Namespace, builder=None):
     circuit = builder.build() if builder is not None else _read(args.netlist)
     outputs = _outputs(args)
     # before a long run: never over the netlist, a file it includes, or another output
-    check_outputs(outputs, [circuit.file, *circuit.included], stdout=("-o",))
+    check_outputs(outputs, [circuit.file, *circuit.included, *_stdin(args)], stdout=("-o",))
     if not args.signals and circuit.saved_signals:  # .save chooses the columns unless --signals does
         args.signals = ",".join(circuit.saved_signals)
     meas_lines = [e for e in args.measure if e.split()[:1] and e.split()[0].lower() == "tran"]
@@ -367,9 +375,9 @@ def _run(args: argparse.Namespace) -> int:
         progress.close()
         _write_partial(args, exc.partial, "before the failure", stream)
         raise
-    except KeyboardInterrupt as exc:  # Ctrl-C: keep what was computed, as for a failed step
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: keep what was computed
         progress.close()
-        _write_partial(args, getattr(exc, "partial", None), "when interrupted", stream)
+        _write_partial(args, getattr(exc, "partial", None), f"when {described(exc)}", stream)
         raise
     except BaseException:
         if stream is not None:
@@ -445,7 +453,8 @@ def _ac(args: argparse.Namespace) -> int:
     to_stdout = str(bode_outputs["-o"]) == "-"  # the Bode table; what is printed goes to stderr
     if args.plot:
         bode_outputs["--plot"] = args.plot
-    check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
+    check_outputs(bode_outputs, [circuit.file, *circuit.included, *_stdin(args)],  # not over the netlist
+                  stdout=("-o",))
     if args.plot:  # an unknown figure format before the analysis, not after it
         from circuitnsds.output.plot import plot_format
 
@@ -526,8 +535,9 @@ def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) ->
         return
     else:
         last = partial.time[-1]
+    note = f"partial: the run stopped at t = {last:.6g} s ({when}); the rows end there"
     try:
-        _, written = _write_outputs(args, partial, stream)
+        _, written = _write_outputs(args, partial, stream, partial=note)
     except CircuitnsdsError as exc:
         print(f"circuitnsds: the results {when} were not written: {exc.message}", file=sys.stderr)
         return
@@ -596,49 +606,71 @@ def _selected(args: argparse.Namespace, waves):
                      events=[event for event in waves.events if first <= event[0] <= last])
 
 
-def _write_outputs(args: argparse.Namespace, waves,
-                   stream=None) -> tuple[list[str] | None, list[Path]]:
+def _write_outputs(args: argparse.Namespace, waves, stream=None,
+                   partial: str | None = None) -> tuple[list[str] | None, list[Path]]:
     """Write the CSV (``stream``: put in place the one written during the run) and the raw
-    file and figure asked for; returns the signal names chosen with ``--signals`` (``None``:
-    all) and the files written."""
+    file, figure and events asked for, as one set: all replaced or none
+    (:func:`~circuitnsds.output.files.replaced_together`). ``partial``: the note that marks a
+    partial result (a first line ``# partial: ...`` in the CSV files, the same words in the
+    raw file's and the figure's title). Returns the signal names chosen with ``--signals``
+    (``None``: all) and the files written."""
     from circuitnsds.errors import CircuitError
+    from circuitnsds.output.files import replaced_together
 
     names = None
     if args.signals:
         names = [name for name in _signal_names(args.signals) if name != "time"]
         unknown = [name for name in names if name not in waves]
         if unknown:
+            if stream is not None:
+                stream.abort()
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
                                where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
+    if partial is not None:
+        from dataclasses import replace
+
+        waves = replace(waves, title=f"{waves.title or 'circuitnsds transient'} [{partial}]")
     written = []
     output = _outputs(args).get("-o")
-    if stream is not None:
-        stream.commit()
-        written.append(output)
-    elif output is not None and str(output) == "-":
-        waves.to_csv(sys.stdout, names)
-        sys.stdout.flush()
-        written.append(output)
-    elif output is not None:
-        with _writing(output):
-            waves.to_csv(output, names)
-        written.append(output)
-    if args.raw:
-        from circuitnsds.output.rawfile import write_raw
+    try:
+        with replaced_together() as temporary:
+            if stream is None and output is not None and str(output) != "-":
+                with _writing(output), open(temporary(output), "wb") as handle:
+                    if partial is not None:
+                        handle.write(f"# {partial}\n".encode())
+                    waves.to_csv(handle, names)
+            if args.raw:
+                from circuitnsds.output.rawfile import write_raw
 
-        with _writing(args.raw):
-            write_raw(waves, args.raw, names, binary=not args.ascii)
-        written.append(args.raw)
-    if args.plot:
-        from circuitnsds.output.plot import plot_waveforms
+                with _writing(args.raw):
+                    write_raw(waves, temporary(args.raw), names, binary=not args.ascii)
+            if args.plot:
+                from circuitnsds.output.plot import plot_waveforms
 
-        with _writing(args.plot):
-            plot_waveforms(waves, args.plot, names, events=args.mark_events)
-        written.append(args.plot)
-    if args.events:
-        with _writing(args.events):
-            waves.events_to_csv(args.events)
-        written.append(args.events)
+                with _writing(args.plot):
+                    plot_waveforms(waves, temporary(args.plot), names, events=args.mark_events)
+            if args.events:
+                with _writing(args.events):
+                    events = temporary(args.events)
+                    waves.events_to_csv(events)
+                    if partial is not None:
+                        from circuitnsds.output.csvfile import prepend_line
+
+                        prepend_line(events, f"# {partial}\n")
+            if stream is not None:  # last: its rename comes just before the others'
+                stream.commit(partial)
+            elif output is not None and str(output) == "-":
+                if partial is not None:
+                    print(f"# {partial}", flush=True)
+                waves.to_csv(sys.stdout, names)
+                sys.stdout.flush()
+    except BaseException:
+        if stream is not None:
+            stream.abort()
+        raise
+    if output is not None:
+        written.append(output)
+    written.extend(path for path in (args.raw, args.plot, args.events) if path)
     return names, written
 
 
@@ -652,7 +684,7 @@ def _info(args: argparse.Namespace) -> int:
         print("circuitnsds: error: the circuit fails the checks above", file=sys.stderr)
         return 1
     if args.matrices:
-        check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included])
+        check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included, *_stdin(args)])
         from circuitnsds.output.files import atomic_path
 
         with _writing(args.matrices), atomic_path(args.matrices) as temporary:
