@@ -128,6 +128,24 @@ def test_a_full_disk_keeps_the_previous_set(netlist, tmp_path, capsys, monkeypat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "out.png", "out.raw", "rc.cir"]
 
 
+def test_ac_table_and_figure_are_replaced_together(netlist, tmp_path, capsys, monkeypatch):
+    from circuitnsds.output import bode
+
+    csv, png = tmp_path / "bode.csv", tmp_path / "bode.png"
+    csv.write_text("previous\n")
+    netlist.write_text(RC.replace("V1 in 0 1", "V1 in 0 DC 1 AC 1"))
+
+    def no_space(*args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(bode, "plot_bode", no_space)
+    argv = ["ac", str(netlist), "--fstart", "10", "--fstop", "1k", "-o", str(csv), "--plot", str(png)]
+    assert main(argv) == 1
+    assert "No space left on device" in capsys.readouterr().err
+    assert csv.read_text() == "previous\n" and not png.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bode.csv", "rc.cir"]
+
+
 @pytest.mark.parametrize("signals", [None, "v(out)"])  # written after the run, and streamed
 def test_a_whole_run_has_no_partial_marker(signals, netlist, tmp_path):
     csv = tmp_path / "out.csv"

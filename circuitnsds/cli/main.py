@@ -474,12 +474,15 @@ def _ac(args: argparse.Namespace) -> int:
               f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep",
               file=sys.stderr if to_stdout else sys.stdout, flush=True)
     written = [bode_outputs["-o"]]
-    with _writing(written[0]):
-        write_bode_csv(result, sys.stdout if to_stdout else written[0])
-    if args.plot:
-        with _writing(args.plot):
-            plot_bode(result, args.plot, marks)
-        written.append(args.plot)
+    from circuitnsds.output.files import replaced_together
+
+    with replaced_together() as temporary:  # the table and the figure: both or neither
+        if args.plot:
+            with _writing(args.plot):
+                plot_bode(result, temporary(args.plot), marks)
+            written.append(args.plot)
+        with _writing(written[0]):
+            write_bode_csv(result, sys.stdout if to_stdout else temporary(written[0]))
     if not args.quiet:
         around = "periodic steady state" if result.around == "pss" else "operating point"
         print(f"circuitnsds: AC of {len(result.transfer)} signal(s) at {result.frequencies.size} "
