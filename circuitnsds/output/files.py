@@ -52,18 +52,20 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     if target.exists() and not target.is_file():  # a device or a pipe: no rename over it
         yield Path(path)
         return
-    descriptor, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
-                                             suffix=f".tmp{target.suffix}")
-    os.close(descriptor)
-    try:
+    temporary = None
+    try:  # made inside the try: a signal right after mkstemp still removes it
+        descriptor, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
+                                                 suffix=f".tmp{target.suffix}")
+        os.close(descriptor)
         os.chmod(temporary, _mode_for(target))
         yield Path(temporary)
         os.replace(temporary, target)
     except BaseException:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
+        if temporary is not None:
+            try:
+                os.unlink(temporary)
+            except OSError:
+                pass
         raise
 
 
