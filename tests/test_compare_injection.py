@@ -15,9 +15,12 @@ import warnings
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from circuitnsds.compare import compare, translate_netlist
 from circuitnsds.compare.translate import CIRCUIT_COMMANDS
+from circuitnsds.errors import NetlistError
 
 RC = """V1 in 0 SIN(0 1 1k)
 R1 in out 1k
@@ -167,3 +170,29 @@ def test_circuit_commands_and_elements_are_kept_in_order():
     assert lines[1:11] == [".param C=470u", ".func f(x) {2*x}", ".global vdd", "R1 in out {f(1k)}",
                            "C1 out 0 {C}", ".ic v(out)=1", ".options gmin=1e-12", ".subckt s a b",
                            "R2 a b 1", ".ends"]
+
+
+def test_options_and_saves_cannot_open_a_control_block():
+    options = "method=gear\n.control\nshell touch x\n.endc"
+    translation = translate_netlist("t\n" + RC + ".end\n", options=options, saves=["@r1[i]\n.control"])
+    lines = _deck_lines(translation.text)
+    assert not any(line.split()[0].lower() in {".control", "shell", ".endc"} for line in lines), lines
+
+
+FRAGMENTS = ["*# shell touch x", "*#SHELL touch x", "*#\twrite x v(in)", "  *# echo hi > x", ".control",
+             ".CONTROL", ".endc", "shell touch x", "*ng_script", ".title *ng_script", "R9 in out 1k",
+             "+ 2k", "* comment", ".print tran v(out)", "C9 out 0 1n", "  .Control", ".exec", ""]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.sampled_from(FRAGMENTS), max_size=12), st.sampled_from(["t", "*ng_script", " *NG_SCRIPT"]))
+def test_no_arrangement_of_script_lines_reaches_the_deck(lines, title):
+    text = "\n".join([title, *lines, RC, ".end"]) + "\n"
+    try:
+        deck = _deck_lines(translate_netlist(text).text)
+    except NetlistError:  # e.g. a .control without .endc: refused, nothing runs
+        return
+    assert deck[0].startswith("circuitnsds compare: ")  # never a script title
+    for line in deck[1:]:  # an element (`shell touch x` is a switch in a circuit deck) or a circuit command
+        keyword = line.split()[0].lower()
+        assert keyword in CIRCUIT_COMMANDS | {".save", ".end"} or keyword[0].isalpha(), line

@@ -50,7 +50,7 @@ def test_an_output_in_a_missing_folder_is_refused_before_the_run(option, netlist
     missing = tmp_path / "missing" / "deeper"
     name = {"-o": "out.csv", "-r": "out.raw", "--plot": "out.png", "--events": "ev.csv"}[option]
     _refused(capsys, ["run", str(netlist), option, str(missing / name)],
-             f"{option}: the folder {missing} does not exist", "mkdir -p")
+             f"{option}: cannot write {missing / name}: the folder {missing} does not exist", "mkdir -p")
     assert not (tmp_path / "missing").exists()
 
 

@@ -167,11 +167,11 @@ def _check_writable(label: str, path: Path, folder: bool = False) -> None:
     parent = path.parent
     if not parent.is_dir():
         what = "is a file, not a folder" if parent.exists() else "does not exist"
-        raise OutputError(f"{label}: the folder {parent} {what}", where=str(path),
+        raise OutputError(f"{label}: cannot write {path}: the folder {parent} {what}",
                           hint=f"create it first (mkdir -p {parent}) or write elsewhere; "
                           "nothing was run")
     if not os.access(parent, os.W_OK | os.X_OK) and not (path.exists() and not path.is_file()):
-        raise OutputError(f"{label}: the folder {parent} is not writable", where=str(path),
+        raise OutputError(f"{label}: cannot write {path}: the folder {parent} is not writable",
                           hint="choose a folder you can write to; nothing was run")
 
 
