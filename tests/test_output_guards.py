@@ -71,7 +71,7 @@ def test_every_command_checks_its_outputs_folder(argv, netlist, tmp_path, capsys
 
 def test_an_output_under_a_file_or_naming_a_folder_is_refused(netlist, tmp_path, capsys):
     _refused(capsys, ["run", str(netlist), "-o", str(netlist / "out.csv")], "is a file, not a folder")
-    _refused(capsys, ["run", str(netlist), "-o", str(tmp_path)], "is a folder, not a file")
+    _refused(capsys, ["run", str(netlist), "-o", str(tmp_path)], f"cannot write {tmp_path}: Is a directory")
 
 
 def test_an_unwritable_folder_is_refused(netlist, tmp_path, capsys, monkeypatch):

@@ -144,7 +144,10 @@ def _clean_start() -> Iterator[None]:
     import os
     import tempfile
 
-    previous = os.getcwd()
+    try:
+        previous: str | None = os.getcwd()
+    except OSError:  # the current folder was removed: nothing to go back to
+        previous = None
     with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-start-") as folder:
         with open(os.path.join(folder, ".spiceinit"), "w", encoding="ascii") as init:
             init.write("* empty: no user or project start-up script runs in circuitnsds compare\n")
@@ -152,7 +155,8 @@ def _clean_start() -> Iterator[None]:
         try:
             yield
         finally:
-            os.chdir(previous)
+            if previous is not None:
+                os.chdir(previous)
 
 
 def ngspice_version() -> str:

@@ -14,6 +14,7 @@ another output of the same run.
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
@@ -162,7 +163,7 @@ def _check_writable(label: str, path: Path, folder: bool = False) -> None:
                               hint="choose a folder you can write to")
         return
     if path.is_dir():
-        raise OutputError(f"{label} {path} is a folder, not a file", where=str(path),
+        raise OutputError(f"cannot write {path}: {os.strerror(errno.EISDIR)}", where=str(path),
                           hint=f"give {label} a file name, e.g. {path / ('out' + (path.suffix or '.csv'))}")
     parent = path.parent
     if not parent.is_dir():
