@@ -10,12 +10,14 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pytest
 
 import circuitnsds
 from circuitnsds.engine import dense_loop, jit, sparse_loop
+from circuitnsds.errors import RunNote
 from tests.conftest import NETLISTS
 
 PACKAGE = Path(circuitnsds.__file__).resolve().parent
@@ -155,19 +157,21 @@ def test_a_new_cache_folder_is_private_whatever_the_umask(tmp_path, monkeypatch)
 
 @pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
 @pytest.mark.parametrize("mode", [0o777, 0o770, 0o702])
-def test_a_folder_others_can_write_is_refused_with_a_note(mode, tmp_path, monkeypatch, capsys):
+def test_a_folder_others_can_write_is_refused_with_a_note(mode, tmp_path, monkeypatch):
     planted = tmp_path / "numba"
     planted.mkdir()
     os.chmod(planted, mode)
     _use_only(monkeypatch, planted)
-    assert jit.cache_root() is None
-    assert jit.cache_root() is None
-    note = capsys.readouterr().err
-    assert note.count("compiled code is not cached") == 1 and str(planted) in note  # one line
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert jit.cache_root() is None
+        assert jit.cache_root() is None
+    assert [type(w.message) for w in caught] == [RunNote]  # one note, not one per call
+    assert "compiled code is not cached" in str(caught[0].message) and str(planted) in str(caught[0].message)
 
 
 @pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
-def test_a_folder_of_another_user_is_refused(tmp_path, monkeypatch, capsys):
+def test_a_folder_of_another_user_is_refused(tmp_path, monkeypatch):
     # the planted folder of the issue: /tmp/circuitnsds-<user>/numba made first by someone else
     monkeypatch.setattr(jit.tempfile, "gettempdir", lambda: str(tmp_path))
     monkeypatch.delenv(jit.CACHE_ENV, raising=False)
@@ -190,8 +194,8 @@ def test_a_folder_of_another_user_is_refused(tmp_path, monkeypatch, capsys):
         return info
 
     monkeypatch.setattr(jit.os, "stat", stat_as_planted)
-    assert jit.cache_root() is None
-    assert f"belongs to user id {other}" in capsys.readouterr().err
+    with pytest.warns(RunNote, match=f"belongs to user id {other}"):
+        assert jit.cache_root() is None
 
 
 @pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
@@ -200,6 +204,7 @@ def test_a_private_folder_inside_a_folder_others_can_write_is_refused(tmp_path, 
     (shared / "numba").mkdir(parents=True, mode=0o700)
     os.chmod(shared, 0o777)  # not sticky: anyone may rename numba/ and put their own there
     _use_only(monkeypatch, shared / "numba")
-    assert jit.cache_root() is None
+    with pytest.warns(RunNote, match="which others may write to"):
+        assert jit.cache_root() is None
     os.chmod(shared, 0o1777)  # sticky, as /tmp: only the owner may rename it
     assert jit.cache_root() == (shared / "numba").resolve()

@@ -114,12 +114,17 @@ _refused: set[Path] = set()
 
 
 def _refuse(folder: Path, why: str) -> None:
-    """One note per folder and process: the compiled code is not cached there."""
+    """One note (a :class:`~circuitnsds.errors.RunNote` warning) per folder and process: the
+    compiled code is not cached there."""
+    import warnings
+
+    from circuitnsds.errors import RunNote
+
     if folder in _refused:
         return
     _refused.add(folder)
-    print(f"circuitnsds: note: compiled code is not cached: {folder} {why}; remove it, or set "
-          f"{CACHE_ENV} to a folder of yours", file=sys.stderr)
+    warnings.warn(RunNote(f"compiled code is not cached: {folder} {why}; remove it, or set "
+                          f"{CACHE_ENV} to a folder of yours"), stacklevel=3)
 
 
 def cache_candidates() -> list[Path]:
@@ -141,7 +146,7 @@ def cache_candidates() -> list[Path]:
 def cache_root() -> Path | None:
     """The first writable folder of :func:`cache_candidates` (created with mode 0700), or
     ``None``: also when that folder is one another user could write to (see
-    :func:`_unsafe`; a one-line note on standard error says so), as another user's
+    :func:`_unsafe`; a one-line note, a :class:`~circuitnsds.errors.RunNote`, says so), as another user's
     pickles in it would run as this user."""
     package = Path(__file__).resolve().parents[1]
     for folder in cache_candidates():
