@@ -287,16 +287,15 @@ def _read(path: Path):
 
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """Option -> file of every output asked for (``-``: standard output)."""
+    from circuitnsds.output.writers import WRITERS
+
     outputs = {}
     if args.output or not args.raw:  # a raw file alone replaces the default CSV
         stdin = str(args.netlist) == "-"
         outputs["-o"] = args.output or Path("-" if stdin else args.netlist.stem + ".csv")
-    if args.raw:
-        outputs["-r"] = args.raw
-    if args.plot:
-        outputs["--plot"] = args.plot
-    if getattr(args, "events", None):
-        outputs["--events"] = args.events
+    for writer in WRITERS:
+        if getattr(args, writer.attribute, None):
+            outputs[writer.option] = getattr(args, writer.attribute)
     return outputs
 
 
@@ -611,14 +610,16 @@ def _selected(args: argparse.Namespace, waves):
 
 def _write_outputs(args: argparse.Namespace, waves, stream=None,
                    partial: str | None = None) -> tuple[list[str] | None, list[Path]]:
-    """Write the CSV (``stream``: put in place the one written during the run) and the raw
-    file, figure and events asked for, as one set: all replaced or none
+    """Write the CSV (``stream``: put in place the one written during the run) and the files
+    of :data:`~circuitnsds.output.writers.WRITERS` asked for (raw file, figure, events), as
+    one set: all replaced or none
     (:func:`~circuitnsds.output.files.replaced_together`). ``partial``: the note that marks a
     partial result (a first line ``# partial: ...`` in the CSV files, the same words in the
     raw file's and the figure's title). Returns the signal names chosen with ``--signals``
     (``None``: all) and the files written."""
     from circuitnsds.errors import CircuitError
     from circuitnsds.output.files import replaced_together
+    from circuitnsds.output.writers import WRITERS, WriterSettings
 
     names = None
     if args.signals:
@@ -642,24 +643,13 @@ def _write_outputs(args: argparse.Namespace, waves, stream=None,
                     if partial is not None:
                         handle.write(f"# {partial}\n".encode())
                     waves.to_csv(handle, names)
-            if args.raw:
-                from circuitnsds.output.rawfile import write_raw
-
-                with _writing(args.raw):
-                    write_raw(waves, temporary(args.raw), names, binary=not args.ascii)
-            if args.plot:
-                from circuitnsds.output.plot import plot_waveforms
-
-                with _writing(args.plot):
-                    plot_waveforms(waves, temporary(args.plot), names, events=args.mark_events)
-            if args.events:
-                with _writing(args.events):
-                    events = temporary(args.events)
-                    waves.events_to_csv(events)
-                    if partial is not None:
-                        from circuitnsds.output.csvfile import prepend_line
-
-                        prepend_line(events, f"# {partial}\n")
+            settings = WriterSettings(binary=not args.ascii, mark_events=args.mark_events, partial=partial)
+            for writer in WRITERS:  # -r, --plot, --events (output/writers.py)
+                path = getattr(args, writer.attribute, None)
+                if path:
+                    with _writing(path):
+                        writer.write(waves, temporary(path), names, settings)
+                    written.append(path)
             if stream is not None:  # last: its rename comes just before the others'
                 stream.commit(partial)
             elif output is not None and str(output) == "-":
@@ -671,10 +661,7 @@ def _write_outputs(args: argparse.Namespace, waves, stream=None,
         if stream is not None:
             stream.abort()
         raise
-    if output is not None:
-        written.append(output)
-    written.extend(path for path in (args.raw, args.plot, args.events) if path)
-    return names, written
+    return names, ([output] if output is not None else []) + written
 
 
 def _info(args: argparse.Namespace) -> int:
