@@ -228,3 +228,13 @@ def test_a_partial_csv_written_after_the_run_is_marked(tmp_path, capsys, monkeyp
     assert events.read_text().splitlines()[:2] == [note, "time,element,state"]
     data = np.loadtxt(csv, delimiter=",", skiprows=2)
     assert data[-1, 0] == pytest.approx(0.012)
+
+
+def test_the_writers_table_matches_the_command_line():
+    from circuitnsds.cli.main import build_parser
+    from circuitnsds.output.writers import WRITERS
+
+    for command in ("run", "pss"):
+        for writer in WRITERS:
+            args = build_parser().parse_args([command, "x.cir", writer.option, "out.file"])
+            assert getattr(args, writer.attribute) == Path("out.file"), (command, writer.option)
