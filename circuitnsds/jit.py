@@ -18,8 +18,9 @@ inside the installed package. pip does not know these files: after ``pip uninsta
 (or the reinstall of ``pip install -e``) the folder stays behind in ``site-packages``
 and becomes a namespace package ``circuitnsds`` that shadows the real one. So the loops
 get a cache of their own in a per-user folder (:func:`cache_root`), never in the
-package; where no folder is writable they are compiled again in each process (slower
-to start, still correct).
+package, and only in a folder no other user can write to (mode 0700, owned by the
+user); where no such folder is available they are compiled again in each process
+(slower to start, still correct).
 
 numba costs ~0.2 s to import and ~0.4 s to load a cached loop (its LLVM context),
 ~10 s to compile one; nothing here imports it before a loop is called compiled.
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import stat
 import sys
 import tempfile
 import types
@@ -64,11 +66,69 @@ def _user_cache_home() -> Path:
 
 
 def _writable(folder: Path) -> bool:
+    """Create ``folder`` and its missing parents, each with mode 0700 whatever the umask;
+    whether it can be written."""
+    missing = [folder, *folder.parents]
+    missing = missing[:next((k for k, path in enumerate(missing) if path.is_dir()), len(missing))]
     try:
-        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+        for path in reversed(missing):
+            try:
+                path.mkdir(mode=0o700)
+            except FileExistsError:  # made meanwhile by another process: checked by _unsafe
+                continue
+            os.chmod(path, 0o700)
     except OSError:
         return False
     return os.access(folder, os.W_OK | os.X_OK)
+
+
+def _unsafe(folder: Path) -> str:
+    """Why another user could place code in ``folder`` (empty when none could).
+
+    Loading numba's cache unpickles its files: whoever can write them runs code in this
+    process. So the folder must belong to this user and be writable by no one else (it is
+    created with mode 0700), and each folder above it must
+    belong to this user or to root and be writable by no one else, unless it has the
+    sticky bit (``/tmp``: others cannot rename or remove what is this user's there).
+    """
+    if not hasattr(os, "getuid"):  # Windows: per-user folders, ACLs not checked here
+        return ""
+    uid = os.getuid()
+    try:
+        info = os.stat(folder)
+    except OSError as exc:
+        return f"cannot be checked ({exc.strerror})"
+    if info.st_uid != uid:
+        return f"belongs to user id {info.st_uid}, not to you ({uid})"
+    if info.st_mode & 0o022:
+        return f"has mode {stat.S_IMODE(info.st_mode):04o}: others may write to it (make it 0700)"
+    for parent in folder.parents:
+        try:
+            above = os.stat(parent)
+        except OSError as exc:
+            return f"cannot be checked ({parent}: {exc.strerror})"
+        if above.st_uid not in (uid, 0):
+            return f"is inside {parent}, which belongs to user id {above.st_uid}"
+        if above.st_mode & 0o022 and not above.st_mode & stat.S_ISVTX:
+            return f"is inside {parent}, which others may write to (mode {stat.S_IMODE(above.st_mode):04o})"
+    return ""
+
+
+_refused: set[Path] = set()
+
+
+def _refuse(folder: Path, why: str) -> None:
+    """One note (a :class:`~circuitnsds.errors.RunNote` warning) per folder and process: the
+    compiled code is not cached there."""
+    import warnings
+
+    from circuitnsds.errors import RunNote
+
+    if folder in _refused:
+        return
+    _refused.add(folder)
+    warnings.warn(RunNote(f"compiled code is not cached: {folder} {why}; remove it, or set "
+                          f"{CACHE_ENV} to a folder of yours"), stacklevel=3)
 
 
 def cache_candidates() -> list[Path]:
@@ -88,13 +148,20 @@ def cache_candidates() -> list[Path]:
 
 
 def cache_root() -> Path | None:
-    """The first writable folder of :func:`cache_candidates` (created), or ``None``."""
+    """The first writable folder of :func:`cache_candidates` (created with mode 0700), or
+    ``None``: also when that folder is one another user could write to (see
+    :func:`_unsafe`; a one-line note, a :class:`~circuitnsds.errors.RunNote`, says so), as another user's
+    pickles in it would run as this user."""
     package = Path(__file__).resolve().parent
     for folder in cache_candidates():
         resolved = folder.expanduser().resolve()
         if resolved == package or package in resolved.parents:
             continue  # never inside the package, whatever the environment says
         if _writable(resolved):
+            why = _unsafe(resolved)
+            if why:
+                _refuse(resolved, why)
+                return None
             return resolved
     return None
 

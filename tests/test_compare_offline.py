@@ -126,7 +126,7 @@ def test_control_blocks_saves_and_other_analyses_are_removed():
             ".tran 1u 1m uic\n.end\nR9 after end 1\n")
     translation = translate_netlist(text, saves=["@r1[i]"])
     lines = translation.text.splitlines()
-    assert lines[0] == "t"
+    assert lines[0] == "circuitnsds compare: t"
     assert [line for line in lines if line.startswith(".")] == [".tran 1u 1m uic", ".save all @r1[i]", ".end"]
     assert "R9" not in translation.text
     assert any(".control" in note for note in translation.notes)
@@ -141,35 +141,25 @@ def test_tran_override_keeps_tstart_tmax_uic_and_expressions():
     assert ".tran 1e-06 0.001" in translate_netlist("t\nR1 a 0 1\n.end\n", step=1e-6, stop=1e-3).text
 
 
-def test_included_files_are_translated_and_referenced_absolutely(tmp_path):
+def test_included_files_are_inlined_and_translated(tmp_path):
     (tmp_path / "lib").mkdir()
     (tmp_path / "lib" / "models.lib").write_text("* models\n.model dx D(Vfwd=0.7 N=1.5)\n")
     top = tmp_path / "top.cir"
     top.write_text("t\n.include lib/models.lib\nD1 a 0 dx\nV1 a 0 1\n.tran 1u 1m\n.end\n")
-    scratch = tmp_path / "scratch"
-    scratch.mkdir()
-    translation = translate_netlist(top, overrides=DiodeOverrides(n=0.2), scratch=scratch)
-    include = next(line for line in translation.text.splitlines() if line.startswith(".include"))
-    copy = translation.includes[0]
-    assert include == f'.include "{copy}"' and copy.is_absolute()
-    assert ".model dx D(n=0.2)" in copy.read_text()
-    with pytest.raises(Exception, match="cannot read"):
+    translation = translate_netlist(top, overrides=DiodeOverrides(n=0.2))
+    assert ".include" not in translation.text and "models.lib" not in translation.text
+    assert translation.text.splitlines()[1] == ".model dx D(n=0.2)"  # in place of the .include
+    with pytest.raises(Exception, match="nowhere.lib. not found"):
         bad = tmp_path / "bad.cir"
         bad.write_text("t\n.include nowhere.lib\n.tran 1u 1m\n.end\n")
-        translate_netlist(bad, scratch=scratch)
+        translate_netlist(bad)
 
 
 def test_bundled_vendor_library_translates():
     # the .lib of the vendor Zener has continuation lines with comments inside a .model
-    import tempfile
-    from pathlib import Path
-
-    with tempfile.TemporaryDirectory() as scratch:
-        translation = translate_netlist(NETLISTS / "vendor_zener_regulator.cir",
-                                        overrides=DiodeOverrides(n=0.1), scratch=Path(scratch))
-        library = translation.includes[0].read_text()
-    assert ".model DFWD D(is=2.61E-15 cjo=180P vj=0.75 m=0.33 tt=50.1N rs=0.7 n=0.1)" in library
-    assert ".MODEL RMOD RES(TC1=1e-3)" in library
+    text = translate_netlist(NETLISTS / "vendor_zener_regulator.cir", overrides=DiodeOverrides(n=0.1)).text
+    assert ".model DFWD D(is=2.61E-15 cjo=180P vj=0.75 m=0.33 tt=50.1N rs=0.7 n=0.1)" in text
+    assert ".MODEL RMOD RES(TC1=1e-3)" in text
 
 
 def test_diodes_get_a_series_ammeter_when_their_current_is_compared():

@@ -179,7 +179,7 @@ def test_cli_strict_refuses_before_writing_and_info_reports_first(tmp_path, caps
 
 
 def test_exit_statuses_are_documented():
-    assert set(EXIT_STATUS) == {0, 1, 2, 130}
+    assert set(EXIT_STATUS) == {0, 1, 2, 129, 130, 143}
     from pathlib import Path
 
     usage = (Path(__file__).resolve().parent.parent / "docs" / "usage.md").read_text()
@@ -333,7 +333,8 @@ def test_cli_writes_the_waveforms_before_a_failed_step(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "wrote the results up to t = 0.01 s (before the failure)" in err
     assert "circuitnsds: error: t = 0.0101 s: the time step" in err and "Traceback" not in err
-    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert csv.read_text().startswith("# partial: the run stopped at t = 0.01 s (before the failure)")
+    data = np.loadtxt(csv, delimiter=",", skiprows=2)
     assert data.shape[0] == 101 and data[-1, 0] == pytest.approx(10e-3)
     assert png.exists()
 

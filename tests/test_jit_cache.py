@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,7 @@ import pytest
 import circuitnsds
 from circuitnsds import jit
 from circuitnsds.engine import dense_loop, sparse_loop
+from circuitnsds.errors import RunNote
 from tests.conftest import NETLISTS
 
 PACKAGE = Path(circuitnsds.__file__).resolve().parent
@@ -132,3 +134,78 @@ def test_the_warmup_process_does_not_run_the_users_files(tmp_path, monkeypatch):
     finally:
         child.kill()
         child.wait()
+
+
+# --- only a folder no other user can write to (issue 37) ----------------------------------------
+
+
+def _use_only(monkeypatch, folder: Path) -> None:
+    monkeypatch.setattr(jit, "cache_candidates", lambda: [folder])
+    monkeypatch.setattr(jit, "_refused", set())
+
+
+@pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
+def test_a_new_cache_folder_is_private_whatever_the_umask(tmp_path, monkeypatch):
+    _use_only(monkeypatch, tmp_path / "new" / "numba")
+    previous = os.umask(0)
+    try:
+        root = jit.cache_root()
+    finally:
+        os.umask(previous)
+    assert root == (tmp_path / "new" / "numba").resolve()
+    assert root.stat().st_mode & 0o777 == 0o700
+
+
+@pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
+@pytest.mark.parametrize("mode", [0o777, 0o770, 0o702])
+def test_a_folder_others_can_write_is_refused_with_a_note(mode, tmp_path, monkeypatch):
+    planted = tmp_path / "numba"
+    planted.mkdir()
+    os.chmod(planted, mode)
+    _use_only(monkeypatch, planted)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert jit.cache_root() is None
+        assert jit.cache_root() is None
+    assert [type(w.message) for w in caught] == [RunNote]  # one note, not one per call
+    assert "compiled code is not cached" in str(caught[0].message) and str(planted) in str(caught[0].message)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
+def test_a_folder_of_another_user_is_refused(tmp_path, monkeypatch):
+    # the planted folder of the issue: /tmp/circuitnsds-<user>/numba made first by someone else
+    monkeypatch.setattr(jit.tempfile, "gettempdir", lambda: str(tmp_path))
+    monkeypatch.delenv(jit.CACHE_ENV, raising=False)
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    blocker = tmp_path / "a file"
+    blocker.write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))  # the user's cache cannot be made
+    monkeypatch.setattr(jit, "_refused", set())
+    planted = jit.cache_candidates()[-1]
+    planted.mkdir(parents=True, mode=0o700)
+    other = os.getuid() + 4242
+    real_stat = os.stat
+
+    def stat_as_planted(path, *args, **kwargs):
+        info = real_stat(path, *args, **kwargs)
+        if Path(path) in (planted, planted.parent):
+            values = list(info)
+            values[4] = other  # st_uid
+            return os.stat_result(values)
+        return info
+
+    monkeypatch.setattr(jit.os, "stat", stat_as_planted)
+    with pytest.warns(RunNote, match=f"belongs to user id {other}"):
+        assert jit.cache_root() is None
+
+
+@pytest.mark.skipif(os.name != "posix", reason="owners and modes are POSIX")
+def test_a_private_folder_inside_a_folder_others_can_write_is_refused(tmp_path, monkeypatch):
+    shared = tmp_path / "shared"
+    (shared / "numba").mkdir(parents=True, mode=0o700)
+    os.chmod(shared, 0o777)  # not sticky: anyone may rename numba/ and put their own there
+    _use_only(monkeypatch, shared / "numba")
+    with pytest.warns(RunNote, match="which others may write to"):
+        assert jit.cache_root() is None
+    os.chmod(shared, 0o1777)  # sticky, as /tmp: only the owner may rename it
+    assert jit.cache_root() == (shared / "numba").resolve()

@@ -253,7 +253,9 @@ def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monke
     assert status == 130
     assert "wrote the results up to t = 0.012 s (when interrupted) to" in err
     assert err.rstrip().endswith("circuitnsds: interrupted")
-    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    first = csv.read_text().splitlines()[0]
+    assert first == "# partial: the run stopped at t = 0.012 s (when interrupted); the rows end there"
+    data = np.loadtxt(csv, delimiter=",", skiprows=2)
     assert data.shape[0] == 121  # t_0 .. t_120: every step done before the interruption
     assert data[-1, 0] == pytest.approx(120 * 100e-6)
     np.testing.assert_allclose(data[:, 1], np.maximum(10 * np.sin(2 * np.pi * 50 * data[:, 0]), 0),

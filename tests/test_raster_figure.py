@@ -273,7 +273,8 @@ def test_unwritable_figure_is_the_usual_error(tmp_path):
                 tmp_path / "missing" / "z.png", "-q", cwd=tmp_path)
     assert done.returncode == 1
     assert "cannot write" in done.stderr and "Traceback" not in done.stderr
-    assert (tmp_path / "z.csv").stat().st_size > 0
+    # refused before the run (issue 37): no CSV beside a missing figure, no result computed and lost
+    assert "does not exist" in done.stderr and not (tmp_path / "z.csv").exists()
 
 
 def _distance_to_polyline(px: np.ndarray, py: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -79,7 +79,8 @@ def test_ctrl_c_in_a_later_segment_keeps_the_rows_done(tmp_path, capsys, monkeyp
                    "--stop", "20m", "--signals", "v(out)"])
     err = capsys.readouterr().err
     assert status == 130 and "(when interrupted) to" in err
-    data = np.loadtxt(csv, delimiter=",", skiprows=1)
+    assert csv.read_text().startswith("# partial: the run stopped at t = ")  # above the header
+    data = np.loadtxt(csv, delimiter=",", skiprows=2)
     assert 700 < data.shape[0] < 2001  # past the first segment, not the whole run
     assert f"up to t = {data[-1, 0]:.6g} s" in err
     np.testing.assert_allclose(data[:, 1], np.maximum(10 * np.sin(2 * np.pi * 50 * data[:, 0]), 0),

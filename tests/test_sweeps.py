@@ -442,7 +442,7 @@ def test_signals_without_waveforms_and_a_waveforms_file_are_errors_before_the_ru
     assert main([*base, "--signals", "v(out)"]) == 1
     assert "error: --signals: signals select the waveforms kept" in capsys.readouterr().err
     assert main([*base, "--waveforms", str(a_file)]) == 1
-    assert f"error: {a_file}: cannot write {a_file}: not a folder" in capsys.readouterr().err
+    assert f"error: {a_file}: --waveforms {a_file} is a file, not a folder" in capsys.readouterr().err
     assert a_file.read_text() == ""
 
 

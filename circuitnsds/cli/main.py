@@ -7,7 +7,8 @@ exit with status 1; no traceback. ``--debug`` shows tracebacks.
 Exit status (:data:`EXIT_STATUS`): 0 success; 1 the netlist, the circuit or the
 simulation is at fault (any :class:`~circuitnsds.errors.CircuitnsdsError`, and any
 warning under ``--strict``); 2 bad command-line arguments, or an internal error of
-circuitnsds (a bug: please report it); 130 interrupted (Ctrl-C).
+circuitnsds (a bug: please report it); 130 interrupted (Ctrl-C), 143 (SIGTERM) and
+129 (SIGHUP), which stop a command as Ctrl-C does (:mod:`circuitnsds.cli.interrupts`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from circuitnsds.cli.interrupts import described, exit_status, terminations_interrupt
 from circuitnsds.cli.progress import ProgressBar
 from circuitnsds.errors import (
     CircuitnsdsError,
@@ -34,7 +36,8 @@ from circuitnsds.values import parse_value
 
 EXIT_STATUS = {0: "success", 1: "error in the netlist, the circuit or the simulation (or a warning "
                "under --strict)", 2: "bad command-line arguments, or an internal error (a bug)",
-               130: "interrupted"}
+               129: "stopped by SIGHUP (as by Ctrl-C)", 130: "interrupted (Ctrl-C)",
+               143: "stopped by SIGTERM (as by Ctrl-C)"}
 """The exit statuses of the command and their meaning (docs/usage.md lists them)."""
 STRICT_HELP = "treat every warning (ignored constructs, suspicious circuits) as an error"
 
@@ -215,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     errors as one line each; returns the exit status (0 success, 1 bad input or a failed
     run, 2 an internal error, 130 interrupted)."""
     args = build_parser().parse_args(argv)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, terminations_interrupt():
         warnings.simplefilter("always")
         strict = getattr(args, "strict", False)
         if strict and args.command in ("run", "pss", "ac"):  # stop at the first warning, before any output
@@ -247,10 +250,10 @@ def main(argv: list[str] | None = None) -> int:
                 raise
             print(f"circuitnsds: error: {as_error(warning)}", file=sys.stderr)
             return 1
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
             _print_warnings(caught)
-            print("circuitnsds: interrupted", file=sys.stderr)
-            return 130
+            print(f"circuitnsds: {described(exc)}", file=sys.stderr)
+            return exit_status(exc)
         except BrokenPipeError:  # output piped into `head` and the like: not an error
             sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (interpreter exit flushes it)
             return 0
@@ -288,19 +291,23 @@ def _read(path: Path):
 
 def _outputs(args: argparse.Namespace) -> dict[str, Path]:
     """Option -> file of every output asked for (``-``: standard output)."""
+    from circuitnsds.output.writers import WRITERS
+
     outputs = {}
     if args.output or not args.raw:  # a raw file alone replaces the default CSV
         stdin = str(args.netlist) == "-"
         outputs["-o"] = args.output or Path("-" if stdin else args.netlist.stem + ".csv")
-    if args.raw:
-        outputs["-r"] = args.raw
-    if args.plot:
-        outputs["--plot"] = args.plot
-    if getattr(args, "events", None):
-        outputs["--events"] = args.events
+    for writer in WRITERS:
+        if getattr(args, writer.attribute, None):
+            outputs[writer.option] = getattr(args, writer.attribute)
     if getattr(args, "losses_csv", None):
         outputs["--losses-csv"] = args.losses_csv
     return outputs
+
+
+def _stdin(args: argparse.Namespace) -> list[str]:
+    """``["-"]`` when the netlist is read from standard input (its file is an input too)."""
+    return ["-"] if str(args.netlist) == "-" else []
 
 
 def _shown(written: list[Path]) -> str:
@@ -325,7 +332,8 @@ def _prepare(args: argparse.Namespace, builder=None):
     thermal_files = sorted({element.model.thermal for element in circuit.elements
                             if getattr(getattr(element, "model", None), "thermal", None)})
     # before a long run: never over the netlist, a file it includes, or another output
-    check_outputs(outputs, [circuit.file, *circuit.included, *thermal_files], stdout=("-o",))
+    check_outputs(outputs, [circuit.file, *circuit.included, *thermal_files, *_stdin(args)],
+                  stdout=("-o",))
     args.thermal_devices = []
     if thermal_files:  # the datasheets read (and their errors shown) before the run
         from circuitnsds.thermal.junction import devices_of
@@ -380,9 +388,9 @@ def _run(args: argparse.Namespace) -> int:
         progress.close()
         _write_partial(args, exc.partial, "before the failure", stream)
         raise
-    except KeyboardInterrupt as exc:  # Ctrl-C: keep what was computed, as for a failed step
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: keep what was computed
         progress.close()
-        _write_partial(args, getattr(exc, "partial", None), "when interrupted", stream)
+        _write_partial(args, getattr(exc, "partial", None), f"when {described(exc)}", stream)
         raise
     except BaseException:
         if stream is not None:
@@ -464,7 +472,8 @@ def _ac(args: argparse.Namespace) -> int:
     to_stdout = str(bode_outputs["-o"]) == "-"  # the Bode table; what is printed goes to stderr
     if args.plot:
         bode_outputs["--plot"] = args.plot
-    check_outputs(bode_outputs, [circuit.file, *circuit.included], stdout=("-o",))  # not over the netlist
+    check_outputs(bode_outputs, [circuit.file, *circuit.included, *_stdin(args)],  # not over the netlist
+                  stdout=("-o",))
     if args.plot:  # an unknown figure format before the analysis, not after it
         from circuitnsds.output.plot import plot_format
 
@@ -484,12 +493,15 @@ def _ac(args: argparse.Namespace) -> int:
               f"loop gain -{loop[0]}/{loop[1]}: |T| does not cross 1 in the sweep",
               file=sys.stderr if to_stdout else sys.stdout, flush=True)
     written = [bode_outputs["-o"]]
-    with _writing(written[0]):
-        write_bode_csv(result, sys.stdout if to_stdout else written[0])
-    if args.plot:
-        with _writing(args.plot):
-            plot_bode(result, args.plot, marks)
-        written.append(args.plot)
+    from circuitnsds.output.files import replaced_together
+
+    with replaced_together() as temporary:  # the table and the figure: both or neither
+        if args.plot:
+            with _writing(args.plot):
+                plot_bode(result, temporary(args.plot), marks)
+            written.append(args.plot)
+        with _writing(written[0]):
+            write_bode_csv(result, sys.stdout if to_stdout else temporary(written[0]))
     if not args.quiet:
         around = "periodic steady state" if result.around == "pss" else "operating point"
         print(f"circuitnsds: AC of {len(result.transfer)} signal(s) at {result.frequencies.size} "
@@ -580,8 +592,9 @@ def _write_partial(args: argparse.Namespace, partial, when: str, stream=None) ->
         return
     else:
         last = partial.time[-1]
+    note = f"partial: the run stopped at t = {last:.6g} s ({when}); the rows end there"
     try:
-        _, written = _write_outputs(args, partial, stream)
+        _, written = _write_outputs(args, partial, stream, partial=note)
     except CircuitnsdsError as exc:
         print(f"circuitnsds: the results {when} were not written: {exc.message}", file=sys.stderr)
         return
@@ -650,50 +663,60 @@ def _selected(args: argparse.Namespace, waves):
                      events=[event for event in waves.events if first <= event[0] <= last])
 
 
-def _write_outputs(args: argparse.Namespace, waves,
-                   stream=None) -> tuple[list[str] | None, list[Path]]:
-    """Write the CSV (``stream``: put in place the one written during the run) and the raw
-    file and figure asked for; returns the signal names chosen with ``--signals`` (``None``:
-    all) and the files written."""
+def _write_outputs(args: argparse.Namespace, waves, stream=None,
+                   partial: str | None = None) -> tuple[list[str] | None, list[Path]]:
+    """Write the CSV (``stream``: put in place the one written during the run) and the files
+    of :data:`~circuitnsds.output.writers.WRITERS` asked for (raw file, figure, events), as
+    one set: all replaced or none
+    (:func:`~circuitnsds.output.files.replaced_together`). ``partial``: the note that marks a
+    partial result (a first line ``# partial: ...`` in the CSV files, the same words in the
+    raw file's and the figure's title). Returns the signal names chosen with ``--signals``
+    (``None``: all) and the files written."""
     from circuitnsds.errors import CircuitError
+    from circuitnsds.output.files import replaced_together
+    from circuitnsds.output.writers import WRITERS, WriterSettings
 
     names = None
     if args.signals:
         names = [name for name in _signal_names(args.signals) if name != "time"]
         unknown = [name for name in names if name not in waves]
         if unknown:
+            if stream is not None:
+                stream.abort()
             raise CircuitError(f"unknown signal(s) {', '.join(unknown)}",
                                where="--signals (or .save)", hint=f"available: {', '.join(waves.names)}")
+    if partial is not None:
+        from dataclasses import replace
+
+        waves = replace(waves, title=f"{waves.title or 'circuitnsds transient'} [{partial}]")
     written = []
     output = _outputs(args).get("-o")
-    if stream is not None:
-        stream.commit()
-        written.append(output)
-    elif output is not None and str(output) == "-":
-        waves.to_csv(sys.stdout, names)
-        sys.stdout.flush()
-        written.append(output)
-    elif output is not None:
-        with _writing(output):
-            waves.to_csv(output, names)
-        written.append(output)
-    if args.raw:
-        from circuitnsds.output.rawfile import write_raw
-
-        with _writing(args.raw):
-            write_raw(waves, args.raw, names, binary=not args.ascii)
-        written.append(args.raw)
-    if args.plot:
-        from circuitnsds.output.plot import plot_waveforms
-
-        with _writing(args.plot):
-            plot_waveforms(waves, args.plot, names, events=args.mark_events)
-        written.append(args.plot)
-    if args.events:
-        with _writing(args.events):
-            waves.events_to_csv(args.events)
-        written.append(args.events)
-    return names, written
+    try:
+        with replaced_together() as temporary:
+            if stream is None and output is not None and str(output) != "-":
+                with _writing(output), open(temporary(output), "wb") as handle:
+                    if partial is not None:
+                        handle.write(f"# {partial}\n".encode())
+                    waves.to_csv(handle, names)
+            settings = WriterSettings(binary=not args.ascii, mark_events=args.mark_events, partial=partial)
+            for writer in WRITERS:  # -r, --plot, --events (output/writers.py)
+                path = getattr(args, writer.attribute, None)
+                if path:
+                    with _writing(path):
+                        writer.write(waves, temporary(path), names, settings)
+                    written.append(path)
+            if stream is not None:  # last: its rename comes just before the others'
+                stream.commit(partial)
+            elif output is not None and str(output) == "-":
+                if partial is not None:
+                    print(f"# {partial}", flush=True)
+                waves.to_csv(sys.stdout, names)
+                sys.stdout.flush()
+    except BaseException:
+        if stream is not None:
+            stream.abort()
+        raise
+    return names, ([output] if output is not None else []) + written
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -706,7 +729,7 @@ def _info(args: argparse.Namespace) -> int:
         print("circuitnsds: error: the circuit fails the checks above", file=sys.stderr)
         return 1
     if args.matrices:
-        check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included])
+        check_outputs({"--matrices": args.matrices}, [circuit.file, *circuit.included, *_stdin(args)])
         from circuitnsds.output.files import atomic_path
 
         with _writing(args.matrices), atomic_path(args.matrices) as temporary:

@@ -98,7 +98,8 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
     netlist = builder.netlist
     check_outputs({option: path for option, path in (("-o", args.output), ("--plot", args.plot),
                                                      ("--waveforms", getattr(args, "waveforms", None)))
-                   if path}, [netlist.file, *netlist.included], stdout=("-o",))  # not over the netlist
+                   if path}, [netlist.file, *netlist.included], stdout=("-o",),  # not over the netlist
+                  folders=("--waveforms",))
     if args.plot:  # matplotlib present and the figure format known, before the run
         from circuitnsds.output import sweep_plot  # noqa: F401
         from circuitnsds.output.plot import plot_format

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tempfile
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -220,20 +219,18 @@ def compare(
         step = circuit.analyses["tran"].step  # LTspice's .tran 0 TSTOP / .tran TSTOP: ngspice needs TSTEP > 0
     runs, notes = [], []
     for override in overrides:
-        with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-") as scratch:
-            translation = translate_netlist(source, overrides=override, step=step, stop=stop,
-                                            saves=saves, ammeters=ammeters, options=ngspice_options,
-                                            scratch=Path(scratch), ltspice=ltspice,
-                                            off_resistance=off_resistance,
-                                            measures=bool(circuit.measurements))
-            notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
-                                "ngbehavior=lta): the LTspice PWL diode models run as its "
-                                "sidiode code model"] if ltspice else [])
-                              + (["circuitnsds reads the Shockley diode models as ideal diodes "
-                                  "(diode=ideal), the limit of the study in N"] if fitted else [])
-                              + translation.notes)
-            result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
-                                 title=circuit.title, ltspice=ltspice)
+        translation = translate_netlist(source, overrides=override, step=step, stop=stop,
+                                        saves=saves, ammeters=ammeters, options=ngspice_options,
+                                        ltspice=ltspice, off_resistance=off_resistance,
+                                        measures=bool(circuit.measurements))
+        notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
+                            "ngbehavior=lta): the LTspice PWL diode models run as its "
+                            "sidiode code model"] if ltspice else [])
+                          + (["circuitnsds reads the Shockley diode models as ideal diodes "
+                              "(diode=ideal), the limit of the study in N"] if fitted else [])
+                          + translation.notes)
+        result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
+                             title=circuit.title, ltspice=ltspice)
         runs.append(_measure(result, waves, chosen, chosen_window))
         if circuit.measurements:
             from circuitnsds.output.meas import run_measurements

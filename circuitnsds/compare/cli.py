@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
-from circuitnsds.output.files import atomic_path, writing
+from circuitnsds.output.files import replaced_together, writing
 from circuitnsds.values import parse_value
 
 
@@ -110,19 +110,20 @@ def run_compare(args: argparse.Namespace) -> int:
                          theta=args.theta, ngspice_options=args.ngspice_options)
     print(comparison.table(), flush=True)
     written = []
-    if args.json:  # each file all or nothing, as every output of the command
-        with writing(args.json, CompareError), atomic_path(args.json) as temporary:
-            comparison.to_json(temporary)
-        written.append(args.json)
-    if args.plot:
-        with writing(args.plot, CompareError), atomic_path(args.plot) as temporary:
-            comparison.plot(temporary)
-        written.append(args.plot)
-        if len(comparison.runs) > 1 and all(run.overrides.n is not None for run in comparison.runs):
-            path = convergence_path(args.plot)
-            with writing(path, CompareError), atomic_path(path) as temporary:
-                comparison.plot_convergence(temporary)
-            written.append(path)
+    with replaced_together() as temporary:  # all the files, or none (as every command's outputs)
+        if args.json:
+            with writing(args.json, CompareError):
+                comparison.to_json(temporary(args.json))
+            written.append(args.json)
+        if args.plot:
+            with writing(args.plot, CompareError):
+                comparison.plot(temporary(args.plot))
+            written.append(args.plot)
+            if len(comparison.runs) > 1 and all(run.overrides.n is not None for run in comparison.runs):
+                path = convergence_path(args.plot)
+                with writing(path, CompareError):
+                    comparison.plot_convergence(temporary(path))
+                written.append(path)
     if written:
         print(f"circuitnsds: wrote {', '.join(map(str, written))}", file=sys.stderr)
     return 0

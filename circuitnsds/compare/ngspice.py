@@ -119,13 +119,44 @@ def _load_engine():
             return 0
 
     try:
-        _engine = _Engine()
+        with _clean_start():
+            _engine = _Engine()
     except OSError as exc:
         library = (NgSpiceShared.LIBRARY_PATH or "libngspice.so").format("")
         _engine_error = NgspiceUnavailable(f"ngspice's shared library {library} cannot be loaded ({exc})",
                                            where="ngspice comparison", hint=INSTALL_HINT)
         raise _engine_error from None
     return _engine
+
+
+@contextmanager
+def _clean_start() -> Iterator[None]:
+    """Start ngspice where no start-up script of a downloaded project or of the user runs.
+
+    ngspice 39's shared library, when it starts, runs its system ``spinit`` and then one
+    ``.spiceinit``: the current folder's if there is one, else the one in the user's home
+    folder (found through the password database, not ``$HOME``). Both are ngspice
+    scripts (``shell``, ``write``, ...). ngspice is therefore started inside a fresh
+    private folder holding an empty ``.spiceinit``: that one is read, the others are not.
+    The current folder is restored at once (ngspice reads no file later: the compared
+    deck has its includes inlined).
+    """
+    import os
+    import tempfile
+
+    try:
+        previous: str | None = os.getcwd()
+    except OSError:  # the current folder was removed: nothing to go back to
+        previous = None
+    with tempfile.TemporaryDirectory(prefix="circuitnsds-ngspice-start-") as folder:
+        with open(os.path.join(folder, ".spiceinit"), "w", encoding="ascii") as init:
+            init.write("* empty: no user or project start-up script runs in circuitnsds compare\n")
+        os.chdir(folder)
+        try:
+            yield
+        finally:
+            if previous is not None:
+                os.chdir(previous)
 
 
 def ngspice_version() -> str:

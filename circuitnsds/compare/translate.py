@@ -25,24 +25,37 @@ in it are for circuitnsds only or get in the way of a batch comparison:
   which at a sharp knee can be far from the current the circuit carries (kA
   spikes were seen on a Zener whose series inductor carried 0.6 A); the ammeter's
   branch current is the terminal current, junction-capacitance current included;
-* ``.include`` and ``.lib`` files are translated the same way into a scratch folder
-  and referenced by absolute path, so that relative paths keep meaning "relative
-  to the including file" wherever ngspice runs.
+* the deck is rebuilt from the statements circuitnsds's own reader parsed as circuit
+  (:func:`circuitnsds.netlist.parser.parse_netlist` and
+  :func:`~circuitnsds.netlist.includes.expand_includes`), one line per statement, with
+  ``.include``/``.lib`` files inlined. ngspice therefore never opens a file circuitnsds
+  did not read, and nothing that is not circuit reaches it: comment lines go (ngspice
+  runs ``*#`` comment lines as commands), ``.control`` blocks of the netlist and of
+  every included file go, the title becomes ``circuitnsds compare: TITLE`` (a title
+  ``*ng_script`` would make ngspice read the whole deck as a script), and a dot command
+  that is not in :data:`CIRCUIT_COMMANDS` is removed with a note.
 
-Everything else (elements, ``.subckt``, ``.param``, ``.options``, ``.ic``,
-comments) is passed through unchanged.
+Inlining rather than translating each included file (and pointing ngspice at the
+copy) means one reader decides what every ``.include``/``.lib`` line means
+(``~``, quotes, relative paths, library sections), so both simulators read the same
+models, and no file path in the netlist reaches ngspice.
+
+Everything else (elements, ``.subckt``, ``.param``, ``.options``, ``.ic``) is passed
+through as circuitnsds read it: each statement's text with its comments removed
+and its ``+`` continuations joined.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from circuitnsds.compare.errors import CompareError
 from circuitnsds.errors import NetlistError
-from circuitnsds.netlist.parser import logical_lines, physical_lines
+from circuitnsds.netlist.includes import expand_includes
+from circuitnsds.netlist.parser import Netlist, Statement, parse_netlist, read_netlist_file
 
 #: Diode-model parameters of the idealised (circuitnsds / LTspice) diode that ngspice lacks.
 IDEAL_ONLY_PARAMETERS = frozenset(
@@ -106,12 +119,10 @@ class Translation:
 
     Attributes:
         text: netlist text for ngspice (title line first, ``.end`` last).
-        includes: translated included files written to the scratch folder.
         notes: one line per change (dropped parameters and commands), for reports.
     """
 
     text: str
-    includes: list[Path] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     has_tran: bool = False
     ammeters: set[str] = field(default_factory=set)
@@ -129,7 +140,6 @@ def translate_netlist(
     saves: Iterable[str] = (),
     ammeters: Iterable[str] = (),
     options: str = "",
-    scratch: Path | None = None,
     ltspice: bool = False,
     off_resistance: float = 1e12,
     measures: bool = False,
@@ -137,115 +147,108 @@ def translate_netlist(
     """Rewrite a netlist for ngspice (see the module docstring for what changes).
 
     Args:
-        source: a netlist file (``Path``, or a string without a newline) or netlist text.
+        source: a netlist file (``Path``, or a string without a newline) or netlist text
+            (its relative include paths start from the current directory).
         overrides: diode parameters forced on every ``D`` model.
         step, stop: replace ``.tran`` TSTEP and TSTOP [s] (TSTART, TMAX and UIC kept).
         saves: vectors for a ``.save`` line (``all`` is always saved as well), e.g. ``@r1[i]``.
         ammeters: local names of the diodes (``d1``, also inside subcircuits) that get a
             0 V source in series; see :func:`ngspice_vector` for its current's name.
         options: text of an ``.options`` line added for ngspice (e.g. ``"method=gear"``).
-        scratch: folder for translated ``.include``/``.lib`` files (required when the
-            netlist includes files).
         ltspice: keep LTspice PWL diode models for ngspice's LTspice mode (see above).
         off_resistance: ``Roff`` [Ω] written into LTspice PWL models that give none
             (circuitnsds's 1/gmin).
         measures: keep the ``.meas``/``.measure`` lines (ngspice prints their results).
 
     Raises:
-        NetlistError: an included file cannot be read, or ``.include`` is used without
-            a scratch folder.
+        NetlistError: what circuitnsds's reader refuses (an included file that cannot be
+            read, an unclosed quote, ...), at file:line.
     """
     overrides = overrides or DiodeOverrides()
-    if isinstance(source, Path) or "\n" not in source:
-        path = Path(source)
-        text, base, name = _read(path, None), path.resolve().parent, str(path)
-    else:
-        text, base, name = source, Path.cwd(), "<text>"
+    netlist = _circuit_statements(source)
     translation = Translation("", ammeters={name.lower() for name in ammeters}, ltspice=ltspice,
                               off_resistance=off_resistance, measures=measures)
-    lines = physical_lines(text)
-    if not lines:
-        raise NetlistError("the netlist is empty", where=name)
-    body = _translate_lines(lines[1:], _Context(base, name, overrides, step, stop, scratch, translation))
+    context = _Context(overrides, step, stop, translation)
+    body: list[str] = []
+    for statement in netlist.statements:
+        body.extend(_translate_statement(statement, context))
+    if netlist.control_blocks:
+        translation.notes.append(f"{len(netlist.control_blocks)} .control block(s) removed")
+    if netlist.included:
+        translation.notes.append(f"{len(netlist.included)} included file(s) inlined")
     if not translation.has_tran:
         if step is None or stop is None:
-            raise NetlistError("no .tran line", where=name,
+            raise NetlistError("no .tran line", where=netlist.file,
                                hint="add .tran TSTEP TSTOP, or give the step and the stop time")
         body.append(f".tran {step:.12g} {stop:.12g}")
         translation.notes.append(f"added .tran {step:g} {stop:g}")
     if options.strip():
-        body.append(f".options {options.strip()}")
-    body.append(".save all" + "".join(f" {vector}" for vector in saves))
+        body.append(f".options {_one_line(options.strip())}")
+    body.append(".save all" + "".join(f" {_one_line(vector)}" for vector in saves))
     body.append(".end")
-    translation.text = "\n".join([lines[0]] + body) + "\n"
+    translation.text = "\n".join([safe_title(netlist.title)] + body) + "\n"
     return translation
 
 
-def _read(path: Path, where: str | None) -> str:
-    try:
-        return path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise NetlistError(f"cannot read {path}: {exc.strerror or exc}", where=where or str(path),
-                           hint="check the path (relative paths are relative to the including "
-                           "file)") from None
+def safe_title(title: str) -> str:
+    """The title line of the ngspice deck: ``circuitnsds compare: TITLE``, which cannot start
+    ngspice's script mode (``*ng_script``) or hold a line break."""
+    return _one_line(f"circuitnsds compare: {title}".strip())
+
+
+def _one_line(text: str) -> str:
+    """``text`` with any line break (or other control character) made a blank."""
+    return "".join(" " if ord(char) < 32 or ord(char) == 127 else char for char in text)
+
+
+def _circuit_statements(source: str | Path) -> Netlist:
+    """The netlist as circuitnsds's reader sees it: statements outside ``.control`` blocks,
+    comments removed, includes inlined."""
+    if isinstance(source, Path) or "\n" not in source:
+        return expand_includes(read_netlist_file(source))
+    return expand_includes(parse_netlist(source), Path.cwd())
+
+
+#: Dot commands of a circuit that reach ngspice; any other is removed (with a note).
+CIRCUIT_COMMANDS = frozenset(
+    {".model", ".subckt", ".ends", ".param", ".func", ".global", ".ic", ".nodeset", ".options",
+     ".option", ".opt", ".temp", ".tran", ".meas", ".measure"}
+)
 
 
 @dataclass(frozen=True)
 class _Context:
-    """What translating one file needs: where it is (``base`` folder, ``name`` for messages),
-    the settings of the whole translation, and the :class:`Translation` being filled in."""
+    """The settings of the whole translation and the :class:`Translation` being filled in."""
 
-    base: Path
-    name: str
     overrides: DiodeOverrides
     step: float | None
     stop: float | None
-    scratch: Path | None
     translation: Translation
 
 
-def _translate_lines(lines: list[str], context: _Context) -> list[str]:
-    name, overrides, translation = context.name, context.overrides, context.translation
-    step, stop = context.step, context.stop
-    out: list[str] = []
-    in_control = False
-    for line in logical_lines(lines):
-        physical, logical = list(line.physical), line.text
-        if not logical:
-            if not in_control:
-                out.extend(physical)
-            continue
-        keyword = logical.split()[0].lower() if logical.split() else ""
-        if in_control:
-            in_control = keyword != ".endc"
-            continue
-        if keyword == ".control":
-            in_control = True
-            translation.notes.append(f"{name}: .control block removed")
-            continue
-        if keyword == ".end":
-            break
-        if keyword in {".meas", ".measure"} and translation.measures:
-            out.extend(physical)
-            continue
-        if keyword in DROPPED_COMMANDS:
-            translation.notes.append(f"{name}: {keyword} removed")
-            continue
-        if keyword == ".model":
-            out.append(_model(logical, overrides, translation, name) or "\n".join(physical))
-            continue
-        if keyword == ".tran":
-            translation.has_tran = True
-            out.append(_tran(logical, step, stop))
-            continue
-        if keyword[:1] == "d" and keyword in translation.ammeters:
-            out.extend(_ammeter(logical))
-            continue
-        if keyword in {".include", ".inc", ".lib"}:
-            out.append(_include(logical, context))
-            continue
-        out.extend(physical)
-    return out
+def _translate_statement(statement: Statement, context: _Context) -> list[str]:
+    """The ngspice line(s) for one statement circuitnsds read (none for a removed command)."""
+    translation, keyword, text = context.translation, statement.keyword, _one_line(statement.text)
+    where = str(statement.location)
+    if keyword in {".meas", ".measure"} and translation.measures:
+        return [text]
+    if keyword in DROPPED_COMMANDS:
+        translation.notes.append(f"{where}: {keyword} removed")
+        return []
+    if keyword == ".model":
+        return [_model(text, context.overrides, translation, where) or text]
+    if keyword == ".tran":
+        translation.has_tran = True
+        return [_tran(text, context.step, context.stop)]
+    if keyword.startswith(".") and keyword not in CIRCUIT_COMMANDS:
+        translation.notes.append(f"{where}: {keyword} removed (not a circuit line for ngspice)")
+        return []
+    if not keyword.startswith(".") and not keyword[:1].isalpha():
+        translation.notes.append(f"{where}: {keyword} removed (not an element)")
+        return []
+    if keyword[:1] == "d" and keyword in translation.ammeters:
+        return _ammeter(text)
+    return [text]
 
 
 def _model(logical: str, overrides: DiodeOverrides, translation: Translation, name: str) -> str | None:
@@ -328,33 +331,6 @@ def _tran(logical: str, step: float | None, stop: float | None) -> str:
     if stop is not None and len(numbers) > 1:
         tokens[tokens.index(numbers[1], 2)] = f"{stop:.12g}"
     return " ".join(tokens)
-
-
-def _include(logical: str, context: _Context) -> str:
-    """Translate an included file into ``context.scratch`` and point the line at it."""
-    base, name, scratch, translation = context.base, context.name, context.scratch, context.translation
-    parts = logical.split(None, 1)
-    keyword, argument = parts[0], parts[1].strip() if len(parts) > 1 else ""
-    if keyword.lower() == ".lib" and len(argument.split()) < 2 and not argument.startswith(("'", '"')):
-        return logical  # `.lib SECTION` opens a section inside a library file
-    quoted = re.match(r"""^(['"])(.*?)\1\s*(.*)$""", argument)
-    if quoted:
-        target, section = quoted.group(2), quoted.group(3)
-    else:
-        target, _, section = argument.partition(" ")
-    path = Path(target).expanduser()
-    if not path.is_absolute():
-        path = base / path
-    if scratch is None:
-        raise NetlistError(f"{keyword} needs a scratch folder for the translated file",
-                           where=name, hint="pass scratch=Path(...) to translate_netlist")
-    text = _read(path, f"{name}: {keyword} {target}")
-    body = _translate_lines(physical_lines(text), replace(context, base=path.resolve().parent,
-                                                          name=str(path)))
-    copy = scratch / f"{len(translation.includes) + 1}_{path.name}"
-    copy.write_text("\n".join(body) + "\n", encoding="utf-8")
-    translation.includes.append(copy)
-    return f'{keyword} "{copy}"' + (f" {section.strip()}" if section.strip() else "")
 
 
 def ngspice_vector(signal: str) -> tuple[str, str | None]:

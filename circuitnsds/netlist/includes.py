@@ -10,7 +10,8 @@
   (the PSpice form that vendors' netlists use).
 
 Paths are relative to the directory of the file that names them (the current
-directory for netlist text); quotes around a path (``"my models.lib"``) are allowed
+directory for netlist text); ``~/`` at the start of a path is the user's home folder
+(``$HOME``), as in ngspice; quotes around a path (``"my models.lib"``) are allowed
 and the path keeps its case. Included files may include others; a file (or library
 section) that includes itself, directly or not, is an error naming the chain.
 """
@@ -111,7 +112,7 @@ class _Expander:
                 stack: list[_Open]) -> list[Statement]:
         """The statements of file ``name`` (or of its library ``section``), expanded."""
         keyword = statement.keyword
-        path = directory / name
+        path = directory / _home_expanded(name)
         shown = os.path.normpath(str(path))
         if not path.exists() or path.is_dir():  # a device or pipe is read (bounded) and judged
             problem = "is a directory" if path.is_dir() else "not found"
@@ -135,6 +136,12 @@ class _Expander:
         if section is not None:
             statements = _section(statements, section, statement, shown)
         return self.expand(statements, path.parent, [*stack, opened])
+
+
+def _home_expanded(name: str) -> Path:
+    """``~/m.lib`` (and ``~user/m.lib``) in the user's home folder, as ngspice reads it
+    (``$HOME``); any other name as written (``./~/m.lib`` is in a folder named ``~``)."""
+    return Path(os.path.expanduser(name))  # not Path.expanduser: Path("./~") is Path("~")
 
 
 def _section(statements: list[Statement], section: str, statement: Statement, shown: str) -> list[Statement]:

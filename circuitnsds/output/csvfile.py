@@ -19,6 +19,7 @@ Python's ``float``, numpy and pandas read). Two writers produce the same bytes:
 from __future__ import annotations
 
 import io
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -186,6 +187,7 @@ class CsvStream:
         self._pending: _Background | None = None
         self._scratch: dict[str, np.ndarray] = {}  # the writer's buffers (one chunk at a time)
         self._stack = ExitStack()
+        self._temporary: Path | None = None  # the file written, renamed over target by commit
         try:
             with writing(target):
                 if hasattr(target, "write"):
@@ -193,6 +195,7 @@ class CsvStream:
                 else:
                     temporary = self._stack.enter_context(atomic_path(target))
                     self._stream = self._stack.enter_context(open(temporary, "wb"))
+                    self._temporary = temporary
                 labels = [f'"{name}"' if "," in name else name for name in self.names]
                 write_header(self._stream, labels)
         except BaseException as exc:
@@ -236,10 +239,18 @@ class CsvStream:
                 self._pending = None
                 pending.raise_failure()
 
-    def commit(self) -> None:
-        """Finish writing and put the file in place (an open stream is flushed)."""
+    def commit(self, note: str | None = None) -> None:
+        """Finish writing and put the file in place (an open stream is flushed).
+
+        ``note``: a partial result's marker, written as a first line ``# note`` above the
+        header (a file only: rows already sent to a stream cannot be preceded).
+        """
         try:
             self._wait()
+            if note is not None and self._temporary is not None:
+                with writing(self.target):
+                    self._stream.flush()
+                    prepend_line(self._temporary, f"# {note}\n")
         except BaseException:
             self.abort()
             raise
@@ -269,6 +280,26 @@ class CsvStream:
                        signals={name: joined([c[j] for _, c, _ in self._chunks])
                                 for j, name in enumerate(self.names)},
                        residual=joined(residuals) if residuals else template.residual)
+
+
+def prepend_line(path: Path, line: str) -> None:
+    """Put ``line`` before the content of file ``path`` (a copy renamed over it; on any
+    failure, interruption included, the copy is removed and ``path`` is unchanged)."""
+    import shutil
+
+    copy = path.with_name(path.name + ".marked")
+    try:
+        with open(path, "rb") as source, open(copy, "wb") as target:
+            target.write(line.encode("utf-8"))
+            shutil.copyfileobj(source, target, 2**22)
+        shutil.copymode(path, copy)
+        os.replace(copy, path)
+    except BaseException:
+        try:
+            os.unlink(copy)
+        except OSError:
+            pass
+        raise
 
 
 class _Background:
