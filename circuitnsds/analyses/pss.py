@@ -250,7 +250,7 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
                            "--step, --warmup)") from None
     _check_memory(circuit, mlcs, grid, whole)
 
-    check_initial_conditions(circuit, circuit._resolved(defaults), uic)
+    check_initial_conditions(circuit, circuit.resolved_elements(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
     try:

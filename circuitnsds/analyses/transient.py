@@ -371,7 +371,7 @@ def _run_transient(
             f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
             f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
             stacklevel=2)
-    check_initial_conditions(circuit, circuit._resolved(spec.source_defaults), uic)
+    check_initial_conditions(circuit, circuit.resolved_elements(spec.source_defaults), uic)
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)

@@ -170,7 +170,7 @@ class Circuit:
                 "write circuit.mlcs(SourceDefaults(step=TSTEP, stop=TSTOP)) "
                 "(the mlcs(step, stop) form was removed)"
             )
-        resolved = self._resolved(defaults)
+        resolved = self.resolved_elements(defaults)
         check_source_timing(resolved, defaults.stop)
         builder = MLCSBuilder(self.nodes)
         with np.errstate(all="ignore"):
@@ -204,8 +204,10 @@ class Circuit:
 
         return analyse_circuit(self, step, states=states, theta=theta)
 
-    def _resolved(self, defaults: SourceDefaults) -> list[Element]:
-        """Elements with their source functions' analysis-dependent defaults filled in."""
+    def resolved_elements(self, defaults: SourceDefaults) -> list[Element]:
+        """The elements, each source function's analysis-dependent defaults (``defaults``:
+        the analysis's step and stop) filled in: what the initial-condition checks of a
+        time-domain analysis read."""
         resolved = []
         for element in self.elements:
             function = getattr(element, "function", None)

@@ -564,10 +564,10 @@ def _selected(args: argparse.Namespace, waves):
     extra = {}
     for name in _signal_names(args.signals or ""):
         if name.startswith("v(") and "," in name and name not in waves:
-            from circuitnsds.output.measure import MeasurementError, _series
+            from circuitnsds.output.measure import MeasurementError, series
 
             try:
-                extra[name] = _series(waves, name)[1]
+                extra[name] = series(waves, name)[1]
             except MeasurementError as exc:
                 raise CircuitError(exc.message, where="--signals", hint=exc.hint) from None
     every = getattr(args, "every", 1)

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from circuitnsds.output.measure import MeasurementError, _series, window
+from circuitnsds.output.measure import MeasurementError, series, window
 from circuitnsds.output.waveforms import Waveforms
 
 
@@ -58,9 +58,9 @@ def crossing_time(waves: Waveforms, condition) -> float:
     """The instant [s] where ``condition`` holds (NaN if it never does)."""
     if condition.at is not None:
         return float(condition.at)
-    time, values = _series(waves, condition.signal)
+    time, values = series(waves, condition.signal)
     if isinstance(condition.level, str):
-        values = values - _series(waves, condition.level)[1]
+        values = values - series(waves, condition.level)[1]
         level = 0.0
     else:
         level = float(condition.level)
@@ -96,14 +96,14 @@ def crossing_time(waves: Waveforms, condition) -> float:
 
 
 def _value_at(waves: Waveforms, signal: str, instant: float) -> float:
-    time, values = _series(waves, signal)
+    time, values = series(waves, signal)
     if not time[0] <= instant <= time[-1]:
         return math.nan
     return float(np.interp(instant, time, values))
 
 
 def _slope_at(waves: Waveforms, signal: str, instant: float) -> float:
-    time, values = _series(waves, signal)
+    time, values = series(waves, signal)
     if not time[0] <= instant <= time[-1]:
         return math.nan
     k = int(np.clip(np.searchsorted(time, instant, side="right") - 1, 0, time.size - 2))
@@ -132,7 +132,7 @@ def _failed(spec) -> MeasureResult:
 def _run(spec, waves: Waveforms) -> MeasureResult:
     kind = spec.kind
     if kind not in {"when", "find", "deriv", "trig"}:  # AVG RMS MIN MAX PP INTEG MIN_AT MAX_AT
-        time, values = _series(waves, spec.signal)
+        time, values = series(waves, spec.signal)
         start = max(spec.delay, spec.start if spec.start is not None else time[0])
         stop = spec.stop if spec.stop else time[-1]
         inside = (time >= start) & (time <= stop)

@@ -44,8 +44,15 @@ def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
     return float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(t)))
 
 
-def _series(source: Waveforms | np.ndarray, signal: str | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(time, values)`` from a Waveforms and a name, or from two arrays."""
+def series(source: Waveforms | np.ndarray, signal: str | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(time [s], values)`` of ``signal``: from a :class:`Waveforms` and a signal's name
+    (``v(a,b)`` the difference of two node voltages, as in SPICE), or from two arrays
+    (``source`` the time, ``signal`` the values). The reader every measurement and the CLI's
+    extra columns use.
+
+    Raises:
+        MeasurementError: ``source`` holds no signal of that name.
+    """
     if isinstance(source, Waveforms):
         if not isinstance(signal, str):
             raise TypeError("with a Waveforms, give the signal by name, e.g. 'v(out)'")
@@ -84,7 +91,7 @@ def window(
     Returns:
         ``(time, values)``, both starting at ``t0`` and ending at ``t1``.
     """
-    time, values = _series(source, signal)
+    time, values = series(source, signal)
     start, stop = float(time[0]), float(time[-1])
     t0 = start if t0 is None else float(t0)
     t1 = stop if t1 is None else float(t1)
