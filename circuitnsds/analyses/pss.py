@@ -22,8 +22,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from circuitnsds.analyses.advice import advise
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.analyses.transient import _waveforms, advise, refuse_beyond_memory
+from circuitnsds.analyses.transient import _waveforms, refuse_beyond_memory
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate, trajectory_bytes

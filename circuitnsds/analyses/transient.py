@@ -10,8 +10,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
+from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
@@ -384,9 +385,9 @@ def _run_transient(
                                state.switches, theta=theta, tol=tol, progress=progress,
                                stepping=stepping)
     except SimulationError as exc:
-        _word(exc)
+        word_unknowns(exc)
         advise(exc)
-        _diagnose(exc, circuit, mlcs, grid, theta)
+        diagnose(exc, circuit, mlcs, grid, theta)
         if exc.trajectory is not None:
             exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
         raise
@@ -543,29 +544,6 @@ def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
         warnings.warn(message, CircuitWarning, stacklevel=3)
 
 
-UNSTABLE = ("the circuit is unstable (a negative resistance, or controlled sources with a loop gain "
-            "above 1)")
-"""What a state that overflows says about the circuit."""
-
-ADVICE = {
-    SimulationError.STEP_NOT_FINITE: "check the step (--step, .tran TSTEP) and the capacitor and inductor "
-                                     "values",
-    SimulationError.STATE_NOT_FINITE: f"{UNSTABLE} or a value overflowed; the waveforms before that instant "
-                                      "are kept",
-    SimulationError.SOURCE_NOT_FINITE: "check the source's parameters (a zero time constant or period, an "
-                                       "overflow)",
-    SimulationError.STEP_MAP_SINGULAR: "a node is left floating in that mode (every diode at it blocks): add "
-                                       "a resistor to ground, or a diode off-resistance (Roff)",
-}
-"""The hint of an engine error by its ``cause`` (a failed step's comes from :func:`_diagnose`)."""
-
-
-def advise(error: SimulationError) -> None:
-    """Give an engine error the hint of its ``cause`` (:data:`ADVICE`) unless it has one: what
-    every analysis that runs the engine does with its errors."""
-    error.hint = error.hint or ADVICE.get(error.cause)
-
-
 def _resolving_step(circuit: Circuit, tstep: float, stop: float) -> tuple[float, str] | None:
     """``(largest step that resolves every SIN/PULSE source [s], the source that needs it)``,
     ``None`` when no source constrains the step."""
@@ -598,62 +576,6 @@ def _decimated(trajectory, every: float, breakpoints: np.ndarray):
                    current=trajectory.current[index], impulse=impulse, residual=residual,
                    active=trajectory.active[index], switches=trajectory.switches[index],
                    tails={}), index
-
-
-HUGE = 1e100
-"""A state beyond this magnitude [V or A] before a failed step means the circuit blew up."""
-
-
-def _reader_name(unknown: str) -> str:
-    """``v(a)`` -> ``node a``, ``i(v1)`` -> ``source v1``: an MNA unknown as the reader knows it."""
-    return unknown.replace("v(", "node ").replace("i(", "source ").rstrip(")")
-
-
-def _word(error: SimulationError) -> None:
-    """Name the unknowns an engine error refers to (``error.unknowns``) as the reader knows them."""
-    for unknown in error.unknowns:
-        error.message = error.message.replace(unknown, _reader_name(unknown))
-
-
-ANALYSE_LIMIT = 3000
-"""Largest number of unknowns and pairs whose failed step is analysed (the well-posedness
-analysis works on dense matrices)."""
-
-
-def _diagnose(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:
-    """The hint of a failed step: the well-posedness analysis of that step's LCP."""
-    from circuitnsds.checks.wellposed import analyse, forced_currents
-
-    interval = error.step_interval
-    if interval is None:
-        return
-    error.hint = (f"devices: {', '.join(dict.fromkeys(mlcs.pair_devices))}; look for a diode (or "
-                  "Zener) that no current can pass in either state, e.g. in series with a current source")
-    t0, t1 = interval
-    ill = ill_conditioning(circuit.elements, t1 - t0)
-    if ill is not None:  # the values, not the devices' states, are the trouble
-        error.hint = ill
-        return
-    trajectory = error.trajectory
-    if trajectory is not None and np.abs(trajectory.y[-1]).max(initial=0.0) > HUGE:
-        error.hint = (f"the state reached {np.abs(trajectory.y[-1]).max():.3g} before this step: {UNSTABLE}; "
-                      "the waveforms before that instant are kept")
-        return
-    states = error.switch_states
-    if mlcs.n + mlcs.m > ANALYSE_LIMIT:  # the analysis is dense: keep the devices' hint
-        return
-    try:
-        analysis = analyse(mlcs, t1 - t0, None if states is None else tuple(states),
-                           1.0 if t0 == grid[0] else theta)
-    except CircuitError:  # the step's matrices are not finite: keep the hint as it is
-        return
-    analysis.forced = forced_currents(circuit, analysis.switch_states)
-    if analysis.verdict in {"P", "none"} and not analysis.forced:
-        error.hint = ("this step's LCP has a P-matrix (or no pairs), so it has exactly one solution: "
-                      "the solver failed numerically; try another step size (--step) and please "
-                      "report it")
-    else:
-        error.hint = f"this step's LCP: {analysis.summary()}"
 
 
 def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
@@ -849,8 +771,8 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
                                    **options)
         except (SimulationError, KeyboardInterrupt) as exc:
             if isinstance(exc, SimulationError):
-                _word(exc)
-                _diagnose(exc, circuit, mlcs, grid, options["theta"])
+                word_unknowns(exc)
+                diagnose(exc, circuit, mlcs, grid, options["theta"])
             if getattr(exc, "trajectory", None) is not None and exc.trajectory.time.size:
                 keep(exc.trajectory, 0 if first == 0 else 1)
             exc.partial = result()
