@@ -24,7 +24,8 @@ import numpy as np
 
 from circuitnsds.analyses.advice import advise
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.analyses.transient import _waveforms, refuse_beyond_memory
+from circuitnsds.analyses.signals import trajectory_waveforms
+from circuitnsds.analyses.transient import refuse_beyond_memory
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate, trajectory_bytes
@@ -448,7 +449,7 @@ class _Shooter:
         # the period's end, which is the same instant of the periodic solution
         run.y[0] = run.y[-1]
         run.current[0] = run.current[-1]
-        waves = _waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1], periodic=True)
+        waves = trajectory_waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1], periodic=True)
         waves.stats.update(analysis="pss", iterations=self.iterations)
         names = [self.mlcs.unknowns[j] for j in maps.state]
         return PSSResult(waveforms=waves, period=self.period, t0=float(run.time[0]), state_names=names,

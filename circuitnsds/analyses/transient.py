@@ -12,15 +12,17 @@ import numpy as np
 
 from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
 from circuitnsds.analyses.operating_point import operating_point, uic_state
+from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
+from circuitnsds.circuit.elements import CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.lazy import is_loaded_instance
-from circuitnsds.output.waveforms import LazySignals, Waveforms
+from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import TransientSpec
+from circuitnsds.system.output_rows import largest_rows, output_values, signal_terms
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
 from circuitnsds.theta import theta_in_range
 
@@ -110,7 +112,7 @@ def _diode_peaks(circuit: Circuit, mlcs, trajectory,
     :func:`_fitted_peaks` gives from the waveforms, the same numbers), taken together with
     ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
     current is computed only at the rows where its largest value (or, for the reverse peak,
-    its largest negated value) can be (:func:`_largest_rows`)."""
+    its largest negated value) can be (:func:`largest_rows`)."""
     from circuitnsds.circuit.elements import Diode
 
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
@@ -123,70 +125,16 @@ def _diode_peaks(circuit: Circuit, mlcs, trajectory,
             largest = []
             for sign in (1.0, -1.0):  # forward, reverse
                 terms = [(source, column, sign * weight)
-                         for source, column, weight in _signal_terms(mlcs, row)]
-                where = _largest_rows(terms, trajectory, bounds)
+                         for source, column, weight in signal_terms(mlcs, row)]
+                where = largest_rows(terms, trajectory, bounds)
                 states, currents = trajectory.y, trajectory.current
                 if where is not None:
                     states, currents = states[where], currents[where]
-                current = _output_values(terms, states, currents) / element.area
+                current = output_values(terms, states, currents) / element.area
                 largest.append(float(current.max(initial=0.0)))
             forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
             peaks[element.model.name] = (max(forward, largest[0]), max(reverse, largest[1]))
     return peaks
-
-
-def _signal_terms(mlcs, row: int) -> list[tuple[int, int, float]]:
-    """``(source, column, weight)`` of each term of output ``row`` (``mlcs.output_names``), in
-    stamped order: ``source`` 0 for the unknowns ``y``, 1 for the pair currents."""
-    return [(source, column, weight)
-            for source, matrix in enumerate((mlcs.Y_out, mlcs.L_out))
-            for column, weight in zip(*matrix.row(row))]
-
-
-def _output_values(terms: list[tuple[int, int, float]], states: np.ndarray,
-                   currents: np.ndarray) -> np.ndarray:
-    """The output of ``terms`` (:func:`_signal_terms`) at each row of ``states`` (unknowns) and
-    ``currents`` (pair currents): the sum of its weighted columns, in stamped order."""
-    if len(terms) == 1:  # most signals: one scaled column, no zeros array to fault in
-        source, column, weight = terms[0]
-        values = weight * (states, currents)[source][:, column]
-        values += 0.0  # (a zero is +0.0, as the sum below makes it)
-        return values
-    values = np.zeros(states.shape[0])
-    for source, column, weight in terms:
-        values += weight * (states, currents)[source][:, column]
-    return values
-
-
-def _largest_rows(terms: list[tuple[int, int, float]], trajectory,
-                  bounds: dict[int, float]) -> np.ndarray | None:
-    """Rows of ``trajectory`` among which :func:`_output_values` of ``terms`` takes its largest
-    value (ties included), or ``None`` (every row) when they are not few.
-
-    The term of largest magnitude (a diode's pair current; the others are its off-conductance
-    times node voltages, ~1e-10 A) is computed; every other term is bounded by the largest
-    ``|y|`` or ``|current|`` times its weight (``bounds`` keeps those, per trajectory), their
-    sum ``B``. A row whose main term is more than ``2(B + δ)`` below the main term's largest
-    value (``δ``: the rounding of the products and of the sum, a few ulps of ``B`` plus that
-    largest value for each term) is below the row holding it whatever its other terms are:
-    it cannot hold the maximum. The margin taken is 2.5(B + δ)."""
-    def bound(source: int) -> float:
-        if source not in bounds:
-            array = (trajectory.y, trajectory.current)[source]
-            bounds[source] = max(float(array.max(initial=0.0)), -float(array.min(initial=0.0)))
-        return bounds[source]
-
-    sizes = [abs(float(weight)) * bound(source) for source, _, weight in terms]
-    main = int(np.argmax(sizes))
-    source, column, weight = terms[main]
-    others = sum(sizes) - sizes[main]
-    values = weight * (trajectory.y, trajectory.current)[source][:, column]
-    if values.size == 0 or not np.isfinite(others):
-        return None
-    high = float(values.max())
-    rounding = 4 * len(terms) * np.finfo(float).eps * (abs(high) + sizes[main] + others)
-    where = np.flatnonzero(values >= high - 2.5 * (others + rounding))
-    return where if where.size <= values.size // 4 else None
 
 
 FIT_DROP_TOLERANCE = 0.02
@@ -389,25 +337,27 @@ def _run_transient(
         advise(exc)
         diagnose(exc, circuit, mlcs, grid, theta)
         if exc.trajectory is not None:
-            exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
+            exc.partial = _partial(trajectory_waveforms(circuit, mlcs, exc.trajectory, start, stop),
+                                   signals, sink)
         raise
     except KeyboardInterrupt as exc:  # the waveforms so far, for the caller to write
         if getattr(exc, "trajectory", None) is not None:
-            exc.partial = _partial(_waveforms(circuit, mlcs, exc.trajectory, start, stop), signals, sink)
+            exc.partial = _partial(trajectory_waveforms(circuit, mlcs, exc.trajectory, start, stop),
+                                   signals, sink)
         raise
     fluxes = _cut_inductors(mlcs, trajectory)  # on every step, before any decimation
     full_trajectory = trajectory
     flows = None
     if report_step is not None:
         full_time = trajectory.time
-        every_step = _waveforms(circuit, mlcs, trajectory, full_time[0], stop)
+        every_step = trajectory_waveforms(circuit, mlcs, trajectory, full_time[0], stop)
         capacitors = [name for name in every_step.names if name not in mlcs.output_names]
         trajectory, kept = _decimated(trajectory, report_step, breakpoints)
         # a capacitor's current at a reported point is that of the step into it, as every
         # other signal is its value there (not ΔQ/Δt between reported points: KCL would fail)
         flows = {name: np.asarray(every_step[name])[kept] for name in capacitors}
         fluxes = {name: _onto(flux, full_time, trajectory.time) for name, flux in fluxes.items()}
-    waves = _waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
+    waves = trajectory_waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if note_fits:
@@ -578,85 +528,6 @@ def _decimated(trajectory, every: float, breakpoints: np.ndarray):
                    tails={}), index
 
 
-def _waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop: float, *,
-               periodic: bool = False, flows: dict[str, np.ndarray] | None = None) -> Waveforms:
-    """Output signals of ``trajectory`` from ``start`` on (each computed when first read).
-
-    ``periodic``: the trajectory is one period of a periodic solution (its first and last
-    points are the same instant), so the step into the first point is the last one.
-    ``flows``: the capacitor currents [A] at each point of ``trajectory`` when it is a
-    decimated run (the step before a point is not in it); else ΔQ/Δt of its steps."""
-    first = int(np.searchsorted(trajectory.time, start - 1e-12 * stop))
-    y, current = trajectory.y[first:], trajectory.current[first:]
-    rows = {name: j for j, name in enumerate(mlcs.output_names)}
-    time = trajectory.time[first:]
-    # capacitor currents ΔQ/Δt of each step (charge-consistent: their integral is the charge
-    # the capacitor took), from n1 through the capacitor to n2; at the first point the step
-    # before it (0 at the start of a run; the period's last step for a periodic one)
-    before = max(first - 1, 0)
-    capacitors = {f"i({e.name})": e for e in circuit.elements if isinstance(e, Capacitor)
-                  and f"i({e.name})" not in rows}
-
-    def voltage(node: str) -> np.ndarray:
-        # (_row, not signal: closures calling each other would be a reference cycle that
-        # keeps the trajectory alive until the garbage collector runs, a segment's worth of
-        # memory each time in a run that keeps only some signals)
-        return np.zeros(time.size) if node == "0" else _row(f"v({node})", y, current)
-
-    def signal(name: str) -> np.ndarray:
-        if name in capacitors and flows is not None:
-            return flows[name][first:]
-        if name in capacitors:
-            element = capacitors[name]
-            charge = element.capacitance * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
-            flow = np.zeros(time.size)
-            flow[1:] = np.diff(charge) / np.diff(time)
-            tails = trajectory.tails
-            # a point ending a split step holds the state of its last part: the current of
-            # that part there (KCL holds with the other currents, which are that part's too)
-            for point, (y_start, length) in tails.items():
-                if point >= first:
-                    flow[point - first] = (charge[point - first] - charge_at(
-                        element, y_start[None, :], trajectory.current[point:point + 1])) / length
-            if periodic and time.size > 1:
-                flow[0] = flow[-1]
-            elif first > 0 and first not in tails:
-                step = time[0] - trajectory.time[before]
-                flow[0] = (charge[0] - charge_at(element, trajectory.y[before:first],
-                                                 trajectory.current[before:first])) / step
-            return flow
-        return _row(name, y, current)
-
-    def charge_at(element: Capacitor, states: np.ndarray, currents: np.ndarray) -> float:
-        """The capacitor's charge [C] (n1 over n2) at one point: ``states``/``currents`` one row."""
-        v = [0.0 if n == "0" else float(_row(f"v({n})", states, currents)[0]) for n in element.nodes[:2]]
-        return element.capacitance * (v[0] - v[1])
-
-    def _row(name: str, states: np.ndarray, currents: np.ndarray) -> np.ndarray:
-        """Signal ``name``: the sum, in stamped order, of its rows' weighted unknowns."""
-        return _output_values(_signal_terms(mlcs, rows[name]), states, currents)
-
-    # each device's impulse (the signed sum of its pairs'), computed when first read: a run
-    # that keeps some signals reads none (0.09 s per segment of the 1,000-pair ladder)
-    pairs_of: dict[str, list[tuple[int, float]]] = {}
-    for j, (device, sign) in enumerate(zip(mlcs.pair_devices, mlcs.pair_signs)):
-        pairs_of.setdefault(device, []).append((j, sign))
-    impulse = trajectory.impulse[first:]
-
-    def impulse_of(device: str) -> np.ndarray:
-        total = 0.0
-        for j, sign in pairs_of[device]:
-            total = total + sign * impulse[:, j]
-        return total
-
-    stats = dict(trajectory.stats, unknowns=mlcs.n, pairs=mlcs.m)
-    return Waveforms(time=time, signals=LazySignals([*mlcs.output_names, *capacitors], signal),
-                     impulses=LazySignals(pairs_of, impulse_of), residual=trajectory.residual[first:],
-                     title=circuit.title,
-                     stats=stats, events=[event for event in trajectory.events
-                                          if event.time >= trajectory.time[first]])
-
-
 SEGMENT_BYTES = 256 * 2**20
 """Memory the per-step arrays of one segment of a run that keeps only some signals may take
 [bytes] (see :func:`_kept_signals`)."""
@@ -726,7 +597,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     written = [0]
 
     def keep(trajectory, first: int) -> None:
-        waves = _waveforms(circuit, mlcs, trajectory, grid[0], stop)
+        waves = trajectory_waveforms(circuit, mlcs, trajectory, grid[0], stop)
         _diode_peaks(circuit, mlcs, trajectory, peaks)
         _mosfet_drives(circuit, mlcs, trajectory, drives)
         if sink is not None:
