@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import circuitnsds
 import circuitnsds.analyses.transient as transient
 from circuitnsds.analyses.signals import trajectory_waveforms
+from circuitnsds.circuit.elements.diode_notes import diode_peaks
 from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.output.csvfile import write_rows
@@ -88,10 +89,10 @@ def test_largest_rows_hold_the_largest_value(data, rows, small):
 
 
 def test_diode_peaks_are_those_of_the_waveforms():
-    """A run's fitted-diode forward and reverse peaks from the rows where they can be (the segments'
-    path) are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a
-    diode whose current is one pair's and a Zener whose current is two pairs' (each plus its
-    off-conductance's)."""
+    """A run's fitted-diode forward and reverse peaks from the rows where they can be (what the
+    diode's run-time observer computes) are those read from its waveforms (the reference,
+    :func:`_fitted_peaks`), for a diode whose current is one pair's and a Zener whose current
+    is two pairs' (each plus its off-conductance's)."""
     circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
     spec = transient.transient_spec(circuit)
     mlcs = circuit.mlcs(spec.source_defaults)
@@ -107,10 +108,11 @@ def test_diode_peaks_are_those_of_the_waveforms():
     assert pairs == {"d1": 1, "d2": 2}
     # the diode's current is computed at a few rows; the Zener's whole (its two pairs' currents
     # are amperes each: no term is the main one)
-    kept = [largest_rows(signal_terms(mlcs, mlcs.output_names.index(name)),
-                                    trajectory, {}) for name in ("i(d1)", "i(d2)")]
+    kept = [largest_rows(signal_terms(mlcs, mlcs.output_names.index(name)), trajectory, {})
+            for name in ("i(d1)", "i(d2)")]
     assert kept[0].size < 20 and kept[1] is None
-    peaks = transient._diode_peaks(circuit, mlcs, trajectory, {})
+    diodes = [e for e in circuit.elements if e.name in ("d1", "d2")]
+    peaks = diode_peaks(diodes, mlcs, trajectory, {})
     assert peaks == reference
 
 

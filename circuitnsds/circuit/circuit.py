@@ -228,6 +228,7 @@ class Circuit:
         tol: float = 1e-9,
         progress: Callable[[float, float], None] | None = None,
         stepping: str = "auto",
+        method: str | None = None,
         signals: Sequence[str] | None = None,
         sink=None,
     ):
@@ -254,6 +255,9 @@ class Circuit:
                 Python, ``"mlcp"`` not at all: every step is solved as a complementarity
                 problem. All compute the same scheme (results agree to rounding); the
                 last three are for checking and timing the paths.
+            method: the integration method (a stepper registered in
+                :data:`circuitnsds.engine.stepper.STEPPERS`; default: ``.options method``,
+                else ``"theta"``, the θ-method, the only one today).
             signals: keep only these signals (e.g. ``["v(out)"]``; default: every signal,
                 computed when first read). The run then goes in segments whose other
                 unknowns are dropped as it goes: memory is bounded by what is kept (a
@@ -275,7 +279,7 @@ class Circuit:
                               theta=theta, uic=uic)
         with self._strictness():
             return run_transient(self, spec, tol=tol, progress=progress, stepping=stepping,
-                                 signals=signals, sink=sink)
+                                 method=method, signals=signals, sink=sink)
 
     def pss(
         self,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -19,12 +20,15 @@ class Element:
         location: netlist file and line, or ``None`` for elements made in Python.
         topology: how the element connects its nodes, for the circuit checks:
             ``conductive`` (R, D), ``capacitor``, ``inductor``, ``voltage``, ``current``.
+        run_observers: factories of the observers a run of a circuit holding this element
+            runs (:mod:`circuitnsds.circuit.observers`: run-time notes of the device).
     """
 
     name: str
     nodes: tuple[str, ...]
     location: SourceLocation | None = None
     topology: ClassVar[str] = "conductive"
+    run_observers: ClassVar[tuple[Callable, ...]] = ()
 
     def stamp(self, builder: MLCSBuilder) -> None:
         """Add this element's entries to the MLCS under construction."""

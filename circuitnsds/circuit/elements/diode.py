@@ -15,9 +15,11 @@ diodes in parallel: ``Ron``, ``Rrev`` and ``Roff`` are divided by it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
+from circuitnsds.circuit.elements.diode_notes import FitRangeObserver
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 
@@ -95,6 +97,7 @@ class Diode(Element):
 
     model: DiodeModel = DiodeModel("ideal")
     area: float = 1.0
+    run_observers: ClassVar[tuple] = (FitRangeObserver.of,)
 
     def stamp(self, builder: MLCSBuilder) -> None:
         anode, cathode = (builder.node(n) for n in self.nodes)
