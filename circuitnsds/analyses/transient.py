@@ -20,7 +20,7 @@ from circuitnsds.circuit.elements import CurrentSource, Diode
 from circuitnsds.circuit.observers import observers_of
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, stepper_class
-from circuitnsds.engine.theta_stepper import LOOPS
+from circuitnsds.engine.theta_stepper import STEPPINGS
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import Waveforms
@@ -164,8 +164,8 @@ def _run_transient(
     if not theta_in_range(theta):
         raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
-    if stepping not in LOOPS:
-        raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, LOOPS))}",
+    if stepping not in STEPPINGS:
+        raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
                            where=circuit.file, hint="\"auto\" (default), \"compiled\", \"numpy\" (the "
                            "same loops in Python) or \"mlcp\" (one complementarity problem per step)")
     if not 0 <= start < stop:

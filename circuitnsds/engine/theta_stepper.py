@@ -1,10 +1,11 @@
 """The θ-method as a stepper (:mod:`circuitnsds.engine.stepper`): one MLCP per grid step,
-steps in a known mode taken by the compiled mode loops (:func:`circuitnsds.engine.integrate.integrate`).
+steps in a known mode taken by the compiled mode loops
+(:func:`circuitnsds.engine.integrate.integrate`).
 
 The θ stepper steps on the grid itself (every step ends at a grid point; a step in which a
 circuit-controlled switch changes state is split at the located instant, and the point at
 its end keeps the last part's state). Its ``loop`` says how the steps whose mode is known
-are taken (:data:`LOOPS`).
+are taken (:data:`~circuitnsds.engine.integrate.STEPPINGS`: ``stepping=`` in the API).
 """
 
 from __future__ import annotations
@@ -13,16 +14,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from circuitnsds.engine.integrate import Segments, Trajectory, integrate, trajectory_bytes
+from circuitnsds.engine.integrate import STEPPINGS, Segments, Trajectory, integrate, trajectory_bytes
 from circuitnsds.engine.step_system import check_theta
 from circuitnsds.engine.stepper import StartState, Stepper
 from circuitnsds.system.mlcs import MLCS
-
-LOOPS = ("auto", "compiled", "numpy", "mlcp")
-"""How the θ stepper takes the steps whose mode is known (``stepping=`` in the API):
-``auto`` (the mode loops, compiled once the steps left are worth it), ``compiled``,
-``numpy`` (the same loops in Python) or ``mlcp`` (every step solved as an MLCP); see
-:func:`~circuitnsds.engine.integrate.integrate`. The results agree to rounding."""
 
 
 class ThetaStepper(Stepper):
@@ -34,7 +29,7 @@ class ThetaStepper(Stepper):
         mlcs: the system.
         theta: θ in [0.5, 1].
         tol: complementarity tolerance of the step solver.
-        loop: one of :data:`LOOPS`.
+        loop: one of :data:`~circuitnsds.engine.integrate.STEPPINGS`.
 
     Raises:
         ValueError: θ out of range or an unknown ``loop``.
@@ -44,8 +39,8 @@ class ThetaStepper(Stepper):
 
     def __init__(self, mlcs: MLCS, *, theta: float = 1.0, tol: float = 1e-9, loop: str = "auto"):
         super().__init__(mlcs)
-        if loop not in LOOPS:
-            raise ValueError(f"stepping must be one of {', '.join(LOOPS)}, got {loop!r}")
+        if loop not in STEPPINGS:
+            raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {loop!r}")
         self.theta, self.tol, self.loop = check_theta(theta), tol, loop
         self.segments: Segments | None = None
         self.whole: np.ndarray | None = None
