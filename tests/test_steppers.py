@@ -108,6 +108,25 @@ def test_an_unknown_method_is_an_error_naming_the_known_ones():
         by_option.transient()
 
 
+class NoPairs(RefinedTheta):
+    """A stepper that integrates only systems without complementarity pairs."""
+
+    name = "nopairs"
+
+    @classmethod
+    def unsuited(cls, mlcs):
+        return f"it has {mlcs.m} complementarity pairs" if mlcs.m else None
+
+
+def test_a_stepper_that_cannot_run_the_circuit_says_why(monkeypatch):
+    monkeypatch.setitem(steppers.STEPPERS, "nopairs", "tests.test_steppers:NoPairs")
+    assert circuitnsds.read_netlist(RC_STEP).transient(method="nopairs").time.size > 10
+    buck = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    with pytest.raises(circuitnsds.CircuitError, match=r"the integration method 'nopairs' cannot run "
+                       r"this circuit: it has 1 complementarity pairs"):
+        buck.transient(stop=1e-5, method="nopairs")
+
+
 def test_ngspices_methods_are_ignored_with_a_warning():
     plain = circuitnsds.read_netlist(RC_STEP).transient()
     with pytest.warns(Warning, match=r"\.options method=gear ignored"):

@@ -254,11 +254,19 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
         CircuitError: an unknown name, or settings the stepper refuses.
     """
     name = method if method is not None else circuit.options.get("method", DEFAULT_STEPPER)
+    hint = ".options method=NAME in the netlist, method= in Python"
     try:
-        return stepper_class(name)(mlcs, **settings)
+        chosen = stepper_class(name)
     except ValueError as exc:
-        raise CircuitError(str(exc), where=circuit.file,
-                           hint=".options method=NAME in the netlist, method= in Python") from None
+        raise CircuitError(str(exc), where=circuit.file, hint=hint) from None
+    reason = chosen.unsuited(mlcs)
+    if reason is not None:
+        raise CircuitError(f"the integration method {chosen.name!r} cannot run this circuit: {reason}",
+                           where=circuit.file, hint=hint)
+    try:
+        return chosen(mlcs, **settings)
+    except ValueError as exc:  # (settings the stepper refuses)
+        raise CircuitError(str(exc), where=circuit.file, hint=hint) from None
 
 
 def _explain(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:

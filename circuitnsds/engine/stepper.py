@@ -6,6 +6,9 @@ of a time grid. The analyses never call a stepper themselves: the driver
 (:func:`circuitnsds.engine.driver.drive`) does, and hands what it returns to a recorder. The
 rules, in the manner of scipy's ``OdeSolver``:
 
+* **Suitability.** ``StepperClass.unsuited(mlcs)``: ``None`` when the stepper can integrate
+  that system, else the reason in words (a stepper exact only for piecewise-linear systems
+  refuses a smooth nonlinear element); the analysis refuses the run with that reason.
 * **Construction.** ``StepperClass(mlcs, theta=..., tol=..., loop=...)``: the system and the
   run's settings, checked here (a ``ValueError`` naming the bad one). Nothing is integrated yet.
 * **The grid belongs to the driver.** Before the first part the driver calls
@@ -23,8 +26,9 @@ rules, in the manner of scipy's ``OdeSolver``:
   of a run cut in parts must be that of the same run in one part, bit for bit.
 * **Inside a part the stepper owns its steps.** It may step between grid points as it likes
   (fixed steps on the grid, as :class:`~circuitnsds.engine.theta_stepper.ThetaStepper` does;
-  steps of its own length; one step per switching event, each located exactly), provided it
-  reports the state *at every grid point of the part*.
+  steps of its own length, rejected and retried as its error control says; one step per
+  switching event, each located exactly), provided it reports the state *at every grid point
+  of the part*; what it does between them (rejected steps, internal points) stays inside it.
 * **What a part returns** is a :class:`~circuitnsds.engine.integrate.Trajectory`: one row
   per grid point of the part (row 0 the start), the unknowns ``y``, pair currents, impulses
   (the charge of the step into each point, Dirac currents included), the active sets and
@@ -102,6 +106,11 @@ class Stepper(ABC):
 
     def __init__(self, mlcs: MLCS):
         self.mlcs = mlcs
+
+    @classmethod
+    def unsuited(cls, mlcs: MLCS) -> str | None:
+        """Why this stepper cannot integrate ``mlcs`` (words for the reader), or ``None``."""
+        return None
 
     @abstractmethod
     def begin(self, grid: np.ndarray, *, parts: bool) -> None:
