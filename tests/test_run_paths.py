@@ -18,7 +18,7 @@ from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.output.csvfile import write_rows
 from circuitnsds.solvers import MLCPSolver
-from circuitnsds.system.output_rows import largest_rows, output_values, signal_terms
+from circuitnsds.system.output_rows import signal_terms
 from circuitnsds.system.stimuli import Pulse
 from tests.test_stimuli_sample import pulses
 
@@ -62,37 +62,11 @@ def test_step_sizes_do_not_take_a_rare_middle_step_for_the_common_one():
     np.testing.assert_array_equal(classes, np.unique(rounded, return_inverse=True)[1].reshape(-1))
 
 
-class _Trajectory:
-    """The per-step arrays a peak search reads."""
-
-    def __init__(self, y: np.ndarray, current: np.ndarray):
-        self.y, self.current = y, current
-
-
-@given(data=st.data(), rows=st.integers(1, 60), small=st.sampled_from([0.0, 1e-12, 1e-3, 1.0]))
-def test_largest_rows_hold_the_largest_value(data, rows, small):
-    """The rows :func:`largest_rows` keeps hold the largest value of the signal computed at
-    every row (bit for bit), whatever the other terms' size beside the main one: a diode's
-    current (one pair's, plus its off-conductance times two node voltages) and sums of terms
-    of any size. Currents often repeat their peak (ties)."""
-    peak = data.draw(st.floats(0.0, 30.0))
-    levels = st.sampled_from([0.0, peak, -peak]) | st.floats(-30.0, 30.0)
-    current = np.array(data.draw(st.lists(levels, min_size=rows, max_size=rows))).reshape(-1, 1)
-    y = np.array(data.draw(st.lists(st.floats(-400.0, 400.0), min_size=2 * rows,
-                                    max_size=2 * rows))).reshape(rows, 2)
-    terms = [(0, 0, small), (0, 1, -small), (1, 0, data.draw(st.sampled_from([1.0, -1.0, 0.5])))]
-    trajectory = _Trajectory(y, current)
-    where = largest_rows(terms, trajectory, {})
-    whole = output_values(terms, y, current)
-    if where is not None:
-        assert output_values(terms, y[where], current[where]).max() == whole.max()
-
-
 def test_diode_peaks_are_those_of_the_waveforms():
-    """A run's fitted-diode forward and reverse peaks from the rows where they can be (what the
-    diode's run-time observer computes) are those read from its waveforms (the reference,
-    :func:`_fitted_peaks`), for a diode whose current is one pair's and a Zener whose current
-    is two pairs' (each plus its off-conductance's)."""
+    """A run's fitted-diode forward and reverse peaks as the diode's run-time observer computes
+    them are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a diode
+    whose current is one pair's and a Zener whose current is two pairs' (each plus its
+    off-conductance's)."""
     circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
     spec = transient.transient_spec(circuit)
     mlcs = circuit.mlcs(spec.source_defaults)
@@ -106,11 +80,6 @@ def test_diode_peaks_are_those_of_the_waveforms():
     pairs = {name: [source for source, _, _ in signal_terms(
         mlcs, mlcs.output_names.index(f"i({name})"))].count(1) for name in ("d1", "d2")}
     assert pairs == {"d1": 1, "d2": 2}
-    # the diode's current is computed at a few rows; the Zener's whole (its two pairs' currents
-    # are amperes each: no term is the main one)
-    kept = [largest_rows(signal_terms(mlcs, mlcs.output_names.index(name)), trajectory, {})
-            for name in ("i(d1)", "i(d2)")]
-    assert kept[0].size < 20 and kept[1] is None
     diodes = [e for e in circuit.elements if e.name in ("d1", "d2")]
     peaks = diode_peaks(diodes, mlcs, trajectory, {})
     assert peaks == reference

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from circuitnsds.errors import RunNote
 from circuitnsds.system.mlcs import MLCS
-from circuitnsds.system.output_rows import largest_rows, output_values, signal_terms
+from circuitnsds.system.output_rows import output_values, signal_terms
 
 if TYPE_CHECKING:
     from circuitnsds.circuit.circuit import Circuit
@@ -45,29 +45,17 @@ def diode_peaks(diodes: list[Diode], mlcs: MLCS, trajectory,
                 peaks: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
     """Model name -> the largest forward and reverse current [A] per unit area through the
     instances among ``diodes`` of each Shockley-fitted diode model over every row of
-    ``trajectory`` (what the peaks read from its waveforms are, the same numbers), taken together with
-    ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
-    current is computed only at the rows where its largest value (or, for the reverse peak,
-    its largest negated value) can be (:func:`largest_rows`)."""
+    ``trajectory`` (each diode's current ``i(name)`` computed once, as its waveform is), taken
+    together with ``peaks`` (of earlier parts of the same run), which is updated and returned."""
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
-    bounds: dict[int, float] = {}  # the largest |value| of y (0) and of the currents (1)
     for element in diodes:
-        if element.model.shockley is not None:
-            row = rows.get(f"i({element.name})")
-            if row is None:
-                continue
-            largest = []
-            for sign in (1.0, -1.0):  # forward, reverse
-                terms = [(source, column, sign * weight)
-                         for source, column, weight in signal_terms(mlcs, row)]
-                where = largest_rows(terms, trajectory, bounds)
-                states, currents = trajectory.y, trajectory.current
-                if where is not None:
-                    states, currents = states[where], currents[where]
-                current = output_values(terms, states, currents) / element.area
-                largest.append(float(current.max(initial=0.0)))
-            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
-            peaks[element.model.name] = (max(forward, largest[0]), max(reverse, largest[1]))
+        row = rows.get(f"i({element.name})")
+        if element.model.shockley is None or row is None:
+            continue
+        current = output_values(signal_terms(mlcs, row), trajectory.y, trajectory.current) / element.area
+        forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
+        peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
+                                     max(reverse, float(-current.min(initial=0.0))))
     return peaks
 
 
