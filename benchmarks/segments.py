@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import circuitnsds.analyses.transient as transient
+import circuitnsds.analyses.recorders as recorders
 from circuitnsds.cli.main import main as cli
 
 NETLISTS = Path(__file__).parent / "netlists"
@@ -31,7 +31,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=12)
     args = parser.parse_args()
-    kept = transient.SINK_SEGMENT_STEPS
+    kept = recorders.SINK_SEGMENT_STEPS
     print(f"{'case':16} {'steps/segment':>13} {'median [ms]':>12} {'min [ms]':>9}")
     with tempfile.TemporaryDirectory() as scratch:
         for label, netlist, extra in CASES:
@@ -41,7 +41,7 @@ def main() -> None:
             times: dict[int, list[float]] = {size: [] for size in SIZES}
             for _ in range(args.repeat):  # interleaved: the machine's drift hits every size alike
                 for size in SIZES:
-                    transient.SINK_SEGMENT_STEPS = size
+                    recorders.SINK_SEGMENT_STEPS = size
                     started = time.perf_counter()
                     cli(command)
                     times[size].append(time.perf_counter() - started)
@@ -49,7 +49,7 @@ def main() -> None:
                 mark = "  (now)" if size == kept else ""
                 print(f"{label:16} {size:13d} {statistics.median(times[size]) * 1e3:12.0f} "
                       f"{min(times[size]) * 1e3:9.0f}{mark}")
-    transient.SINK_SEGMENT_STEPS = kept
+    recorders.SINK_SEGMENT_STEPS = kept
 
 
 if __name__ == "__main__":

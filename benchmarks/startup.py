@@ -136,8 +136,8 @@ def setup_rows(repeats: int) -> list[dict]:
     rows.append({"case": "switch schedule (PULSE at every midpoint)", "s": seconds})
     seconds, _ = _best(lambda: engine._sizes_and_classes(np.diff(grid)), repeats)
     rows.append({"case": "step classes", "s": seconds})
-    seconds, _ = _best(lambda: engine._Stepping(mlcs, grid, 1.0, 1e-9, initial), repeats)
-    rows.append({"case": "all of the stepping's set-up (_Stepping)", "s": seconds})
+    seconds, _ = _best(lambda: engine.GridStepping(mlcs, grid, 1.0, 1e-9, initial), repeats)
+    rows.append({"case": "all of the stepping's set-up (GridStepping)", "s": seconds})
     env = _environment()
     loads = [subprocess.run([sys.executable, "-c", NUMBA_LOAD], capture_output=True, text=True,
                             env=env, check=True).stdout.split() for _ in range(repeats)]

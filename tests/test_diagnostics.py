@@ -350,6 +350,19 @@ def test_non_finite_state_is_caught_at_the_step_it_appears():
         assert np.isfinite(error.partial["v(a)"]).all() and error.partial.time[-1] == pytest.approx(1.024)
 
 
+def test_a_run_keeping_some_signals_gets_the_advice_of_a_whole_run():
+    # before: only the whole run's error got the hint of its cause; a run keeping some signals
+    # (one driver loop of its own) raised the bare message
+    circuit = read("I1 0 a pulse(0 1m 0 1u 1u 1m 1)\nC1 a 0 1u\nR1 a 0 2k\nG1 a 0 a 0 -1m\n.tran 1m 3")
+    errors = []
+    for signals in (None, ["v(a)"]):
+        with pytest.raises(SimulationError) as caught:
+            circuit.transient(signals=signals)
+        errors.append(caught.value)
+    assert errors[1].hint == errors[0].hint and "the circuit is unstable" in errors[1].hint
+    np.testing.assert_array_equal(errors[1].partial["v(a)"], errors[0].partial["v(a)"])
+
+
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_non_finite_source_value_is_caught_before_the_first_step():
     circuit = python_circuit(VoltageSource("v1", ("a", "0"), function=Sin(1e308, 1e308, 50.0)),

@@ -99,9 +99,9 @@ def test_subcircuit_fan_out_is_refused_before_expanding():
 
 
 def test_a_run_whose_results_cannot_fit_in_memory_is_refused_before_starting(monkeypatch):
-    import circuitnsds.analyses.transient as transient
+    import circuitnsds.analyses.memory as memory
     from circuitnsds.errors import CircuitError
-    monkeypatch.setattr(transient, "available_memory", lambda: 100 * 2**20)   # 100 MiB
+    monkeypatch.setattr(memory, "available_memory", lambda: 100 * 2**20)   # 100 MiB
     circuit = circuit_from("V1 a 0 1\n" + "\n".join(f"R{k} a n{k} 1k\nC{k} n{k} 0 1n" for k in range(100))
                            + "\n.tran 1n 1m")
     # 1,000,001 points × (102 unknowns + 1 source value + 4 per-point numbers) × 8 bytes = 0.797 GiB
@@ -111,9 +111,9 @@ def test_a_run_whose_results_cannot_fit_in_memory_is_refused_before_starting(mon
 
 def test_a_periodic_steady_state_that_cannot_fit_in_memory_is_refused_before_starting(monkeypatch):
     """pss kept no check: 1e6 steps per period peaked at 1 GB, 1e7 grew 25 MB/s until stopped."""
-    import circuitnsds.analyses.transient as transient
+    import circuitnsds.analyses.memory as memory
     from circuitnsds.errors import CircuitError
-    monkeypatch.setattr(transient, "available_memory", lambda: 100 * 2**20)   # 100 MiB
+    monkeypatch.setattr(memory, "available_memory", lambda: 100 * 2**20)   # 100 MiB
     circuit = circuit_from("V1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 1u\n.tran 1u 1m")
     unknowns = circuit.mlcs().n
     # 1,000,000 steps × 4 × (unknowns + 1 source value + 4 per-point numbers) × 8 bytes

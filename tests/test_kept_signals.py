@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import circuitnsds
-import circuitnsds.analyses.transient as transient
+import circuitnsds.analyses.recorders as recorders
+import circuitnsds.engine.theta_stepper as theta_stepper
 from tests.conftest import NETLISTS
 
 FLYBACK = NETLISTS.parent / "benchmarks" / "netlists" / "flyback_coss.cir"
@@ -25,14 +26,14 @@ def test_segments_give_the_waveforms_of_one_run(monkeypatch, netlist, stop, thet
     circuit = circuitnsds.read_netlist(NETLISTS / netlist)
     whole = circuit.transient(stop=stop, theta=theta, start=start)
     sizes = []
-    original = transient.integrate
+    original = theta_stepper.integrate
 
     def recording(mlcs, grid, *args, **kwargs):
         sizes.append(grid.size)
         return original(mlcs, grid, *args, **kwargs)
 
-    monkeypatch.setattr(transient, "integrate", recording)
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(theta_stepper, "integrate", recording)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     kept = circuit.transient(stop=stop, theta=theta, start=start, signals=names)
     assert len(sizes) >= 3 and max(sizes) == 701  # bounded segments, not one run
     assert kept.names == [name.lower() for name in names]
@@ -64,15 +65,15 @@ def test_a_finished_segment_is_freed_without_the_garbage_collector(monkeypatch):
 
     circuit = circuitnsds.read_netlist(NETLISTS / "bridge_rectifier.cir")
     arrays = []
-    original = transient.integrate
+    original = theta_stepper.integrate
 
     def recording(mlcs, grid, *args, **kwargs):
         trajectory = original(mlcs, grid, *args, **kwargs)
         arrays.append(weakref.ref(trajectory.y))
         return trajectory
 
-    monkeypatch.setattr(transient, "integrate", recording)
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 300)
+    monkeypatch.setattr(theta_stepper, "integrate", recording)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 300)
     gc.collect()
     gc.disable()
     try:

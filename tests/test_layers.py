@@ -47,19 +47,6 @@ UPWARD_ON_PURPOSE = {
 convenience methods are the one-line entry points for users; they import the analysis or check
 they run inside the method, never at module level (checked below)."""
 
-PENDING_ENGINE30 = {
-    ("analyses/pss.py", "circuitnsds.analyses.transient._waveforms"),
-    ("analyses/pss.py", "._resolved"),
-    ("analyses/transient.py", "._resolved"),
-    ("engine/step_maps.py", "circuitnsds.engine.integrate._Stepping"),
-    ("engine/step_maps.py", "._dense_mode"),
-    ("engine/step_maps.py", "._build_mode"),
-}
-"""Private names the engine and the analyses still share on main: ``(module, name)``. Issue 30's
-engine part (branch engine30) replaces them by the public stepper contract; when it is merged,
-this set is emptied. Nothing else may be added here."""
-
-
 THIRD_PARTY_PRIVATE = {
     ("jit.py", "._cache"): "numba's Dispatcher._cache: numba has no public way to give one "
     "function a cache folder of its own (docs: circuitnsds/jit.py)",
@@ -201,16 +188,10 @@ def _private_uses(path: Path) -> list[tuple[int, str]]:
 def test_no_module_reaches_for_another_modules_private_names(path):
     where = _label(path)
     for line, name in _private_uses(path):
-        if (where, name) in PENDING_ENGINE30 or (where, name) in THIRD_PARTY_PRIVATE:
+        if (where, name) in THIRD_PARTY_PRIVATE:
             continue
         pytest.fail(f"{where}:{line} uses {name}, private to another module: make it public "
                     "(a documented name) or move the code that needs it")
-
-
-def test_the_pending_engine30_exceptions_still_exist():
-    """An entry of :data:`PENDING_ENGINE30` that no longer occurs is removed, not kept."""
-    used = {(_label(path), name) for path in _modules() for _, name in _private_uses(path)}
-    assert PENDING_ENGINE30 <= used, sorted(PENDING_ENGINE30 - used)
 
 
 def test_no_private_module_is_imported_from_another_package():

@@ -236,7 +236,7 @@ def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monke
 
     netlist = NETLISTS / "half_wave_rectifier.cir"
     calls = {"n": 0}
-    original = engine._Stepping.solve_step
+    original = engine.GridStepping.solve_step
 
     def interrupt_later(self, k, *args, **kwargs):
         calls["n"] += 1
@@ -244,8 +244,8 @@ def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monke
             raise KeyboardInterrupt
         return original(self, k, *args, **kwargs)
 
-    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
-    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    monkeypatch.setattr(engine.GridStepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine.GridStepping, "dense_mode", lambda *args: None)  # one MLCP per step
     csv = tmp_path / "out.csv"
     status = main(["run", str(netlist), "-o", str(csv), "--step", "100u", "--stop", "20m",
                    "--signals", "v(out)"])

@@ -296,14 +296,14 @@ def test_pss_line_stabilisation_runs_warmup_periods():
 
 def test_a_fallback_that_cannot_fit_in_memory_is_refused_before_it_runs(monkeypatch):
     # the period maps fit, the ten transient periods of the first fallback round do not
-    import circuitnsds.analyses.transient as transient
+    import circuitnsds.analyses.memory as memory
     from circuitnsds.engine.integrate import trajectory_bytes
     from circuitnsds.errors import CircuitError
     circuit = circuitnsds.read_netlist(CONVERTER_NETLISTS / "boost_dcm.cir")
     reference = circuit.pss()
     per_period = trajectory_bytes(reference.mlcs, reference.waveforms.time.size)
     # 0.8 × available = 6 periods' worth: 4 for the maps fit, 10 + 4 for the fallback do not
-    monkeypatch.setattr(transient, "available_memory", lambda: 6 * per_period / 0.8)
+    monkeypatch.setattr(memory, "available_memory", lambda: 6 * per_period / 0.8)
     with pytest.raises(CircuitError, match=r"a fallback of 10 transient periods would take"):
         circuit.pss(max_iterations=1)
 

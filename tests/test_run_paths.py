@@ -12,10 +12,13 @@ from hypothesis import strategies as st
 
 import circuitnsds
 import circuitnsds.analyses.transient as transient
+from circuitnsds.analyses.signals import trajectory_waveforms
+from circuitnsds.circuit.elements.diode_notes import diode_peaks
 from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.output.csvfile import write_rows
 from circuitnsds.solvers import MLCPSolver
+from circuitnsds.system.output_rows import signal_terms
 from circuitnsds.system.stimuli import Pulse
 from tests.test_stimuli_sample import pulses
 
@@ -59,36 +62,10 @@ def test_step_sizes_do_not_take_a_rare_middle_step_for_the_common_one():
     np.testing.assert_array_equal(classes, np.unique(rounded, return_inverse=True)[1].reshape(-1))
 
 
-class _Trajectory:
-    """The per-step arrays a peak search reads."""
-
-    def __init__(self, y: np.ndarray, current: np.ndarray):
-        self.y, self.current = y, current
-
-
-@given(data=st.data(), rows=st.integers(1, 60), small=st.sampled_from([0.0, 1e-12, 1e-3, 1.0]))
-def test_largest_rows_hold_the_largest_value(data, rows, small):
-    """The rows :func:`_largest_rows` keeps hold the largest value of the signal computed at
-    every row (bit for bit), whatever the other terms' size beside the main one: a diode's
-    current (one pair's, plus its off-conductance times two node voltages) and sums of terms
-    of any size. Currents often repeat their peak (ties)."""
-    peak = data.draw(st.floats(0.0, 30.0))
-    levels = st.sampled_from([0.0, peak, -peak]) | st.floats(-30.0, 30.0)
-    current = np.array(data.draw(st.lists(levels, min_size=rows, max_size=rows))).reshape(-1, 1)
-    y = np.array(data.draw(st.lists(st.floats(-400.0, 400.0), min_size=2 * rows,
-                                    max_size=2 * rows))).reshape(rows, 2)
-    terms = [(0, 0, small), (0, 1, -small), (1, 0, data.draw(st.sampled_from([1.0, -1.0, 0.5])))]
-    trajectory = _Trajectory(y, current)
-    where = transient._largest_rows(terms, trajectory, {})
-    whole = transient._output_values(terms, y, current)
-    if where is not None:
-        assert transient._output_values(terms, y[where], current[where]).max() == whole.max()
-
-
 def test_diode_peaks_are_those_of_the_waveforms():
-    """A run's fitted-diode forward and reverse peaks from the rows where they can be (the segments'
-    path) are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a
-    diode whose current is one pair's and a Zener whose current is two pairs' (each plus its
+    """A run's fitted-diode forward and reverse peaks as the diode's run-time observer computes
+    them are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a diode
+    whose current is one pair's and a Zener whose current is two pairs' (each plus its
     off-conductance's)."""
     circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
     spec = transient.transient_spec(circuit)
@@ -97,18 +74,14 @@ def test_diode_peaks_are_those_of_the_waveforms():
     state = transient.operating_point(circuit, mlcs, 1e-9)
     trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                            state.switches)
-    reference = transient._fitted_peaks(circuit, transient._waveforms(circuit, mlcs, trajectory,
+    reference = transient._fitted_peaks(circuit, trajectory_waveforms(circuit, mlcs, trajectory,
                                                                       0.0, spec.stop))
     assert reference["dfit"][0] > 0 and min(reference["dzen"]) > 0  # both conduct, both ways
-    pairs = {name: [source for source, _, _ in transient._signal_terms(
+    pairs = {name: [source for source, _, _ in signal_terms(
         mlcs, mlcs.output_names.index(f"i({name})"))].count(1) for name in ("d1", "d2")}
     assert pairs == {"d1": 1, "d2": 2}
-    # the diode's current is computed at a few rows; the Zener's whole (its two pairs' currents
-    # are amperes each: no term is the main one)
-    kept = [transient._largest_rows(transient._signal_terms(mlcs, mlcs.output_names.index(name)),
-                                    trajectory, {}) for name in ("i(d1)", "i(d2)")]
-    assert kept[0].size < 20 and kept[1] is None
-    peaks = transient._diode_peaks(circuit, mlcs, trajectory, {})
+    diodes = [e for e in circuit.elements if e.name in ("d1", "d2")]
+    peaks = diode_peaks(diodes, mlcs, trajectory, {})
     assert peaks == reference
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
-import circuitnsds.analyses.transient as transient
+import circuitnsds.analyses.recorders as recorders
 from circuitnsds.cli.main import main
 from circuitnsds.output import csvfile
 from circuitnsds.output.csvfile import CsvStream
@@ -22,7 +22,7 @@ BUCK = NETLISTS / "buck_converter.cir"
 
 @pytest.mark.parametrize("compiled", [True, False])  # True: formatted in a background thread
 def test_streamed_csv_is_the_file_of_a_run_kept_whole(tmp_path, monkeypatch, compiled):
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     monkeypatch.setattr(csvfile, "compiled_pays", lambda values: compiled)
     streamed, whole = tmp_path / "streamed.csv", tmp_path / "whole.csv"
     assert main(["run", str(BUCK), "-o", str(streamed), "--signals", "v(out),i(l1)", "--stop", "0.3m",
@@ -42,7 +42,7 @@ def test_streamed_csv_is_the_file_of_a_run_kept_whole(tmp_path, monkeypatch, com
 
 def test_streamed_csv_with_tstart_and_a_figure(tmp_path, monkeypatch):
     """Rows before TSTART are not written; the figure gets the kept rows."""
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     netlist = tmp_path / "buck.cir"
     netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.3m 0.1m"))
     csv, raw = tmp_path / "out.csv", tmp_path / "out.raw"
@@ -60,10 +60,10 @@ def test_streamed_csv_with_tstart_and_a_figure(tmp_path, monkeypatch):
 def test_ctrl_c_in_a_later_segment_keeps_the_rows_done(tmp_path, capsys, monkeypatch):
     from circuitnsds.engine import integrate as engine
 
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     monkeypatch.setattr(csvfile, "compiled_pays", lambda values: True)
     calls = {"n": 0}
-    original = engine._Stepping.solve_step
+    original = engine.GridStepping.solve_step
 
     def interrupt_later(self, k, *args, **kwargs):
         calls["n"] += 1
@@ -71,8 +71,8 @@ def test_ctrl_c_in_a_later_segment_keeps_the_rows_done(tmp_path, capsys, monkeyp
             raise KeyboardInterrupt
         return original(self, k, *args, **kwargs)
 
-    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
-    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    monkeypatch.setattr(engine.GridStepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine.GridStepping, "dense_mode", lambda *args: None)  # one MLCP per step
     csv = tmp_path / "out.csv"
     csv.write_text("previous\n")
     status = main(["run", str(NETLISTS / "half_wave_rectifier.cir"), "-o", str(csv), "--step", "10u",
@@ -131,7 +131,7 @@ def test_streamed_run_writes_the_switchings_from_tstart_on(tmp_path, monkeypatch
     """``--events`` of a streamed run with a TSTART holds the switchings from TSTART on, as
     the run that keeps every signal: the buck's gate switches s1 twice per 10 us period, 20
     times in 0.1..0.2 ms (before, a streamed run also wrote the 20 switchings before TSTART)."""
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     netlist = tmp_path / "buck.cir"
     netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.2m 0.1m"))
     events = tmp_path / "events.csv"
@@ -151,9 +151,9 @@ def test_ctrl_c_before_tstart_is_no_traceback(tmp_path, capsys, monkeypatch, ext
     from circuitnsds.engine import integrate as engine
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(transient, "segment_steps", lambda mlcs: 700)
+    monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 700)
     calls = {"n": 0}
-    original = engine._Stepping.solve_step
+    original = engine.GridStepping.solve_step
 
     def interrupt_later(self, k, *args, **kwargs):
         calls["n"] += 1
@@ -161,8 +161,8 @@ def test_ctrl_c_before_tstart_is_no_traceback(tmp_path, capsys, monkeypatch, ext
             raise KeyboardInterrupt
         return original(self, k, *args, **kwargs)
 
-    monkeypatch.setattr(engine._Stepping, "solve_step", interrupt_later)
-    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    monkeypatch.setattr(engine.GridStepping, "solve_step", interrupt_later)
+    monkeypatch.setattr(engine.GridStepping, "dense_mode", lambda *args: None)  # one MLCP per step
     netlist = tmp_path / "buck.cir"
     netlist.write_text(BUCK.read_text().replace(".tran 0.1u 2m", ".tran 0.1u 0.2m 0.1m"))
     csv = tmp_path / "out.csv"

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from circuitnsds.analyses.pss import run_pss
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.specs import AcSpec
@@ -89,8 +90,8 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
                            "operating point", where=circuit.file,
                            hint="use around='pss' (small-signal around the periodic steady state)")
     if around == "pss":
-        if pss is None:
-            pss = circuit.pss()
+        if pss is None:  # (the pss analysis itself, not Circuit.pss: no analysis goes up a layer)
+            pss = run_pss(circuit, circuit.analyses.get("pss"))
         mlcs = pss.mlcs
     else:
         mlcs = circuit.mlcs()

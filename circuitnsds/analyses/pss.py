@@ -22,12 +22,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from circuitnsds.analyses.advice import advise
+from circuitnsds.analyses.memory import refuse_beyond_memory
 from circuitnsds.analyses.operating_point import operating_point, uic_state
-from circuitnsds.analyses.transient import _waveforms, advise, refuse_beyond_memory
+from circuitnsds.analyses.recorders import TrajectoryRecorder
+from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
-from circuitnsds.engine.integrate import integrate, trajectory_bytes
+from circuitnsds.engine.driver import drive
+from circuitnsds.engine.integrate import Trajectory, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
+from circuitnsds.engine.stepper import StartState
+from circuitnsds.engine.theta_stepper import ThetaStepper
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import Waveforms
@@ -250,12 +256,12 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
                            "--step, --warmup)") from None
     _check_memory(circuit, mlcs, grid, whole)
 
-    check_initial_conditions(circuit, circuit._resolved(defaults), uic)
+    check_initial_conditions(circuit, circuit.resolved_elements(defaults), uic)
     initial = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs)
     y, charge, active, switches = initial.y, initial.charge, initial.active, initial.switches
     try:
         if start_time > 0:  # into the periodic regime (and the warm-up periods)
-            run = integrate(mlcs, whole, y, charge, None, active, switches)
+            run = _plain_transient(mlcs, whole, StartState(y, charge, None, active, switches))
             # copies: the warm-up's trajectory is freed before the period maps are built
             y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
             charge = None
@@ -267,6 +273,14 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = No
         raise
     result.transient_periods += periods_warmup
     return result
+
+
+def _plain_transient(mlcs: MLCS, grid: np.ndarray, start: StartState) -> Trajectory:
+    """A plain transient over ``grid`` from ``start``: the θ stepper at θ = 1 (implicit Euler,
+    whose period maps the shooting uses), driven in one part, every point kept."""
+    recorder = TrajectoryRecorder()
+    drive(ThetaStepper(mlcs), grid, start, recorder)
+    return recorder.trajectory
 
 
 def _circuit_controlled_switches(circuit: Circuit) -> list[str]:
@@ -417,7 +431,7 @@ class _Shooter:
             f"a fallback of {periods} transient periods", f"{grid.size - 1:,} steps, beside the "
             "period maps", self.circuit, hint="a longer step (--step), or more warm-up periods "
             "(--warmup) so that Newton needs no fallback")
-        run = integrate(self.mlcs, grid, y, charge, None, active, switches)
+        run = _plain_transient(self.mlcs, grid, StartState(y, charge, None, active, switches))
         self.transient_periods += periods
         # back to the first period's instants (the sources are periodic); copies, so that the
         # run's trajectory is freed
@@ -447,7 +461,7 @@ class _Shooter:
         # the period's end, which is the same instant of the periodic solution
         run.y[0] = run.y[-1]
         run.current[0] = run.current[-1]
-        waves = _waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1], periodic=True)
+        waves = trajectory_waveforms(self.circuit, self.mlcs, run, run.time[0], run.time[-1], periodic=True)
         waves.stats.update(analysis="pss", iterations=self.iterations)
         names = [self.mlcs.unknowns[j] for j in maps.state]
         return PSSResult(waveforms=waves, period=self.period, t0=float(run.time[0]), state_names=names,

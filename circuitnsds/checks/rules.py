@@ -149,7 +149,7 @@ def check_initial_conditions(circuit, elements: Sequence[Element], uic: bool) ->
     Args:
         circuit: the circuit (for its ``.ic`` node voltages and its warning record).
         elements: the circuit's elements with their source functions resolved
-            (:meth:`Circuit._resolved`), so that ``function.value(0)`` is defined.
+            (:meth:`Circuit.resolved_elements`), so that ``function.value(0)`` is defined.
         uic: whether the transient starts from initial conditions. Without UIC the
             operating point satisfies every loop and cutset and nothing is checked.
     """
@@ -167,7 +167,7 @@ def check_source_timing(elements: Sequence[Element], stop: float) -> None:
     grid steps onto every corner.
 
     Args:
-        elements: with their source functions resolved (:meth:`Circuit._resolved`).
+        elements: with their source functions resolved (:meth:`Circuit.resolved_elements`).
         stop: end of the run [s].
 
     Raises:

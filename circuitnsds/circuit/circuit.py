@@ -170,7 +170,7 @@ class Circuit:
                 "write circuit.mlcs(SourceDefaults(step=TSTEP, stop=TSTOP)) "
                 "(the mlcs(step, stop) form was removed)"
             )
-        resolved = self._resolved(defaults)
+        resolved = self.resolved_elements(defaults)
         check_source_timing(resolved, defaults.stop)
         builder = MLCSBuilder(self.nodes)
         with np.errstate(all="ignore"):
@@ -204,8 +204,10 @@ class Circuit:
 
         return analyse_circuit(self, step, states=states, theta=theta)
 
-    def _resolved(self, defaults: SourceDefaults) -> list[Element]:
-        """Elements with their source functions' analysis-dependent defaults filled in."""
+    def resolved_elements(self, defaults: SourceDefaults) -> list[Element]:
+        """The elements, each source function's analysis-dependent defaults (``defaults``:
+        the analysis's step and stop) filled in: what the initial-condition checks of a
+        time-domain analysis read."""
         resolved = []
         for element in self.elements:
             function = getattr(element, "function", None)
@@ -226,6 +228,7 @@ class Circuit:
         tol: float = 1e-9,
         progress: Callable[[float, float], None] | None = None,
         stepping: str = "auto",
+        method: str | None = None,
         signals: Sequence[str] | None = None,
         sink=None,
     ):
@@ -252,6 +255,9 @@ class Circuit:
                 Python, ``"mlcp"`` not at all: every step is solved as a complementarity
                 problem. All compute the same scheme (results agree to rounding); the
                 last three are for checking and timing the paths.
+            method: the integration method (a stepper registered in
+                :data:`circuitnsds.engine.stepper.STEPPERS`; default: ``.options method``,
+                else ``"theta"``, the θ-method, the only one today).
             signals: keep only these signals (e.g. ``["v(out)"]``; default: every signal,
                 computed when first read). The run then goes in segments whose other
                 unknowns are dropped as it goes: memory is bounded by what is kept (a
@@ -273,7 +279,7 @@ class Circuit:
                               theta=theta, uic=uic)
         with self._strictness():
             return run_transient(self, spec, tol=tol, progress=progress, stepping=stepping,
-                                 signals=signals, sink=sink)
+                                 method=method, signals=signals, sink=sink)
 
     def pss(
         self,

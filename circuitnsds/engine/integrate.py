@@ -12,7 +12,7 @@ a voltage source through an ideal diode) finite: it shows as one step whose
 ``μ`` does not shrink with ``h``. The first step is always implicit Euler
 (θ = 1), because the initial state need not satisfy the algebraic rows; with
 θ < 1 so is the step after a switch changes state or a source's corner
-(see :class:`_Stepping`).
+(see :class:`GridStepping`).
 Numerically the rows are divided by ``h`` and the solver's pair unknowns are
 the currents ``λ = μ/h``: the same solution, but the solver's normwise test
 then weighs currents (not tiny charges) against voltages.
@@ -25,7 +25,7 @@ Switch states for a step are decided before it is solved:
   (:meth:`MLCS.breakpoints`), so it switches exactly at the crossing;
 * any other switch takes the state its control had at the start of the step; when
   the step's end shows its control across a threshold, the step is taken again, split
-  at the located crossing (:mod:`circuitnsds.engine.events`, :meth:`_Stepping.split_step`).
+  at the located crossing (:mod:`circuitnsds.engine.events`, :meth:`GridStepping.split_step`).
 
 Steps whose mode (active pairs, switch states, step class) is already known run
 through :mod:`circuitnsds.engine.dense_loop` (one affine map per step, checked for
@@ -367,7 +367,7 @@ def integrate(
 
 
 class _DenseMode(NamedTuple):
-    """Dense pieces of one mode's bordered step system (:meth:`_Stepping._dense_mode`):
+    """Dense pieces of one mode's bordered step system (:meth:`GridStepping.dense_pieces`):
     the top-left block is ``E/τ − ΘA``, filled in for each partial step length ``τ``."""
 
     E: np.ndarray
@@ -406,7 +406,7 @@ class SplitPart(NamedTuple):
         y_start: the unknowns at the part's start (``E y_start`` is what it carries in).
         u, z: its solution (unknowns at its end, pair currents [A]); ``active`` its active set.
         theta: the part's θ (1 unless it is the first part of a θ < 1 step).
-        row: the free switch (row of ``_Stepping.free``) whose control crosses its threshold
+        row: the free switch (row of ``GridStepping.free``) whose control crosses its threshold
             at the part's end, or -1 when the part ends at the step's end (a fixed instant).
     """
 
@@ -423,7 +423,7 @@ class SplitPart(NamedTuple):
 
 @dataclass
 class _Split:
-    """A step taken again in parts at located switchings (:meth:`_Stepping.split_step`).
+    """A step taken again in parts at located switchings (:meth:`GridStepping.split_step`).
 
     Attributes:
         result: the MLCP result of the last part (state and active set at the step's end).
@@ -444,13 +444,13 @@ class _Split:
 
 
 def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
-                  initial_states: np.ndarray, continued: bool = False) -> _Stepping:
-    """The :class:`_Stepping` of this grid and start, from ``cache`` when it holds one."""
+                  initial_states: np.ndarray, continued: bool = False) -> GridStepping:
+    """The :class:`GridStepping` of this grid and start, from ``cache`` when it holds one."""
     if cache is None:
-        return _Stepping(mlcs, grid, theta, tol, initial_states, continued)
+        return GridStepping(mlcs, grid, theta, tol, initial_states, continued)
     key = (id(mlcs), theta, tol, initial_states.tobytes(), grid.tobytes(), continued)
     if key not in cache:
-        cache[key] = _Stepping(mlcs, grid, theta, tol, initial_states, continued)
+        cache[key] = GridStepping(mlcs, grid, theta, tol, initial_states, continued)
     cache["last"] = cache[key]  # what the caller reads the step maps from
     return cache[key]
 
@@ -458,13 +458,14 @@ def _stepping_for(cache: dict | None, mlcs: MLCS, grid: np.ndarray, theta: float
 class Segments:
     """What the segments of one run keep between them (:func:`integrate`'s ``segments``).
 
-    A run integrated part by part (:func:`circuitnsds.analyses.transient._kept_signals`:
-    each part a slice of ``grid``, in order, each ``continued`` from the last state of the
-    one before) builds its step solvers, their factorisations, the mode maps and the mode
-    table once, not once per part: the step classes are numbered from the whole grid's
-    step sizes, so that a class (and the table's keys) mean the same in every part. The
-    loop choice (:class:`~circuitnsds.engine.loop_choice.LoopChoice`) counts the whole
-    run's steps. The parts of a run must share ``mlcs``, ``theta``, ``tol`` and ``stepping``.
+    A run integrated part by part (:func:`circuitnsds.engine.driver.drive` with the θ stepper,
+    :class:`~circuitnsds.engine.theta_stepper.ThetaStepper`: each part a slice of ``grid``, in
+    order, each ``continued`` from the last state of the one before) builds its step solvers,
+    their factorisations, the mode maps and the mode table once, not once per part: the step
+    classes are numbered from the whole grid's step sizes, so that a class (and the table's
+    keys) mean the same in every part. The loop choice
+    (:class:`~circuitnsds.engine.loop_choice.LoopChoice`) counts the whole run's steps. The
+    parts of a run must share ``mlcs``, ``theta``, ``tol`` and ``stepping``.
     """
 
     def __init__(self, grid: np.ndarray):
@@ -474,14 +475,14 @@ class Segments:
         self.grid = grid
         self.corners: np.ndarray | None = None  # with θ < 1: the whole grid's corner steps
         self.offset = 0  # steps of the parts done
-        self.stepping: _Stepping | None = None
+        self.stepping: GridStepping | None = None
         self.choice: LoopChoice | None = None
         self.last_active: dict[bytes, np.ndarray] = {}  # active set last seen per switch state
         self.buffers: dict[str, np.ndarray] = {}  # per-step arrays, reused by the next part
 
     def enter(self, mlcs: MLCS, grid: np.ndarray, theta: float, tol: float,
               initial_states: np.ndarray, continued: bool, loop: bool | None
-              ) -> tuple[_Stepping, LoopChoice]:
+              ) -> tuple[GridStepping, LoopChoice]:
         """The stepping state and loop choice for the next part, ``grid``."""
         classes = self.classes[self.offset:self.offset + grid.size - 1]
         corners = None
@@ -491,7 +492,7 @@ class Segments:
             end = self.offset + grid.size - 1
             corners = self.corners[(self.corners >= self.offset) & (self.corners < end)] - self.offset
         if self.stepping is None or self.stepping.mlcs is not mlcs:
-            self.stepping = _Stepping(mlcs, grid, theta, tol, initial_states, continued, self.sizes,
+            self.stepping = GridStepping(mlcs, grid, theta, tol, initial_states, continued, self.sizes,
                                       classes, self.buffers, corners)
             self.choice = LoopChoice(loop, unknowns=mlcs.n, watched=self.stepping.free.size)
         else:
@@ -507,8 +508,10 @@ class _StepSolver:
     system: StepSystem
 
 
-class _Stepping:
-    """Everything the time loop needs that depends on the grid, cached per step class and mode.
+class GridStepping:
+    """Everything the θ-method's time loop needs that depends on the grid, cached per step
+    class and mode (the stepping state of :func:`integrate`; :mod:`circuitnsds.engine.step_maps`
+    reads its mode maps, :meth:`build_mode` and :meth:`dense_pieces`, and its split steps).
 
     Steps are grouped in *classes*: equal step sizes (to 1e-9 relative; grid rounding is
     ~1e-16·t) share one, and a *restart* step of each size has a class of its own. A
@@ -674,7 +677,7 @@ class _Stepping:
         """The step of the mode ``active`` as one dense solve of its bordered system
         (:func:`circuitnsds.engine.step_system.mode_blocks`, densely); ``None`` when the
         matrix is singular or a sign is wrong (beyond :data:`SIGN_TOL` of the terms)."""
-        mode = self._dense_mode(states, active, theta)
+        mode = self.dense_pieces(states, active, theta)
         n = mode.E.shape[0]
         rhs = charge / length + mode.weights * (mode.S @ f1)
         if theta != 1.0:
@@ -699,7 +702,7 @@ class _Stepping:
         z[mode.act] = np.maximum(z[mode.act], 0.0)
         return _Solved(u, z, np.asarray(active, dtype=bool).copy(), 0.0)
 
-    def _dense_mode(self, states: np.ndarray, active: np.ndarray, theta: float) -> _DenseMode:
+    def dense_pieces(self, states: np.ndarray, active: np.ndarray, theta: float) -> _DenseMode:
         """The dense pieces of a mode's bordered step system (cached; small circuits only)."""
         key = (states.tobytes(), np.asarray(active, dtype=bool).tobytes(), theta)
         mode = self._dense_cache.get(key)
@@ -923,7 +926,7 @@ class _Stepping:
         found = self.table.find(key)
         if found is not None or key in self.unmappable:
             return found
-        mode = self._build_mode(k, cls, states, guess)
+        mode = self.build_mode(k, cls, states, guess)
         self.built += 1
         if mode is None:
             self.unmappable.add(key)
@@ -943,7 +946,7 @@ class _Stepping:
             self.built += 1
         return mode
 
-    def _build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
+    def build_mode(self, k: int, cls: int, states: np.ndarray, guess: np.ndarray) -> ModeMap | None:
         """The dense step map of a mode (``None``: its bordered matrix is singular), kept for
         the mode table and the step maps of :mod:`circuitnsds.engine.step_maps` alike."""
         key = (cls, states.tobytes(), guess.tobytes())

@@ -3,7 +3,7 @@
 :meth:`StepMapper.run` integrates an MLCS over a grid with full complementarity
 (:func:`circuitnsds.engine.integrate.integrate`), then rebuilds, for the mode each
 step took (active set, switch states, step size), that mode's step map
-(:meth:`circuitnsds.engine.integrate._Stepping._build_mode`, the same map the
+(:meth:`circuitnsds.engine.integrate.GridStepping.build_mode`, the same map the
 compiled loop applies). With implicit Euler (θ = 1) a step depends on the unknowns
 ``y_k`` only through the charges and fluxes ``E y_k``, so restricted to the *state*
 ``x = y[state]`` (the unknowns of the non-zero columns of ``E``: node voltages at
@@ -22,7 +22,7 @@ unknowns while only their difference is stored; ``Φ`` then has an eigenvalue 0 
 the direction the step does not see, which is harmless.
 
 A step split at located switchings of circuit-controlled switches
-(:meth:`circuitnsds.engine.integrate._Stepping.split_step`) is taken in parts: part ``i``
+(:meth:`circuitnsds.engine.integrate.GridStepping.split_step`) is taken in parts: part ``i``
 of length ``σ_i = T_i − T_{i−1}`` (``T_0 = t_k``, the last part ends at ``t_{k+1}``) in its
 own switch states and active set solves the fixed-mode θ = 1 step system
 
@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from circuitnsds.engine.dense_loop import ModeMap
-from circuitnsds.engine.integrate import SplitPart, Trajectory, _Stepping, integrate
+from circuitnsds.engine.integrate import GridStepping, SplitPart, Trajectory, integrate
 from circuitnsds.errors import SimulationError
 from circuitnsds.system.mlcs import MLCS
 
@@ -89,13 +89,13 @@ class SplitMap:
     instants: list[tuple[float, np.ndarray]]
 
 
-def _source_slope(stepping: _Stepping, t: float, h: float) -> np.ndarray:
+def _source_slope(stepping: GridStepping, t: float, h: float) -> np.ndarray:
     """Every source's time derivative at ``t`` [unit/s]: a central difference over ``1e-6·h``."""
     d = 1e-6 * h
     return (stepping.source_at(t + d) - stepping.source_at(t - d)) / (2 * d)
 
 
-def split_map(stepping: _Stepping, k: int, parts: list[SplitPart], state: np.ndarray) -> SplitMap:
+def split_map(stepping: GridStepping, k: int, parts: list[SplitPart], state: np.ndarray) -> SplitMap:
     """The exact Jacobian of step ``k`` taken in ``parts`` (module docstring), with respect to
     the state at its start and to the sources' values at each part's end.
 
@@ -116,7 +116,7 @@ def split_map(stepping: _Stepping, k: int, parts: list[SplitPart], state: np.nda
     for i, part in enumerate(parts):
         if part.theta != 1.0:
             raise ValueError("split step maps need implicit Euler parts (theta = 1)")
-        mode = stepping._dense_mode(part.states, part.active, 1.0)
+        mode = stepping.dense_pieces(part.states, part.active, 1.0)
         sigma, a = part.length, mode.act.size
         K = mode.bordered.copy()
         K[:n, :n] = mode.E / sigma - mode.A
@@ -155,7 +155,7 @@ def split_map(stepping: _Stepping, k: int, parts: list[SplitPart], state: np.nda
         J = d[:n]
         ends.append(end_time)
     last = parts[-1]
-    act = stepping._dense_mode(last.states, last.active, 1.0).act
+    act = stepping.dense_pieces(last.states, last.active, 1.0).act
     Y = d[:, :size]
     inputs = [(end, d[:, size + i * sources:size + (i + 1) * sources]) for i, end in enumerate(ends)]
     values = np.concatenate([last.u, last.z[act]])
@@ -297,9 +297,9 @@ class StepMapper:
             of_step[k] = found
         return StepMaps(trajectory, self.state, modes, of_step, keys, stepping.sources, splits)
 
-    def _build(self, stepping: _Stepping, k: int, cls: int, states: np.ndarray,
+    def _build(self, stepping: GridStepping, k: int, cls: int, states: np.ndarray,
                active: np.ndarray) -> ModeMap:
-        mode = stepping._build_mode(k, cls, states, active)
+        mode = stepping.build_mode(k, cls, states, active)
         if mode is None:
             t0, t1 = self.grid[k], self.grid[k + 1]
             raise SimulationError(

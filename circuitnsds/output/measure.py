@@ -45,11 +45,13 @@ def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
 
 
 def series(source: Waveforms | np.ndarray, signal: str | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(time, values)`` from a Waveforms and a name (``v(a,b)``: ``v(a) - v(b)``, as in SPICE), or
-    from two arrays.
+    """``(time [s], values)`` of ``signal``: from a :class:`Waveforms` and a signal's name
+    (``v(a,b)`` the difference of two node voltages, as in SPICE), or from two arrays
+    (``source`` the time, ``signal`` the values). The reader every measurement and the CLI's
+    extra columns use.
 
     Raises:
-        MeasurementError: no such signal.
+        MeasurementError: ``source`` holds no signal of that name.
     """
     if isinstance(source, Waveforms):
         if not isinstance(signal, str):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -29,6 +30,8 @@ class Element:
             branch current is an unknown of MNA); inductors and switches declare it too.
         independent_source: its value is a known function of time (``function``), not of
             the circuit's unknowns.
+        run_observers: factories of the observers a run of a circuit holding this element
+            runs (:mod:`circuitnsds.circuit.observers`: run-time notes of the device).
     """
 
     name: str
@@ -37,6 +40,7 @@ class Element:
     topology: ClassVar[str] = "conductive"
     junction: ClassVar[str | None] = None
     independent_source: ClassVar[bool] = False
+    run_observers: ClassVar[tuple[Callable, ...]] = ()
 
     def stamp(self, builder: MLCSBuilder) -> None:
         """Add this element's entries to the MLCS under construction."""

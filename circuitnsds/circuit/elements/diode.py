@@ -19,6 +19,7 @@ from typing import ClassVar
 
 from circuitnsds.circuit.elements.base import Element, junction_conductances
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_breakdown, fit_forward
+from circuitnsds.circuit.elements.diode_notes import FitRangeObserver
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 
@@ -103,6 +104,7 @@ class Diode(Element):
 
     def conductances(self, step: float) -> list[tuple[str, float]]:
         return junction_conductances(self.model)
+    run_observers: ClassVar[tuple] = (FitRangeObserver.of,)
 
     def stamp(self, builder: MLCSBuilder) -> None:
         anode, cathode = (builder.node(n) for n in self.nodes)

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from circuitnsds.circuit.elements.mosfet_notes import GateDriveObserver
 from circuitnsds.circuit.elements.switch import Switch
 
 
@@ -39,6 +40,7 @@ class Mosfet(Switch):
 
     polarity: int = 1
     device: str = "vdmos"
+    run_observers: ClassVar[tuple] = (GateDriveObserver,)
     on_resistance_rule: str = ""
     gate_drive: float = 10.0
     parts: tuple[str, ...] = ()

@@ -30,6 +30,8 @@ IGNORED_COMMANDS = {
 UNSUPPORTED_COMMANDS = {".csparam", ".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
+                "method": "the integration method, a stepper of circuitnsds.engine.stepper.STEPPERS "
+                          "('theta'); ngspice's 'trap' and 'gear' are ignored",
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
                             "(default 10)",
@@ -43,6 +45,9 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "thermal= data, to ambient",
                 "cthsa": "thermal capacitance [J/K] of the heatsink (with rthsa; default 0)"}
 TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
+NGSPICE_METHODS = {"trap", "trapezoidal", "gear"}
+"""ngspice's ``.options method`` values: ignored with the other options circuitnsds does not use
+(its θ-method is ``.options theta``)."""
 OPTION_KEYWORDS = {".options", ".option", ".opt"}
 
 
@@ -64,6 +69,13 @@ def read_options(reader: StatementReader) -> dict[str, float | str]:
             raise reader.error(f".options {key} needs a value", hint=f"{key}: {USED_OPTIONS[key]}")
         if key == "pwlfit" and text == "auto":
             used[key] = text
+            continue
+        if key == "method":
+            method = text.lower()
+            if method in NGSPICE_METHODS:  # ngspice's integration methods: not circuitnsds's
+                ignored.append(f"{key}={text}")
+            else:  # (checked against the steppers by the analysis that runs one)
+                used[key] = method
             continue
         if key in TEXT_OPTIONS:
             if text not in TEXT_OPTIONS[key]:

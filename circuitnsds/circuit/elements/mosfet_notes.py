@@ -1,0 +1,87 @@
+"""The MOSFET's run-time note: a MOSFET that conducts mostly at a weak gate drive, where its
+channel is not the switch of on-resistance Ron its model was read as
+(:class:`GateDriveObserver`, declared by :class:`~circuitnsds.circuit.elements.mosfet.Mosfet`)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from circuitnsds.errors import RunNote
+from circuitnsds.system.mlcs import MLCS
+
+if TYPE_CHECKING:
+    from circuitnsds.circuit.circuit import Circuit
+    from circuitnsds.circuit.elements.mosfet import Mosfet
+
+STACKLEVEL = 6
+"""Frames from a note's ``warnings.warn`` to the user's call of the analysis."""
+WEAK_DRIVE_SHARE = 0.5
+"""Share of a MOSFET's conducting time spent with a weak gate drive (an overdrive ``|Vgs| - Vto``
+below half of the one its on-resistance was computed at) beyond which the run notes it."""
+
+
+class GateDriveObserver:
+    """Adds up, over a run, each MOSFET's conducting time and the part of it at a weak gate
+    drive (:func:`mosfet_drives`); notes those beyond :data:`WEAK_DRIVE_SHARE`."""
+
+    def __init__(self, circuit: Circuit, mosfets: list[Mosfet]):
+        self.circuit, self.mosfets = circuit, mosfets
+        self.drives: dict[str, list[float]] = {}
+
+    def observe(self, mlcs: MLCS, trajectory, first: int) -> None:
+        mosfet_drives(self.mosfets, mlcs, trajectory, self.drives)
+
+    def report(self) -> None:
+        note_weak_gate_drives(self.circuit, self.mosfets, self.drives)
+
+
+def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
+                  drives: dict[str, list[float]]) -> dict[str, list[float]]:
+    """MOSFET name -> ``[conducting time, time of it with a weak gate drive, smallest |Vgs|]``
+    ([s], [s], [V]) of each of ``mosfets`` over the steps of ``trajectory``, added to ``drives``
+    (of earlier parts of the same run), which is updated and returned. A step counts with the
+    state it ran in and the gate drive at its end; "weak": an overdrive below half of
+    ``gate_drive - Vto``."""
+    named = {e.name: e for e in mosfets}
+    if not named or trajectory.time.size < 2:
+        return drives
+    lengths = np.diff(trajectory.time)
+    for j, switch in enumerate(mlcs.switches):
+        element = named.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        if not closed.any():
+            continue
+        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+        threshold = element.model.threshold
+        weak = closed & (control < threshold + 0.5 * (element.gate_drive - threshold))
+        total = drives.setdefault(switch.name, [0.0, 0.0, math.inf])
+        total[0] += float(lengths[closed].sum())
+        total[1] += float(lengths[weak].sum())
+        total[2] = min(total[2], float(np.min(control[closed])))
+    return drives
+
+
+def note_weak_gate_drives(circuit: Circuit, mosfets: list[Mosfet],
+                          drives: dict[str, list[float]]) -> None:
+    """A :class:`RunNote` for each of ``mosfets`` that spends more than :data:`WEAK_DRIVE_SHARE`
+    of its conducting time with a weak gate drive (``drives``: :func:`mosfet_drives`): read as
+    a switch whose Ron was computed at ``gate_drive``, it is then not what the circuit does."""
+    for element in mosfets:
+        if element.name not in drives:
+            continue
+        conducting, weak, lowest = drives[element.name]
+        if conducting > 0 and weak > WEAK_DRIVE_SHARE * conducting:
+            threshold = element.model.threshold
+            warnings.warn(RunNote(
+                f"{circuit.file}: {element.describe()} spends {100 * weak / conducting:.0f} % of "
+                f"its conducting time at a weak gate drive (|Vgs| down to {lowest:.3g} V, "
+                f"threshold {threshold:g} V), while its Ron is computed at |Vgs| = "
+                f"{element.gate_drive:g} V: there its channel resistance is several times Ron and "
+                "the MOSFET is not a switch; set .options mosdrive to the gate drive it works "
+                "at, or drive its gate to that level"), stacklevel=STACKLEVEL)
