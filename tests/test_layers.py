@@ -208,13 +208,13 @@ def test_the_layer_rules_catch_what_they_are_for(tmp_path):
     imported, a module's private attribute read."""
     tree = ast.parse("def f():\n    from circuitnsds.output.measure import _series\n"
                      "    import circuitnsds.engine.integrate as integrate\n"
-                     "    return integrate._Stepping, circuit._resolved\n")
+                     "    return integrate._ranks, circuit._strictness\n")
     path = PACKAGE / "netlist" / "probe.py"
     assert [_target_layer(t) for _, t in _imports(tree, path)] == ["output", "engine"]
     TREES[path], DEFINED_PRIVATE[path] = tree, set()
     try:
         assert [name for _, name in _private_uses(path)] == [
-            "circuitnsds.output.measure._series", "circuitnsds.engine.integrate._Stepping", "._resolved"]
+            "circuitnsds.output.measure._series", "circuitnsds.engine.integrate._ranks", "._strictness"]
     finally:
         del TREES[path], DEFINED_PRIVATE[path]
 
