@@ -3,19 +3,19 @@
 from __future__ import annotations
 
 import math
-import os
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
 
+from circuitnsds.analyses.memory import available_memory
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
-from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.engine.timegrid import check_step_count, time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.output.waveforms import LazySignals, Waveforms
@@ -355,10 +355,12 @@ def _run_transient(
                 f"{circuit.file}: the step {h:.4g} s cannot resolve the sources: {what}; the step "
                 "given is obeyed (leave out --step to let circuitnsds refine it)"), stacklevel=2)
         else:
-            factor = math.ceil(h / needed[0] - 1e-9)
-            report_step, h = h, h / factor
-    breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
+            ratio = h / needed[0]  # (inf for .tran 1e308: then the step needed itself)
+            factor = math.ceil(ratio - 1e-9) if ratio < 2.0**52 else None
+            report_step, h = h, h / factor if factor else needed[0]
     try:
+        check_step_count(h, stop)  # before the breakpoints are listed (two 10 µs PULSEs: 2.6 GB)
+        breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
         grid = time_grid(h, stop, breakpoints)
     except ValueError as exc:
         if report_step is not None:  # the step the sources need, not TSTEP, is too small
@@ -369,7 +371,8 @@ def _run_transient(
     if report_step is not None:  # noted once the grid exists (a failed refinement is an error)
         warnings.warn(RunNote(
             f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
-            f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
+            f"integrated with a step of {h:.4g} s{f' (TSTEP/{factor})' if factor else ''}, reported "
+            "every TSTEP"),
             stacklevel=2)
     check_initial_conditions(circuit, circuit._resolved(spec.source_defaults), uic)
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
@@ -482,22 +485,6 @@ MEMORY_SHARE = 0.8
 """A run may plan to use at most this share of the memory available when it starts."""
 
 
-def available_memory() -> int | None:
-    """Memory the system can give this process now [bytes] (Linux's ``MemAvailable``, else the
-    free physical pages), or ``None`` when unknown."""
-    try:
-        with open("/proc/meminfo") as handle:
-            for line in handle:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
 def _check_memory(circuit: Circuit, mlcs, grid: np.ndarray, signals: Sequence[str] | None = None) -> None:
     """Refuse, before starting, a run whose results cannot fit in memory (a 1,000-node ladder
     over 5e6 steps needs 37 GiB): the estimate of the arrays every grid point fills, against
@@ -523,7 +510,8 @@ def refuse_beyond_memory(needed: int, what: str, sizes: str, circuit: Circuit, h
     if available is None or needed <= MEMORY_SHARE * available:
         return
     raise CircuitError(f"{what} would take {needed / 2**30:.3g} GiB ({sizes}), more than the "
-                       f"{available / 2**30:.3g} GiB of memory available", where=circuit.file, hint=hint)
+                       f"{available / 2**30:.3g} GiB of memory available (the least of the system's, "
+                       "ulimit -v's and the control group's)", where=circuit.file, hint=hint)
 
 
 def _check_blocked_currents(circuit: Circuit, grid: np.ndarray) -> None:
