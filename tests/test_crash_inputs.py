@@ -187,3 +187,25 @@ def test_the_smallest_limit_is_the_memory_available(monkeypatch):
     assert memory.available_memory() == 2**30
     monkeypatch.setattr(memory, "cgroup_left", lambda: None)
     assert memory.available_memory() == 8 * 2**30
+
+
+def test_info_skips_the_dense_analysis_above_its_size_and_lists_names_boundedly(monkeypatch, capsys):
+    # a 10,000-section RC ladder took 209 s and 3.2 GB in the dense well-posedness analysis
+    from circuitnsds.checks import wellposed
+    from circuitnsds.cli import info
+
+    def dense(circuit):
+        raise AssertionError("the dense analysis ran")
+
+    monkeypatch.setattr(wellposed, "report_lines", dense)
+    monkeypatch.setattr(info, "DENSE_UNKNOWNS", 50)
+    sections = 60
+    text = "ladder\nV1 n0 0 PULSE(0 1 0 1n 1n 5u 10u)\n" + "".join(
+        f"R{k} n{k} n{k + 1} 1k\nC{k} n{k + 1} 0 1n\n" for k in range(sections)) + ".tran 1u 100u\n.end\n"
+    report, ok = info.circuit_report(circuitnsds.read_netlist(text))
+    assert ok and "well-posedness of each step's LCP: not analysed: 62 unknowns and pairs, above 50" in report
+    monkeypatch.setattr(info, "NAMES_SHOWN", 10)
+    report, ok = info.circuit_report(circuitnsds.read_netlist(text))
+    nodes = next(line for line in report.splitlines() if line.startswith("nodes:"))
+    assert nodes == "nodes:     61 + ground 0: " + ", ".join(f"n{k}" for k in range(10)) + ", ... (61 in all)"
+
