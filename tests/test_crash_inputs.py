@@ -9,6 +9,7 @@ import sys
 import threading
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import circuitnsds
@@ -209,3 +210,39 @@ def test_info_skips_the_dense_analysis_above_its_size_and_lists_names_boundedly(
     nodes = next(line for line in report.splitlines() if line.startswith("nodes:"))
     assert nodes == "nodes:     61 + ground 0: " + ", ".join(f"n{k}" for k in range(10)) + ", ... (61 in all)"
 
+
+
+def test_a_face_singular_only_by_scaling_is_solved_without_linear_programs(monkeypatch):
+    # a buck without load and with a 1 kH inductor: each blocked step's face has rcond 5e-21
+    # unscaled (1e9 Ω off-switch, 1 kH at 0.1 µs) and went through enumeration and three LPs
+    # (44 s for 200 µs); scaled to unit rows and columns it is well conditioned
+    from circuitnsds.solvers import enumeration
+
+    def no_lp(*args, **kwargs):
+        raise AssertionError("a linear program ran")
+
+    monkeypatch.setattr(enumeration, "_face_lp", no_lp)
+    text = BUCK.replace("L1 sw out 100u", "L1 sw out 1k").replace("Rload out 0 5\n", "")
+    waves = circuitnsds.read_netlist(text.replace(".tran 0.1u 2m", ".tran 0.1u 20u")).transient()
+    on = np.asarray(waves["v(gate)"]) > 2.6  # (at 2.5 V exactly the switch is still open)
+    # the switch closed: sw at the input; the inductor's current (nA) never reaches the diode's
+    assert np.allclose(np.asarray(waves["v(sw)"])[on], 24.0, atol=1e-6)
+    assert np.abs(np.asarray(waves["i(l1)"])).max() < 1e-9
+
+
+def test_the_enumeration_stops_at_its_budget_instead_of_costing_seconds(monkeypatch):
+    from circuitnsds.solvers import enumeration
+    from circuitnsds.solvers.result import LCPSolverFailure
+
+    # M = 0 with q < 0: no solution, and every active set but the empty one singular
+    monkeypatch.setattr(enumeration, "MAX_FACE_LPS", 3)
+    with pytest.raises(LCPSolverFailure, match=r"stopped at its budget \(3 singular faces searched by LP"):
+        enumeration.enumerate_mlcp(np.zeros((5, 5)), 0, -np.ones(5))
+    assert enumeration.enumerate_mlcp(np.zeros((5, 5)), 0, -np.ones(5), force=True) is None
+    # factorisation work: 2**8 sets of a 300-unknown system
+    rng = np.random.default_rng(1)
+    K = np.eye(308) + 0.01 * rng.standard_normal((308, 308))
+    monkeypatch.setattr(enumeration, "MAX_ENUM_FLOPS", 1e9)
+    with pytest.raises(LCPSolverFailure, match=r"1e\+09 flops of factorisations") as caught:
+        enumeration.enumerate_mlcp(K, 300, np.r_[np.zeros(300), -np.ones(8)])
+    assert caught.value.reason == "budget"
