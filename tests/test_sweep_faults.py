@@ -225,3 +225,15 @@ def test_cli_writes_the_finished_rows_and_names_the_lost_ones(tmp_path, capsys):
     assert len(statuses) == 8 and statuses.count("ok") >= 2 and "lost" in statuses
     lost_rows = ", ".join(str(k) for k, s in enumerate(statuses) if s == "lost")
     assert f"points lost by the cluster (rows {lost_rows}," in err
+
+
+def test_a_point_out_of_memory_is_a_failed_row_not_an_internal_error(monkeypatch):
+    from circuitnsds.circuit.circuit import Circuit
+
+    def exhausted(self, *args, **kwargs):
+        raise MemoryError("Unable to allocate 2 GiB")
+
+    monkeypatch.setattr(Circuit, "transient", exhausted)
+    table = circuitnsds.sweep(SLOW_POINT, {"T": [1]}, measure=[MEAN], workers=0)
+    assert list(table["status"]) == ["failed"]
+    assert table["error"][0] == "out of memory (Unable to allocate 2 GiB)"
