@@ -14,6 +14,8 @@ Sizes above :data:`MAX_ENUM` raise ``ValueError`` unless ``force=True``.
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from .linalg import factorise
@@ -76,8 +78,10 @@ def _face_lp(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray,
 def _equilibrated_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     """``A⁻¹ b`` through ``A`` scaled to unit rows, then unit columns, or ``None`` when even
     that is singular. A face that only scaling makes look singular (a 1e9 Ω off-switch
-    beside a 1 kH inductor at a 0.1 µs step: rcond 5e-21 unscaled, 0.2 scaled) has one
-    solution, found without LPs."""
+    beside a 1 kH inductor at a 0.1 µs step: rcond 5e-21 unscaled, 0.2 scaled) has this one
+    point, found without the feasibility LP; whether its free unknowns are determined (a
+    1e-15 Ω resistor: its current is not, in doubles) is still asked of the LPs, once per
+    face (:func:`_free_unknowns_varying`)."""
     rows = np.abs(A).max(axis=1)
     if not (rows > 0).all():
         return None
@@ -89,6 +93,27 @@ def _equilibrated_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     if not lu.ok:
         return None
     return lu.solve(b / rows) / columns
+
+
+_VERDICTS: dict[bytes, np.ndarray] = {}
+VERDICTS_KEPT = 256
+"""Faces whose :func:`_varying_free_unknowns` verdict is kept (by matrix and active set):
+a transient meets the same singular face step after step, with new right-hand sides."""
+
+
+def _free_unknowns_varying(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray,
+                           x: np.ndarray) -> np.ndarray:
+    """:func:`_varying_free_unknowns`, its two LPs run once per matrix and active set (which
+    free unknowns a face leaves undetermined is a property of its equations)."""
+    key = hashlib.blake2b(np.ascontiguousarray(K).tobytes() + mask.tobytes() + n.to_bytes(8, "little"),
+                          digest_size=16).digest()
+    varying = _VERDICTS.get(key)
+    if varying is None:
+        varying = _varying_free_unknowns(K, n, c, mask, x)
+        if len(_VERDICTS) >= VERDICTS_KEPT:
+            _VERDICTS.clear()
+        _VERDICTS[key] = varying
+    return varying
 
 
 def _varying_free_unknowns(K: np.ndarray, n: int, c: np.ndarray, mask: np.ndarray,
@@ -167,31 +192,31 @@ def enumerate_mlcp(
         res, _ = mlcp_residual(K, n, c, x, kappa)
         if res <= tol:
             return x, mask, tried, res
-    for mask, scaled in singular:  # singular only by scaling: one solution, no LP needed
-        if scaled is not None and np.isfinite(scaled).all():
-            sel = np.concatenate([np.arange(n), n + np.flatnonzero(mask)])
-            x = np.zeros(n + m)
-            x[sel] = scaled
-            res, _ = mlcp_residual(K, n, c, x, kappa)
-            if res <= tol:
-                return x, mask, tried, res
     undetermined: list[np.ndarray] = []
-    if use_lp:
-        for lps, (mask, scaled) in enumerate(singular):
-            if scaled is not None:  # nonsingular once scaled, and no solution on its face
+    searched = 0  # faces that needed linear programs
+    for mask, scaled in singular:
+        if not use_lp:
+            break
+        sel = np.concatenate([np.arange(n), n + np.flatnonzero(mask)])
+        x = np.zeros(n + m)
+        if scaled is not None:  # singular only in its scaling: one point, or no solution here
+            if not np.isfinite(scaled).all():
                 continue
-            if lps >= MAX_FACE_LPS and not force:
+            x[sel] = scaled
+        else:
+            if searched >= MAX_FACE_LPS and not force:
                 _out_of_budget(n, m, tried, f"{MAX_FACE_LPS} singular faces searched by LP")
+            searched += 1
             tried += 1
             x = _face_lp(K, n, c, mask)
             if x is None:
                 continue
-            res, _ = mlcp_residual(K, n, c, x, kappa)
-            if res <= tol:
-                varying = _varying_free_unknowns(K, n, c, mask, x)
-                if not varying.size:
-                    return x, mask, tried, res
-                undetermined.append(varying)
+        res, _ = mlcp_residual(K, n, c, x, kappa)
+        if res <= tol:
+            varying = _free_unknowns_varying(K, n, c, mask, x)
+            if not varying.size:
+                return x, mask, tried, res
+            undetermined.append(varying)
     if undetermined:
         raise LCPSolverFailure(
             "the equations are singular: the solutions leave some unknowns undetermined "
