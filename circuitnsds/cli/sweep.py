@@ -14,7 +14,6 @@ from pathlib import Path
 
 from circuitnsds.cli.progress import CountBar
 from circuitnsds.errors import CircuitError
-from circuitnsds.sweeps.execute import LOST
 from circuitnsds.values import parse_value
 
 LOST_SHOWN = 20
@@ -162,6 +161,8 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         with writing(args.plot):
             plot_sweep(table, parameters, args.measure, args.plot)
         written.append(args.plot)
+    from circuitnsds.sweeps.execute import LOST
+
     lost = [k for k, status in enumerate(table["status"]) if status == LOST]
     failed = int((table["status"] != "ok").sum()) - len(lost)
     if not args.quiet:

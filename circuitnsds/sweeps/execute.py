@@ -21,7 +21,6 @@ returns the rows it has.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import logging
 import os
@@ -132,6 +131,8 @@ def run_points(job: Job, points: Sequence[Point], *, executor=None, workers: int
 def _on_dask(job: Job, points: Sequence[Point], executor, workers: int | None, scheduler: str | None,
              progress: Progress | None, connect_timeout: float, worker_timeout: float) -> list[dict]:
     """:func:`run_points` on a Dask cluster: the caller's, the scheduler's, or a local one."""
+    import asyncio
+
     from distributed import Client, LocalCluster
 
     patience = (connect_timeout, worker_timeout)
@@ -200,6 +201,8 @@ def local_worker_config():
 
 async def _identity(address: str, timeout: float) -> dict:
     """The scheduler's answer to ``identity``, within ``timeout`` seconds per exchange."""
+    import asyncio
+
     from distributed.comm import connect
 
     comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
