@@ -572,7 +572,7 @@ def test_an_unreachable_scheduler_is_a_clear_error(monkeypatch):
     from circuitnsds.sweeps import execute
     from circuitnsds.sweeps.execute import ExecutorError
 
-    monkeypatch.setattr(execute, "CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr(execute, "CONNECT_TIMEOUT", 1.0)
 
     with pytest.raises(ExecutorError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
         circuitnsds.sweep(POWER_STAGE, {"run": [1]}, scheduler="tcp://127.0.0.1:9")

@@ -21,7 +21,7 @@ from circuitnsds.circuit.observers import observers_of
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, stepper_class
 from circuitnsds.engine.theta_stepper import STEPPINGS
-from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.engine.timegrid import check_step_count, time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import TransientSpec
@@ -183,10 +183,12 @@ def _run_transient(
                 f"{circuit.file}: the step {h:.4g} s cannot resolve the sources: {what}; the step "
                 "given is obeyed (leave out --step to let circuitnsds refine it)"), stacklevel=2)
         else:
-            factor = math.ceil(h / needed[0] - 1e-9)
-            report_step, h = h, h / factor
-    breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
+            ratio = h / needed[0]  # (inf for .tran 1e308: then the step needed itself)
+            factor = math.ceil(ratio - 1e-9) if ratio < 2.0**52 else None
+            report_step, h = h, h / factor if factor else needed[0]
     try:
+        check_step_count(h, stop)  # before the breakpoints are listed (two 10 µs PULSEs: 2.6 GB)
+        breakpoints = np.append(mlcs.breakpoints(stop), start)  # output begins exactly at TSTART
         grid = time_grid(h, stop, breakpoints)
     except ValueError as exc:
         if report_step is not None:  # the step the sources need, not TSTEP, is too small
@@ -197,7 +199,8 @@ def _run_transient(
     if report_step is not None:  # noted once the grid exists (a failed refinement is an error)
         warnings.warn(RunNote(
             f"{circuit.file}: TSTEP {report_step:.4g} s cannot resolve the sources ({what}): "
-            f"integrated with a step of {h:.4g} s (TSTEP/{factor}), reported every TSTEP"),
+            f"integrated with a step of {h:.4g} s{f' (TSTEP/{factor})' if factor else ''}, reported "
+            "every TSTEP"),
             stacklevel=2)
     check_initial_conditions(circuit, circuit.resolved_elements(spec.source_defaults), uic)
     stepper = _stepper(circuit, mlcs, method, theta=theta, tol=tol, loop=stepping)

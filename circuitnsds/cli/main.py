@@ -257,6 +257,14 @@ def main(argv: list[str] | None = None) -> int:
         except BrokenPipeError:  # output piped into `head` and the like: not an error
             sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (interpreter exit flushes it)
             return 0
+        except MemoryError as exc:  # a limit met past the checks (ulimit -v, a cgroup): not a bug
+            _print_warnings(caught)
+            if args.debug:
+                raise
+            print(f"circuitnsds: error: out of memory{f' ({exc})' if str(exc) else ''}\n  hint: a "
+                  "longer step, a shorter .tran, fewer signals kept (--signals), or more memory for "
+                  "the process (ulimit -v, the container's limit)", file=sys.stderr)
+            return 1
         except Exception as exc:  # a bug in circuitnsds, not bad input
             if args.debug:
                 raise

@@ -2,7 +2,8 @@
 
 ``circuitnsds run`` on a netlist with ``.step`` lines comes here too. The table goes to
 stdout (and to ``-o`` as CSV); the exit status is 0 when every point ran, 1 when some
-failed (their rows say why; the table is written all the same).
+failed or were lost by a Dask cluster (their rows say why, the error message names the
+lost rows; the table is written all the same).
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ from circuitnsds.cli.progress import CountBar
 from circuitnsds.errors import CircuitError
 from circuitnsds.values import parse_value
 
+LOST_SHOWN = 20
+"""Lost rows named in the error message (the table has them all)."""
+
 PARAM_HELP = ('NAME=START:STOP:COUNT (COUNT values, both ends included), NAME=V1,V2,... or NAME=V; '
               'repeatable: the points are the outer product (first --param outermost, after the '
               "netlist's .step lines)")
@@ -25,6 +29,13 @@ def _seconds(text: str) -> float:
         return parse_value(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a time (e.g. 1u, 10ms, 2e-3)") from None
+
+
+def _positive_seconds(text: str) -> float:
+    value = _seconds(text)
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a positive number of seconds")
+    return value
 
 
 def _param(text: str):
@@ -78,6 +89,12 @@ def add_execution_arguments(parser: argparse.ArgumentParser) -> None:
                         "need circuitnsds, not the netlist's files)")
     parser.add_argument("--seed", type=int,
                         help="Monte Carlo seed (default: .options seed, else 1)")
+    parser.add_argument("--connect-timeout", type=_positive_seconds, metavar="S",
+                        help="sweeps: seconds to reach --scheduler and to wait for one answer from "
+                        "it (default 10)")
+    parser.add_argument("--worker-timeout", type=_positive_seconds, metavar="S",
+                        help="sweeps: seconds to wait while the cluster has no worker or its scheduler "
+                        "does not answer; then the points not finished are marked lost (default 60)")
 
 
 def run_sweep(args: argparse.Namespace, builder=None) -> int:
@@ -113,7 +130,9 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
                       keep_waveforms=getattr(args, "waveforms", None) or False, step=args.step,
                       stop=args.stop, theta=args.theta, progress=progress,
                       losses=None if getattr(args, "losses", None) is None else
-                      [name.strip() for name in args.losses.split(",") if name.strip()])
+                      [name.strip() for name in args.losses.split(",") if name.strip()],
+                      connect_timeout=getattr(args, "connect_timeout", None),
+                      worker_timeout=getattr(args, "worker_timeout", None))
     finally:
         progress.close()
     figures = [*args.measure, *table.attrs["loss_columns"]]
@@ -150,16 +169,23 @@ def run_sweep(args: argparse.Namespace, builder=None) -> int:
         with writing(args.plot):
             plot_sweep(table, parameters, figures, args.plot)
         written.append(args.plot)
-    failed = int((table["status"] != "ok").sum())
+    from circuitnsds.sweeps.execute import LOST
+
+    lost = [k for k, status in enumerate(table["status"]) if status == LOST]
+    failed = int((table["status"] != "ok").sum()) - len(lost)
     if not args.quiet:
         where = f"; wrote {', '.join(map(str, written))}" if written else ""
         print(f"circuitnsds: {len(table)} points in {table.attrs['seconds']:.3g} s, "
-              f"{failed} failed{where}", file=sys.stderr)
+              f"{failed} failed, {len(lost)} lost{where}", file=sys.stderr)
+    if lost:
+        shown_rows = ", ".join(map(str, lost[:LOST_SHOWN])) + (", ..." if len(lost) > LOST_SHOWN else "")
+        reasons = "; ".join(dict.fromkeys(table["error"][k].removeprefix("lost: ") for k in lost))
+        print(f"circuitnsds: error: {len(lost)} of {len(table)} points lost by the cluster (rows "
+              f"{shown_rows}, counted from 0; status 'lost' in the table): {reasons}", file=sys.stderr)
     if failed:
         print(f"circuitnsds: error: {failed} of {len(table)} points failed (see the error column)",
               file=sys.stderr)
-        return 1
-    return 0
+    return 1 if failed or lost else 0
 
 
 def run_steps(args: argparse.Namespace, builder=None) -> int:

@@ -650,6 +650,11 @@ class GridStepping:
         system = step_system(self.mlcs, length, states, theta, dense=self.dense)
         solver = MLCPSolver(system.K, -system.B, system.C, system.D, tol=self.tol)
         rhs = system.rhs(charge, y, f0, f1)
+        if not np.isfinite(rhs).all():  # an overflow (a huge .ic), not an MLCP to solve
+            raise SimulationError(
+                f"the state overflows in the part of a step from t = {t0:.6g} s to {t0 + length:.6g} s "
+                f"(largest |value| {np.abs(y).max():.3g})", where=f"t = {t0 + length:.6g} s",
+                time=float(t0 + length), cause=SimulationError.STATE_NOT_FINITE)
         try:
             return solver.solve(-rhs, self.mlcs.e, guess=guess)
         except LCPError as exc:

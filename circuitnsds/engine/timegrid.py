@@ -15,6 +15,16 @@ MAX_POINTS = 50_000_000
 """Refuse grids longer than this (memory: every point stores every unknown)."""
 
 
+def check_step_count(step: float, stop: float) -> None:
+    """Raise ``ValueError`` for a grid of ``stop / step`` regular steps beyond
+    :data:`MAX_POINTS` (before anything of the grid, or of its breakpoints, is built)."""
+    if step <= 0 or stop <= 0:
+        raise ValueError("step and stop must be positive")
+    if stop / step > MAX_POINTS:
+        raise ValueError(f"{stop / step:.3g} steps requested (limit {MAX_POINTS:.0e}): "
+                         "the step is far too small for the stop time")
+
+
 def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = ()) -> np.ndarray:
     """Instants ``0 = t_0 < t_1 < ... < t_N = stop`` [s].
 
@@ -22,11 +32,7 @@ def time_grid(step: float, stop: float, breakpoints: np.ndarray | list[float] = 
     added, and a regular point within ``MERGE_FRACTION·step`` of a breakpoint is
     dropped in favour of the breakpoint (so no step is absurdly short by accident).
     """
-    if step <= 0 or stop <= 0:
-        raise ValueError("step and stop must be positive")
-    if stop / step > MAX_POINTS:
-        raise ValueError(f"{stop / step:.3g} steps requested (limit {MAX_POINTS:.0e}): "
-                         "the step is far too small for the stop time")
+    check_step_count(step, stop)
     count = max(1, math.ceil(stop / step - 1e-9))
     regular = np.arange(count + 1, dtype=float)  # (k·step computed in place: one array)
     regular *= step

@@ -129,7 +129,7 @@ class _Expander:
             raise NetlistError(f"{keyword}: {opened.shown} includes itself ({chain})",
                                where=statement.location, hint="remove the include that closes the cycle")
         what = "library" if keyword == ".lib" else "included file"
-        text = read_source_text(path, where=statement.location, what=what)
+        text = read_source_text(path, where=statement.location, what=what, regular_only=True)
         included = parse_netlist(text, file=shown, has_title=False)
         self.control_blocks.extend(included.control_blocks)
         statements = included.statements

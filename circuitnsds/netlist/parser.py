@@ -22,7 +22,9 @@ Included files have no title line (``parse_netlist(..., has_title=False)``).
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -316,22 +318,49 @@ READ_CHUNK = 2**16
 """First read [bytes]: a binary file (a NUL byte) is refused before reading more."""
 
 
-def read_source_text(path: str | Path, where: object | None = None, what: str = "netlist") -> str:
+def _open_regular(path: Path, what: str, where: object):
+    """``path`` opened for reading without blocking (a FIFO with no writer would wait for
+    ever), refused unless it is a regular file.
+
+    Raises:
+        NetlistError: a FIFO, a device, a socket.
+        OSError: as ``open`` raises them.
+    """
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    mode = os.fstat(descriptor).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(descriptor)
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(path)
+        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode)
+                or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+        raise NetlistError(f"the {what} {str(path)!r} is {kind}, not a regular file: not read",
+                           where=where, hint="includes and libraries are read from files; copy the "
+                           "text into one")
+    os.set_blocking(descriptor, True)
+    return os.fdopen(descriptor, "rb")
+
+
+def read_source_text(path: str | Path, where: object | None = None, what: str = "netlist",
+                     regular_only: bool = False) -> str:
     """The text of a netlist or library file (UTF-8; ASCII is UTF-8).
 
     Args:
         path: the file.
         where: location reported on failure (the including statement); the path if None.
         what: what the file is, for messages (``netlist``, ``included file``).
+        regular_only: refuse FIFOs and devices, opened without blocking (for included files:
+            the netlist named on the command line may be a pipe, ``<(command)``).
 
     Raises:
         NetlistError: the file is missing or unreadable, binary, larger than
-            :data:`MAX_SOURCE_BYTES`, or not UTF-8 text.
+            :data:`MAX_SOURCE_BYTES`, or not UTF-8 text; with ``regular_only``, not a
+            regular file.
     """
     path = Path(path)
     where = str(path) if where is None else where
     try:
-        with open(path, "rb") as handle:
+        with (_open_regular(path, what, where) if regular_only else open(path, "rb")) as handle:
             data = handle.read(READ_CHUNK)
             if b"\0" not in data and len(data) == READ_CHUNK:
                 data += handle.read(MAX_SOURCE_BYTES + 1 - READ_CHUNK)

@@ -211,10 +211,15 @@ def options_seed(statements: Iterable[Statement]) -> int | None:
         for index, token in enumerate(tokens[:-2]):
             if token == "seed" and tokens[index + 1] == "=":
                 try:
-                    seed = int(float(tokens[index + 2]))
+                    value = float(tokens[index + 2])
                 except ValueError:
                     raise NetlistError(f".options seed={tokens[index + 2]} is not an integer",
                                        where=statement.location) from None
+                if not (math.isfinite(value) and value >= 0 and value == int(value)):
+                    raise NetlistError(f".options seed={tokens[index + 2]} must be a non-negative "
+                                       "integer", where=statement.location,
+                                       hint="any integer from 0 up; the same seed draws the same numbers")
+                seed = int(value)
     return seed
 
 

@@ -269,13 +269,16 @@ class _Flattener:
         self.statements: list[Statement] = []
         self._sizes: dict[int, int] = {}
 
-    def size(self, definition: SubcircuitDefinition) -> int:
+    def size(self, definition: SubcircuitDefinition, depth: int = 0) -> int:
         """How many statements one instance of ``definition`` expands to (its subcircuit
-        instances counted through; an unknown or recursive one counts 0, the expansion
-        reports it)."""
+        instances counted through; an unknown or recursive one counts 0, and so do levels
+        below :data:`MAX_DEPTH`: the expansion reports them, and a chain of 1000 levels
+        must not exhaust Python's stack here first)."""
         key = id(definition)
         if key in self._sizes:
             return self._sizes[key]
+        if depth > MAX_DEPTH:
+            return 0
         self._sizes[key] = 0  # a recursive definition (refused by instance()) ends here
         total = 0
         for statement in definition.body:
@@ -284,7 +287,7 @@ class _Flattener:
             if not statement.is_command and element_letter(statement.keyword) == "x":
                 words = tokenize(split_parameters(statement.text)[0], strict=False)
                 child = self.find_from(words[-1], definition) if len(words) >= 2 else None
-                total += self.size(child) if child is not None else 0
+                total += self.size(child, depth + 1) if child is not None else 0
             else:
                 total += 1
         self._sizes[key] = total

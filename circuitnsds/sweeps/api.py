@@ -54,7 +54,8 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
           keep_waveforms: bool | str | Path = False, step: float | None = None,
           stop: float | None = None, theta: float | None = None, uic: bool | None = None,
           progress: Callable[[int, int], None] | None = None,
-          losses: Sequence[str] | None = None):
+          losses: Sequence[str] | None = None,
+          connect_timeout: float | None = None, worker_timeout: float | None = None):
     """Run a netlist at every point of a parameter grid or Monte Carlo sample.
 
     Args:
@@ -82,11 +83,18 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
             outputs; ``None``: none): columns ``efficiency`` (with loads), ``losses_W``, ``stored_W``, each
             datasheet device's ``NAME.conduction_W`` … ``NAME.recovery_W`` and
             ``max(tj(NAME))`` (docs/losses.md), named in ``attrs["loss_columns"]``.
+        connect_timeout: how long to try to reach ``scheduler`` and to wait for one answer
+            from it [s] (default :data:`~circuitnsds.sweeps.execute.CONNECT_TIMEOUT`, 10 s).
+        worker_timeout: how long the sweep waits while the cluster has no worker or its
+            scheduler does not answer before the points not finished are lost [s] (default
+            :data:`~circuitnsds.sweeps.execute.WORKER_TIMEOUT`, 60 s).
 
     Returns:
         a pandas DataFrame, one row per point in grid order: the parameter columns (names
-        as written), one column per measurement, ``status`` (``"ok"`` or ``"failed"``),
-        ``error`` (the message of a failed point, else empty) and ``warnings``. Its
+        as written), one column per measurement, ``status`` (``"ok"``, ``"failed"``: the
+        point's own error, or ``"lost"``: the cluster lost its task, see
+        :mod:`~circuitnsds.sweeps.execute`), ``error`` (the message of a failed or lost
+        point, else empty) and ``warnings``. Its
         ``attrs`` hold ``seed``, ``seconds`` (wall time of the sweep), ``point_seconds``
         and ``point_cpu_seconds`` (wall and CPU time of each point where it ran).
 
@@ -96,7 +104,7 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     """
     import pandas as pd
 
-    from circuitnsds.sweeps.execute import run_points
+    from circuitnsds.sweeps import execute
 
     started = time.perf_counter()
     chosen = [name for name, value in (("executor", executor), ("scheduler", scheduler),
@@ -104,6 +112,13 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     if len(chosen) > 1:
         raise CircuitError(f"{' and '.join(chosen)} are both given: they choose where the points run",
                            where="sweep", hint="give one of them (workers=0: in this process)")
+    timeouts = {"connect_timeout": execute.CONNECT_TIMEOUT if connect_timeout is None else connect_timeout,
+                "worker_timeout": execute.WORKER_TIMEOUT if worker_timeout is None else worker_timeout}
+    for name, value in timeouts.items():
+        if not (isinstance(value, (int, float)) and 0 < value < float("inf")):
+            raise CircuitError(f"{name}={value!r}: give a positive number of seconds", where="sweep")
+    if scheduler is not None:  # a malformed address refused before anything runs
+        scheduler = execute.scheduler_address(scheduler)
     for expression in measure:  # syntax errors now, not at every point
         parse_measurement(expression)
     builder = netlist if isinstance(netlist, CircuitBuilder) else CircuitBuilder.load(netlist)
@@ -134,8 +149,8 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
               tuple(signals) if signals else None, bool(keep_waveforms),
               None if losses is None else tuple(name.lower() for name in losses))
     points = [Point(index, values, seed) for index, values in enumerate(grid(steps))]
-    rows = run_points(job, points, executor=executor, workers=workers, scheduler=scheduler,
-                      progress=progress)
+    rows = execute.run_points(job, points, executor=executor, workers=workers, scheduler=scheduler,
+                              progress=progress, **timeouts)
     loss_columns = list(dict.fromkeys(key for row in rows for key in row["values"]
                                       if key not in measure))
     table = pd.DataFrame({

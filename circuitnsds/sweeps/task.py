@@ -135,6 +135,8 @@ def run_point(job: Job, point: Point) -> dict:
                 waves = waves.select(job.signals or waves.names)
         except CircuitnsdsError as exc:
             status, error, waves = "failed", str(exc), None
+        except MemoryError as exc:  # a limit of the worker (ulimit -v, a cgroup), not a bug
+            status, error, waves = "failed", f"out of memory{f' ({exc})' if str(exc) else ''}", None
         except Exception as exc:  # a bug: still one row, not a dead sweep
             status, error, waves = "failed", f"internal error: {type(exc).__name__}: {exc}", None
     messages = list(dict.fromkeys(str(w.message) for w in caught))

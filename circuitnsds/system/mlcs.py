@@ -36,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from circuitnsds.arrays import sorted_unique
-from circuitnsds.system.stimuli import Stimulus, threshold_crossings
+from circuitnsds.errors import CircuitError
+from circuitnsds.system.stimuli import Stimulus, breakpoint_bound, threshold_crossings
 from circuitnsds.system.triplets import Triplets
 
 Row = tuple[tuple[int, float], ...]
@@ -88,6 +89,11 @@ class SwitchRelation:
     def control_value(self, y: np.ndarray) -> float:
         """The control quantity for MNA unknowns ``y``."""
         return float(sum(value * y[column] for column, value in self.control))
+
+
+MAX_BREAKPOINTS = 50_000_000
+"""Refuse more source breakpoints than this (each is a grid point; the time grid's own
+limit, :data:`circuitnsds.engine.timegrid.MAX_POINTS`, is the same)."""
 
 
 @dataclass
@@ -150,9 +156,33 @@ class MLCS:
             return np.zeros(self.n)
         return self.S @ np.array([stimulus.value(t) for stimulus in self.stimuli])
 
+    def breakpoint_bound(self, stop: float) -> float:
+        """At most how many instants :meth:`breakpoints` gives, found without listing them."""
+        bound = sum(breakpoint_bound(stimulus, stop) for stimulus in self.stimuli)
+        for switch in self.switches:  # a linear piece crosses a level at most once
+            if switch.control_stimulus is not None:
+                levels = 1 if switch.crossing is not None else 2
+                bound += levels * breakpoint_bound(self.stimuli[switch.control_stimulus[0]], stop)
+        return bound
+
     def breakpoints(self, stop: float) -> np.ndarray:
         """Sorted instants in ``(0, stop)`` where a source's slope jumps or a source-driven
-        switch changes state (so that both fall on the time grid)."""
+        switch changes state (so that both fall on the time grid).
+
+        Raises:
+            CircuitError: more than :data:`MAX_BREAKPOINTS` of them (counted first: listing
+                them would fill the memory).
+        """
+        bound = self.breakpoint_bound(stop)
+        if bound > MAX_BREAKPOINTS:
+            counts = [breakpoint_bound(stimulus, stop) for stimulus in self.stimuli]
+            busiest = (self.stimulus_owners[int(np.argmax(counts))]
+                       if counts and len(self.stimulus_owners) == len(counts) else "")
+            raise CircuitError(f"the sources have up to {bound:.3g} breakpoints (corners) before "
+                               f"{stop:.4g} s (limit {MAX_BREAKPOINTS:.0e})"
+                               + (f", most of them {busiest}'s" if busiest else ""),
+                               where=busiest or None, hint="check the units of the source's period "
+                               "and of TSTOP (a 10 µs PULSE over 100 s has 4e7 corners)")
         points = [np.asarray(stimulus.breakpoints(stop), dtype=float) for stimulus in self.stimuli]
         for switch in self.switches:
             if switch.control_stimulus is not None:

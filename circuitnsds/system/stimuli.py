@@ -372,6 +372,22 @@ def resolving_step(stimulus: Stimulus, stop: float) -> float | None:
     return None
 
 
+def breakpoint_bound(stimulus: Stimulus, stop: float) -> float:
+    """At most how many instants ``stimulus.breakpoints(stop)`` lists, found without listing
+    them (a 10 µs PULSE over 100 s has 4e7): a float, ``inf`` when the count overflows."""
+    if isinstance(stimulus, Pulse):
+        if not stimulus.period or stimulus.period <= 0:
+            return 4.0
+        with np.errstate(over="ignore"):
+            pulses = max(0.0, (stop - stimulus.delay) / stimulus.period) + 2.0
+        if stimulus.count:
+            pulses = min(pulses, math.ceil(stimulus.count))
+        return 4.0 * pulses
+    if isinstance(stimulus, Pwl):
+        return float(len(stimulus.times))
+    return float(len(stimulus.breakpoints(stop)))
+
+
 def threshold_crossings(stimulus: Stimulus, level: float, stop: float) -> list[float]:
     """Instants in ``(0, stop)`` where a piecewise-linear function crosses ``level`` mid-piece.
 
