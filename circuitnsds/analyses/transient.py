@@ -47,9 +47,12 @@ def transient_spec(circuit: Circuit, **given: float | bool | None) -> TransientS
 def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[str] | None = None,
                   sink=None, **settings) -> Waveforms:
     """Run the transient ``spec`` (see :meth:`Circuit.transient`; ``settings``: the other
-    keyword arguments of :func:`_run_transient`). With ``.options pwlfit=auto`` a first run
-    measures the peak forward (and breakdown) current of every fitted diode model, the models
-    are refitted over ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`).
+    keyword arguments of :func:`_run_transient`). Diodes fitted to SPICE models are fitted
+    where the circuit works: when a run's peak forward or breakdown current of a fitted model
+    leaves the range its branches cover (:func:`~circuitnsds.circuit.elements.diode.refit_to`),
+    the model is refitted to those peaks and the transient is run again, once (not with a
+    ``sink``, which has its rows already: a warning names the diodes then). ``.options
+    pwlfit=I`` fixes every fit's range below ``I`` [A] instead.
 
     ``sink`` (with ``signals``): an object with ``append(time, columns, residual)`` (and
     optionally ``expect(rows)``), e.g. :class:`~circuitnsds.output.csvfile.CsvStream`,
@@ -57,13 +60,31 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     the waveforms returned then hold no rows (their ``stats`` count them: ``rows``)."""
     if sink is not None and signals is None:
         raise ValueError("a sink needs the signals it is to get")
-    if circuit.options.get("pwlfit") != "auto":
+    fixed = isinstance(circuit.options.get("pwlfit"), float | int)
+    if fixed or sink is not None or not _fitted_diodes(circuit):
         return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
-    first = _run_transient(circuit, spec, note_fits=False, **settings)  # every signal: the diodes' currents
-    refitted = _refitted(circuit, first)
-    if refitted is not circuit:
-        return _run_transient(refitted, spec, signals=signals, sink=sink, **settings)
-    return first if signals is None else _drained(first.select(signals), sink)
+    peaks: dict[str, tuple[float, float]] = {}
+    first = _run_transient(circuit, spec, signals=signals, note_fits=False, peaks=peaks, **settings)
+    refitted = _refitted(circuit, peaks)
+    if refitted is circuit:
+        _note_fits_outside_their_range(circuit, peaks)
+        return first
+    return _run_transient(refitted, spec, signals=signals, note_drives=False, **settings)
+
+
+def _fitted_diodes(circuit: Circuit) -> list[Diode]:
+    """The diodes whose models are fitted to a SPICE diode's curves."""
+    return [e for e in circuit.elements if isinstance(e, Diode) and e.model.shockley is not None]
+
+
+def _breakdown_share(element: Diode, reverse: float) -> float:
+    """The part [A per unit area] of a reverse current ``reverse`` (per unit area) that the
+    breakdown branches of ``element`` can carry: at most ``reverse − V(reverse)/Roff``, the
+    rest being the off-conductance's leakage (0 for a diode without breakdown)."""
+    fit = element.model.breakdown_fit
+    if fit is None or reverse <= 0:
+        return 0.0
+    return max(0.0, reverse - float(fit.voltage(reverse)) / element.model.off_resistance)
 
 
 def _drained(waves: Waveforms, sink) -> Waveforms:
@@ -83,54 +104,50 @@ def _drained(waves: Waveforms, sink) -> Waveforms:
 
 def _fitted_peaks(circuit: Circuit, waves: Waveforms,
                   peaks: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
-    """Model name -> the largest forward and reverse current [A] per unit area that ``waves``
-    shows through the instances of each Shockley-fitted diode model (the models whose
-    instances' currents ``waves`` does not hold are left out), taken together with ``peaks``
-    (those of earlier segments of the same run), which is updated and returned."""
-    from circuitnsds.circuit.elements import Diode
-
+    """Diode name -> the largest forward current and the largest breakdown current
+    (:func:`_breakdown_share` of the largest reverse one) [A] per unit area that ``waves``
+    shows through each diode fitted to a SPICE model (the diodes whose currents ``waves``
+    does not hold are left out), taken together with ``peaks`` (those of earlier segments
+    of the same run), which is updated and returned."""
     peaks = {} if peaks is None else peaks
-    for element in circuit.elements:
-        if isinstance(element, Diode) and element.model.shockley is not None:
-            try:
-                current = np.asarray(waves[f"i({element.name})"]) / element.area
-            except KeyError:  # a run that kept only some signals
-                continue
-            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
-            peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
-                                         max(reverse, float(-current.min(initial=0.0))))
+    for element in _fitted_diodes(circuit):
+        try:
+            current = np.asarray(waves[f"i({element.name})"]) / element.area
+        except KeyError:  # a run that kept only some signals
+            continue
+        forward, reverse = peaks.get(element.name, (0.0, 0.0))
+        peaks[element.name] = (max(forward, float(current.max(initial=0.0))),
+                               max(reverse, _breakdown_share(element, float(-current.min(initial=0.0)))))
     return peaks
 
 
 def _diode_peaks(circuit: Circuit, mlcs, trajectory,
                  peaks: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
-    """Model name -> the largest forward and reverse current [A] per unit area through the
-    instances of each Shockley-fitted diode model over every row of ``trajectory`` (what
+    """Diode name -> the largest forward and breakdown current [A] per unit area through
+    each diode fitted to a SPICE model over every row of ``trajectory`` (what
     :func:`_fitted_peaks` gives from the waveforms, the same numbers), taken together with
     ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
     current is computed only at the rows where its largest value (or, for the reverse peak,
     its largest negated value) can be (:func:`_largest_rows`)."""
-    from circuitnsds.circuit.elements import Diode
-
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
     bounds: dict[int, float] = {}  # the largest |value| of y (0) and of the currents (1)
-    for element in circuit.elements:
-        if isinstance(element, Diode) and element.model.shockley is not None:
-            row = rows.get(f"i({element.name})")
-            if row is None:
-                continue
-            largest = []
-            for sign in (1.0, -1.0):  # forward, reverse
-                terms = [(source, column, sign * weight)
-                         for source, column, weight in _signal_terms(mlcs, row)]
-                where = _largest_rows(terms, trajectory, bounds)
-                states, currents = trajectory.y, trajectory.current
-                if where is not None:
-                    states, currents = states[where], currents[where]
-                current = _output_values(terms, states, currents) / element.area
-                largest.append(float(current.max(initial=0.0)))
-            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
-            peaks[element.model.name] = (max(forward, largest[0]), max(reverse, largest[1]))
+    for element in _fitted_diodes(circuit):
+        row = rows.get(f"i({element.name})")
+        if row is None:
+            continue
+        largest = []
+        for sign in (1.0, -1.0):  # forward, reverse
+            terms = [(source, column, sign * weight)
+                     for source, column, weight in _signal_terms(mlcs, row)]
+            where = _largest_rows(terms, trajectory, bounds)
+            states, currents = trajectory.y, trajectory.current
+            if where is not None:
+                states, currents = states[where], currents[where]
+            current = _output_values(terms, states, currents) / element.area
+            largest.append(float(current.max(initial=0.0)))
+        forward, reverse = peaks.get(element.name, (0.0, 0.0))
+        peaks[element.name] = (max(forward, largest[0]),
+                               max(reverse, _breakdown_share(element, largest[1])))
     return peaks
 
 
@@ -188,45 +205,28 @@ def _largest_rows(terms: list[tuple[int, int, float]], trajectory,
     return where if where.size <= values.size // 4 else None
 
 
-FIT_DROP_TOLERANCE = 0.02
-"""Forward-drop error [V] of a fitted line (against its Shockley curve) at a diode's peak
-current beyond which the run notes that the fit range misses the circuit's currents."""
-
-
 def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
-    """A :class:`RunNote` for each Shockley-fitted diode model whose instances' peak forward or
-    reverse (breakdown) current (``peaks``: :func:`_diode_peaks`) lies outside the range its
-    forward or breakdown line was fitted over, where the line misses the curve by more than
-    :data:`FIT_DROP_TOLERANCE` (the answer is then the line's, not the model's)."""
-    from circuitnsds.circuit.elements import Diode
+    """A :class:`CircuitWarning` for each diode fitted to a SPICE model whose peak forward or
+    breakdown current (``peaks``: :func:`_diode_peaks`) lies outside the range its branches
+    were fitted over, where they depart from the model's curve by more than the fit's
+    stated error (:func:`~circuitnsds.circuit.elements.diode.fit_departures`): the answer
+    there is the fit's, not the model's."""
+    from circuitnsds.circuit.elements.diode import fit_departures
 
-    models = {e.model.name: e.model for e in circuit.elements
-              if isinstance(e, Diode) and e.model.fit_range is not None}
-    for name, (forward, reverse) in peaks.items():
-        model = models.get(name)
-        if model is None:
+    for element in _fitted_diodes(circuit):
+        if element.name not in peaks:
             continue
-        branches = [("", forward, model.fit_range, model.forward_drop, model.on_resistance,
-                     model.shockley.forward_voltage)]
-        if model.breakdown_fit_range is not None and model.breakdown_voltage is not None:
-            branches.append((" breakdown", reverse, model.breakdown_fit_range,
-                             model.breakdown_voltage, model.breakdown_resistance,
-                             model.shockley.breakdown_drop))
-        for branch, peak, (low, high), drop, slope, curve in branches:
-            if peak <= 1e-12:
-                continue
-            error = abs(drop + slope * peak - float(curve(peak)))
-            if (peak < low or peak > high) and error > FIT_DROP_TOLERANCE:
-                what = f".model {name}'s breakdown line was" if branch else f".model {name} was"
-                way = " in breakdown" if branch else ""
-                miss = f"{error:.3g} V" if error >= 1 else f"{error * 1e3:.3g} mV"
-                fix = (f"set .options pwlfit={peak:.3g} (pwlfit=auto refits once, to the peaks of "
-                       "a first run, and they moved)" if circuit.options.get("pwlfit") == "auto"
-                       else f"set .options pwlfit={peak:.3g} (or pwlfit=auto)")
-                warnings.warn(RunNote(
-                    f"{circuit.file}: {what} fitted over {low:.3g}..{high:.3g} A but its diodes "
-                    f"carry up to {peak:.3g} A{way}, where the fitted line misses the model's "
-                    f"curve by {miss}: {fix} to fit it where the circuit works"), stacklevel=4)
+        for branch, peak, fit, error in fit_departures(element.model, *peaks[element.name]):
+            miss = f"{error:.3g} V" if error >= 1 else f"{error * 1e3:.3g} mV"
+            fix = ("set .options pwlfit to that current, or leave pwlfit out to fit where the "
+                   "circuit works" if isinstance(circuit.options.get("pwlfit"), float | int)
+                   else f"set .options pwlfit={peak * element.area:.3g}")
+            warnings.warn(CircuitWarning(
+                f"{circuit.file}: diode {element.name} (.model {element.model.name}) carries up "
+                f"to {peak * element.area:.3g} A {branch}, outside the {fit.low:.3g}..{fit.high:.3g} "
+                f"A per unit area its {branch} curve was fitted over (within "
+                f"{fit.max_error * 1e3:.3g} mV there); at that current the fit misses the model "
+                f"by {miss}: {fix}"), stacklevel=4)
 
 
 MOSFET = "circuitnsds.circuit.elements.mosfet"
@@ -283,30 +283,35 @@ def _note_weak_gate_drives(circuit: Circuit, drives: dict[str, list[float]]) -> 
                 "at, or drive its gate to that level"), stacklevel=4)
 
 
-def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
-    """A copy of ``circuit`` whose fitted diode models are refitted to the peak currents
-    ``waves`` shows through their instances (a model that never conducts keeps its fit)."""
+def _refitted(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> Circuit:
+    """A copy of ``circuit`` whose fitted diode models are refitted where their diodes work
+    (:func:`~circuitnsds.circuit.elements.diode.refit_to` of each model's largest ``peaks``
+    over its instances), with a note for each; ``circuit`` itself when none needs it."""
     from dataclasses import replace as copy
 
-    from circuitnsds.circuit.elements import Diode
-    from circuitnsds.circuit.elements.diode import fitted_model
+    from circuitnsds.circuit.elements.diode import refit_to
 
-    peaks = _fitted_peaks(circuit, waves)
-    if not peaks:
-        return circuit
+    largest: dict[str, tuple[float, float]] = {}
     models = {}
-    for name, (forward, reverse) in peaks.items():
-        model = next(e.model for e in circuit.elements if isinstance(e, Diode) and e.model.name == name)
-        refit = fitted_model(model, model.shockley, forward if forward > 1e-9 else None,
-                             reverse if reverse > 1e-9 else None)
-        models[name] = copy(refit, origin=refit.origin + " (pwlfit=auto: the peak current of a "
-                            "first run)")
-        warnings.warn(RunNote(f"{circuit.file}: .model {name}: refitted to the peak currents of a "
-                              f"first run: {models[name].origin}"), stacklevel=3)
-    elements = [copy(e, model=models[e.model.name]) if isinstance(e, Diode) and e.model.name in models
+    for element in _fitted_diodes(circuit):
+        forward, reverse = peaks.get(element.name, (0.0, 0.0))
+        before = largest.get(element.model.name, (0.0, 0.0))
+        largest[element.model.name] = (max(before[0], forward), max(before[1], reverse))
+        models[element.model.name] = element.model
+    refits = {}
+    for name, (forward, reverse) in largest.items():
+        refit = refit_to(models[name], forward, reverse)
+        if refit is None:
+            continue
+        refits[name] = refit
+        warnings.warn(RunNote(f"{circuit.file}: .model {name}: refitted where its diodes work "
+                              f"(peaks {forward:.3g} A forward, {reverse:.3g} A breakdown per "
+                              f"unit area in a first run): {refit.origin}"), stacklevel=3)
+    if not refits:
+        return circuit
+    elements = [copy(e, model=refits[e.model.name]) if isinstance(e, Diode) and e.model.name in refits
                 else e for e in circuit.elements]
-    refitted = copy(circuit, elements=elements, models={**circuit.models, **models})
-    return refitted
+    return copy(circuit, elements=elements, models={**circuit.models, **refits})
 
 
 def _run_transient(
@@ -319,10 +324,15 @@ def _run_transient(
     signals: Sequence[str] | None = None,
     sink=None,
     note_fits: bool = True,
+    note_drives: bool = True,
+    peaks: dict[str, tuple[float, float]] | None = None,
 ) -> Waveforms:
-    """The transient ``spec`` of ``circuit``; ``note_fits``: note fitted diode models whose
+    """The transient ``spec`` of ``circuit``; ``note_fits``: warn of fitted diodes whose
     currents leave their fit range (:func:`_note_fits_outside_their_range`), from every step's
-    currents, also when only some signals are kept."""
+    currents, also when only some signals are kept; ``note_drives``: note MOSFETs at a weak
+    gate drive (:func:`_note_weak_gate_drives`, said once when a run is repeated);
+    ``peaks``: filled with the fitted diodes' peak currents (:func:`_diode_peaks`)."""
+    peaks = {} if peaks is None else peaks
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
@@ -377,7 +387,9 @@ def _run_transient(
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         return _kept_signals(circuit, mlcs, grid, state, [name.strip().lower() for name in signals],
-                             start, stop, sink=sink, note_fits=note_fits, theta=theta, tol=tol,
+                             start, stop, sink=sink, note_fits=note_fits, note_drives=note_drives,
+                             peaks=peaks, theta=theta,
+                             tol=tol,
                              progress=progress, stepping=stepping)
     try:
         trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
@@ -409,8 +421,10 @@ def _run_transient(
     waves = _waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
+    _fitted_peaks(circuit, waves, peaks)
     if note_fits:
-        _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
+        _note_fits_outside_their_range(circuit, peaks)
+    if note_drives:
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     return waves if signals is None else _drained(waves.select(signals), sink)
 
@@ -766,7 +780,8 @@ def _detached(values: np.ndarray, trajectory) -> np.ndarray:
 
 
 def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[str], start: float,
-                  stop: float, sink=None, note_fits: bool = True, **options) -> Waveforms:
+                  stop: float, sink=None, note_fits: bool = True, note_drives: bool = True,
+                  peaks: dict[str, tuple[float, float]] | None = None, **options) -> Waveforms:
     """A transient that keeps only the signals ``names`` (and the time and each step's residual):
     memory bounded by what is kept, not by the circuit's size times the steps.
 
@@ -791,7 +806,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
     residuals: list[np.ndarray] = []
     events: list = []
     stats: dict[str, float] = {}
-    peaks: dict[str, tuple[float, float]] = {}  # forward, reverse: fitted diodes, every segment
+    peaks = {} if peaks is None else peaks  # forward, breakdown: fitted diodes, every segment
     drives: dict[str, list[float]] = {}  # MOSFETs' conducting and weak-drive time, every segment
     progress = options.pop("progress")
     total = grid[-1]
@@ -863,5 +878,6 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         first = last
     if note_fits:
         _note_fits_outside_their_range(circuit, peaks)
+    if note_drives:
         _note_weak_gate_drives(circuit, drives)
     return result()

@@ -44,7 +44,8 @@ from circuitnsds.circuit.elements import (
     Resistor,
     SwitchModel,
 )
-from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_forward
+from circuitnsds.circuit.elements.diode import fitted_model
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
 from circuitnsds.circuit.elements.mosfet import Mosfet
 from circuitnsds.errors import SourceLocation
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
@@ -279,13 +280,12 @@ def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: s
         return []
     emission = model.get("n", 1.0) if model.kind == "vdmos" else 1.0
     resistance = model.get("rb", 0.0) if model.kind == "vdmos" else 0.0
-    fit = fit_forward(ShockleyDiode(saturation, emission, resistance), 1.0)
-    forward, slope = fit.drop, fit.resistance
     breakdown = abs(model.params["bv"]) if model.kind == "vdmos" and model.params.get("bv") else None
-    diode_model = DiodeModel(f"{model.name}.body", forward_drop=forward, on_resistance=slope,
-                             off_resistance=off_resistance, breakdown_voltage=breakdown,
-                             breakdown_resistance=resistance if breakdown else 0.0,
-                             location=model.location)
+    diode_model = fitted_model(DiodeModel(f"{model.name}.body", off_resistance=off_resistance,
+                                          breakdown_voltage=breakdown,
+                                          breakdown_resistance=resistance if breakdown else 0.0,
+                                          location=model.location),
+                               ShockleyDiode(saturation, emission, resistance))
     parts: list[Element] = []
 
     def junction(suffix: str, other: str) -> None:
