@@ -79,11 +79,15 @@ class DiodeReading:
     Attributes:
         ideal: ``.options diode=ideal``: Shockley parameters are ignored (the textbook
             ideal diode, or ideal Zener with ``BV``).
+        limit: ``.options diode=limit``: a SPICE model is read as its limit N -> 0 (and
+            NBV -> 0): ``Vfwd = 0``, ``Ron = RS``, breakdown at ``BV`` with ``Rrev = RS``
+            (compare's study in N converges to it).
         fit_current: ``.options pwlfit=`` [A]: the top of the Shockley fit range for every
             model (else each model's ``IAVE``/``IBV``, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
     """
 
     ideal: bool = False
+    limit: bool = False
     fit_current: float | None = None
 
 
@@ -177,6 +181,12 @@ def _diode_model(name: str, params: dict[str, float], reader: StatementReader,
     if diodes.ideal:
         return replace(model, origin="ideal (.options diode=ideal; Shockley "
                        f"{', '.join(sorted(shockley))} ignored)")
+    if diodes.limit:
+        series = params.get("rs", 0.0)
+        return replace(model, on_resistance=series,
+                       breakdown_resistance=series if model.breakdown_voltage else 0.0,
+                       origin=f"the N -> 0 limit of the SPICE model (.options diode=limit): Vfwd=0, "
+                       f"Ron=RS={series:g} Ω" + (", Rrev=RS" if model.breakdown_voltage else ""))
     return _fitted(model, params, reader, diodes.fit_current)
 
 
