@@ -87,7 +87,7 @@ def test_largest_rows_hold_the_largest_value(data, rows, small):
 
 def test_diode_peaks_are_those_of_the_waveforms():
     """A run's fitted-diode forward and breakdown peaks from the rows where they can be (the
-    segments' path) are those read from its waveforms (the reference, :func:`_fitted_peaks`),
+    segments' path) are those read from its waveforms (the reference, :func:`fitted_diode_peaks`),
     for a diode and a Zener whose currents are those of their branches' pairs (each plus its
     off-conductance's)."""
     circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
@@ -97,7 +97,7 @@ def test_diode_peaks_are_those_of_the_waveforms():
     state = transient.operating_point(circuit, mlcs, 1e-9)
     trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                            state.switches)
-    reference = transient._fitted_peaks(circuit, transient._waveforms(circuit, mlcs, trajectory,
+    reference = transient.fitted_diode_peaks(circuit, transient._waveforms(circuit, mlcs, trajectory,
                                                                       0.0, spec.stop))
     assert reference["d1"][0] > 0 and min(reference["d2"]) > 0  # both conduct, both ways
     pairs = {name: [source for source, _, _ in transient._signal_terms(

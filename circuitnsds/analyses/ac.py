@@ -93,6 +93,7 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
             pss = circuit.pss()
         mlcs = pss.mlcs
     else:
+        circuit = _refitted_at_the_operating_point(circuit)
         mlcs = circuit.mlcs()
     inputs = _inputs(circuit, mlcs, input)
     outputs = list(mlcs.output_names) if outputs is None else (
@@ -123,6 +124,40 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
     return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
+
+
+OPERATING_POINT_REFITS = 3
+"""Refits at most of the diodes' fits to their operating point currents (each one moves the
+currents a little: they were those of the fit before)."""
+
+
+def _refitted_at_the_operating_point(circuit: Circuit) -> Circuit:
+    """``circuit`` with the diodes fitted to SPICE models refitted where their operating point
+    currents are (:func:`~circuitnsds.analyses.transient.refit_diodes`, up to
+    :data:`OPERATING_POINT_REFITS` times), warned about when those still lie outside a fit's
+    range (a fixed ``.options pwlfit``)."""
+    from circuitnsds.analyses.operating_point import operating_point
+    from circuitnsds.analyses.transient import (
+        fitted_diodes,
+        refit_diodes,
+        state_diode_peaks,
+        warn_fit_departures,
+    )
+
+    if not fitted_diodes(circuit):
+        return circuit
+    mlcs = circuit.mlcs()
+    peaks = state_diode_peaks(circuit, mlcs, operating_point(circuit, mlcs))
+    for _ in range(OPERATING_POINT_REFITS if not isinstance(circuit.options.get("pwlfit"),
+                                                            float | int) else 0):
+        refitted = refit_diodes(circuit, peaks)
+        if refitted is circuit:
+            break
+        circuit = refitted
+        mlcs = circuit.mlcs()
+        peaks = state_diode_peaks(circuit, mlcs, operating_point(circuit, mlcs))
+    warn_fit_departures(circuit, peaks)
+    return circuit
 
 
 DEGENERATE = 1e-8

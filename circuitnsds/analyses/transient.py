@@ -61,18 +61,18 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     if sink is not None and signals is None:
         raise ValueError("a sink needs the signals it is to get")
     fixed = isinstance(circuit.options.get("pwlfit"), float | int)
-    if fixed or sink is not None or not _fitted_diodes(circuit):
+    if fixed or sink is not None or not fitted_diodes(circuit):
         return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
     peaks: dict[str, tuple[float, float]] = {}
     first = _run_transient(circuit, spec, signals=signals, note_fits=False, peaks=peaks, **settings)
-    refitted = _refitted(circuit, peaks)
+    refitted = refit_diodes(circuit, peaks)
     if refitted is circuit:
-        _note_fits_outside_their_range(circuit, peaks)
+        warn_fit_departures(circuit, peaks)
         return first
     return _run_transient(refitted, spec, signals=signals, note_drives=False, **settings)
 
 
-def _fitted_diodes(circuit: Circuit) -> list[Diode]:
+def fitted_diodes(circuit: Circuit) -> list[Diode]:
     """The diodes whose models are fitted to a SPICE diode's curves."""
     return [e for e in circuit.elements if isinstance(e, Diode) and e.model.shockley is not None]
 
@@ -102,7 +102,7 @@ def _drained(waves: Waveforms, sink) -> Waveforms:
                    stats=dict(waves.stats, rows=waves.time.size))
 
 
-def _fitted_peaks(circuit: Circuit, waves: Waveforms,
+def fitted_diode_peaks(circuit: Circuit, waves: Waveforms,
                   peaks: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
     """Diode name -> the largest forward current and the largest breakdown current
     (:func:`_breakdown_share` of the largest reverse one) [A] per unit area that ``waves``
@@ -110,7 +110,7 @@ def _fitted_peaks(circuit: Circuit, waves: Waveforms,
     does not hold are left out), taken together with ``peaks`` (those of earlier segments
     of the same run), which is updated and returned."""
     peaks = {} if peaks is None else peaks
-    for element in _fitted_diodes(circuit):
+    for element in fitted_diodes(circuit):
         try:
             current = np.asarray(waves[f"i({element.name})"]) / element.area
         except KeyError:  # a run that kept only some signals
@@ -125,13 +125,13 @@ def _diode_peaks(circuit: Circuit, mlcs, trajectory,
                  peaks: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
     """Diode name -> the largest forward and breakdown current [A] per unit area through
     each diode fitted to a SPICE model over every row of ``trajectory`` (what
-    :func:`_fitted_peaks` gives from the waveforms, the same numbers), taken together with
+    :func:`fitted_diode_peaks` gives from the waveforms, the same numbers), taken together with
     ``peaks`` (of earlier segments of the same run), which is updated and returned. Each
     current is computed only at the rows where its largest value (or, for the reverse peak,
     its largest negated value) can be (:func:`_largest_rows`)."""
     rows = {name: j for j, name in enumerate(mlcs.output_names)}
     bounds: dict[int, float] = {}  # the largest |value| of y (0) and of the currents (1)
-    for element in _fitted_diodes(circuit):
+    for element in fitted_diodes(circuit):
         row = rows.get(f"i({element.name})")
         if row is None:
             continue
@@ -149,6 +149,14 @@ def _diode_peaks(circuit: Circuit, mlcs, trajectory,
         peaks[element.name] = (max(forward, largest[0]),
                                max(reverse, _breakdown_share(element, largest[1])))
     return peaks
+
+
+def state_diode_peaks(circuit: Circuit, mlcs, state) -> dict[str, tuple[float, float]]:
+    """:func:`_diode_peaks` of one state (``state.y``, ``state.current``: an operating point)."""
+    from types import SimpleNamespace
+
+    one = SimpleNamespace(y=np.asarray(state.y)[None, :], current=np.asarray(state.current)[None, :])
+    return _diode_peaks(circuit, mlcs, one, {})
 
 
 def _signal_terms(mlcs, row: int) -> list[tuple[int, int, float]]:
@@ -205,7 +213,7 @@ def _largest_rows(terms: list[tuple[int, int, float]], trajectory,
     return where if where.size <= values.size // 4 else None
 
 
-def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
+def warn_fit_departures(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
     """A :class:`CircuitWarning` for each diode fitted to a SPICE model whose peak forward or
     breakdown current (``peaks``: :func:`_diode_peaks`) lies outside the range its branches
     were fitted over, where they depart from the model's curve by more than the fit's
@@ -213,7 +221,7 @@ def _note_fits_outside_their_range(circuit: Circuit, peaks: dict[str, tuple[floa
     there is the fit's, not the model's."""
     from circuitnsds.circuit.elements.diode import fit_departures
 
-    for element in _fitted_diodes(circuit):
+    for element in fitted_diodes(circuit):
         if element.name not in peaks:
             continue
         for branch, peak, fit, error in fit_departures(element.model, *peaks[element.name]):
@@ -283,7 +291,7 @@ def _note_weak_gate_drives(circuit: Circuit, drives: dict[str, list[float]]) -> 
                 "at, or drive its gate to that level"), stacklevel=4)
 
 
-def _refitted(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> Circuit:
+def refit_diodes(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> Circuit:
     """A copy of ``circuit`` whose fitted diode models are refitted where their diodes work
     (:func:`~circuitnsds.circuit.elements.diode.refit_to` of each model's largest ``peaks``
     over its instances), with a note for each; ``circuit`` itself when none needs it."""
@@ -293,7 +301,7 @@ def _refitted(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> Circui
 
     largest: dict[str, tuple[float, float]] = {}
     models = {}
-    for element in _fitted_diodes(circuit):
+    for element in fitted_diodes(circuit):
         forward, reverse = peaks.get(element.name, (0.0, 0.0))
         before = largest.get(element.model.name, (0.0, 0.0))
         largest[element.model.name] = (max(before[0], forward), max(before[1], reverse))
@@ -328,7 +336,7 @@ def _run_transient(
     peaks: dict[str, tuple[float, float]] | None = None,
 ) -> Waveforms:
     """The transient ``spec`` of ``circuit``; ``note_fits``: warn of fitted diodes whose
-    currents leave their fit range (:func:`_note_fits_outside_their_range`), from every step's
+    currents leave their fit range (:func:`warn_fit_departures`), from every step's
     currents, also when only some signals are kept; ``note_drives``: note MOSFETs at a weak
     gate drive (:func:`_note_weak_gate_drives`, said once when a run is repeated);
     ``peaks``: filled with the fitted diodes' peak currents (:func:`_diode_peaks`)."""
@@ -421,9 +429,9 @@ def _run_transient(
     waves = _waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
-    _fitted_peaks(circuit, waves, peaks)
+    fitted_diode_peaks(circuit, waves, peaks)
     if note_fits:
-        _note_fits_outside_their_range(circuit, peaks)
+        warn_fit_departures(circuit, peaks)
     if note_drives:
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     return waves if signals is None else _drained(waves.select(signals), sink)
@@ -877,7 +885,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         del trajectory  # freed before the next segment's arrays are allocated
         first = last
     if note_fits:
-        _note_fits_outside_their_range(circuit, peaks)
+        warn_fit_departures(circuit, peaks)
     if note_drives:
         _note_weak_gate_drives(circuit, drives)
     return result()

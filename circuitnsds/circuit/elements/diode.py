@@ -116,8 +116,9 @@ def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float
     return replace(model, origin=origin)
 
 
-REFIT_MARGIN = 1.2
-"""A refit covers up to this factor above the peak current that asked for it."""
+REFIT_MARGIN = 2.0
+"""A refit covers up to this factor above the peak current that asked for it (the currents
+of a run with the refitted model move: they were those of a fit that missed the curve)."""
 UNUSED_DECADES = 3.0
 """A peak current more than this many decades below the top of its fit range asks for a
 refit (most of the range then lies above what the circuit carries)."""
