@@ -294,3 +294,41 @@ def test_mosfets_conducting_with_a_weak_gate_drive_are_noted():
         assert np.ptp(waves["v(2)"]) < 1e-6  # frozen: the answer the note warns about
         assert any("xinv1.mn1" in note and "mosdrive" in note for note in found), found
     assert not notes(NETLISTS / "mosfet" / "sync_buck_vdmos.cir")[1]
+
+
+LEVEL3_NO_VTO = (".model NCH NMOS(LEVEL=3 TOX=3E-8 RS=16E-3 NSUB=2.9E17 KP=3.1E-5 U0=650 XJ=5E-7 "
+                 "TPG=1 IS=0 LD=0 DELTA=0.1)")
+
+
+def test_level3_threshold_without_vto_is_derived_from_the_process_as_ngspice_does():
+    """Issue 34: a level-3 model without VTO (Vishay's style) was read with VTO = 0. ngspice 39
+    derives (its `showmod`) VTO = 2.38982 V, PHI = 0.869046 V, GAMMA = 2.69553 from NSUB and
+    TOX, and for a 0.25 um channel at Vbs = Vds = 0 (its `@m1[von]`, NFS = ETA = 0) 1.577015 V."""
+    circuit = quiet(f"{LEVEL3_NO_VTO}\nV1 d 0 1\nVg g 0 5\nM1 d g 0 0 NCH W=345253u L=0.25u")
+    switch = circuit.element("m1")
+    assert switch.model.threshold == pytest.approx(1.577015, abs=2e-5)
+    assert "PHI=0.869 V" in switch.on_resistance_rule and "GAMMA=2.696" in switch.on_resistance_rule
+    # a long channel has no short-channel correction: VTO itself
+    long = quiet(f"{LEVEL3_NO_VTO}\nV1 d 0 1\nVg g 0 5\nM1 d g 0 0 NCH W=1 L=1")
+    assert long.element("m1").model.threshold == pytest.approx(2.38982, abs=2e-5)
+    # level 1 derives nothing without TOX, and from NSUB and TOX as level 3 does
+    plain = quiet(".model N1 NMOS(NSUB=2.9E17 KP=3.1E-5)\nV1 d 0 1\nVg g 0 5\nM1 d g 0 0 N1")
+    assert plain.element("m1").model.threshold == 0.0
+    level1 = quiet(".model N1 NMOS(TOX=3E-8 NSUB=2.9E17)\nV1 d 0 1\nVg g 0 5\nM1 d g 0 0 N1")
+    assert level1.element("m1").model.threshold == pytest.approx(2.38982, abs=5e-3)
+    # KP from UO (ngspice's default 600 cm²/Vs) and TOX when not given: UO·1e-4 × εox/TOX
+    kp = 600e-4 * 3.9 * 8.854214871e-12 / 3e-8
+    overdrive = 10 - level1.element("m1").model.threshold
+    assert level1.element("m1").model.on_resistance == pytest.approx(1 / (kp * overdrive))
+
+
+def test_a_mosfet_with_drain_and_source_joined_keeps_its_junctions():
+    """Vendor subcircuits wire a MOSFET with drain = source for its body diode and Cgd: the
+    warning said the element 'is shorted and has no effect' while its diodes conduct."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        circuit_from(".model P1 PMOS(VTO=-1 KP=1e-4 IS=1e-14)\nV1 d 0 1\nR1 d s 1\n"
+                     "Vg g 0 0\nM2 s g s d P1").mlcs()  # the checks run with the system
+    messages = [str(w.message) for w in caught]
+    assert not any("has no effect" in m for m in messages), messages
+    assert any("channel is shorted" in m and "m2.dbd" in m for m in messages), messages

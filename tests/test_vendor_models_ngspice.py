@@ -76,7 +76,7 @@ def test_zener_shunt_regulator_with_a_spice_breakdown_model_agrees_with_ngspice(
     the branches fitted where the circuit works agree within 1 % at default settings."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        comparison = compare(NETLISTS / "zener_shunt_spice_model.cir", signals=["v(out)", "i(dz1)"])
+        comparison = compare(VENDOR / "zener_shunt_spice_model.cir", signals=["v(out)", "i(dz1)"])
     assert comparison.run.ok, comparison.run.ngspice.message
     metrics = comparison.metrics
     assert metrics["v(out)"].nrms < 0.01 and metrics["i(dz1)"].nrms < 0.01
@@ -90,6 +90,6 @@ def test_high_injection_and_recombination_follow_ngspice():
     ngspice's full forward equation, fitted where the circuit works, brings both within 2 %."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        comparison = compare(NETLISTS / "diode_high_injection.cir", signals=["v(a)", "v(b)"])
+        comparison = compare(VENDOR / "diode_high_injection.cir", signals=["v(a)", "v(b)"])
     assert comparison.run.ok, comparison.run.ngspice.message
     assert comparison.metrics["v(a)"].nrms < 0.02 and comparison.metrics["v(b)"].nrms < 0.02
