@@ -139,6 +139,7 @@ def _refitted_at_the_operating_point(circuit: Circuit) -> Circuit:
     from circuitnsds.analyses.operating_point import operating_point
     from circuitnsds.analyses.transient import (
         fitted_diodes,
+        note_fits_served,
         refit_diodes,
         state_diode_peaks,
         warn_fit_departures,
@@ -157,6 +158,7 @@ def _refitted_at_the_operating_point(circuit: Circuit) -> Circuit:
         mlcs = circuit.mlcs()
         peaks = state_diode_peaks(circuit, mlcs, operating_point(circuit, mlcs))
     warn_fit_departures(circuit, peaks)
+    note_fits_served(circuit, peaks)
     return circuit
 
 

@@ -28,6 +28,7 @@ from circuitnsds.analyses.transient import (
     advise,
     fitted_diode_peaks,
     fitted_diodes,
+    note_fits_served,
     refit_diodes,
     refuse_beyond_memory,
     warn_fit_departures,
@@ -189,6 +190,7 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, **settings) -> PSSResult:
             result = _run_pss(circuit, spec, **settings)
             peaks = fitted_diode_peaks(circuit, result.waveforms)
     warn_fit_departures(circuit, peaks)
+    note_fits_served(circuit, peaks)
     return result
 
 

@@ -68,6 +68,7 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     refitted = refit_diodes(circuit, peaks)
     if refitted is circuit:
         warn_fit_departures(circuit, peaks)
+        note_fits_served(circuit, peaks)
         return first
     return _run_transient(refitted, spec, signals=signals, note_drives=False, **settings)
 
@@ -235,6 +236,32 @@ def warn_fit_departures(circuit: Circuit, peaks: dict[str, tuple[float, float]])
                 f"A per unit area its {branch} curve was fitted over (within "
                 f"{fit.max_error * 1e3:.3g} mV there); at that current the fit misses the model "
                 f"by {miss}: {fix}"), stacklevel=4)
+
+
+def note_fits_served(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
+    """One :class:`RunNote` with the error of each fitted diode model's branches over the
+    range they were fitted to and the peak currents its diodes carried (``peaks``), so
+    that a run says how closely it followed the models."""
+    served: dict[str, list[float]] = {}
+    models = {}
+    for element in fitted_diodes(circuit):
+        forward, reverse = peaks.get(element.name, (0.0, 0.0))
+        largest = served.setdefault(element.model.name, [0.0, 0.0])
+        largest[0], largest[1] = max(largest[0], forward), max(largest[1], reverse)
+        models[element.model.name] = element.model
+    parts = []
+    for name, (forward, reverse) in served.items():
+        model = models[name]
+        text = (f".model {name} forward within {1e3 * model.forward_fit.max_error:.2g} mV over "
+                f"{model.forward_fit.low:.3g}..{model.forward_fit.high:.3g} A (peak {forward:.3g} A)")
+        if model.breakdown_fit is not None:
+            text += (f", breakdown within {1e3 * model.breakdown_fit.max_error:.2g} mV over "
+                     f"{model.breakdown_fit.low:.3g}..{model.breakdown_fit.high:.3g} A (peak "
+                     f"{reverse:.3g} A)")
+        parts.append(text)
+    if parts:
+        warnings.warn(RunNote(f"{circuit.file}: diodes fitted to SPICE models (per unit area): "
+                              + "; ".join(parts)), stacklevel=4)
 
 
 MOSFET = "circuitnsds.circuit.elements.mosfet"
@@ -432,6 +459,7 @@ def _run_transient(
     fitted_diode_peaks(circuit, waves, peaks)
     if note_fits:
         warn_fit_departures(circuit, peaks)
+        note_fits_served(circuit, peaks)
     if note_drives:
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     return waves if signals is None else _drained(waves.select(signals), sink)
@@ -886,6 +914,7 @@ def _kept_signals(circuit: Circuit, mlcs, grid: np.ndarray, state, names: list[s
         first = last
     if note_fits:
         warn_fit_departures(circuit, peaks)
+        note_fits_served(circuit, peaks)
     if note_drives:
         _note_weak_gate_drives(circuit, drives)
     return result()

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.diode_fit import (
+    MAX_BRANCHES,
     PiecewiseFit,
     ShockleyDiode,
     fit_breakdown,
@@ -97,10 +98,11 @@ class DiodeModel:
 
 
 def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float | None = None,
-                 breakdown_current: float | None = None) -> DiodeModel:
-    """``model`` with its forward (and, with ``BV``, breakdown) branches fitted to ``diode``'s
-    curves over ``FIT_DECADES`` decades of current up to ``forward_current`` and
-    ``breakdown_current`` [A] (defaults: ``IAVE`` or 1 A, see
+                 breakdown_current: float | None = None,
+                 breakdown_branches: int = MAX_BRANCHES) -> DiodeModel:
+    """``model`` with its forward (and, with ``BV``, breakdown: at most ``breakdown_branches``)
+    branches fitted to ``diode``'s curves over ``FIT_DECADES`` decades of current up to
+    ``forward_current`` and ``breakdown_current`` [A] (defaults: ``IAVE`` or 1 A, see
     :mod:`~circuitnsds.circuit.elements.diode_fit`)."""
     from dataclasses import replace
 
@@ -109,8 +111,10 @@ def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float
     model = replace(model, forward_drop=forward.knees[0], on_resistance=forward.resistances[0],
                     shockley=diode, forward_fit=forward)
     if diode.breakdown_voltage is not None:
-        reverse = fit_breakdown(diode, breakdown_current)
+        reverse = fit_breakdown(diode, breakdown_current, breakdown_branches)
         origin += "; breakdown " + reverse.describe("Vrev")
+        if breakdown_branches == 1:
+            origin += " (one branch: no breakdown current in the run)"
         model = replace(model, breakdown_voltage=max(reverse.knees[0], 1e-9),
                         breakdown_resistance=reverse.resistances[0], breakdown_fit=reverse)
     return replace(model, origin=origin)
@@ -127,8 +131,8 @@ refit (most of the range then lies above what the circuit carries)."""
 def refit_to(model: DiodeModel, forward_peak: float, reverse_peak: float) -> DiodeModel | None:
     """``model`` refitted where its diodes work: a range of :data:`FIT_DECADES` decades up to
     :data:`REFIT_MARGIN` times each peak current [A per unit area] that lies above the
-    range or :data:`UNUSED_DECADES` below its top; ``None`` when neither peak asks for it
-    (or the model is not fitted)."""
+    range or :data:`UNUSED_DECADES` below its top (a breakdown with no current: one
+    branch); ``None`` when neither peak asks for it (or the model is not fitted)."""
     if model.shockley is None or model.forward_fit is None:
         return None
     wanted = []
@@ -139,7 +143,9 @@ def refit_to(model: DiodeModel, forward_peak: float, reverse_peak: float) -> Dio
     if wanted == [model.forward_fit.high,
                   None if model.breakdown_fit is None else model.breakdown_fit.high]:
         return None
-    return fitted_model(model, model.shockley, *wanted)
+    # a breakdown the run never reached is one branch (each branch is a pair in every step)
+    return fitted_model(model, model.shockley, *wanted,
+                        breakdown_branches=MAX_BRANCHES if reverse_peak > 1e-9 else 1)
 
 
 def fit_departures(model: DiodeModel, forward_peak: float,

@@ -293,7 +293,9 @@ def fit_forward(diode: ShockleyDiode, high: float | None = None) -> PiecewiseFit
     return fit_piecewise(diode.forward_voltage, *fit_range(high))
 
 
-def fit_breakdown(diode: ShockleyDiode, high: float | None = None) -> PiecewiseFit:
-    """The breakdown branches of ``diode`` (which needs ``BV``) over :func:`fit_range` of
-    ``high`` [A] (default :data:`DEFAULT_FIT_CURRENT`)."""
-    return fit_piecewise(diode.breakdown_drop, *fit_range(high or DEFAULT_FIT_CURRENT))
+def fit_breakdown(diode: ShockleyDiode, high: float | None = None,
+                  max_branches: int = MAX_BRANCHES) -> PiecewiseFit:
+    """The breakdown branches (at most ``max_branches``) of ``diode`` (which needs ``BV``)
+    over :func:`fit_range` of ``high`` [A] (default :data:`DEFAULT_FIT_CURRENT`)."""
+    return fit_piecewise(diode.breakdown_drop, *fit_range(high or DEFAULT_FIT_CURRENT),
+                         max_branches)
