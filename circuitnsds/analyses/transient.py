@@ -239,29 +239,28 @@ def warn_fit_departures(circuit: Circuit, peaks: dict[str, tuple[float, float]])
 
 
 def note_fits_served(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:
-    """One :class:`RunNote` with the error of each fitted diode model's branches over the
-    range they were fitted to and the peak currents its diodes carried (``peaks``), so
-    that a run says how closely it followed the models."""
-    served: dict[str, list[float]] = {}
-    models = {}
-    for element in fitted_diodes(circuit):
-        forward, reverse = peaks.get(element.name, (0.0, 0.0))
-        largest = served.setdefault(element.model.name, [0.0, 0.0])
-        largest[0], largest[1] = max(largest[0], forward), max(largest[1], reverse)
-        models[element.model.name] = element.model
+    """One :class:`RunNote` saying how closely the diodes fitted to SPICE models followed
+    them: the largest error of their branches over the ranges they were fitted to, the
+    ranges and the largest peak currents per unit area (``peaks``) the diodes carried (a
+    peak outside its range is warned about: :func:`warn_fit_departures`)."""
+    diodes = fitted_diodes(circuit)
+    if not diodes:
+        return
     parts = []
-    for name, (forward, reverse) in served.items():
-        model = models[name]
-        text = (f".model {name} forward within {1e3 * model.forward_fit.max_error:.2g} mV over "
-                f"{model.forward_fit.low:.3g}..{model.forward_fit.high:.3g} A (peak {forward:.3g} A)")
-        if model.breakdown_fit is not None:
-            text += (f", breakdown within {1e3 * model.breakdown_fit.max_error:.2g} mV over "
-                     f"{model.breakdown_fit.low:.3g}..{model.breakdown_fit.high:.3g} A (peak "
-                     f"{reverse:.3g} A)")
-        parts.append(text)
-    if parts:
-        warnings.warn(RunNote(f"{circuit.file}: diodes fitted to SPICE models (per unit area): "
-                              + "; ".join(parts)), stacklevel=4)
+    for branch, index, fit_of in (("forward", 0, lambda m: m.forward_fit),
+                                  ("breakdown", 1, lambda m: m.breakdown_fit)):
+        fits = [(fit_of(e.model), peaks.get(e.name, (0.0, 0.0))[index]) for e in diodes
+                if fit_of(e.model) is not None]
+        if fits:
+            error = max(fit.max_error for fit, _ in fits)
+            low, high = min(fit.low for fit, _ in fits), max(fit.high for fit, _ in fits)
+            peak = max(peak for _, peak in fits)
+            parts.append(f"{branch} within {1e3 * error:.2g} mV over {low:.3g}..{high:.3g} A "
+                         f"(peak {peak:.3g} A)")
+    models = len({e.model.name for e in diodes})
+    warnings.warn(RunNote(f"{circuit.file}: {len(diodes)} diode(s) of {models} SPICE model(s) "
+                          f"fitted by parallel branches: {'; '.join(parts)}, per unit area"),
+                  stacklevel=4)
 
 
 MOSFET = "circuitnsds.circuit.elements.mosfet"

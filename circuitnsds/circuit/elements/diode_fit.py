@@ -53,7 +53,7 @@ DEFAULT_FIT_CURRENT = 1.0
 """``high`` [A] when neither ``.options pwlfit`` nor the run nor ``IAVE`` gives one."""
 MAX_BRANCHES = 6
 """Most parallel branches of one fitted curve."""
-TARGET_ERROR = 1e-3
+TARGET_ERROR = 2.5e-3
 """[V]: a fit stops adding branches once it is this close to the curve."""
 SAMPLES = 600
 """Currents (log-spaced) at which the curve is sampled over the fit range."""
