@@ -6,6 +6,7 @@ was read, and `pss` ignored pwlfit=auto)."""
 import math
 import warnings
 
+import numpy as np
 import pytest
 
 import circuitnsds
@@ -59,3 +60,40 @@ D1 a 0 dd
     resistance = VT / current
     gain = resistance / (10e6 + resistance)
     assert 0.5 < abs(complex(result.transfer["v(a)"][0])) / gain < 2
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_forward  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(saturation=st.floats(1e-16, 1e-6), emission=st.floats(0.03, 2.5),
+       series=st.floats(0, 1), knee=st.one_of(st.none(), st.floats(1e-4, 10)),
+       recombination=st.one_of(st.none(), st.floats(1e-14, 1e-6)), high=st.floats(1e-4, 30))
+def test_full_equation_fits_keep_a_p_matrix_and_their_stated_error(saturation, emission, series,
+                                                                    knee, recombination, high):
+    """Every fitted branch adds conductance (R_j > 0, knees ascending: the LCP stays a
+    P-matrix) and the stated error holds between the fit's own samples; the curve is the
+    ngspice forward equation with IKF and ISR, inverted here by bisection."""
+    diode = ShockleyDiode(saturation, emission, series, knee_current=knee,
+                          recombination_current=recombination)
+    fit = fit_forward(diode, high)
+    assert len(fit.branches) <= 6 and list(fit.knees) == sorted(fit.knees)
+    assert all(r > 0 for r in fit.resistances) or len(fit.branches) == 1
+    for current in np.geomspace(fit.low, fit.high, 13):
+        low, top = 0.0, 50.0
+        for _ in range(80):  # v with Id(v - RS·i) = i, Id from the equation written out
+            v = (low + top) / 2
+            vd = v - series * current
+            if vd / (min(emission, 2.0) * VT) > 700:  # beyond any current of the range
+                top = v
+                continue
+            total = saturation * math.expm1(vd / (emission * VT)) if vd > 0 else 0.0
+            if recombination and vd > 0:
+                total += recombination * math.expm1(vd / (2 * VT)) * ((1 - vd) ** 2 + 0.005) ** 0.25
+            if knee and total > 0:
+                total /= 1 + math.sqrt(total / knee)
+            low, top = (v, top) if total < current else (low, v)
+        assert abs(float(fit.voltage(current)) - v) <= fit.max_error * 1.05 + 1e-6
