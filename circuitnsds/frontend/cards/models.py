@@ -83,7 +83,8 @@ class DiodeReading:
             NBV -> 0): ``Vfwd = 0``, ``Ron = RS``, breakdown at ``BV`` with ``Rrev = RS``
             (compare's study in N converges to it).
         fit_current: ``.options pwlfit=`` [A]: the top of the Shockley fit range for every
-            model (else each model's ``IAVE``/``IBV``, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
+            model: its range is the 5 decades below it and no run refits it (else the range
+            is where the circuit works, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
     """
 
     ideal: bool = False
