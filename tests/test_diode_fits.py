@@ -97,3 +97,21 @@ def test_full_equation_fits_keep_a_p_matrix_and_their_stated_error(saturation, e
                 total /= 1 + math.sqrt(total / knee)
             low, top = (v, top) if total < current else (low, v)
         assert abs(float(fit.voltage(current)) - v) <= fit.max_error * 1.05 + 1e-6
+
+
+def test_a_streamed_run_that_leaves_a_fit_warns_naming_the_diode():
+    """A run whose rows go to a sink as it goes cannot be repeated refitted: the Zener
+    clipper at 5 A (its breakdown fitted up to 1 A) warns, naming the diode and the way out."""
+    from circuitnsds.errors import CircuitWarning
+
+    class Rows:
+        def append(self, time, columns, residual):
+            pass
+
+    circuit = circuitnsds.read_netlist(ZENER_CLIPPER_5A)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        circuit.transient(signals=["v(out)"], sink=Rows())
+    found = [str(w.message) for w in caught if issubclass(w.category, CircuitWarning)]
+    assert any("diode dz1 (.model zspice)" in m and "breakdown" in m and "--signals" in m
+               for m in found), found

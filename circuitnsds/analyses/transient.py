@@ -229,7 +229,9 @@ def warn_fit_departures(circuit: Circuit, peaks: dict[str, tuple[float, float]])
             miss = f"{error:.3g} V" if error >= 1 else f"{error * 1e3:.3g} mV"
             fix = ("set .options pwlfit to that current, or leave pwlfit out to fit where the "
                    "circuit works" if isinstance(circuit.options.get("pwlfit"), float | int)
-                   else f"set .options pwlfit={peak * element.area:.3g}")
+                   else "a run whose rows are streamed (run --signals) is not repeated with "
+                   "a refit: leave --signals out, or set .options pwlfit="
+                   f"{peak * element.area:.3g} (every SPICE diode model's range then ends there)")
             warnings.warn(CircuitWarning(
                 f"{circuit.file}: diode {element.name} (.model {element.model.name}) carries up "
                 f"to {peak * element.area:.3g} A {branch}, outside the {fit.low:.3g}..{fit.high:.3g} "
