@@ -232,12 +232,16 @@ def warn_fit_departures(circuit: Circuit, peaks: dict[str, tuple[float, float]])
                    else "a run whose rows are streamed (run --signals) is not repeated with "
                    "a refit: leave --signals out, or set .options pwlfit="
                    f"{peak * element.area:.3g} (every SPICE diode model's range then ends there)")
+            if fit.low <= peak <= fit.high:  # a breakdown still one branch
+                where = (f"where its {branch} is still one branch, within {miss} of the model's "
+                         "curve over its range")
+            else:
+                where = (f"outside the {fit.low:.3g}..{fit.high:.3g} A per unit area its {branch} "
+                         f"curve was fitted over (within {fit.max_error * 1e3:.3g} mV there); at "
+                         f"that current the fit misses the model by {miss}")
             warnings.warn(CircuitWarning(
                 f"{circuit.file}: diode {element.name} (.model {element.model.name}) carries up "
-                f"to {peak * element.area:.3g} A {branch}, outside the {fit.low:.3g}..{fit.high:.3g} "
-                f"A per unit area its {branch} curve was fitted over (within "
-                f"{fit.max_error * 1e3:.3g} mV there); at that current the fit misses the model "
-                f"by {miss}: {fix}"), stacklevel=4)
+                f"to {peak * element.area:.3g} A {branch}, {where}: {fix}"), stacklevel=4)
 
 
 def note_fits_served(circuit: Circuit, peaks: dict[str, tuple[float, float]]) -> None:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.diode_fit import (
     MAX_BRANCHES,
+    TARGET_ERROR,
     PiecewiseFit,
     ShockleyDiode,
     fit_breakdown,
@@ -114,7 +115,7 @@ def fitted_model(model: DiodeModel, diode: ShockleyDiode, forward_current: float
         reverse = fit_breakdown(diode, breakdown_current, breakdown_branches)
         origin += "; breakdown " + reverse.describe("Vrev")
         if breakdown_branches == 1:
-            origin += " (one branch: no breakdown current in the run)"
+            origin += " (one branch until a run shows breakdown current)"
         model = replace(model, breakdown_voltage=max(reverse.knees[0], 1e-9),
                         breakdown_resistance=reverse.resistances[0], breakdown_fit=reverse)
     return replace(model, origin=origin)
@@ -140,12 +141,22 @@ def refit_to(model: DiodeModel, forward_peak: float, reverse_peak: float) -> Dio
         moved = (fit is not None and peak > 1e-9
                  and (peak > fit.high or peak < fit.high * 10.0 ** -UNUSED_DECADES))
         wanted.append(REFIT_MARGIN * peak if moved else (None if fit is None else fit.high))
-    if wanted == [model.forward_fit.high,
-                  None if model.breakdown_fit is None else model.breakdown_fit.high]:
+    coarse = coarse_breakdown(model) and reverse_peak > 1e-9
+    if not coarse and wanted == [model.forward_fit.high,
+                                 None if model.breakdown_fit is None else model.breakdown_fit.high]:
         return None
-    # a breakdown the run never reached is one branch (each branch is a pair in every step)
+    # a breakdown the run never reached stays one branch (each branch is a pair in every step)
     return fitted_model(model, model.shockley, *wanted,
                         breakdown_branches=MAX_BRANCHES if reverse_peak > 1e-9 else 1)
+
+
+def coarse_breakdown(model: DiodeModel) -> bool:
+    """Whether ``model``'s breakdown is fitted by fewer branches than its error asks for:
+    the one branch a SPICE model's breakdown gets until a run shows breakdown current (a
+    rectifier's ``BV = 1000`` is never reached; each branch is a pair in every step)."""
+    fit = model.breakdown_fit
+    return (fit is not None and len(fit.knees) < MAX_BRANCHES
+            and fit.max_error > 2 * TARGET_ERROR)
 
 
 def fit_departures(model: DiodeModel, forward_peak: float,
@@ -161,7 +172,12 @@ def fit_departures(model: DiodeModel, forward_peak: float,
     if model.breakdown_fit is not None:
         curves.append(("breakdown", reverse_peak, model.breakdown_fit, model.shockley.breakdown_drop))
     for branch, peak, fit, curve in curves:
-        if fit is None or peak <= 1e-12 or fit.low <= peak <= fit.high:
+        if fit is None or peak <= 1e-12:
+            continue
+        if branch == "breakdown" and peak > 1e-9 and coarse_breakdown(model):
+            found.append((branch, peak, fit, fit.max_error))  # one branch where it conducts
+            continue
+        if fit.low <= peak <= fit.high:
             continue
         error = abs(float(fit.voltage(peak)) - float(curve(peak)))
         if error > max(2 * fit.max_error, 1e-3):

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
-from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
+from circuitnsds.circuit.elements.diode_fit import MAX_BRANCHES, ShockleyDiode
 from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS
 from circuitnsds.frontend.cards.reader import StatementReader
 
@@ -212,7 +212,10 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
         recombination_emission=params.get("nr", 2.0),
         junction_potential=params.get("vj", params.get("pb", 1.0)),
         grading=params.get("m", params.get("mj", 0.5)))
-    fitted = fitted_model(model, diode, fit_current, fit_current)
+    # the breakdown: one branch until a run shows breakdown current (then refitted), unless
+    # pwlfit fixes the fits (no refit)
+    fitted = fitted_model(model, diode, fit_current, fit_current,
+                          breakdown_branches=MAX_BRANCHES if fit_current else 1)
     dynamic = [key.upper() for key in ("cjo", "cj0", "cj", "tt") if key in params]
     if dynamic:  # DESIGN: outside the ideal model, said in info
         fitted = replace(fitted, origin=fitted.origin + f"; {', '.join(dynamic)} ignored (junction "
