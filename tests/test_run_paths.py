@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 import circuitnsds
 import circuitnsds.analyses.transient as transient
 from circuitnsds.analyses.signals import trajectory_waveforms
-from circuitnsds.circuit.elements.diode_notes import diode_peaks
+from circuitnsds.circuit.elements.diode_notes import diode_peaks, waveform_diode_peaks
 from circuitnsds.engine.integrate import _ranks, _sizes_and_classes, integrate
 from circuitnsds.engine.timegrid import MERGE_FRACTION, time_grid
 from circuitnsds.output.csvfile import write_rows
@@ -63,10 +63,10 @@ def test_step_sizes_do_not_take_a_rare_middle_step_for_the_common_one():
 
 
 def test_diode_peaks_are_those_of_the_waveforms():
-    """A run's fitted-diode forward and reverse peaks as the diode's run-time observer computes
-    them are those read from its waveforms (the reference, :func:`_fitted_peaks`), for a diode
-    whose current is one pair's and a Zener whose current is two pairs' (each plus its
-    off-conductance's)."""
+    """A run's fitted-diode forward and breakdown peaks as the diode's run-time observer
+    computes them are those read from its waveforms (the reference,
+    :func:`waveform_diode_peaks`), for a diode and a Zener whose currents are those of their
+    branches' pairs (each plus its off-conductance's)."""
     circuit = circuitnsds.read_netlist(ZENER_CLIPPER)
     spec = transient.transient_spec(circuit)
     mlcs = circuit.mlcs(spec.source_defaults)
@@ -74,13 +74,15 @@ def test_diode_peaks_are_those_of_the_waveforms():
     state = transient.operating_point(circuit, mlcs, 1e-9)
     trajectory = integrate(mlcs, grid, state.y, state.charge, state.current, state.active,
                            state.switches)
-    reference = transient._fitted_peaks(circuit, trajectory_waveforms(circuit, mlcs, trajectory,
-                                                                      0.0, spec.stop))
-    assert reference["dfit"][0] > 0 and min(reference["dzen"]) > 0  # both conduct, both ways
+    diodes = [e for e in circuit.elements if e.name in ("d1", "d2")]
+    reference = waveform_diode_peaks(diodes, trajectory_waveforms(circuit, mlcs, trajectory,
+                                                                  0.0, spec.stop))
+    assert reference["d1"][0] > 0 and min(reference["d2"]) > 0  # both conduct, both ways
     pairs = {name: [source for source, _, _ in signal_terms(
         mlcs, mlcs.output_names.index(f"i({name})"))].count(1) for name in ("d1", "d2")}
-    assert pairs == {"d1": 1, "d2": 2}
-    diodes = [e for e in circuit.elements if e.name in ("d1", "d2")]
+    models = {name: circuit.element(name).model for name in ("d1", "d2")}
+    assert pairs == {name: len(model.forward_branches) + len(model.breakdown_branches)
+                     for name, model in models.items()}
     peaks = diode_peaks(diodes, mlcs, trajectory, {})
     assert peaks == reference
 

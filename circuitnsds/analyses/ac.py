@@ -6,11 +6,15 @@ output impedance). The mathematics is in :mod:`circuitnsds.engine.small_signal`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
+from circuitnsds.analyses.operating_point import operating_point
 from circuitnsds.analyses.pss import run_pss
+from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
 from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements.diode_notes import diode_peaks
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.specs import AcSpec
 from circuitnsds.system.stimuli import Dc, Pwl
@@ -94,6 +98,7 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
             pss = run_pss(circuit, circuit.analyses.get("pss"))
         mlcs = pss.mlcs
     else:
+        circuit = _refitted_at_the_operating_point(circuit)
         mlcs = circuit.mlcs()
     inputs = _inputs(circuit, mlcs, input)
     outputs = list(mlcs.output_names) if outputs is None else (
@@ -106,7 +111,6 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
     picked = [rows[name.lower()] for name in outputs]
     Y_out, L_out = mlcs.Y_out.tocsr()[picked], mlcs.L_out.tocsr()[picked]
     if around == "op":
-        from circuitnsds.analyses.operating_point import operating_point
         from circuitnsds.engine.small_signal import operating_point_response
 
         state = operating_point(circuit, mlcs)
@@ -124,6 +128,40 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
     return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
+
+
+OPERATING_POINT_REFITS = 3
+"""Refits at most of the diodes' fits to their operating point currents (each one moves the
+currents a little: they were those of the fit before)."""
+
+
+def _refitted_at_the_operating_point(circuit: Circuit) -> Circuit:
+    """``circuit`` with the diodes fitted to SPICE models refitted where their operating point
+    currents are (:func:`~circuitnsds.analyses.refits.refit_diodes`, up to
+    :data:`OPERATING_POINT_REFITS` times), warned about when those still lie outside a fit's
+    range (a fixed ``.options pwlfit``)."""
+    diodes = fitted_diodes(circuit)
+    if not diodes:
+        return circuit
+    peaks = _operating_point_peaks(circuit, diodes)
+    for _ in range(OPERATING_POINT_REFITS if refits_allowed(circuit) else 0):
+        refitted = refit_diodes(circuit, peaks)
+        if refitted is circuit:
+            break
+        circuit = refitted
+        peaks = _operating_point_peaks(circuit, fitted_diodes(circuit))
+    report_fits(circuit, peaks)
+    return circuit
+
+
+def _operating_point_peaks(circuit: Circuit, diodes: list) -> dict[str, tuple[float, float]]:
+    """The currents of the fitted ``diodes`` at the operating point of ``circuit``, as their
+    observer measures a run's (:func:`~circuitnsds.circuit.elements.diode_notes.diode_peaks`
+    of the one state)."""
+    mlcs = circuit.mlcs()
+    state = operating_point(circuit, mlcs)
+    one = SimpleNamespace(y=np.asarray(state.y)[None, :], current=np.asarray(state.current)[None, :])
+    return diode_peaks(diodes, mlcs, one, {})
 
 
 DEGENERATE = 1e-8

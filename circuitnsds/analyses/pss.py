@@ -26,9 +26,11 @@ from circuitnsds.analyses.advice import advise
 from circuitnsds.analyses.memory import refuse_beyond_memory
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import TrajectoryRecorder
+from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
 from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.circuit.elements.diode_notes import waveform_diode_peaks
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.integrate import Trajectory, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
@@ -169,12 +171,32 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
                        "commensurate")
 
 
-def run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = None,
-            step: float | None = None, periods_warmup: int = 0, tol: float | None = None,
-            max_iterations: int | None = None, theta: float | None = None,
-            uic: bool | None = None) -> PSSResult:
+def run_pss(circuit: Circuit, spec: PssSpec | None, **settings) -> PSSResult:
     """The periodic steady state of ``circuit`` described by ``spec`` (a ``.pss`` line, or
-    ``None``), the keyword arguments given winning over it; see :meth:`Circuit.pss`. The
+    ``None``), the keyword arguments ``settings`` of :func:`_run_pss` winning over it; see
+    :meth:`Circuit.pss`. Diodes fitted to SPICE models are fitted where the periodic steady
+    state works, as in a transient (:func:`~circuitnsds.analyses.transient.run_transient`):
+    a settled period whose peak currents leave a fit's range is found again, once, with the
+    models refitted to them; what still leaves it is a warning naming the diode."""
+    result = _run_pss(circuit, spec, **settings)
+    if not fitted_diodes(circuit):
+        return result
+    peaks = waveform_diode_peaks(fitted_diodes(circuit), result.waveforms)
+    if refits_allowed(circuit):
+        refitted = refit_diodes(circuit, peaks)
+        if refitted is not circuit:
+            circuit = refitted
+            result = _run_pss(circuit, spec, **settings)
+            peaks = waveform_diode_peaks(fitted_diodes(circuit), result.waveforms)
+    report_fits(circuit, peaks)
+    return result
+
+
+def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = None,
+             step: float | None = None, periods_warmup: int = 0, tol: float | None = None,
+             max_iterations: int | None = None, theta: float | None = None,
+             uic: bool | None = None) -> PSSResult:
+    """The periodic steady state of ``circuit`` described by ``spec``, its fits as they are. The
     sources' time defaults (``PULSE`` TR = TSTEP, ...) are the netlist's ``.tran`` line's
     when it has one (the transient's waveforms), else this analysis' step and time span.
 

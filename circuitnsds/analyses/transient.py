@@ -13,11 +13,12 @@ from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
 from circuitnsds.analyses.memory import refuse_beyond_memory
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import SEGMENT_BYTES, Observed, SignalRecorder, TrajectoryRecorder
+from circuitnsds.analyses.refits import fit_observer, refit_diodes, refits_allowed
 from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import CurrentSource, Diode
-from circuitnsds.circuit.observers import observers_of
+from circuitnsds.circuit.observers import RunObserver, observers_of
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, stepper_class
 from circuitnsds.engine.theta_stepper import STEPPINGS
@@ -52,9 +53,13 @@ def transient_spec(circuit: Circuit, **given: float | bool | None) -> TransientS
 def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[str] | None = None,
                   sink=None, **settings) -> Waveforms:
     """Run the transient ``spec`` (see :meth:`Circuit.transient`; ``settings``: the other
-    keyword arguments of :func:`_run_transient`). With ``.options pwlfit=auto`` a first run
-    measures the peak forward (and breakdown) current of every fitted diode model, the models
-    are refitted over ``[peak/10, peak]`` and the transient is run again (:func:`_refitted`).
+    keyword arguments of :func:`_run_transient`). Diodes fitted to SPICE models are fitted
+    where the circuit works: when a run's peak forward or breakdown current of a fitted model
+    (measured by the diodes' observer) leaves the range its branches cover
+    (:func:`~circuitnsds.circuit.elements.diode.refit_to`), the model is refitted to those
+    peaks and the transient is run again, once (:func:`~circuitnsds.analyses.refits.refit_diodes`;
+    not with a ``sink``, which has its rows already: a warning names the diodes then).
+    ``.options pwlfit=I`` fixes every fit's range below ``I`` [A] instead.
 
     ``sink`` (with ``signals``): an object with ``append(time, columns, residual)`` (and
     optionally ``expect(rows)``), e.g. :class:`~circuitnsds.output.csvfile.CsvStream`,
@@ -62,13 +67,20 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     the waveforms returned then hold no rows (their ``stats`` count them: ``rows``)."""
     if sink is not None and signals is None:
         raise ValueError("a sink needs the signals it is to get")
-    if circuit.options.get("pwlfit") != "auto":
+    if sink is not None or not refits_allowed(circuit):
         return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
-    first = _run_transient(circuit, spec, note_fits=False, **settings)  # every signal: the diodes' currents
-    refitted = _refitted(circuit, first)
-    if refitted is not circuit:
-        return _run_transient(refitted, spec, signals=signals, sink=sink, **settings)
-    return first if signals is None else _drained(first.select(signals), sink)
+    observers = observers_of(circuit)
+    first = _run_transient(circuit, spec, signals=signals, observers=observers, **settings)
+    fits = fit_observer(observers)
+    refitted = refit_diodes(circuit, fits.peaks)
+    if refitted is circuit:
+        _report(observers)
+        return first
+    _report([observer for observer in observers if observer is not fits])  # said once
+    again = [fit_observer(observers_of(refitted))]
+    waves = _run_transient(refitted, spec, signals=signals, observers=again, **settings)
+    _report(again)
+    return waves
 
 
 def _drained(waves: Waveforms, sink) -> Waveforms:
@@ -86,53 +98,6 @@ def _drained(waves: Waveforms, sink) -> Waveforms:
                    stats=dict(waves.stats, rows=waves.time.size))
 
 
-def _fitted_peaks(circuit: Circuit, waves: Waveforms,
-                  peaks: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
-    """Model name -> the largest forward and reverse current [A] per unit area that ``waves``
-    shows through the instances of each Shockley-fitted diode model (the models whose
-    instances' currents ``waves`` does not hold are left out), taken together with ``peaks``
-    (those of earlier segments of the same run), which is updated and returned."""
-    from circuitnsds.circuit.elements import Diode
-
-    peaks = {} if peaks is None else peaks
-    for element in circuit.elements:
-        if isinstance(element, Diode) and element.model.shockley is not None:
-            try:
-                current = np.asarray(waves[f"i({element.name})"]) / element.area
-            except KeyError:  # a run that kept only some signals
-                continue
-            forward, reverse = peaks.get(element.model.name, (0.0, 0.0))
-            peaks[element.model.name] = (max(forward, float(current.max(initial=0.0))),
-                                         max(reverse, float(-current.min(initial=0.0))))
-    return peaks
-
-
-def _refitted(circuit: Circuit, waves: Waveforms) -> Circuit:
-    """A copy of ``circuit`` whose fitted diode models are refitted to the peak currents
-    ``waves`` shows through their instances (a model that never conducts keeps its fit)."""
-    from dataclasses import replace as copy
-
-    from circuitnsds.circuit.elements import Diode
-    from circuitnsds.circuit.elements.diode import fitted_model
-
-    peaks = _fitted_peaks(circuit, waves)
-    if not peaks:
-        return circuit
-    models = {}
-    for name, (forward, reverse) in peaks.items():
-        model = next(e.model for e in circuit.elements if isinstance(e, Diode) and e.model.name == name)
-        refit = fitted_model(model, model.shockley, forward if forward > 1e-9 else None,
-                             reverse if reverse > 1e-9 else None)
-        models[name] = copy(refit, origin=refit.origin + " (pwlfit=auto: the peak current of a "
-                            "first run)")
-        warnings.warn(RunNote(f"{circuit.file}: .model {name}: refitted to the peak currents of a "
-                              f"first run: {models[name].origin}"), stacklevel=3)
-    elements = [copy(e, model=models[e.model.name]) if isinstance(e, Diode) and e.model.name in models
-                else e for e in circuit.elements]
-    refitted = copy(circuit, elements=elements, models={**circuit.models, **models})
-    return refitted
-
-
 def _run_transient(
     circuit: Circuit,
     spec: TransientSpec,
@@ -143,14 +108,16 @@ def _run_transient(
     stepping: str = "auto",
     signals: Sequence[str] | None = None,
     sink=None,
-    note_fits: bool = True,
+    observers: list[RunObserver] | None = None,
 ) -> Waveforms:
     """The transient ``spec`` of ``circuit``, integrated by the stepper ``method`` (else
     ``.options method``, else θ) and driven over the grid (:func:`~circuitnsds.engine.driver.drive`)
     into a recorder: the whole trajectory, or the ``signals`` kept (streamed to ``sink``) in
-    parts. ``note_fits``: run the devices' run-time observers
-    (:func:`~circuitnsds.circuit.observers.observers_of`: a fitted diode outside its fit
-    range, a MOSFET at a weak gate drive) over every step, and let them note."""
+    parts. The devices' run-time observers
+    (:func:`~circuitnsds.circuit.observers.observers_of`: a fitted diode's peak currents, a
+    MOSFET at a weak gate drive) see every step and note after a run that finished;
+    ``observers``: those to run instead, whose notes the caller makes (:func:`run_transient`
+    reads the diodes' peaks before it says them)."""
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
@@ -207,7 +174,8 @@ def _run_transient(
     _check_memory(circuit, stepper, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
-    observers = observers_of(circuit) if note_fits else []
+    owned = observers is None  # the run's own observers note; given ones are the caller's
+    observers = observers_of(circuit) if owned else observers
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         kept = SignalRecorder(circuit, mlcs, grid, [name.strip().lower() for name in signals],
                               start, stop, sink)
@@ -219,7 +187,8 @@ def _run_transient(
                 _explain(exc, circuit, mlcs, grid, theta)
             exc.partial = kept.result()
             raise
-        _report(observers)
+        if owned:
+            _report(observers)
         return kept.result()
     recorder = TrajectoryRecorder()
     try:
@@ -246,7 +215,8 @@ def _run_transient(
     waves = trajectory_waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
-    _report(observers)
+    if owned:
+        _report(observers)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 

@@ -307,8 +307,14 @@ def _element_warnings(elements: Sequence[Element]) -> Iterable[str]:
             yield f"{_where(element)}{element.name}: {sentence}"
         if (len(element.nodes) >= 2 and element.nodes[0] == element.nodes[1]
                 and element.topology != "voltage"):
-            yield (f"{_where(element)}{element.name}: both terminals are node {element.nodes[0]}: "
-                   "the element is shorted and has no effect")
+            parts = getattr(element, "parts", ())  # a MOSFET's junctions and capacitors remain
+            if parts:  # (vendor subcircuits wire one with drain = source for its Cgd, body diode)
+                yield (f"{_where(element)}{element.name}: drain and source are both node "
+                       f"{element.nodes[0]}: its channel is shorted and carries no current; its "
+                       f"{', '.join(parts)} remain")
+            else:
+                yield (f"{_where(element)}{element.name}: both terminals are node "
+                       f"{element.nodes[0]}: the element is shorted and has no effect")
 
 
 def _dangling_nodes(elements: Sequence[Element], nodes: Sequence[str]) -> Iterable[str]:

@@ -56,6 +56,9 @@ def _model_detail(element) -> str | None:
     model = getattr(element, "model", None)
     if model is None:
         return None
+    if hasattr(model, "forward_drop") and getattr(model, "forward_fit", None) is not None:
+        return (f"model {model.name}: {model.kind} diode of parallel branches, Roff="
+                f"{model.off_resistance:g} Ω; read as {model.origin}")
     if hasattr(model, "forward_drop"):
         detail = (f"{model.kind} diode, Vfwd={model.forward_drop:g} V, Ron={model.on_resistance:g} Ω, "
                   f"Roff={model.off_resistance:g} Ω")

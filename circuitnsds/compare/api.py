@@ -168,9 +168,9 @@ def compare(
         window: ``(t0, t1)`` [s]; default the whole output span.
         n: emission coefficient(s) forced on every diode model for ngspice; a
             sequence makes a convergence study (one ngspice run per value). With ``n``,
-            circuitnsds reads Shockley models as ideal diodes (``.options diode=ideal``):
-            the limit N -> 0; without it, as the PWL diodes fitted to them, compared with
-            ngspice at the models' own N.
+            circuitnsds reads SPICE diode models as their limit N -> 0 (``.options
+            diode=limit``: ideal diodes with their series resistance RS); without it, as the
+            PWL diodes fitted to them, compared with ngspice at the models' own N.
         is_, rs, cjo: saturation current [A], series resistance [Ω], junction
             capacitance [F] forced on every diode model (``None``: the netlist's).
         step, stop: ``.tran`` TSTEP and TSTOP [s] for both simulators (default: the netlist's).
@@ -196,10 +196,10 @@ def compare(
     overrides = [DiodeOverrides(n=value, is_=is_, rs=rs, cjo=cjo) for value in grid]
     version = ngspice_version()  # a missing ngspice is reported before circuitnsds runs
     circuit = CircuitBuilder.load(source).build()
-    fitted = n is not None and any(str(getattr(model, "origin", "")).startswith("Shockley fit")
+    fitted = n is not None and any(getattr(model, "shockley", None) is not None
                                    for model in circuit.models.values())
-    if fitted:  # a study in N converges to the ideal diode, not to the fitted PWL one
-        circuit = CircuitBuilder.load(source).build(options={"diode": "ideal"})
+    if fitted:  # a study in N converges to the N -> 0 limit (RS kept), not to the fitted diode
+        circuit = CircuitBuilder.load(source).build(options={"diode": "limit"})
     _warm_up()
     started = time.perf_counter()
     waves = circuit.transient(step, stop, theta=theta)
@@ -226,8 +226,9 @@ def compare(
         notes = notes or ((["ngspice runs in its LTspice compatibility mode (set "
                             "ngbehavior=lta): the LTspice PWL diode models run as its "
                             "sidiode code model"] if ltspice else [])
-                          + (["circuitnsds reads the Shockley diode models as ideal diodes "
-                              "(diode=ideal), the limit of the study in N"] if fitted else [])
+                          + (["circuitnsds reads the SPICE diode models as their N -> 0 "
+                              "limit (diode=limit: ideal diodes with their RS), the limit of "
+                              "the study in N"] if fitted else [])
                           + translation.notes)
         result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
                              title=circuit.title, ltspice=ltspice)

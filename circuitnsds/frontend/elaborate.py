@@ -47,6 +47,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     circuit.options.update(options or {})
     off_resistance = 1.0 / circuit.options.get("gmin", 1.0 / DEFAULT_OFF_RESISTANCE)
     diodes = DiodeReading(ideal=circuit.options.get("diode") == "ideal",
+                          limit=circuit.options.get("diode") == "limit",
                           fit_current=None if circuit.options.get("pwlfit") == "auto"
                           else circuit.options.get("pwlfit"))
     for statement in statements:

@@ -36,15 +36,17 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
                             "(default 10)",
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
-                "fitted by a PWL diode, or 'auto': the peak current of a first run",
-                "diode": "'ideal' to read Shockley diode models as ideal diodes",
+                "fitted by parallel PWL branches (5 decades below it), or 'auto' (the default): "
+                "where a run's currents are",
+                "diode": "'ideal' to read SPICE diode models as ideal diodes, 'limit' as their "
+                         "N -> 0 limit (Vfwd = 0, Ron = RS, breakdown at BV with Rrev = RS)",
                 "seed": "seed of the Monte Carlo functions (agauss, mc, ...; a positive integer)",
                 "tcase": "case temperature [°C] of the devices with thermal= data (default 25)",
                 "tamb": "ambient temperature [°C] of the heatsink (with rthsa)",
                 "rthsa": "thermal resistance [K/W] of the heatsink shared by the devices with "
                 "thermal= data, to ambient",
                 "cthsa": "thermal capacitance [J/K] of the heatsink (with rthsa; default 0)"}
-TEXT_OPTIONS = {"diode": {"ideal", "fit"}}
+TEXT_OPTIONS = {"diode": {"ideal", "fit", "limit"}}
 NGSPICE_METHODS = {"trap", "trapezoidal", "gear"}
 """ngspice's ``.options method`` values: ignored with the other options circuitnsds does not use
 (its θ-method is ``.options theta``)."""

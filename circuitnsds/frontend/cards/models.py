@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
-from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
+from circuitnsds.circuit.elements.diode_fit import MAX_BRANCHES, ShockleyDiode
 from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS
 from circuitnsds.frontend.cards.reader import StatementReader
 
@@ -65,7 +65,7 @@ LTSPICE_DIODE_PARAMETERS = {"ron", "roff", "vfwd", "vrev", "rrev", "epsilon", "r
                             "ilimit", "revilimit"}
 """Any of these makes a ``D`` model LTspice's piecewise-linear diode (the rule of ngspice's
 ``ltspice_compat`` in ``inpcom.c``, which then runs it as its ``sidiode`` code model)."""
-SHOCKLEY_STATIC_PARAMETERS = {"is", "js", "n", "rs", "ibv", "nbv"}
+SHOCKLEY_STATIC_PARAMETERS = {"is", "js", "n", "rs", "ibv", "nbv", "ikf", "ik", "ikr", "isr", "nr"}
 """Parameters of the static Shockley curve: one of them makes the model fitted."""
 LTSPICE_DEFAULT_ON_RESISTANCE = 1.0
 """``Ron`` [Ω] of an LTspice PWL diode that gives none (LTspice's help; ngspice's
@@ -79,11 +79,16 @@ class DiodeReading:
     Attributes:
         ideal: ``.options diode=ideal``: Shockley parameters are ignored (the textbook
             ideal diode, or ideal Zener with ``BV``).
+        limit: ``.options diode=limit``: a SPICE model is read as its limit N -> 0 (and
+            NBV -> 0): ``Vfwd = 0``, ``Ron = RS``, breakdown at ``BV`` with ``Rrev = RS``
+            (compare's study in N converges to it).
         fit_current: ``.options pwlfit=`` [A]: the top of the Shockley fit range for every
-            model (else each model's ``IAVE``/``IBV``, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
+            model: its range is the 5 decades below it and no run refits it (else the range
+            is where the circuit works, see :mod:`~circuitnsds.circuit.elements.diode_fit`).
     """
 
     ideal: bool = False
+    limit: bool = False
     fit_current: float | None = None
 
 
@@ -208,23 +213,40 @@ def _diode_model(name: str, params: dict[str, float], reader: StatementReader,
     if diodes.ideal:
         return replace(model, origin="ideal (.options diode=ideal; Shockley "
                        f"{', '.join(sorted(shockley))} ignored)")
+    if diodes.limit:
+        series = params.get("rs", 0.0)
+        return replace(model, on_resistance=series,
+                       breakdown_resistance=series if model.breakdown_voltage else 0.0,
+                       origin=f"the N -> 0 limit of the SPICE model (.options diode=limit): Vfwd=0, "
+                       f"Ron=RS={series:g} Ω" + (", Rrev=RS" if model.breakdown_voltage else ""))
     return _fitted(model, params, reader, diodes.fit_current)
 
 
 def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader,
             fit_current: float | None) -> DiodeModel:
     """The PWL diode fitted to the Shockley curve of ``params`` (see ``diode_fit``)."""
-    for key in ("is", "js", "n", "ibv", "nbv"):
+    for key in ("is", "js", "n", "ibv", "nbv", "nr", "vj", "pb"):
         if key in params and params[key] <= 0:
             raise reader.error(f".model {model.name}: {key}={params[key]:g} must be positive")
-    if params.get("rs", 0.0) < 0:
-        raise reader.error(f".model {model.name}: rs={params['rs']:g} must not be negative")
+    for key in ("rs", "ikf", "ik", "ikr", "isr"):  # 0: none (ngspice's default)
+        if params.get(key, 0.0) < 0:
+            raise reader.error(f".model {model.name}: {key}={params[key]:g} must not be negative")
     diode = ShockleyDiode(
         saturation_current=params.get("is", params.get("js", 1e-14)),
         emission=params.get("n", 1.0), series_resistance=params.get("rs", 0.0),
         breakdown_voltage=model.breakdown_voltage, breakdown_current=params.get("ibv", 1e-3),
-        breakdown_emission=params.get("nbv", 1.0), average_current=params.get("iave"))
-    fitted = fitted_model(model, diode, fit_current, fit_current)
+        breakdown_emission=params.get("nbv", params.get("n", 1.0)),  # ngspice: NBV defaults to N
+        average_current=params.get("iave"),
+        knee_current=params.get("ikf", params.get("ik")) or None,
+        reverse_knee_current=params.get("ikr") or None,
+        recombination_current=params.get("isr") or None,
+        recombination_emission=params.get("nr", 2.0),
+        junction_potential=params.get("vj", params.get("pb", 1.0)),
+        grading=params.get("m", params.get("mj", 0.5)))
+    # the breakdown: one branch until a run shows breakdown current (then refitted), unless
+    # pwlfit fixes the fits (no refit)
+    fitted = fitted_model(model, diode, fit_current, fit_current,
+                          breakdown_branches=MAX_BRANCHES if fit_current else 1)
     dynamic = [key.upper() for key in ("cjo", "cj0", "cj", "tt") if key in params]
     if dynamic:  # DESIGN: outside the ideal model, said in info
         fitted = replace(fitted, origin=fitted.origin + f"; {', '.join(dynamic)} ignored (junction "

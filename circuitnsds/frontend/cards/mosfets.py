@@ -14,9 +14,10 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
 * its off-resistance: VDMOS ``Rds`` when given, else the circuit's ``1/gmin``;
 * an ideal body diode (VDMOS: source → drain for n-channel, in series with ``Rb``, with
   ``BV`` as a Zener breakdown when given; level 1–3: the bulk–drain and bulk–source
-  junctions; none when ``IS = 0``) whose ``Vfwd``/``Ron`` are the least-squares line of its
-  Shockley curve over 0.1–1 A (:func:`circuitnsds.circuit.elements.diode_fit.fit_forward`, the
-  fit of diode models);
+  junctions; none when ``IS = 0``) fitted to its Shockley curve as diode models are
+  (:func:`circuitnsds.circuit.elements.diode.fitted_model`, refitted where the circuit works);
+* level 1–3: ``VTO`` and ``KP`` derived from the process as ngspice derives them when the
+  model leaves them out (:mod:`~circuitnsds.frontend.cards.mos_parameters`);
 * linear capacitances when the model gives them, the gate–drain one split into its two
   grounded halves, each at the value it has when its node moves: ngspice's Cgd(Vgd) is
   Cgdmax while the channel conducts (``Vgd > 0``) and falls toward Cgdmin as the drain
@@ -44,9 +45,11 @@ from circuitnsds.circuit.elements import (
     Resistor,
     SwitchModel,
 )
-from circuitnsds.circuit.elements.diode_fit import ShockleyDiode, fit_forward
+from circuitnsds.circuit.elements.diode import fitted_model
+from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
 from circuitnsds.circuit.elements.mosfet import Mosfet
 from circuitnsds.errors import SourceLocation
+from circuitnsds.frontend.cards.mos_parameters import threshold, transconductance
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 
 DEFAULT_GATE_DRIVE = 10.0
@@ -69,17 +72,15 @@ VDMOS_IGNORED = {
     "ron", "qg", "vds", "subthres", "vdmos",
 }
 LEVEL1_USED = {"level", "vto", "vt0", "kp", "u0", "uo", "tox", "ld", "rd", "rs", "is", "cbd", "cbs",
-               "cgso", "cgdo", "l", "w"}
+               "cgso", "cgdo", "l", "w", "nsub", "phi", "gamma", "tpg", "nss", "xj", "delta", "wd",
+               "tnom"}
 LEVEL1_IGNORED = {
-    "gamma", "phi", "lambda", "pb", "cgbo", "rsh", "cj", "mj", "cjsw", "mjsw", "js", "fc", "nsub",
-    "tpg", "nss", "kf", "af", "tnom", "delta", "uexp", "ucrit", "vmax", "xj", "neff", "nfs", "eta",
-    "theta", "kappa", "xqc", "wd", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
+    "lambda", "pb", "cgbo", "rsh", "cj", "mj", "cjsw", "mjsw", "js", "fc",
+    "kf", "af", "uexp", "ucrit", "vmax", "neff", "nfs", "eta",
+    "theta", "kappa", "xqc", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
 }
 DEFAULT_LENGTH = 100e-6
 """ngspice's default channel length and width ``DEFL``/``DEFW`` [m]."""
-OXIDE_PERMITTIVITY = 3.9 * 8.854214871e-12
-"""[F/m], for ``Kp = U0·εox/TOX`` when a level-1 model gives ``U0`` and ``TOX``."""
-
 
 @dataclass(frozen=True)
 class MosfetModel:
@@ -106,10 +107,17 @@ class MosfetModel:
 
     @property
     def threshold(self) -> float:
-        """``Vto`` [V] as written (negative for an enhancement p-channel device)."""
+        """``Vto`` [V] (negative for an enhancement p-channel device) of a default-size
+        channel: as written, else derived as ngspice does (:meth:`threshold_of`)."""
+        return self.threshold_of({"l": DEFAULT_LENGTH, "w": DEFAULT_LENGTH})[0]
+
+    def threshold_of(self, instance: dict[str, float]) -> tuple[float, str]:
+        """``(Vto [V], how it was found)`` for the channel ``instance["l"]`` × ``["w"]``
+        [m]: VDMOS ``VTO`` (ngspice's default 3 V); level 1–3 as ngspice derives it
+        (:mod:`~circuitnsds.frontend.cards.mos_parameters`: from ``NSUB``, ``TOX``, ...)."""
         if self.kind == "vdmos":
-            return self.params.get("vto", self.params.get("vth0", 3.0 * self.polarity))
-        return self.params.get("vto", self.params.get("vt0", 0.0))
+            return self.params.get("vto", self.params.get("vth0", 3.0 * self.polarity)), "VTO"
+        return threshold(self.params, self.polarity, instance["l"], instance["w"])
 
 
 def read_mos_model(name: str, kind: str, reader: StatementReader) -> MosfetModel:
@@ -148,8 +156,9 @@ def read_mos_model(name: str, kind: str, reader: StatementReader) -> MosfetModel
                                hint="circuitnsds reads VDMOS and level 1-3 MOSFETs as switches "
                                "(threshold VTO, on-resistance from KP)")
         if level != 1:
-            reader.warn(f".model {name}: level {level} read with the level-1 equations "
-                        "(threshold VTO, on-resistance from KP, W, L)")
+            reader.warn(f".model {name}: level {level} read with the level-1 on-resistance "
+                        "(KP, W, L); its threshold is ngspice's at Vbs = 0 (level 3: with the "
+                        "short- and narrow-channel effects, without ETA's drain feedback)")
     return MosfetModel(name, kind, polarity, params, text, reader.location)
 
 
@@ -197,14 +206,19 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
     if min(instance.values()) <= 0:
         raise reader.error(f"{name}: m, l and w must be positive")
     drive = options.get("mosdrive", DEFAULT_GATE_DRIVE)
-    channel, rule = _channel_resistance(model, instance, drive, reader)
+    try:
+        vto, vto_rule = model.threshold_of(instance)
+    except ValueError as exc:
+        raise reader.error(f"{name}: model {model.name}: {exc}",
+                           hint="check NSUB's unit (cm^-3) or give VTO") from None
+    channel, rule = _channel_resistance(model, instance, drive, reader, vto)
     series = model.get("rd", 0.0) + model.get("rs", 0.0)
     count = instance["m"]
     on_resistance = (series + channel) / count
     rule = (f"Rd + Rs + Rch = {model.get('rd', 0.0):g} + {model.get('rs', 0.0):g} + {channel:.4g} Ω"
-            + (f", / m={count:g}" if count != 1 else "") + f"; {rule}")
+            + (f", / m={count:g}" if count != 1 else "") + f"; {rule}; Vto={vto:.4g} V: {vto_rule}")
     off = model.get("rds", off_resistance) if model.kind == "vdmos" else off_resistance
-    switch_model = SwitchModel(model.name, threshold=model.polarity * model.threshold,
+    switch_model = SwitchModel(model.name, threshold=model.polarity * vto,
                                on_resistance=on_resistance, off_resistance=off / count,
                                location=model.location, thermal=model.text.get("thermal"))
     location = reader.location
@@ -234,12 +248,12 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
 
 
 def _channel_resistance(model: MosfetModel, instance: dict[str, float], drive: float,
-                        reader: StatementReader) -> tuple[float, str]:
-    """``(Rch [Ω], the rule in words)`` at ``|Vgs| = drive``."""
-    overdrive = drive - model.polarity * model.threshold
+                        reader: StatementReader, vto: float) -> tuple[float, str]:
+    """``(Rch [Ω], the rule in words)`` at ``|Vgs| = drive`` for the threshold ``vto`` [V]."""
+    overdrive = drive - model.polarity * vto
     if overdrive <= 0:
         raise reader.error(f"{reader.name}: the gate drive |Vgs| = {drive:g} V does not reach "
-                           f"the threshold of model {model.name} (Vto = {model.threshold:g} V)",
+                           f"the threshold of model {model.name} (Vto = {vto:.4g} V)",
                            hint="set the drive at which Ron is computed: .options mosdrive=VALUE")
     if model.kind == "vdmos":
         kp = model.get("kp", 25.0 + 10.0 * model.polarity)
@@ -250,21 +264,15 @@ def _channel_resistance(model: MosfetModel, instance: dict[str, float], drive: f
         theta, triode = model.get("theta", 0.0), model.get("mtriode", 1.0)
         resistance = (1.0 + theta * drive) / (kp * triode * smoothed)
         return resistance, (f"Rch = (1 + θ·Vgs)/(Kp·mtriode·(Vgs − Vto)) at |Vgs| = {drive:g} V "
-                            f"(Kp={kp:g}, Vto={model.threshold:g})")
-    if "kp" in model.params:
-        kp = model.params["kp"]
-    elif "tox" in model.params and ("u0" in model.params or "uo" in model.params):
-        mobility = model.params.get("u0", model.params.get("uo", 0.0))
-        kp = mobility * 1e-4 * OXIDE_PERMITTIVITY / model.params["tox"]
-    else:
-        kp = 2e-5
+                            f"(Kp={kp:g}, Vto={vto:g})")
+    kp, _ = transconductance(model.params)
     length = instance["l"] - 2.0 * model.get("ld", 0.0)
     if length <= 0:
         raise reader.error(f"{reader.name}: the effective channel length L - 2·LD is not positive")
     beta = kp * instance["w"] / length
     return 1.0 / (beta * overdrive), (f"Rch = 1/(Kp·W/(L−2·LD)·(Vgs − Vto)) at |Vgs| = {drive:g} V "
                                       f"(Kp={kp:g}, W/L={instance['w'] / length:g}, "
-                                      f"Vto={model.threshold:g})")
+                                      f"Vto={vto:.4g})")
 
 
 def _gate_capacitances(model: MosfetModel, instance: dict[str, float]) -> dict[str, float]:
@@ -283,13 +291,12 @@ def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: s
         return []
     emission = model.get("n", 1.0) if model.kind == "vdmos" else 1.0
     resistance = model.get("rb", 0.0) if model.kind == "vdmos" else 0.0
-    fit = fit_forward(ShockleyDiode(saturation, emission, resistance), 1.0)
-    forward, slope = fit.drop, fit.resistance
     breakdown = abs(model.params["bv"]) if model.kind == "vdmos" and model.params.get("bv") else None
-    diode_model = DiodeModel(f"{model.name}.body", forward_drop=forward, on_resistance=slope,
-                             off_resistance=off_resistance, breakdown_voltage=breakdown,
-                             breakdown_resistance=resistance if breakdown else 0.0,
-                             location=model.location)
+    diode_model = fitted_model(DiodeModel(f"{model.name}.body", off_resistance=off_resistance,
+                                          breakdown_voltage=breakdown,
+                                          breakdown_resistance=resistance if breakdown else 0.0,
+                                          location=model.location),
+                               ShockleyDiode(saturation, emission, resistance))
     parts: list[Element] = []
 
     def junction(suffix: str, other: str) -> None:
