@@ -81,6 +81,16 @@ SOLVER_CACHE_SIZE = 32
 MODE_CACHE_SIZE = 256
 """How many modes keep their step map."""
 DENSE_MAP_LIMIT = 64
+# With θ < 1, how many implicit-Euler steps follow a switching into a mode whose θ-step has
+# an eigenvalue below -RINGING_FACTOR (_Stepping.rings). One is not enough there: it leaves
+# the fast mode (Ron·C, τ << h) a residue 1/(1 + h/τ) of its jump, which the θ = ½ step then
+# carries with factor -(1 - h/2τ)/(1 + h/2τ) ≈ -1 for ever (a gate RC closing a 10 mΩ switch
+# onto 3 nF at h = 1 ns rang ±30 A about 1.2 A). Three leave 1/(1 + h/τ)³ (0.07 % there).
+# Other switchings keep one: each extra implicit-Euler step costs accuracy on the slow modes
+# (benchmarks/restart_steps.py; docs/method.md).
+RESTART_STEPS = 3
+RINGING_FACTOR = 0.5
+RINGING_CHECK_LIMIT = 400  # unknowns + pairs: a dense eigenvalue problem per mode met
 """Largest ``n + m`` (unknowns + pairs) whose modes get dense step maps in the mode table;
 larger circuits keep a sparse LU per mode, stepped by :mod:`circuitnsds.engine.sparse_loop`.
 Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped step,
@@ -281,7 +291,9 @@ def integrate(
         states[k] = parts.states
         events += parts.events
         stepping.splits[k - 1] = parts.parts
-        restart = parts.at_end
+        # a switching inside the step: its rest was implicit Euler, but perhaps too short to
+        # damp a fast mode (restart_longer)
+        restart = parts.at_end or (bool(parts.events) and stepping.rings(k, states[k], guess))
         last_active[states[k].tobytes()] = guess
         charge = mlcs.E @ y[k]
 
@@ -295,6 +307,7 @@ def integrate(
             changed = (k > 0 or continued) and (restart or bool((states[k + 1] != states[k]).any()))
             restart = False
             if changed:
+                stepping.restart_longer(k, states[k + 1], last_active.get(states[k + 1].tobytes(), guess))
                 # a switch changed: the pairs most likely take the mode they had the last
                 # time the switches were in this state (the other phase of a converter)
                 guess = last_active.get(states[k + 1].tobytes(), guess)
@@ -541,6 +554,7 @@ class _Stepping:
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
         self._no_free = FreeSwitches(controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
         self._free_ids: dict[bytes, int] = {}
+        self._ringing: dict[tuple, bool] = {}  # see rings()
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
         self.dense = mlcs.n + mlcs.m <= DENSE_MAP_LIMIT
@@ -596,6 +610,30 @@ class _Stepping:
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
         return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 else 0)
+
+    def rings(self, k: int, states: np.ndarray, active: np.ndarray | None) -> bool:
+        """Whether the θ-step of step ``k``'s size in the mode (switch ``states``, pairs
+        ``active``) has an eigenvalue with real part below ``-RINGING_FACTOR``: a mode so
+        fast for the step (Ron·C, τ < h/3 at θ = ½) that the θ-method carries what is left
+        of its jump on alternating in sign. Circuits of up to ``RINGING_CHECK_LIMIT`` unknowns
+        (others: ``False``); every stepping path asks the same, so all take the same steps."""
+        if self.theta == 1.0 or self.mlcs.n + self.mlcs.m > RINGING_CHECK_LIMIT or active is None:
+            return False
+        cls = int(self.base_class[k])
+        key = (cls, states.tobytes(), np.asarray(active, dtype=bool).tobytes())
+        if key not in self._ringing:
+            mode = self._build_mode(k, cls, states, np.asarray(active, dtype=bool))
+            n = self.mlcs.n
+            self._ringing[key] = mode is not None and bool(
+                (np.linalg.eigvals(mode.P[:n, :n]).real < -RINGING_FACTOR).any())
+        return self._ringing[key]
+
+    def restart_longer(self, k: int, states: np.ndarray, active: np.ndarray | None) -> None:
+        """After a switching at ``t_k`` into a mode that :meth:`rings`, make the
+        ``RESTART_STEPS - 1`` steps after step ``k`` restarts (implicit Euler) too."""
+        if self.rings(k, states, active):
+            after = slice(k + 1, min(k + RESTART_STEPS, self.step_class.size))
+            self.step_class[after] = self.base_class[after] + self.sizes
 
     def theta_of(self, cls: int) -> float:
         return 1.0 if cls >= self.sizes else self.theta
