@@ -134,7 +134,19 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
         if ill is not None:
             raise SimulationError("the DC operating point cannot be computed: " + ill,
                                   where="operating point") from None
-        contradicted = _contradicted_ics(circuit, mlcs, states, tol) if held else []
+        trials = _ic_trials(circuit, mlcs, states, tol) if held else []
+        agreeing = {node for node, actual in trials
+                    if _agrees(circuit.initial_voltages[node][0], actual)}
+        if agreeing:  # held twice (by a source and by .ic), consistently: hold it once
+            from dataclasses import replace
+
+            kept = {k: v for k, v in circuit.initial_voltages.items() if k not in agreeing}
+            return _solve_dc(replace(circuit, initial_voltages=kept), mlcs, states, tol)
+        contradicted = []
+        for node, actual in trials:
+            value, location = circuit.initial_voltages[node]
+            contradicted.append(f"{str(location) + ': ' if location else ''}.ic v({node})={value:g} "
+                                f"contradicts the sources, which hold {node} at {actual:.6g} V")
         if contradicted:
             raise SimulationError(
                 "the DC operating point has no solution: " + "; ".join(contradicted),
@@ -161,10 +173,15 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
 MAX_IC_TRIALS = 20
 """At most this many ``.ic`` nodes are tried one by one to find the one a source contradicts."""
 
+IC_AGREEMENT = 1e-6
+"""An ``.ic`` value within this fraction of ``max(1 V, |value|)`` of the voltage the sources
+give its node agrees with them (it only repeats what they hold)."""
 
-def _contradicted_ics(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float) -> list[str]:
-    """The ``.ic`` nodes whose value alone makes the operating point impossible: without that
-    node held, it has a solution (the voltage the circuit gives it is quoted)."""
+
+def _ic_trials(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float
+               ) -> list[tuple[str, float]]:
+    """``(node, voltage)`` of each ``.ic`` node whose value alone makes the operating point
+    impossible to solve: without that node held, the circuit gives it ``voltage``."""
     from dataclasses import replace
 
     found = []
@@ -175,11 +192,12 @@ def _contradicted_ics(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: flo
             result = _solve_dc(replace(circuit, initial_voltages=others), mlcs, states, tol)
         except SimulationError:
             continue
-        value, location = circuit.initial_voltages[node]
-        actual = float(result.u[circuit.nodes.index(node)])
-        found.append(f"{str(location) + ': ' if location else ''}.ic v({node})={value:g} contradicts the "
-                     f"sources, which hold {node} at {actual:.6g} V")
+        found.append((node, float(result.u[circuit.nodes.index(node)]) + 0.0))  # (+0.0: no -0)
     return found
+
+
+def _agrees(value: float, actual: float) -> bool:
+    return abs(actual - value) <= IC_AGREEMENT * max(1.0, abs(value))
 
 
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
