@@ -3,8 +3,9 @@
 
 Only switchings into a mode whose θ-step has an eigenvalue below -0.5 get the extra
 steps (``_Stepping.rings``). One restart step leaves such a stiff mode (a switch's Ron
-with a capacitor, τ << h) a residue of its jump that the trapezoidal rule carries on, alternating in sign, for ever. Each extra
-step damps that residue by 1/(1 + h/τ) and costs a little accuracy on the smooth modes.
+with a capacitor, τ << h) a residue of its jump that the trapezoidal rule carries on,
+alternating in sign, for ever. Each extra step damps that residue by 1/(1 + h/τ) and
+costs a little accuracy on the smooth modes.
 For 1, 2, 3 and 4 restart steps this prints:
 
 * ``ring``: a gate RC closing S1 (10 mΩ) onto 3 nF || 10 Ω from 12 V at h = 1 ns: the largest
