@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
+from circuitnsds.errors import RunNote
 from tests.conftest import circuit_from
 
 # --- 1. θ = ½ after a circuit-controlled switch closes onto a capacitor -----------------------
@@ -56,3 +57,57 @@ def test_an_ic_that_contradicts_the_source_names_it_without_a_minus_zero():
     with pytest.raises(circuitnsds.SimulationError) as raised:
         circuit_from(IC_ON_A_DRIVEN_NODE.format(v="0", ic="0.1")).transient()
     assert ".ic v(n)=0.1 contradicts the sources, which hold n at 0 V" in str(raised.value)
+
+
+# --- 2. UIC with a capacitor's ic= in series with its ESR ------------------------------------
+
+def test_uic_start_of_a_capacitor_behind_its_esr_is_consistent():
+    # C1 at 10 V discharging into Rl = 10 Ω through its ESR of 0.1 Ω: at t = 0 the divider gives
+    # v(out) = 10·10/10.1 V and v(esr) = -10·0.1/10.1 V (it showed 0 V and 0 V), and the
+    # power balance closes: the energy ½·C·v² the capacitor gives up over the run goes into
+    # Rl and Resr (the stored row was +0.69 W and 5 W unaccounted)
+    from circuitnsds.output.measure import losses
+
+    circuit = circuit_from("C1 out esr 100u ic=10\nResr esr 0 0.1\nRl out 0 10\n.tran 1u 1m uic")
+    waves = circuit.transient()
+    assert waves["v(out)"][0] == pytest.approx(10 * 10 / 10.1, rel=1e-12)
+    assert waves["v(esr)"][0] == pytest.approx(-10 * 0.1 / 10.1, rel=1e-12)
+    table = losses(waves, circuit)
+    tau = 100e-6 * 10.1
+    stored = 0.5 * 100e-6 * 100 * (np.exp(-2 * 1e-3 / tau) - 1) / 1e-3
+    assert table.total("stored") == pytest.approx(stored, rel=2e-3)
+    assert abs(table.unaccounted) < 1e-3 * table.total("loss")
+
+
+# --- 5. the DC operating point closes a switch the circuit controls ---------------------------
+
+SOFT_START_BUCK = """Vin in 0 12
+Vss s0 0 1.2
+Rss s0 ss 1k
+Css ss 0 1u
+Bq q 0 V={v(ss) > 0.6 ? 1 : 0}
+S1 in sw q 0 smod
+D1 0 sw dfw
+L1 sw out 10u
+C1 out 0 100u
+Rl out 0 0.25
+.model smod SW(VT=0.5 RON=10m)
+.model dfw D()
+.tran 100n 20u"""
+
+
+def test_an_operating_point_with_a_switch_closed_by_the_circuit_is_noted():
+    # at DC Css is open, so v(ss) = 1.2 V and the comparator closes S1: the buck starts at its
+    # full-duty output 12·0.25/0.26 V (what the operating point gives), and the note says so
+    with pytest.warns(RunNote) as notes:
+        waves = circuit_from(SOFT_START_BUCK).transient()
+    named = " ".join(str(note.message) for note in notes)
+    assert "s1: the DC operating point starts it closed" in named
+    assert "bq.cmp0: the DC operating point starts it closed" in named
+    assert waves["v(out)"][0] == pytest.approx(12 * 0.25 / 0.26, rel=1e-9)
+    # under UIC every switch starts in its OFF state: no note
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RunNote)
+        circuit_from(SOFT_START_BUCK.replace(".tran 100n 20u", ".tran 100n 20u uic")).transient()
