@@ -12,6 +12,7 @@ import numpy as np
 
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
+from circuitnsds.checks.time_scales import fast_modes, visited_modes
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
 from circuitnsds.engine.integrate import STEPPINGS, Segments, integrate, trajectory_bytes
@@ -22,6 +23,7 @@ from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
 from circuitnsds.theta import theta_in_range
+from circuitnsds.units import format_si
 
 
 def transient_spec(circuit: Circuit, **given: float | bool | None) -> TransientSpec:
@@ -412,7 +414,51 @@ def _run_transient(
     if note_fits:
         _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
+    warn_fast_modes(circuit, mlcs, full_trajectory, h, theta)
     return waves if signals is None else _drained(waves.select(signals), sink)
+
+
+MAX_FAST_MODE_WARNINGS = 3
+
+
+def warn_fast_modes(circuit: Circuit, mlcs, trajectory, h: float, theta: float) -> None:
+    """Warn about each mode of the circuit's own dynamics (in the modes the run visited) that
+    the step ``h`` [s] does not follow (:mod:`circuitnsds.checks.time_scales`), naming the
+    elements that hold it and the step that would: only the sources were checked before."""
+    modes = visited_modes(trajectory.switches, trajectory.active)
+    for mode in fast_modes(mlcs, h, modes)[:MAX_FAST_MODE_WARNINGS]:
+        names = ", ".join(_holders(circuit, mode.unknowns)) or ", ".join(mode.unknowns)
+        advice = (f"ngspice's own step control would follow it. Use a step of "
+                  f"{format_si(mode.needed_step, 's')} or less (--step, or TSTEP of .tran)")
+        if mode.rings:  # a wrong peak, frequency and decay: a warning (an error under --strict)
+            warnings.warn(CircuitWarning(
+                f"{circuit.file}: the mode of {names} rings at {format_si(mode.frequency, 'Hz')} "
+                f"(period {format_si(1 / mode.frequency, 's')}, damping ratio {mode.damping:.2g}) "
+                f"but the step is {format_si(h, 's')}, {1 / (mode.frequency * h):.2g} steps per "
+                "period: " + ("implicit Euler damps that ringing away" if theta == 1.0 else
+                              "the θ-method misses or aliases that ringing") + f"; {advice}"),
+                stacklevel=3)
+        else:  # a transient of a few steps shaped wrongly: a note
+            warnings.warn(RunNote(
+                f"{circuit.file}: the mode of {names} settles with a time constant of "
+                f"{format_si(mode.time_constant, 's')} but the step is {format_si(h, 's')}: its "
+                "transients (and the switching instants that depend on them) are followed only "
+                f"roughly; {advice}"), stacklevel=3)
+
+
+def _holders(circuit: Circuit, unknowns: tuple[str, ...]) -> list[str]:
+    """The inductors and capacitors behind state unknowns (``i(l1)`` → l1, ``v(b)`` → the
+    capacitors at node b), in the unknowns' order."""
+    names: list[str] = []
+    for unknown in unknowns:
+        inner = unknown[2:-1]
+        if unknown.startswith("i("):
+            found = [inner]
+        else:
+            found = [e.name for e in circuit.elements
+                     if isinstance(e, Capacitor) and inner in e.nodes]
+        names += [name for name in found if name not in names]
+    return names
 
 
 def _partial(waves: Waveforms, signals: Sequence[str] | None, sink) -> Waveforms:

@@ -1,0 +1,190 @@
+"""The circuit's own time scales in the modes a run visited, against its step.
+
+The sources' fastest features are checked before a run (``resolving_step``); the circuit's
+own dynamics are not known until its modes are (switch states and conducting pairs). For a
+mode, the implicit-Euler step map ``y_{k+1} = P y_k + ...`` of step ``h`` has the eigenvalue
+``μ = 1 / (1 - h λ)`` for each eigenvalue ``λ`` [1/s] of the mode's continuous dynamics
+(``E y' = A y`` with the mode's constraints), and 0 for the algebraic unknowns; so
+``λ = (1 - 1/μ) / h``.
+
+A step is too long for a mode when the mode
+
+* rings (damping ratio ``ζ = -Re λ / |λ|`` below :data:`LIGHT_DAMPING`) with fewer than
+  :data:`STEPS_PER_RING` steps per period: implicit Euler damps the ringing away, the
+  trapezoidal rule aliases it (a series RLC at 159 kHz stepped at 100 µs peaked at 10.0 V,
+  ngspice 18.44 V);
+* or decays with a time constant ``τ`` between ``h / SLOW_STIFF`` and ``h``: neither
+  followed (that needs ``h < τ``) nor so fast that only its end matters (a switch's Ron with
+  a capacitor, ``τ`` of picoseconds at a nanosecond step). The hysteretic buck's ``L/R =
+  50 µs`` at a 100 µs step switched every 47 µs instead of 38.1 µs.
+
+This module returns what it found as data; the analysis words the warning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from circuitnsds.engine.dense_loop import dense_mode_map
+from circuitnsds.engine.step_system import mode_blocks, step_system
+from circuitnsds.system.mlcs import MLCS
+
+STEPS_PER_RING = 4
+"""Fewer steps than this per period of a lightly damped mode lose its ringing."""
+LIGHT_DAMPING = 0.5
+"""A mode whose damping ratio is below this rings (its step response overshoots by 16 %)."""
+SLOW_STIFF = 10.0
+"""A decaying mode with ``h/τ`` in ``(1, SLOW_STIFF)`` is neither followed nor negligible."""
+MAX_MODES = 16
+"""At most this many of the modes a run visited (the most visited first) are examined."""
+MAX_UNKNOWNS = 400
+"""Circuits with more unknowns and pairs are not examined (a dense eigenproblem per mode)."""
+
+
+@dataclass(frozen=True)
+class FastMode:
+    """A mode of the circuit's dynamics the step does not follow.
+
+    Attributes:
+        eigenvalue: ``λ`` [1/s] (for a ringing mode, the one with positive imaginary part).
+        unknowns: the state unknowns (``v(node)``, ``i(inductor)``) that hold most of its
+            energy, largest first.
+        step: the step [s] it was found at.
+    """
+
+    eigenvalue: complex
+    unknowns: tuple[str, ...]
+    step: float
+
+    @property
+    def rings(self) -> bool:
+        return abs(self.eigenvalue.imag) > 0.0
+
+    @property
+    def frequency(self) -> float:
+        """[Hz] of a ringing mode."""
+        return abs(self.eigenvalue.imag) / (2 * np.pi)
+
+    @property
+    def time_constant(self) -> float:
+        """``τ = -1/Re λ`` [s]."""
+        return -1.0 / self.eigenvalue.real if self.eigenvalue.real < 0 else float("inf")
+
+    @property
+    def damping(self) -> float:
+        return -self.eigenvalue.real / abs(self.eigenvalue)
+
+    @property
+    def needed_step(self) -> float:
+        """[s] A step that follows the mode: 20 per period of a ringing one, τ/2 otherwise."""
+        return 1.0 / (20 * self.frequency) if self.rings else self.time_constant / 2
+
+
+def mode_spectrum(mlcs: MLCS, h: float, states: np.ndarray, active: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(λ, vectors)``: the eigenvalues [1/s] of the mode (switch ``states``, ``active``
+    pairs) and their eigenvectors over the MNA unknowns (columns), from its implicit-Euler
+    step map at ``h``; ``None`` when the mode's step matrix is singular."""
+    system = step_system(mlcs, h, tuple(bool(s) for s in states), 1.0, dense=True)
+    mode = dense_mode_map(mode_blocks(system, np.asarray(active, dtype=bool), dense=True), mlcs.n)
+    if mode is None:
+        return None
+    n = mlcs.n
+    multipliers, vectors = np.linalg.eig(mode.P[:n, :n])
+    dynamic = np.abs(multipliers) > 1e-12  # (algebraic unknowns: 0)
+    multipliers, vectors = multipliers[dynamic], vectors[:, dynamic]
+    return (1.0 - 1.0 / multipliers) / h, vectors
+
+
+def visited_modes(switches: np.ndarray, active: np.ndarray, most: int = MAX_MODES
+                  ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The distinct ``(switch states, active set)`` rows of a run, the most visited first
+    (at most ``most``; the rows after the first, which is the initial state)."""
+    rows = np.hstack([np.asarray(switches[1:], dtype=bool), np.asarray(active[1:], dtype=bool)])
+    if rows.shape[0] == 0:
+        return []
+    every = max(1, rows.shape[0] // 20_000)  # (a sample: the modes that hold the run)
+    unique, counts = np.unique(rows[::every], axis=0, return_counts=True)
+    order = np.argsort(-counts)[:most]
+    split = np.asarray(switches).shape[1]
+    return [(unique[k, :split], unique[k, split:]) for k in order]
+
+
+def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]]) -> list[FastMode]:
+    """The modes (of the given ``(switch states, active set)`` list) whose dynamics a step
+    ``h`` [s] does not follow (module docstring), one per distinct eigenvalue, the slowest
+    first (the ones that matter most to the waveforms)."""
+    if mlcs.n + mlcs.m > MAX_UNKNOWNS or h <= 0:
+        return []
+    weights = np.abs(mlcs.E.toarray()).sum(axis=1)  # capacitance / inductance of each row
+    found: dict[tuple[float, float], FastMode] = {}
+    for states, active in modes:
+        spectrum = mode_spectrum(mlcs, h, states, active)
+        if spectrum is None:
+            continue
+        values, vectors = spectrum
+        for value, vector in zip(values, vectors.T):
+            if not np.isfinite(value) or value.imag < 0:
+                continue
+            magnitude = abs(value)
+            ringing = value.imag > 0 and -value.real / magnitude < LIGHT_DAMPING
+            if ringing:
+                unresolved = h * value.imag > 2 * np.pi / STEPS_PER_RING
+            else:
+                unresolved = 1.0 < h * -value.real < SLOW_STIFF and abs(value.imag) < 1e-9 * magnitude
+            if not unresolved:
+                continue
+            key = (round(float(value.real), -int(np.floor(np.log10(magnitude))) + 3),
+                   round(float(abs(value.imag)), -int(np.floor(np.log10(magnitude))) + 3))
+            energy = weights * np.abs(vector) ** 2
+            order = [j for j in np.argsort(-energy) if energy[j] > 0.05 * energy.max()][:4]
+            found.setdefault(key, FastMode(complex(value.real, value.imag if ringing else 0.0),
+                                           tuple(mlcs.unknowns[j] for j in order), h))
+    return sorted(found.values(), key=lambda mode: abs(mode.eigenvalue))
+
+
+@dataclass(frozen=True)
+class PeriodGap:
+    """How far one mode's multiplier over a period ``T`` lies from 1, exactly and for the
+    θ-steps that take the period.
+
+    Attributes:
+        eigenvalue: ``λ`` [1/s] of the mode.
+        exact: ``|1 − e^{λT}|``: 0 when the mode is undamped and ``T`` a multiple of its
+            period (resonance: no periodic solution when forced there).
+        stepped: ``|1 − Π_k (1 + (1−θ) h_k λ) / (1 − θ h_k λ)|``: what the period map solves with.
+        unknowns: the state unknowns that hold most of the mode's energy.
+    """
+
+    eigenvalue: complex
+    exact: float
+    stepped: float
+    unknowns: tuple[str, ...]
+
+
+def period_gaps(mlcs: MLCS, steps: np.ndarray, states: np.ndarray, active: np.ndarray,
+                theta: float = 1.0) -> list[PeriodGap]:
+    """:class:`PeriodGap` of each dynamic eigenvalue of one mode over a period taken with
+    ``steps`` [s]: the periodic solution's response along a mode is ``1/(1 − multiplier)``
+    times what the sources put into it, so where ``stepped`` and ``exact`` differ the step's
+    numerical damping, not the circuit, sets that response (an undamped LC driven at
+    resonance: ``exact`` 0, and an amplitude that scales as 1/h)."""
+    if mlcs.n + mlcs.m > MAX_UNKNOWNS or steps.size == 0:
+        return []
+    spectrum = mode_spectrum(mlcs, float(np.median(steps)), states, active)
+    if spectrum is None:
+        return []
+    weights = np.abs(mlcs.E.toarray()).sum(axis=1)
+    gaps = []
+    period = float(steps.sum())
+    for value, vector in zip(*(spectrum[0], spectrum[1].T)):
+        if not np.isfinite(value):
+            continue
+        stepped = np.prod((1 + (1 - theta) * steps * value) / (1 - theta * steps * value))
+        energy = weights * np.abs(vector) ** 2
+        order = [j for j in np.argsort(-energy) if energy[j] > 0.05 * energy.max()][:4]
+        gaps.append(PeriodGap(complex(value), float(abs(1 - np.exp(value * period))),
+                              float(abs(1 - stepped)), tuple(mlcs.unknowns[j] for j in order)))
+    return gaps
