@@ -111,3 +111,63 @@ def test_an_operating_point_with_a_switch_closed_by_the_circuit_is_noted():
     with warnings.catch_warnings():
         warnings.simplefilter("error", RunNote)
         circuit_from(SOFT_START_BUCK.replace(".tran 100n 20u", ".tran 100n 20u uic")).transient()
+
+
+# --- 8. a step far too long for the circuit's own dynamics -------------------------------------
+
+SERIES_RLC = """V1 in 0 PULSE(0 10 0 1n 1n 1 2)
+R1 in a 0.1
+L1 a b 1u
+C1 b 0 1u
+.tran {step} 1m"""
+
+
+def test_a_step_longer_than_the_circuits_ringing_is_warned_naming_the_pair():
+    # ω0 = 1/√(LC) = 1e6 rad/s, ζ = R/2·√(C/L) = 0.05, so it rings at ω0·√(1-ζ²) (159 kHz,
+    # period 6.291 µs) and the step response peaks at 10·(1 + exp(-πζ/√(1-ζ²))) = 18.55 V
+    # (ngspice: 18.44 V). At 100 µs it peaked at 10.0 V, no word.
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz \(period "
+                      r"6\.291 µs, damping ratio 0\.05.*Use a step of 314\.\d ns or less"):
+        coarse = circuit_from(SERIES_RLC.format(step="100u")).transient()
+    assert coarse["v(b)"].max() < 10.5  # (what the warning is about)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", circuitnsds.CircuitWarning)
+        fine = circuit_from(SERIES_RLC.format(step="50n").replace("1m", "20u")).transient(theta=0.5)
+    peak = 10 * (1 + np.exp(-np.pi * 0.05 / np.sqrt(1 - 0.05**2)))
+    assert fine["v(b)"].max() == pytest.approx(peak, rel=2e-3)
+
+
+def test_a_step_longer_than_a_time_constant_between_switchings_is_warned(netlists):
+    # the hysteretic buck's L/R = 50 µs at a 100 µs step switched every 47 µs (analytic 38.1 µs)
+    with pytest.warns(RunNote, match=r"the mode of l1 settles with a time "
+                      r"constant of 50 µs but the step is 100 µs"):
+        circuitnsds.read_netlist(netlists / "buck_hysteretic.cir").transient(step=100e-6, stop=400e-6)
+
+
+# --- 10. pss of a circuit with no periodic solution --------------------------------------------
+
+LC_DRIVEN = """V1 in 0 SIN(0 1 {f})
+L1 in a 1m
+C1 a 0 1u
+.tran 1u 2m"""
+
+
+def test_pss_of_an_undamped_lc_driven_at_resonance_is_refused():
+    # f0 = 1/(2π√(LC)) = 5032.92 Hz: the response grows without bound; the period map's
+    # implicit-Euler damping gave a 'steady state' of 31.7 V at 1 µs, 316 V at 100 ns
+    with pytest.raises(circuitnsds.SimulationError, match=r"no periodic steady state to show: "
+                       r"along v\(a\), i\(l1\) \(a mode at 5\.033 kHz"):
+        circuit_from(LC_DRIVEN.format(f="5032.92")).pss()
+
+
+def test_pss_of_an_undamped_lc_driven_off_resonance_is_its_forced_response():
+    # at 1 kHz the periodic solution exists and is unique: v(a) = sin(ωt)/(1 - (ω/ω0)²)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", circuitnsds.CircuitWarning)
+        result = circuit_from(LC_DRIVEN.format(f="1000")).pss()
+    omega, omega0 = 2 * np.pi * 1000, 1 / np.sqrt(1e-3 * 1e-6)
+    assert result.waveforms["v(a)"].max() == pytest.approx(1 / (1 - (omega / omega0) ** 2), rel=1e-5)

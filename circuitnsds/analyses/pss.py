@@ -25,6 +25,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.transient import _waveforms, advise, refuse_beyond_memory
 from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.checks.time_scales import period_gaps
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
@@ -34,6 +35,7 @@ from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
+from circuitnsds.units import format_si
 
 DEFAULT_POINTS = 1000
 """Steps per period when neither ``step``, ``.pss PSSPOINTS`` nor ``.tran`` TSTEP says."""
@@ -49,6 +51,17 @@ SINGULAR = 1e-10
 """A Floquet multiplier closer than this to 1 makes ``I − Φ`` singular."""
 ILL_CONDITIONED = 1e12
 """Condition number of ``I − Φ`` above which the Newton step is refused."""
+RESONANCE_GAP = 0.05
+"""A mode whose exact multiplier over the period lies this close to 1 amplifies what the
+sources put into it 20 times or more (resonance): there the step's numerical damping, not the
+circuit, may set the response. Further from 1 the step's errors in what goes in and in what
+stays cancel (an undamped LC driven at 1 kHz, its own 5 kHz damped 2x too much per period by
+the steps: the same 1.0411 V at 1 µs and 0.1 µs as the closed form)."""
+STEP_DAMPING_RATIO = 2.0
+"""A period's implicit-Euler multiplier this many times further from 1 than the exact one is
+warned about (the response along that mode is then set by the step)."""
+NO_PERIODIC_RATIO = 10.0
+"""... and this many times further is an error (the answer is off by more than that)."""
 PERIOD_MATCH = 1e-9
 """Relative tolerance when testing that source periods divide the common period."""
 UNDAMPED_HINT = ("look for a capacitor in a cut-set with only sources, capacitors or blocked "
@@ -423,7 +436,46 @@ class _Shooter:
         # run's trajectory is freed
         return run.y[-1].copy(), None, run.active[-1].copy(), run.switches[-1].copy()
 
+    def _check_step_damping(self, maps: StepMaps) -> None:
+        """Refuse (or warn about) a periodic solution that the step's numerical damping sets
+        rather than the circuit: along a mode, the response is ``1/(1 − multiplier)`` times what
+        the sources put in, so where the period's implicit-Euler multiplier lies much further
+        from 1 than the exact ``e^{λT}`` (an undamped LC driven at its resonance: exact 0),
+        the amplitude found scales as 1/h. Modes near resonance only (:data:`RESONANCE_GAP`);
+        periods in one mode only (a linear circuit); with
+        switchings the exact multipliers are a product this check does not form."""
+        run = maps.trajectory
+        if run.time.size < 2 or (run.switches[1:] != run.switches[1]).any() or (
+                run.active[1:] != run.active[1]).any():
+            return
+        for gap in period_gaps(self.mlcs, np.diff(run.time), run.switches[1], run.active[1]):
+            if (gap.exact > RESONANCE_GAP or gap.stepped < SINGULAR
+                    or gap.stepped <= STEP_DAMPING_RATIO * gap.exact or gap.eigenvalue.imag < 0):
+                continue
+            along = ", ".join(gap.unknowns)
+            frequency = abs(gap.eigenvalue.imag) / (2 * np.pi)
+            what = (f"along {along} (a mode at {format_si(frequency, 'Hz')}, decay rate "
+                    f"{-gap.eigenvalue.real + 0.0:.3g}/s) the circuit forgets |1 − e^(λT)| = {gap.exact:.2g} "
+                    f"of its state per period, the implicit-Euler steps {gap.stepped:.2g}: the "
+                    "amplitude found there is set by the step's numerical damping, not by the "
+                    "circuit")
+            if gap.stepped > NO_PERIODIC_RATIO * gap.exact:
+                raise SimulationError(
+                    f"no periodic steady state to show: {what} (it scales as 1/h; the circuit's "
+                    "own response grows without bound, or to "
+                    f"{gap.stepped / max(gap.exact, 1e-300):.2g} times the one found)",
+                    where=self.circuit.file, hint="the sources drive an undamped or nearly undamped "
+                    "mode at its resonance (a harmonic of the period): add the damping the real "
+                    "circuit has (an inductor's or capacitor's series resistance), or run a "
+                    "transient to see the growth")
+            import warnings
+
+            warnings.warn(CircuitWarning(
+                f"{self.circuit.file}: {what} ({gap.stepped / gap.exact:.2g} times the circuit's); "
+                "a smaller step (--step) brings it closer"), stacklevel=6)
+
     def _result(self, maps: StepMaps, phi: np.ndarray, residual: float, relative: float) -> PSSResult:
+        self._check_step_damping(maps)
         run = maps.trajectory
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
