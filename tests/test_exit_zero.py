@@ -3,6 +3,8 @@ no word; each test pins the right answer (closed form, or ngspice's) or the warn
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -171,3 +173,30 @@ def test_pss_of_an_undamped_lc_driven_off_resonance_is_its_forced_response():
         result = circuit_from(LC_DRIVEN.format(f="1000")).pss()
     omega, omega0 = 2 * np.pi * 1000, 1 / np.sqrt(1e-3 * 1e-6)
     assert result.waveforms["v(a)"].max() == pytest.approx(1 / (1 - (omega / omega0) ** 2), rel=1e-5)
+
+
+# --- 11. loops of ideal diodes: the solution is not unique ---------------------------------------
+
+@pytest.mark.parametrize(("diodes", "loop"), [
+    ("D1 a b dd\nD2 b a dd", "d1, d2 form a loop of ideal diodes (a → b → a)"),
+    ("D1 a b dd\nD2 b c dd\nD3 c a dd", "d1, d2, d3 form a loop of ideal diodes (a → b → c → a)"),
+])
+def test_a_loop_of_ideal_diodes_is_warned_and_refused_under_strict(diodes, loop, tmp_path):
+    from circuitnsds.cli.main import main
+
+    body = f"V1 in 0 SIN(0 5 1k)\nR1 in a 1k\nR2 b 0 1k\nR3 c 0 1k\n{diodes}\n.model dd D()\n.tran 10u 2m"
+    with pytest.warns(circuitnsds.CircuitWarning, match=re.escape(loop)):
+        circuit_from(body).transient()
+    netlist = tmp_path / "loop.cir"
+    netlist.write_text(f"loop\n{body}\n.end\n")
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv"), "--strict", "-q"]) != 0
+
+
+def test_diodes_with_a_drop_or_a_resistance_in_the_loop_are_not_warned():
+    import warnings
+
+    for model in ("D(Vfwd=0.7)", "D(Ron=0.1)"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", circuitnsds.CircuitWarning)
+            circuit_from(f"V1 in 0 SIN(0 5 1k)\nR1 in a 1k\nR2 b 0 1k\nD1 a b dd\nD2 b a dd\n"
+                         f".model dd {model}\n.tran 10u 2m").transient()
