@@ -200,3 +200,14 @@ def test_diodes_with_a_drop_or_a_resistance_in_the_loop_are_not_warned():
             warnings.simplefilter("error", circuitnsds.CircuitWarning)
             circuit_from(f"V1 in 0 SIN(0 5 1k)\nR1 in a 1k\nR2 b 0 1k\nD1 a b dd\nD2 b a dd\n"
                          f".model dd {model}\n.tran 10u 2m").transient()
+
+
+# --- 4. PULSE with PW = 0 ---------------------------------------------------------------------
+
+def test_a_pulse_with_zero_width_is_noted_naming_the_source():
+    # PW = 0 is PW = TSTOP (ngspice): 5 µs rise, then flat at 1 V to the end of each 10 µs
+    # period (a sawtooth with a flat top, not the triangle it looks like)
+    with pytest.warns(RunNote, match=r"vcarrier: PULSE with PW = 0 is read as PW = TSTOP"):
+        waves = circuit_from("Vcarrier c 0 PULSE(0 1 0 5u 5u 0 10u)\nR1 c 0 1k\n.tran 1u 40u"
+                             ).transient()
+    assert waves["v(c)"][(waves.time > 6e-6) & (waves.time < 9.5e-6)] == pytest.approx(1.0)

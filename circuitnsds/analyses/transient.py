@@ -13,6 +13,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.checks.diode_loops import warn_free_diode_loops
 from circuitnsds.checks.rules import check_initial_conditions, ill_conditioning
+from circuitnsds.checks.source_notes import note_zero_pulse_widths
 from circuitnsds.checks.time_scales import fast_modes, visited_modes
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, CurrentSource, Diode
@@ -378,6 +379,7 @@ def _run_transient(
     _check_memory(circuit, mlcs, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
     warn_free_diode_loops(circuit)
+    note_zero_pulse_widths(circuit, stop)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         return _kept_signals(circuit, mlcs, grid, state, [name.strip().lower() for name in signals],
