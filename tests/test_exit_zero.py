@@ -211,3 +211,43 @@ def test_a_pulse_with_zero_width_is_noted_naming_the_source():
         waves = circuit_from("Vcarrier c 0 PULSE(0 1 0 5u 5u 0 10u)\nR1 c 0 1k\n.tran 1u 40u"
                              ).transient()
     assert waves["v(c)"][(waves.time > 6e-6) & (waves.time < 9.5e-6)] == pytest.approx(1.0)
+
+
+# --- 6. sweep's .meas form, compare's signals checked before the run, --version ----------------
+
+def test_sweep_takes_the_meas_form_that_run_takes(netlists):
+    from circuitnsds.sweeps.api import sweep
+
+    table = sweep(netlists / "sweeps" / "buck_param.cir", {"D": [0.25, 0.5]}, workers=0, stop=1e-3,
+                  measure=["tran vavg AVG v(out) from=0.5m to=1m", "mean(v(out), 0.5m, 1m)"])
+    assert list(table["status"]) == ["ok", "ok"]
+    np.testing.assert_allclose(table["tran vavg AVG v(out) from=0.5m to=1m"],
+                               table["mean(v(out), 0.5m, 1m)"], rtol=1e-9)
+    with pytest.raises(circuitnsds.CircuitnsdsError, match="AVG does not take fro"):
+        sweep(netlists / "sweeps" / "buck_param.cir", {"D": [0.5]}, workers=0,
+              measure=["tran vavg AVG v(out) fro=1m"])
+
+
+@pytest.mark.parametrize(("signals", "message"), [("v(out,sw)", "differential voltage"),
+                                                  ("v(outt)", r"unknown signal\(s\) v\(outt\)")])
+def test_compare_refuses_signals_before_running_anything(monkeypatch, netlists, signals, message):
+    import circuitnsds.compare.api as api
+    from circuitnsds.circuit.circuit import Circuit
+    from circuitnsds.compare import CompareError
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("the simulation ran before the signals were checked")
+
+    monkeypatch.setattr(api, "ngspice_version", lambda: "39")
+    monkeypatch.setattr(Circuit, "transient", no_run)
+    with pytest.raises(CompareError, match=message):
+        api.compare(netlists / "buck_converter.cir", signals=[signals])
+
+
+def test_version(capsys):
+    from circuitnsds.cli.main import main
+
+    with pytest.raises(SystemExit) as exited:
+        main(["--version"])
+    assert exited.value.code == 0
+    assert capsys.readouterr().out.strip() == f"circuitnsds {circuitnsds.__version__}"

@@ -62,6 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Transient simulation of SPICE netlists with ideal diodes and Zeners.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    from circuitnsds import __version__  # (the package is imported already: no cost)
+
+    parser.add_argument("--version", action="version", version=f"circuitnsds {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")

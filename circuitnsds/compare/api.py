@@ -201,6 +201,8 @@ def compare(
                                    for model in circuit.models.values())
     if fitted:  # a study in N converges to the ideal diode, not to the fitted PWL one
         circuit = circuitnsds.read_netlist(source, options={"diode": "ideal"})
+    if signals is not None:  # refused before the run (a long one), not after it
+        _check_signal_names(circuit, signals)
     _warm_up()
     started = time.perf_counter()
     waves = circuit.transient(step, stop, theta=theta)
@@ -298,6 +300,23 @@ def _grid(n: float | Sequence[float] | None) -> list[float | None]:
     if not values:
         raise CompareError("no emission coefficient given", where="n", hint="e.g. n=[1, 0.3, 0.1]")
     return values
+
+
+def _check_signal_names(circuit, signals: Iterable[str]) -> None:
+    """Refuse, before the run, signals the run will not have: a differential ``v(a,b)``
+    (ngspice and circuitnsds each have ``v(a)`` and ``v(b)``) or an unknown name."""
+    chosen = [name.strip().lower() for name in signals if name.strip() and name.strip().lower() != "time"]
+    differential = [name for name in chosen if name.startswith("v(") and "," in name]
+    if differential:
+        raise CompareError(f"differential voltage(s) {', '.join(differential)} are not compared",
+                           where="signals", hint="compare each node's voltage, e.g. "
+                           + ", ".join(f"v({node.strip()})" for node in differential[0][2:-1].split(",")))
+    available = list(circuit.mlcs().output_names) + [
+        f"i({element.name})" for element in circuit.elements if hasattr(element, "capacitance")]
+    unknown = [name for name in chosen if name not in available]
+    if unknown:
+        raise CompareError(f"unknown signal(s) {', '.join(unknown)}", where="signals",
+                           hint=f"available: {', '.join(available)}")
 
 
 def _signals(waves: Waveforms, signals: Iterable[str] | None) -> list[str]:
