@@ -251,3 +251,41 @@ def test_version(capsys):
         main(["--version"])
     assert exited.value.code == 0
     assert capsys.readouterr().out.strip() == f"circuitnsds {circuitnsds.__version__}"
+
+
+# --- 9. compare also measures on ngspice's own time points -------------------------------------
+
+def test_compare_measures_the_largest_difference_on_ngspices_points_too():
+    # ours on a 100 µs grid (flat 10 V), ngspice's at 1 µs ringing to 18.44 V between two of
+    # our points: on our grid alone the difference was 0; on its points it is 8.44 V at 3 µs
+    from circuitnsds.compare.api import _on_both_grids
+    from circuitnsds.compare.metrics import resample, signal_metrics
+    from circuitnsds.output.waveforms import Waveforms
+
+    ours_time = np.array([0.0, 100e-6, 200e-6])
+    ours = Waveforms(ours_time, {"v(b)": np.array([10.0, 10.0, 10.0])})
+    ng_time = np.linspace(0.0, 200e-6, 201)
+    ng = np.where(np.isclose(ng_time, 3e-6), 18.44, 10.0)
+    class Run:  # (what _on_both_grids reads of an NgspiceRun)
+        waveforms = type("W", (), {"time": ng_time, "__getitem__": lambda self, name: ng})()
+
+    on_ours = signal_metrics(ours_time, ours["v(b)"], resample(ng_time, ng, ours_time),
+                             (0.0, 200e-6), "v(b)")
+    assert on_ours.nmax == 0.0
+    both = _on_both_grids(on_ours, ours, Run(), "v(b)", (0.0, 200e-6))
+    assert both.nmax * both.scale == pytest.approx(8.44)
+    assert both.max_at == pytest.approx(3e-6)
+    assert both.ripple_other == pytest.approx(8.44)
+
+
+@pytest.mark.ngspice
+def test_compare_of_the_under_resolved_rlc_shows_the_peak_difference(tmp_path):
+    from circuitnsds.compare import compare
+
+    netlist = tmp_path / "rlc.cir"
+    netlist.write_text("rlc\n" + SERIES_RLC.format(step="100u") + "\n.end\n")
+    with pytest.warns(circuitnsds.CircuitWarning, match="rings at 159 kHz"):
+        result = compare(netlist, signals=["v(b)"])
+    metric = result.runs[0].metrics["v(b)"]
+    assert metric.ripple_other - metric.ripple_ref > 8.0   # ngspice's peak 18.44 V against 10 V
+    assert metric.nmax * metric.scale > 8.0

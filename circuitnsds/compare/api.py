@@ -5,7 +5,7 @@ from __future__ import annotations
 import tempfile
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -363,7 +363,33 @@ def _measure(result: NgspiceRun, waves: Waveforms, signals: list[str],
         if name in result.waveforms.signals:
             comparison.resampled[name] = resample(result.waveforms.time, result.waveforms[name], waves.time)
     if result.ok:
-        metrics = {name: signal_metrics(waves.time, waves[name], values, window, name)
+        metrics = {name: _on_both_grids(signal_metrics(waves.time, waves[name], values, window, name),
+                                        waves, result, name, window)
                    for name, values in comparison.resampled.items()}
         comparison.metrics = flag_negligible(metrics)
     return comparison
+
+
+def _on_both_grids(ours: SignalMetrics, waves: Waveforms, result: NgspiceRun, name: str,
+                   window: tuple[float, float]) -> SignalMetrics:
+    """``ours`` (measured on circuitnsds's grid) with the largest difference and ngspice's
+    ripple taken over ngspice's own time points too (circuitnsds's values interpolated there):
+    on a grid coarser than the circuit's dynamics ngspice's peaks fall between our points (a
+    series RLC stepped at 100 µs: nMAX 1.3 % on our grid while the peaks differed by 8.4 V)."""
+    time = np.asarray(result.waveforms.time, dtype=float)
+    theirs = np.asarray(result.waveforms[name], dtype=float)
+    mask = (time >= window[0]) & (time <= window[1]) & np.isfinite(theirs)
+    if not mask.any():
+        return ours
+    ref = resample(waves.time, waves[name], time[mask])
+    valid = np.isfinite(ref)
+    if not valid.any():
+        return ours
+    diff = np.abs(theirs[mask][valid] - ref[valid])
+    worst = int(np.argmax(diff))
+    ripple = float(theirs[mask].max() - theirs[mask].min())
+    changes: dict[str, float] = {"ripple_other": max(ours.ripple_other, ripple)}
+    changes["ripple_diff"] = changes["ripple_other"] - ours.ripple_ref
+    if diff[worst] / ours.scale > ours.nmax:
+        changes.update(nmax=float(diff[worst]) / ours.scale, max_at=float(time[mask][valid][worst]))
+    return replace(ours, **changes)
