@@ -10,7 +10,7 @@ import pytest
 
 import circuitnsds
 from circuitnsds.errors import RunNote
-from tests.conftest import circuit_from
+from tests.conftest import NETLISTS, circuit_from
 
 # --- 1. θ = ½ after a circuit-controlled switch closes onto a capacitor -----------------------
 
@@ -289,3 +289,73 @@ def test_compare_of_the_under_resolved_rlc_shows_the_peak_difference(tmp_path):
     metric = result.runs[0].metrics["v(b)"]
     assert metric.ripple_other - metric.ripple_ref > 8.0   # ngspice's peak 18.44 V against 10 V
     assert metric.nmax * metric.scale > 8.0
+
+
+# --- 12. perfect coupling, library warnings, theta's message, the loss table ---------------------
+
+FLYBACK_K = """V1 in 0 12
+Vg g 0 PULSE(0 5 0 0 0 5u 10u)
+Lp in d 100u
+Ls 0 s 100u
+K1 Lp Ls {k}
+S1 d 0 g 0 sw
+D1 s out dd
+Cout out 0 10u
+R1 out 0 10
+.model sw SW(VT=2.5 RON=10m)
+.model dd D()
+.tran 10n 40u"""
+
+
+def test_perfect_coupling_moves_the_flux_instead_of_cutting_a_current():
+    # K = 1: when S1 opens, lp's current stops and ls's takes the flux (no Dirac voltage, no
+    # warning); K = 0.9: the leakage flux is cut, and that is warned about
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", circuitnsds.CircuitWarning)
+        waves = circuit_from(FLYBACK_K.format(k="1")).transient()
+    opened = np.searchsorted(waves.time, 5e-6) + 1
+    flux = 100e-6 * (waves["i(lp)"] + waves["i(ls)"])  # Lp·ip + M·is (M = Lp = Ls)
+    assert abs(flux[opened + 1] - flux[opened - 1]) < 1e-3 * abs(flux[opened - 1])
+    with pytest.warns(circuitnsds.CircuitWarning, match="the current of lp .* is cut"):
+        circuit_from(FLYBACK_K.format(k="0.9")).transient()
+
+
+def test_a_library_warning_is_printed_once_with_its_count_not_as_ours(capsys):
+    import warnings
+
+    from circuitnsds.cli.main import _print_warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(178):
+            warnings.warn_explicit("overflow encountered in multiply", RuntimeWarning, "lemke.py", 253)
+        warnings.warn(circuitnsds.CircuitWarning("a finding"), stacklevel=1)
+    _print_warnings(caught)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines == ["circuitnsds: warning: a finding",
+                     "circuitnsds: library RuntimeWarning (lemke.py:253, 178 times): overflow "
+                     "encountered in multiply (raised inside a computation, not a finding about the "
+                     "circuit)"]
+
+
+def test_theta_just_below_one_half_is_quoted_as_given():
+    with pytest.raises(circuitnsds.CircuitError, match=r"theta = 0\.4999999999 is outside"):
+        circuit_from("V1 a 0 1\nR1 a b 1\nC1 b 0 1u\n.tran 1u 10u").transient(theta=0.4999999999)
+
+
+def test_loss_table_without_input_or_loads_has_no_nan_and_no_zero_efficiency():
+    from circuitnsds.output.measure import losses
+
+    circuit = circuit_from("C1 out esr 100u ic=10\nResr esr 0 0.1\nRl out 0 10\n.tran 1u 1m uic")
+    text = losses(circuit.transient(), circuit).format()
+    assert "nan" not in text and "efficiency 0" not in text
+    assert "no source delivers net power over the window" in text
+    buck = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    waves = buck.transient()
+    assert "name the loads" in losses(waves, buck).format()
+    for line in losses(waves, buck, outputs=("rload",)).format().splitlines()[2:-1]:
+        # element, kind, power with its unit, share: separated however wide each one is
+        assert len(line.split()) >= 3 + (line.split()[1] in ("input", "loss", "output", "stored"))
+    assert "efficiency" in losses(waves, buck, outputs=("rload",)).format()

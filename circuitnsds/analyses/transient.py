@@ -338,7 +338,7 @@ def _run_transient(
                                "seconds (--step, --stop on the command line); leave one out for the "
                                "netlist's .tran value")
     if not theta_in_range(theta):
-        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+        raise CircuitError(f"theta = {theta!r} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     if stepping not in STEPPINGS:
         raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
@@ -509,9 +509,16 @@ def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
         before = np.concatenate([[np.inf], change[:-1]])
         cut = np.flatnonzero((np.abs(current[:-1]) > 0.05 * scale) & (np.abs(current[1:]) < 1e-3 * scale)
                              & (change > 10.0 * before))
+        inductance = float(inductances[row])
+        columns, values = mlcs.E.row(row)
+        if cut.size and (columns != row).any():
+            # a coupled winding: its voltage is a Dirac only if its flux linkage Σ M·i jumps;
+            # with K = 1 the flux moves to the other winding when this current is cut
+            flux_linkage = y[:, columns] @ values
+            jump = np.abs(flux_linkage[cut + 1] - flux_linkage[cut])
+            cut = cut[jump > 0.1 * inductance * np.abs(current[cut + 1] - current[cut])]
         if not cut.size:
             continue
-        inductance = float(inductances[row])
         weights = np.zeros(current.size)
         weights[cut + 1] = inductance * (current[cut + 1] - current[cut])
         fluxes[name[2:-1]] = weights

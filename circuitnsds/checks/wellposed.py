@@ -431,7 +431,7 @@ def analyse_circuit(circuit, step: float | None = None, *, states=None,
         raise CircuitError(f"step = {step:g} must be positive and finite", where=circuit.file,
                            hint="the time step [s] of the LCP examined; leave it out for .tran's TSTEP")
     if not theta_in_range(theta):
-        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+        raise CircuitError(f"theta = {theta!r} is outside [0.5, 1]", where=circuit.file,
                            hint=f"theta: {THETA_HINT}")
     mlcs = circuit.mlcs(SourceDefaults(step, tran.stop if tran else max(step, 1.0)))
     reports = []

@@ -431,15 +431,26 @@ class LossTable:
         return self.total("output") / inflow if inflow else float("nan")
 
     def format(self) -> str:
+        """The table as text; columns separated by at least one space whatever the widths,
+        a share only where there is input power, the efficiency only with loads named."""
         lines = [f"power balance over {format_si(self.t0, 's')} .. {format_si(self.t1, 's')}",
-                 f"  {'element':<16}{'kind':<8}{'power':>12}{'share':>9}"]
-        inflow = self.total("input") or float("nan")
+                 f"  {'element':<16} {'kind':<8} {'power':>12} {'share':>9}"]
+        inflow = self.total("input")
+
+        def share(power: float) -> str:
+            return f"{100 * power / inflow + 0.0:>8.3g}%" if inflow > 0 else f"{'-':>9}"
+
         for row in self.rows:
-            lines.append(f"  {row.element:<16}{row.kind:<8}{format_si(row.power, 'W'):>12}"
-                         f"{100 * row.power / inflow:>8.3g}%")
-        lines.append(f"  {'unaccounted':<16}{'':<8}{format_si(self.unaccounted, 'W'):>12}"
-                     f"{100 * self.relative:>8.3g}%  (impulses, numerical dissipation)")
-        lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
+            lines.append(f"  {row.element:<16} {row.kind:<8} {format_si(row.power + 0.0, 'W'):>12} "
+                         f"{share(row.power)}")
+        lines.append(f"  {'unaccounted':<16} {'':<8} {format_si(self.unaccounted, 'W'):>12} "
+                     f"{share(self.unaccounted)}  (impulses, numerical dissipation)")
+        if not inflow > 0:
+            lines.append("  no source delivers net power over the window: no shares, no efficiency")
+        elif not any(row.kind == "output" for row in self.rows):
+            lines.append("  efficiency: name the loads (--losses rload) to get it")
+        else:
+            lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
         return "\n".join(lines)
 
 
