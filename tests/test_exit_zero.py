@@ -359,3 +359,36 @@ def test_loss_table_without_input_or_loads_has_no_nan_and_no_zero_efficiency():
         # element, kind, power with its unit, share: separated however wide each one is
         assert len(line.split()) >= 3 + (line.split()[1] in ("input", "loss", "output", "stored"))
     assert "efficiency" in losses(waves, buck, outputs=("rload",)).format()
+
+
+# --- 7. default plots ----------------------------------------------------------------------------
+
+def test_default_plot_gives_small_signals_a_panel_of_their_scale_and_keeps_device_currents():
+    from circuitnsds.output.plot import figure_data
+    from circuitnsds.output.waveforms import Waveforms
+
+    time = np.linspace(0.0, 1e-3, 11)
+    signals = {"v(bus)": 400 + 0 * time, "v(sw)": 380 * (time > 5e-4), "v(ctl)": 0.8 + 0 * time,
+               "v(ramp)": time / 1e-3}
+    currents = [f"i(v{k})" for k in range(6)] + [f"i(c{k})" for k in range(6)] + [
+        "i(lr)", "i(d1)", "i(d2)", "i(s1)", "i(r1)"]
+    signals.update({name: np.sin(time * 1e4 * (k + 1)) for k, name in enumerate(currents)})
+    data = figure_data(Waveforms(time, signals, title="llc"))
+    traces = [[name for name, _ in panel.traces] for panel in data.panels]
+    assert traces[0] == ["v(bus)", "v(sw)"]           # 400 V scale
+    assert traces[1] == ["v(ctl)", "v(ramp)"]         # 1 V scale: not flat under 400 V
+    drawn = [name for panel in traces[2:] for name in panel]
+    assert {"i(lr)", "i(d1)", "i(d2)", "i(s1)"} <= set(drawn)   # kept beyond the first 8
+    assert "i(r1)" not in drawn and len(drawn) == 8
+
+
+def test_bode_crossover_label_in_engineering_notation(tmp_path, monkeypatch):
+    import circuitnsds.output.bode as bode
+
+    labels = []
+    monkeypatch.setattr(bode, "save_figure", lambda figure, path, dpi: labels.extend(
+        text.get_text() for axis in figure.axes for text in axis.texts))
+
+    result = circuit_from("V1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n.ac dec 10 10 100k").ac()
+    bode.plot_bode(result, tmp_path / "b.png", marks={"v(out)": (56040.0, 45.0)})
+    assert any("crossover 56 kHz" in label for label in labels)
