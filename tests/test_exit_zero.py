@@ -392,3 +392,21 @@ def test_bode_crossover_label_in_engineering_notation(tmp_path, monkeypatch):
     result = circuit_from("V1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n.ac dec 10 10 100k").ac()
     bode.plot_bode(result, tmp_path / "b.png", marks={"v(out)": (56040.0, 45.0)})
     assert any("crossover 56 kHz" in label for label in labels)
+
+
+def test_theta_half_does_not_ring_after_a_source_driven_switch_closes_onto_a_capacitor():
+    # the same closing driven by the gate source itself (a scheduled switching, which the mode
+    # loop takes on its own): i(s1) swung ±2 % about 1.2 A after one restart step
+    waves = circuit_from(GATE_RC_CLOSES_ONTO_C.replace("Rg g0 g 3\nCg g 0 5n\n", "")
+                         .replace("S1 in sw g 0", "S1 in sw g0 0")).transient(theta=0.5)
+    current = waves["i(s1)"]
+    closed = int(np.argmax(np.abs(current) > 0.5))
+    np.testing.assert_allclose(current[closed + 5:], 12 / 10.01, rtol=2e-3)
+
+
+def test_a_run_of_one_step_longer_than_the_time_constant_is_noted():
+    # .tran 1 1m uic: one step of 1 ms = RC; implicit Euler gives 0.5 V for 1 - 1/e = 0.632 V,
+    # and the check looked at TSTEP (1 s: 'negligible') instead of the step taken
+    with pytest.warns(RunNote, match="the mode of c1 settles with a time constant of 1 ms but "
+                      "the step is 1 ms"):
+        circuit_from("V1 in 0 1\nR1 in a 1k\nC1 a 0 1u\n.tran 1 1m uic").transient()

@@ -418,7 +418,9 @@ def _run_transient(
     if note_fits:
         _note_fits_outside_their_range(circuit, _fitted_peaks(circuit, waves))
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
-    warn_fast_modes(circuit, mlcs, full_trajectory, h, theta)
+    if full_trajectory.time.size > 1:  # (the grid's longest step: TSTEP, or TSTOP if shorter)
+        warn_fast_modes(circuit, mlcs, full_trajectory, float(np.diff(full_trajectory.time).max()),
+                        theta)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -452,7 +454,8 @@ def warn_fast_modes(circuit: Circuit, mlcs, trajectory, h: float, theta: float) 
 
 def _holders(circuit: Circuit, unknowns: tuple[str, ...]) -> list[str]:
     """The inductors and capacitors behind state unknowns (``i(l1)`` → l1, ``v(b)`` → the
-    capacitors at node b), in the unknowns' order."""
+    capacitors at node b), sorted by name (a ringing mode holds its energy in its inductors
+    and capacitors alike: their order by energy is a matter of rounding)."""
     names: list[str] = []
     for unknown in unknowns:
         inner = unknown[2:-1]
@@ -462,7 +465,7 @@ def _holders(circuit: Circuit, unknowns: tuple[str, ...]) -> list[str]:
             found = [e.name for e in circuit.elements
                      if isinstance(e, Capacitor) and inner in e.nodes]
         names += [name for name in found if name not in names]
-    return names
+    return sorted(names)
 
 
 def _partial(waves: Waveforms, signals: Sequence[str] | None, sink) -> Waveforms:

@@ -36,7 +36,7 @@ STEPS_PER_RING = 4
 LIGHT_DAMPING = 0.5
 """A mode whose damping ratio is below this rings (its step response overshoots by 16 %)."""
 SLOW_STIFF = 10.0
-"""A decaying mode with ``h/τ`` in ``(1, SLOW_STIFF)`` is neither followed nor negligible."""
+"""A decaying mode with ``h/τ`` in ``[1, SLOW_STIFF)`` is neither followed nor negligible."""
 MAX_MODES = 16
 """At most this many of the modes a run visited (the most visited first) are examined."""
 MAX_UNKNOWNS = 400
@@ -133,7 +133,7 @@ def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]])
             if ringing:
                 unresolved = h * value.imag > 2 * np.pi / STEPS_PER_RING
             else:
-                unresolved = 1.0 < h * -value.real < SLOW_STIFF and abs(value.imag) < 1e-9 * magnitude
+                unresolved = 1.0 <= h * -value.real < SLOW_STIFF and abs(value.imag) < 1e-9 * magnitude
             if not unresolved:
                 continue
             key = (round(float(value.real), -int(np.floor(np.log10(magnitude))) + 3),

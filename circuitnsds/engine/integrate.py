@@ -85,10 +85,11 @@ DENSE_MAP_LIMIT = 64
 # an eigenvalue below -RINGING_FACTOR (_Stepping.rings). One is not enough there: it leaves
 # the fast mode (Ron·C, τ << h) a residue 1/(1 + h/τ) of its jump, which the θ = ½ step then
 # carries with factor -(1 - h/2τ)/(1 + h/2τ) ≈ -1 for ever (a gate RC closing a 10 mΩ switch
-# onto 3 nF at h = 1 ns rang ±30 A about 1.2 A). Three leave 1/(1 + h/τ)³ (0.07 % there).
-# Other switchings keep one: each extra implicit-Euler step costs accuracy on the slow modes
-# (benchmarks/restart_steps.py; docs/method.md).
-RESTART_STEPS = 3
+# onto 3 nF at h = 1 ns rang ±30 A about 1.2 A). Four leave 1/(1 + h/τ)⁴ (i(s1) then swings
+# 0.004 % of 1.2 A there; three left 0.12 %, and a PWM-driven switch closing the same way
+# 2 %). Other switchings keep one: each extra implicit-Euler step costs accuracy on the slow
+# modes (benchmarks/restart_steps.py; docs/method.md).
+RESTART_STEPS = 4
 RINGING_FACTOR = 0.5
 RINGING_CHECK_LIMIT = 400  # unknowns + pairs: a dense eigenvalue problem per mode met
 """Largest ``n + m`` (unknowns + pairs) whose modes get dense step maps in the mode table;
@@ -570,6 +571,7 @@ class _Stepping:
         self._dense_cache: dict[tuple, _DenseMode] = {}
         self.splits: dict[int, list[SplitPart]] = {}  # the last run's split steps
         self._counted = self.counters(absolute=True)  # the solvers' counters before this grid
+        self._restart_scheduled_longer(initial_states)
 
     def target(self, grid: np.ndarray, initial_states: np.ndarray, continued: bool,
                classes: np.ndarray, buffers: dict | None = None,
@@ -601,6 +603,8 @@ class _Stepping:
         restart[0] |= not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
             (self.schedule[0] != initial_states[self.scheduled]).any()))
         self.step_class[restart] += self.sizes
+        if hasattr(self, "_ringing"):  # (a new part; the first is done at the end of __init__)
+            self._restart_scheduled_longer(initial_states)
         if hasattr(self, "_counted"):  # a new part: the counters start again
             self._counted = self.counters(absolute=True)
             self.built = 0
@@ -627,6 +631,29 @@ class _Stepping:
             self._ringing[key] = mode is not None and bool(
                 (np.linalg.eigvals(mode.P[:n, :n]).real < -RINGING_FACTOR).any())
         return self._ringing[key]
+
+    def _restart_scheduled_longer(self, initial_states: np.ndarray) -> None:
+        """:meth:`restart_longer` for the switchings of source-controlled switches, which the
+        mode loop takes without coming back here: each new scheduled state is examined once,
+        with the other switches in ``initial_states`` and no pair conducting (a switch closing
+        onto a capacitor rings whatever the diodes do)."""
+        if self.theta == 1.0 or not self.scheduled.size or self.sched_state.size < 2:
+            return
+        changes = 1 + np.flatnonzero(self.sched_state[1:] != self.sched_state[:-1])
+        if not changes.size:
+            return
+        none = np.zeros(self.mlcs.m, dtype=bool)
+        ringing = []
+        for state in np.unique(self.sched_state[changes]):
+            k = int(changes[np.argmax(self.sched_state[changes] == state)])
+            states = np.asarray(initial_states, dtype=bool).copy()
+            states[self.scheduled] = self.schedule[k]
+            if self.rings(k, states, none):
+                ringing.append(state)
+        marks = changes[np.isin(self.sched_state[changes], ringing)]
+        for later in range(1, RESTART_STEPS):
+            after = marks[marks + later < self.step_class.size] + later
+            self.step_class[after] = self.base_class[after] + self.sizes
 
     def restart_longer(self, k: int, states: np.ndarray, active: np.ndarray | None) -> None:
         """After a switching at ``t_k`` into a mode that :meth:`rings`, make the
