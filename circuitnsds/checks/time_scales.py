@@ -105,11 +105,21 @@ def visited_modes(switches: np.ndarray, active: np.ndarray, most: int = MAX_MODE
     rows = np.hstack([np.asarray(switches[1:], dtype=bool), np.asarray(active[1:], dtype=bool)])
     if rows.shape[0] == 0:
         return []
+    if rows.shape[1] == 0:  # no switch, no pair: one mode
+        return [(rows[0, :0], rows[0, :0])]
     every = max(1, rows.shape[0] // 20_000)  # (a sample: the modes that hold the run)
-    unique, counts = np.unique(rows[::every], axis=0, return_counts=True)
-    order = np.argsort(-counts)[:most]
+    rows = rows[::every]
+    # each row as one value, for a 1-D unique (np.unique(axis=0) took 0.15 s on 20,000 rows):
+    # an integer of its bits when they fit, else its packed bytes
+    if rows.shape[1] <= 63:
+        keys = rows.astype(np.int64) @ (np.int64(1) << np.arange(rows.shape[1], dtype=np.int64))
+    else:
+        packed = np.ascontiguousarray(np.packbits(rows, axis=1))
+        keys = packed.view(np.dtype((np.void, packed.shape[1]))).ravel()
+    _, first, counts = np.unique(keys, return_index=True, return_counts=True)
+    order = first[np.argsort(-counts, kind="stable")][:most]
     split = np.asarray(switches).shape[1]
-    return [(unique[k, :split], unique[k, split:]) for k in order]
+    return [(rows[k, :split], rows[k, split:]) for k in order]
 
 
 def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]]) -> list[FastMode]:
