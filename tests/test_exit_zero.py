@@ -410,3 +410,21 @@ def test_a_run_of_one_step_longer_than_the_time_constant_is_noted():
     with pytest.warns(RunNote, match="the mode of c1 settles with a time constant of 1 ms but "
                       "the step is 1 ms"):
         circuit_from("V1 in 0 1\nR1 in a 1k\nC1 a 0 1u\n.tran 1 1m uic").transient()
+
+
+# --- found by the adversarial trial ---------------------------------------------------------------
+
+def test_uic_start_shows_the_current_of_a_diode_conducting_at_t0():
+    # C1 at 10 V discharging through D1 into 1 kΩ: at t = 0 i(d1) = i(r1) = 10 mA (it showed 0 A
+    # beside i(r1) = 10 mA: Kirchhoff's current law broken in the first row)
+    waves = circuit_from("C1 a 0 1u ic=10\nD1 a b dd\nR1 b 0 1k\n.model dd D()\n.tran 1u 10u uic"
+                         ).transient()
+    assert waves["i(d1)"][0] == pytest.approx(0.01, rel=1e-9)
+    assert waves["i(r1)"][0] == pytest.approx(0.01, rel=1e-9)
+
+
+def test_a_sin_of_negative_frequency_runs_as_sin_of_minus_omega_t():
+    # SIN(0 1 -1k) at a step too long for it: the refinement divided by zero (a traceback)
+    with pytest.warns(RunNote, match="cannot resolve the sources"):
+        waves = circuit_from("V1 a 0 SIN(0 1 -1k)\nR1 a 0 1\n.tran 100u 2m").transient()
+    np.testing.assert_allclose(waves["v(a)"], -np.sin(2 * np.pi * 1e3 * waves.time), atol=1e-12)

@@ -258,11 +258,11 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
                 y[_index(circuit, plus)] = element.initial_output
     _consistent_auxiliaries(circuit, mlcs, y)
     switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
+    current = np.zeros(mlcs.m)
     settled = _settled_start(mlcs, charge, switches)
-    if settled is not None and _keeps_initial_conditions(circuit, mlcs, y, settled):
-        y = settled
-    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
-                        switches=switches)
+    if settled is not None and _keeps_initial_conditions(circuit, mlcs, y, settled[0]):
+        y, current = settled  # (the pairs' currents too: a diode conducting at t = 0 showed 0 A)
+    return InitialState(y=y, charge=charge, current=current, active=None, switches=switches)
 
 
 def _keeps_initial_conditions(circuit: Circuit, mlcs: MLCS, given: np.ndarray,
@@ -290,8 +290,9 @@ CONSISTENT_START_LIMIT = 400
 """Circuits of up to this many unknowns get a consistent UIC start (a dense SVD of ``E``)."""
 
 
-def _settled_start(mlcs: MLCS, charge: np.ndarray, switches: np.ndarray) -> np.ndarray | None:
-    """The unknowns at ``t = 0`` that hold the initial ``charge`` and obey every algebraic
+def _settled_start(mlcs: MLCS, charge: np.ndarray, switches: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(y, pair currents)`` at ``t = 0`` that hold the initial ``charge`` and obey every algebraic
     row and device law there: the limit of an implicit-Euler step as its length goes to 0.
     With ``E = U Σ Vᵀ`` split into its range (``U_r``) and left null space (``U_0``), that is
     ``U_rᵀ E y = U_rᵀ charge`` and ``U_0ᵀ (A y + B λ + s(0)) = 0``, with the pairs'
@@ -316,8 +317,8 @@ def _settled_start(mlcs: MLCS, charge: np.ndarray, switches: np.ndarray) -> np.n
         result = solve_mlcp(matrix, coupling, mlcs.C.toarray(), mlcs.D.toarray(), source, mlcs.e)
     except (LCPError, ValueError, ArithmeticError, np.linalg.LinAlgError):
         return None
-    settled = np.asarray(result.u, dtype=float)
-    return settled if np.isfinite(settled).all() else None
+    settled, currents = np.asarray(result.u, dtype=float), np.asarray(result.z, dtype=float)
+    return (settled, currents) if np.isfinite(settled).all() and np.isfinite(currents).all() else None
 
 
 def _consistent_auxiliaries(circuit: Circuit, mlcs: MLCS, y: np.ndarray) -> None:
