@@ -25,7 +25,7 @@ import numpy as np
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.transient import _waveforms, advise, refuse_beyond_memory
 from circuitnsds.checks.rules import check_initial_conditions
-from circuitnsds.checks.time_scales import period_gaps
+from circuitnsds.checks.time_scales import exact_monodromy
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.integrate import integrate, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
@@ -319,7 +319,6 @@ memory, 1e5-4e5 steps per period, an RLC and the buck converter, 2026-11-23), wi
 def _check_memory(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, whole: np.ndarray | None) -> None:
     """Refuse, before starting, a periodic steady state whose period maps (or warm-up run,
     freed before them) cannot fit in memory."""
-    from circuitnsds.units import format_si
 
     needed = max(PERIOD_MAP_BYTES * trajectory_bytes(mlcs, grid.size),
                  trajectory_bytes(mlcs, whole.size) if whole is not None else 0)
@@ -436,46 +435,50 @@ class _Shooter:
         # run's trajectory is freed
         return run.y[-1].copy(), None, run.active[-1].copy(), run.switches[-1].copy()
 
-    def _check_step_damping(self, maps: StepMaps) -> None:
+    def _check_step_damping(self, maps: StepMaps, phi: np.ndarray) -> None:
         """Refuse (or warn about) a periodic solution that the step's numerical damping sets
         rather than the circuit: along a mode, the response is ``1/(1 − multiplier)`` times what
-        the sources put in, so where the period's implicit-Euler multiplier lies much further
-        from 1 than the exact ``e^{λT}`` (an undamped LC driven at its resonance: exact 0),
-        the amplitude found scales as 1/h. Modes near resonance only (:data:`RESONANCE_GAP`);
-        periods in one mode only (a linear circuit); with
-        switchings the exact multipliers are a product this check does not form."""
-        run = maps.trajectory
-        if run.time.size < 2 or (run.switches[1:] != run.switches[1]).any() or (
-                run.active[1:] != run.active[1]).any():
+        the sources put in, so where the period's implicit-Euler multiplier ``phi`` lies much
+        further from 1 than the exact one (:func:`exact_monodromy`: each stretch of a mode
+        integrated exactly; an undamped LC driven at its resonance: exactly 1), the amplitude
+        found scales as 1/h. Only modes near resonance (:data:`RESONANCE_GAP`)."""
+        if not phi.size:
             return
-        for gap in period_gaps(self.mlcs, np.diff(run.time), run.switches[1], run.active[1]):
-            if (gap.exact > RESONANCE_GAP or gap.stepped < SINGULAR
-                    or gap.stepped <= STEP_DAMPING_RATIO * gap.exact or gap.eigenvalue.imag < 0):
-                continue
-            along = ", ".join(gap.unknowns)
-            frequency = abs(gap.eigenvalue.imag) / (2 * np.pi)
-            what = (f"along {along} (a mode at {format_si(frequency, 'Hz')}, decay rate "
-                    f"{-gap.eigenvalue.real + 0.0:.3g}/s) the circuit forgets |1 − e^(λT)| = {gap.exact:.2g} "
-                    f"of its state per period, the implicit-Euler steps {gap.stepped:.2g}: the "
-                    "amplitude found there is set by the step's numerical damping, not by the "
-                    "circuit")
-            if gap.stepped > NO_PERIODIC_RATIO * gap.exact:
-                raise SimulationError(
-                    f"no periodic steady state to show: {what} (it scales as 1/h; the circuit's "
-                    "own response grows without bound, or to "
-                    f"{gap.stepped / max(gap.exact, 1e-300):.2g} times the one found)",
-                    where=self.circuit.file, hint="the sources drive an undamped or nearly undamped "
-                    "mode at its resonance (a harmonic of the period): add the damping the real "
-                    "circuit has (an inductor's or capacitor's series resistance), or run a "
-                    "transient to see the growth")
-            import warnings
+        exact = exact_monodromy(maps)
+        if exact is None:
+            return
+        exact_values, exact_vectors = np.linalg.eig(exact)
+        closest = int(np.argmin(np.abs(1.0 - exact_values)))
+        gap = float(abs(1.0 - exact_values[closest]))
+        if gap > RESONANCE_GAP:
+            return
+        values, vectors = np.linalg.eig(phi)
+        along = exact_vectors[:, closest] / np.linalg.norm(exact_vectors[:, closest])
+        match = int(np.argmax(np.abs(vectors.conj().T @ along)
+                              / np.maximum(np.linalg.norm(vectors, axis=0), 1e-300)))
+        stepped = float(abs(1.0 - values[match]))
+        if stepped < SINGULAR or stepped <= STEP_DAMPING_RATIO * gap:
+            return
+        names = self._along(maps, exact_vectors[:, closest])
+        what = (f"along {names} the circuit forgets |1 − μ| = {gap:.2g} of its state per period "
+                f"(μ: its exact Floquet multiplier), the implicit-Euler steps {stepped:.2g}: the "
+                "amplitude found there is set by the step's numerical damping, not by the circuit")
+        if stepped > NO_PERIODIC_RATIO * gap:
+            raise SimulationError(
+                f"no periodic steady state to show: {what} (it scales as 1/h; the circuit's own "
+                f"response grows without bound, or to {stepped / max(gap, 1e-300):.2g} times the "
+                "one found)", where=self.circuit.file, hint="the sources drive an undamped or "
+                "nearly undamped mode at its resonance (a harmonic of the period): add the "
+                "damping the real circuit has (an inductor's or capacitor's series resistance), "
+                "or run a transient to see the growth")
+        import warnings
 
-            warnings.warn(CircuitWarning(
-                f"{self.circuit.file}: {what} ({gap.stepped / gap.exact:.2g} times the circuit's); "
-                "a smaller step (--step) brings it closer"), stacklevel=6)
+        warnings.warn(CircuitWarning(
+            f"{self.circuit.file}: {what} ({stepped / gap:.2g} times the circuit's); a smaller "
+            "step (--step) brings it closer"), stacklevel=6)
 
     def _result(self, maps: StepMaps, phi: np.ndarray, residual: float, relative: float) -> PSSResult:
-        self._check_step_damping(maps)
+        self._check_step_damping(maps, phi)
         run = maps.trajectory
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]

@@ -155,46 +155,37 @@ def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]])
     return sorted(found.values(), key=lambda mode: abs(mode.eigenvalue))
 
 
-@dataclass(frozen=True)
-class PeriodGap:
-    """How far one mode's multiplier over a period ``T`` lies from 1, exactly and for the
-    θ-steps that take the period.
+def exact_monodromy(maps) -> np.ndarray | None:
+    """The monodromy matrix of the period that ``maps`` (a
+    :class:`~circuitnsds.engine.step_maps.StepMaps` of implicit-Euler steps) took, with each
+    stretch of equal steps in one mode integrated exactly instead: a step map ``M = (I − hF)⁻¹``
+    on the state gives ``h·F = I − M⁻¹``, and ``n`` such steps become ``e^{n·(I − M⁻¹)}``.
+    Steps split at a switching keep their own map (a fraction of a step). ``None`` when a
+    stretch's map is singular on the state (a state that a mode holds algebraically)."""
+    from scipy.linalg import expm
 
-    Attributes:
-        eigenvalue: ``λ`` [1/s] of the mode.
-        exact: ``|1 − e^{λT}|``: 0 when the mode is undamped and ``T`` a multiple of its
-            period (resonance: no periodic solution when forced there).
-        stepped: ``|1 − Π_k (1 + (1−θ) h_k λ) / (1 − θ h_k λ)|``: what the period map solves with.
-        unknowns: the state unknowns that hold most of the mode's energy.
-    """
-
-    eigenvalue: complex
-    exact: float
-    stepped: float
-    unknowns: tuple[str, ...]
-
-
-def period_gaps(mlcs: MLCS, steps: np.ndarray, states: np.ndarray, active: np.ndarray,
-                theta: float = 1.0) -> list[PeriodGap]:
-    """:class:`PeriodGap` of each dynamic eigenvalue of one mode over a period taken with
-    ``steps`` [s]: the periodic solution's response along a mode is ``1/(1 − multiplier)``
-    times what the sources put into it, so where ``stepped`` and ``exact`` differ the step's
-    numerical damping, not the circuit, sets that response (an undamped LC driven at
-    resonance: ``exact`` 0, and an amplitude that scales as 1/h)."""
-    if mlcs.n + mlcs.m > MAX_UNKNOWNS or steps.size == 0:
-        return []
-    spectrum = mode_spectrum(mlcs, float(np.median(steps)), states, active)
-    if spectrum is None:
-        return []
-    weights = np.abs(mlcs.E.toarray()).sum(axis=1)
-    gaps = []
-    period = float(steps.sum())
-    for value, vector in zip(*(spectrum[0], spectrum[1].T)):
-        if not np.isfinite(value):
-            continue
-        stepped = np.prod((1 + (1 - theta) * steps * value) / (1 - theta * steps * value))
-        energy = weights * np.abs(vector) ** 2
-        order = [j for j in np.argsort(-energy) if energy[j] > 0.05 * energy.max()][:4]
-        gaps.append(PeriodGap(complex(value), float(abs(1 - np.exp(value * period))),
-                              float(abs(1 - stepped)), tuple(mlcs.unknowns[j] for j in order)))
-    return gaps
+    size = maps.state.size
+    phi = np.eye(size)
+    time = maps.trajectory.time
+    k, steps = 0, maps.steps
+    while k < steps:
+        mode = maps.mode_of_step[k]
+        end = k + 1
+        if mode >= 0:
+            length = time[k + 1] - time[k]
+            while (end < steps and maps.mode_of_step[end] == mode
+                   and abs((time[end + 1] - time[end]) - length) <= 1e-9 * length):
+                end += 1
+        M = maps.step(k)[0]
+        if mode < 0:
+            phi = M @ phi
+        else:
+            try:
+                generator = np.eye(size) - np.linalg.inv(M)
+            except np.linalg.LinAlgError:
+                return None
+            if not np.isfinite(generator).all():
+                return None
+            phi = expm((end - k) * generator) @ phi
+        k = end
+    return phi if np.isfinite(phi).all() else None
