@@ -438,3 +438,17 @@ def test_a_sin_of_negative_frequency_runs_as_sin_of_minus_omega_t():
     with pytest.warns(RunNote, match="cannot resolve the sources"):
         waves = circuit_from("V1 a 0 SIN(0 1 -1k)\nR1 a 0 1\n.tran 100u 2m").transient()
     np.testing.assert_allclose(waves["v(a)"], -np.sin(2 * np.pi * 1e3 * waves.time), atol=1e-12)
+
+
+def test_theta_half_does_not_ring_after_a_source_corner_across_a_fast_rc():
+    # a PWL source dropping from 1 V to 0 in zero time across 1 Ω into 1 µF (τ = 1 µs) at
+    # h = 10 µs: i(r1) alternated -91, +61, -40 mA after the drop (true: -1 A decaying in 1 µs)
+    waves = circuit_from("V1 in 0 PWL(0 0 1m 1 1m 0 2m 0)\nR1 in a 1\nC1 a 0 1u\n.tran 10u 3m"
+                         ).transient(theta=0.5)
+    after = waves["i(r1)"][(waves.time > 1.035e-3) & (waves.time < 2e-3)]
+    assert np.abs(after).max() < 1e-3
+
+
+def test_a_coupling_just_above_one_is_quoted_as_written():
+    with pytest.raises(circuitnsds.NetlistError, match=r"k=1\.0000001 must satisfy"):
+        circuit_from("V1 p 0 1\nL1 p 0 1m\nL2 s 0 4m\nK1 L1 L2 1.0000001\nR1 s 0 1k\n.tran 1u 3m uic")
