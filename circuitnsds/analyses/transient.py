@@ -24,7 +24,7 @@ from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
-from circuitnsds.theta import theta_in_range
+from circuitnsds.theta import theta_in_range, theta_text
 from circuitnsds.units import format_si
 
 
@@ -338,7 +338,7 @@ def _run_transient(
                                "seconds (--step, --stop on the command line); leave one out for the "
                                "netlist's .tran value")
     if not theta_in_range(theta):
-        raise CircuitError(f"theta = {theta!r} is outside [0.5, 1]", where=circuit.file,
+        raise CircuitError(f"theta = {theta_text(theta)} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     if stepping not in STEPPINGS:
         raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
