@@ -420,19 +420,21 @@ def _run_transient(
         _note_weak_gate_drives(circuit, _mosfet_drives(circuit, mlcs, full_trajectory, {}))
     if full_trajectory.time.size > 1:  # (the grid's longest step: TSTEP, or TSTOP if shorter)
         warn_fast_modes(circuit, mlcs, full_trajectory, float(np.diff(full_trajectory.time).max()),
-                        theta)
+                        theta, jumps=uic or breakpoints.size > 1)  # (breakpoints: + TSTART)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
 MAX_FAST_MODE_WARNINGS = 3
 
 
-def warn_fast_modes(circuit: Circuit, mlcs, trajectory, h: float, theta: float) -> None:
+def warn_fast_modes(circuit: Circuit, mlcs, trajectory, h: float, theta: float,
+                    jumps: bool = True) -> None:
     """Warn about each mode of the circuit's own dynamics (in the modes the run visited) that
     the step ``h`` [s] does not follow (:mod:`circuitnsds.checks.time_scales`), naming the
     elements that hold it and the step that would: only the sources were checked before."""
     modes = visited_modes(trajectory.switches, trajectory.active)
-    for mode in fast_modes(mlcs, h, modes)[:MAX_FAST_MODE_WARNINGS]:
+    # (``jumps``: the sources' corners or a UIC start; a change of mode is one too)
+    for mode in fast_modes(mlcs, h, modes, jumps or len(modes) > 1)[:MAX_FAST_MODE_WARNINGS]:
         names = ", ".join(_holders(circuit, mode.unknowns)) or ", ".join(mode.unknowns)
         advice = (f"ngspice's own step control would follow it. Use a step of "
                   f"{format_si(mode.needed_step, 's')} or less (--step, or TSTEP of .tran)")

@@ -122,10 +122,15 @@ def visited_modes(switches: np.ndarray, active: np.ndarray, most: int = MAX_MODE
     return [(rows[k, :split], rows[k, split:]) for k in order]
 
 
-def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]]) -> list[FastMode]:
+def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]],
+               jumps: bool = True) -> list[FastMode]:
     """The modes (of the given ``(switch states, active set)`` list) whose dynamics a step
     ``h`` [s] does not follow (module docstring), one per distinct eigenvalue, the slowest
-    first (the ones that matter most to the waveforms)."""
+    first (the ones that matter most to the waveforms). ``jumps``: whether anything in the
+    run starts a transient of a decaying mode (a switching, a source's corner, a start away
+    from equilibrium); without, such a mode only follows its smooth forcing, which implicit
+    Euler does (an inductor fed by a sine current through 1 MΩ, τ = h: 0.005 % off), and
+    only ringing modes are returned."""
     if mlcs.n + mlcs.m > MAX_UNKNOWNS or h <= 0:
         return []
     weights = np.abs(mlcs.E.toarray()).sum(axis=1)  # capacitance / inductance of each row
@@ -142,6 +147,8 @@ def fast_modes(mlcs: MLCS, h: float, modes: list[tuple[np.ndarray, np.ndarray]])
             ringing = value.imag > 0 and -value.real / magnitude < LIGHT_DAMPING
             if ringing:
                 unresolved = h * value.imag > 2 * np.pi / STEPS_PER_RING
+            elif not jumps:
+                continue
             else:
                 unresolved = 1.0 <= h * -value.real < SLOW_STIFF and abs(value.imag) < 1e-9 * magnitude
             if not unresolved:
