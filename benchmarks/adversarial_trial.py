@@ -4,7 +4,9 @@ warning came with it (the warnings are listed beside it).
 
 Run from the repository root: ``python benchmarks/adversarial_trial.py``. Prints one line per
 case: its name, the expected and obtained values, the verdict (``ok``, ``WRONG``, ``warned``:
-wrong but warned, or ``refused``: an error, listed with its message) and the warnings.
+wrong but warned, or ``refused``: an error, listed with its message; right for a case whose
+expected value is ``inf``, which has no answer) and the warnings. The cases below the first
+fifteen are what the trial found wrong with exit 0, each fixed on the branch.
 """
 
 from __future__ import annotations
@@ -115,6 +117,37 @@ def ic_without_uic_on_capacitor_node() -> float:
     return float(waves["v(a)"][0])
 
 
+def pwl_drop_theta_half() -> float:
+    waves = run("V1 in 0 PWL(0 0 1m 1 1m 0 2m 0)\nR1 in a 1\nC1 a 0 1u\n.tran 10u 3m", theta=0.5)
+    return float(np.abs(waves["i(r1)"][(waves.time > 1.035e-3) & (waves.time < 2e-3)]).max())
+
+
+def pwm_closing_theta_half() -> float:
+    waves = run("V1 in 0 12\nVg g 0 PULSE(0 5 1u 0 0 5u 10u)\nS1 in sw g 0 sw1\nC1 sw 0 3n\n"
+                "R1 sw 0 10\n.model sw1 SW(VT=2.6 RON=10m)\n.tran 1n 3u", theta=0.5)
+    current = waves["i(s1)"]
+    closed = int(np.argmax(np.abs(current) > 0.5))
+    return float(np.abs(current[closed + 5:] - 12 / 10.01).max())
+
+
+def uic_diode_current_at_start() -> float:
+    waves = run("C1 a 0 1u ic=10\nD1 a b dd\nR1 b 0 1k\n.model dd D()\n.tran 1u 10u uic")
+    return float(waves["i(d1)"][0])
+
+
+def negative_frequency_sin() -> float:
+    waves = run("V1 a 0 SIN(0 1 -1k)\nR1 a 0 1\n.tran 100u 2m")
+    return float(np.interp(0.2e-3, waves.time, waves["v(a)"]))  # (a reported point)
+
+
+def half_bridge_lc_at_resonance_pss() -> float:
+    circuit = circuitnsds.read_netlist(
+        "hb\nVin in 0 12\nVg g 0 PULSE(0 1 0 0 0 99.3456u 198.6914u)\nS1 in sw g 0 sw\n"
+        "S2 sw 0 0 g swn\nL1 sw a 1m\nC1 a 0 1u\nRb a 0 1e9\n.model sw SW(VT=0.5 RON=1u)\n"
+        ".model swn SW(VT=-0.5 RON=1u)\n.tran 1u 2m\n.end\n")
+    return float(np.abs(circuit.pss().waveforms["v(a)"]).max())
+
+
 CASES = [
     Case("RC at θ = ½, v(τ)", rc_theta_half, 1 - math.exp(-1), 2e-4),
     Case("half-wave peak detector", half_wave_peak, 10.0, 1e-3),
@@ -136,6 +169,13 @@ CASES = [
          1.0 * (1 - math.exp(-0.5)) * math.exp(-1.0), 2e-2),
     Case("PULSE edge of zero rise at 20 µs", pulse_only_edge, 1.0, 1e-12),
     Case(".ic without UIC: v(a) at t = 0", ic_without_uic_on_capacitor_node, 2.0, 1e-9),
+    Case("PWL drop across 1 Ω·1 µF at θ = ½: |i| after", pwl_drop_theta_half, 0.0, 1e-3),
+    Case("PWM switch onto 3 nF at θ = ½: |i - 1.2 A|", pwm_closing_theta_half, 0.0, 3e-3),
+    Case("UIC: diode current at t = 0", uic_diode_current_at_start, 0.01, 1e-9),
+    Case("SIN of negative frequency at 0.2 ms", negative_frequency_sin,
+         -math.sin(2 * math.pi * 0.2), 1e-9),
+    # no periodic solution: the right answer is a refusal (a value is wrong, whatever it is)
+    Case("PSS: half bridge into LC at resonance", half_bridge_lc_at_resonance_pss, math.inf, 0.0),
 ]
 
 
