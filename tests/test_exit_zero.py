@@ -346,7 +346,7 @@ def test_a_library_warning_is_printed_once_with_its_count_not_as_ours(capsys):
     lines = capsys.readouterr().err.strip().splitlines()
     assert lines == ["circuitnsds: warning: a finding",
                      "circuitnsds: library RuntimeWarning (lemke.py:253, 178 times): overflow "
-                     "encountered in multiply (raised inside a computation, not a finding about the "
+                     "encountered in multiply (from a library the run uses, not a finding about the "
                      "circuit)"]
 
 

@@ -282,7 +282,7 @@ def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
     for (category, message), (count, origin) in foreign.items():
         times = f", {count} times" if count > 1 else ""
         print(f"circuitnsds: library {category} ({origin}{times}): {for_terminal(message)} "
-              "(raised inside a computation, not a finding about the circuit)", file=sys.stderr)
+              "(from a library the run uses, not a finding about the circuit)", file=sys.stderr)
 
 
 def _read(path: Path):
