@@ -210,15 +210,15 @@ def test_a_partial_csv_written_after_the_run_is_marked(tmp_path, capsys, monkeyp
     from circuitnsds.cli.interrupts import Terminated
     from circuitnsds.engine import integrate as engine
 
-    original = engine._Stepping.solve_step
+    original = engine.GridStepping.solve_step
 
     def terminate_later(self, k, *args, **kwargs):
         if k == 120:
             raise Terminated(signal.SIGHUP)
         return original(self, k, *args, **kwargs)
 
-    monkeypatch.setattr(engine._Stepping, "solve_step", terminate_later)
-    monkeypatch.setattr(engine._Stepping, "dense_mode", lambda *args: None)  # one MLCP per step
+    monkeypatch.setattr(engine.GridStepping, "solve_step", terminate_later)
+    monkeypatch.setattr(engine.GridStepping, "dense_mode", lambda *args: None)  # one MLCP per step
     csv, events = tmp_path / "out.csv", tmp_path / "ev.csv"
     status = main(["run", str(NETLISTS / "half_wave_rectifier.cir"), "-o", str(csv), "--events", str(events),
                    "--step", "100u", "--stop", "20m", "--every", "2"])  # --every: not streamed
