@@ -339,7 +339,7 @@ def test_a_non_finite_point_and_its_neighbours_stay_in_a_straight_line():
 def test_a_legend_that_leaves_no_room_is_a_clear_error(tmp_path):
     """140 traces in one panel: their legend's columns would take the figure's width."""
     time = np.linspace(0.0, 1.0, 20)
-    signals = {f"v(n{k})": k * time for k in range(140)}
+    signals = {f"v(n{k})": (k + 100) * time for k in range(140)}  # (one scale: one panel)
     with pytest.raises(PlotError, match="too many signals for one figure: 140 in a panel"):
         plot_waveforms(Waveforms(time, signals), tmp_path / "f.png", list(signals))
     assert not (tmp_path / "f.png").exists()

@@ -6,7 +6,7 @@
 * UIC: capacitor voltages from ``ic=`` (else the difference of the ``.ic``
   node voltages, unset nodes at 0 V), inductor currents from ``ic=`` (else 0).
   An XSPICE integrator's output starts at its ``out_ic``.
-  Algebraic unknowns are left at 0 (the first implicit-Euler step settles them).
+  The other unknowns at ``t = 0`` are those these states imply (``_settled_start``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from circuitnsds.checks.topology import check_current_cutsets, check_source_loop
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, Inductor
 from circuitnsds.engine import integrate
-from circuitnsds.errors import NetlistWarning, SimulationError
+from circuitnsds.errors import NetlistWarning, RunNote, SimulationError
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -89,6 +89,7 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
         raise SimulationError("the DC operating point is not finite", where="operating point",
                               hint="add UIC to .tran to start from initial conditions")
     _warn_switches_at_threshold(circuit, mlcs, states, y)
+    _note_switches_closed_by_the_circuit(mlcs, states, y)
     return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
                         active=np.asarray(result.active, dtype=bool), switches=states)
 
@@ -134,7 +135,19 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
         if ill is not None:
             raise SimulationError("the DC operating point cannot be computed: " + ill,
                                   where="operating point") from None
-        contradicted = _contradicted_ics(circuit, mlcs, states, tol) if held else []
+        trials = _ic_trials(circuit, mlcs, states, tol) if held else []
+        agreeing = {node for node, actual in trials
+                    if _agrees(circuit.initial_voltages[node][0], actual)}
+        if agreeing:  # held twice (by a source and by .ic), consistently: hold it once
+            from dataclasses import replace
+
+            kept = {k: v for k, v in circuit.initial_voltages.items() if k not in agreeing}
+            return _solve_dc(replace(circuit, initial_voltages=kept), mlcs, states, tol)
+        contradicted = []
+        for node, actual in trials:
+            value, location = circuit.initial_voltages[node]
+            contradicted.append(f"{str(location) + ': ' if location else ''}.ic v({node})={value:g} "
+                                f"contradicts the sources, which hold {node} at {actual:.6g} V")
         if contradicted:
             raise SimulationError(
                 "the DC operating point has no solution: " + "; ".join(contradicted),
@@ -161,10 +174,15 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
 MAX_IC_TRIALS = 20
 """At most this many ``.ic`` nodes are tried one by one to find the one a source contradicts."""
 
+IC_AGREEMENT = 1e-6
+"""An ``.ic`` value within this fraction of ``max(1 V, |value|)`` of the voltage the sources
+give its node agrees with them (it only repeats what they hold)."""
 
-def _contradicted_ics(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float) -> list[str]:
-    """The ``.ic`` nodes whose value alone makes the operating point impossible: without that
-    node held, it has a solution (the voltage the circuit gives it is quoted)."""
+
+def _ic_trials(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float
+               ) -> list[tuple[str, float]]:
+    """``(node, voltage)`` of each ``.ic`` node whose value alone makes the operating point
+    impossible to solve: without that node held, the circuit gives it ``voltage``."""
     from dataclasses import replace
 
     found = []
@@ -175,11 +193,12 @@ def _contradicted_ics(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: flo
             result = _solve_dc(replace(circuit, initial_voltages=others), mlcs, states, tol)
         except SimulationError:
             continue
-        value, location = circuit.initial_voltages[node]
-        actual = float(result.u[circuit.nodes.index(node)])
-        found.append(f"{str(location) + ': ' if location else ''}.ic v({node})={value:g} contradicts the "
-                     f"sources, which hold {node} at {actual:.6g} V")
+        found.append((node, float(result.u[circuit.nodes.index(node)]) + 0.0))  # (+0.0: no -0)
     return found
+
+
+def _agrees(value: float, actual: float) -> bool:
+    return abs(actual - value) <= IC_AGREEMENT * max(1.0, abs(value))
 
 
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
@@ -190,10 +209,10 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
     capacitor the difference of its nodes' ``.ic`` values (an unset node counts
     as 0 V); an inductor carries its ``ic=`` current, else 0.
 
-    The node voltages *reported* at ``t = 0`` are the ``.ic`` values, then
-    propagated across capacitors with ``ic=`` from known nodes (ground first), so
-    the first row of the waveforms shows the capacitor voltages; nodes reached by
-    neither are 0 V.
+    The unknowns *reported* at ``t = 0`` hold these charges and obey the algebraic rows
+    (:func:`_settled_start`); where that point does not exist without an impulse, the
+    ``.ic`` values propagated across capacitors with ``ic=`` from known nodes (ground
+    first), nodes reached by neither at 0 V.
     """
     y = np.zeros(mlcs.n)
     known = {"0"}
@@ -239,8 +258,67 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
                 y[_index(circuit, plus)] = element.initial_output
     _consistent_auxiliaries(circuit, mlcs, y)
     switches = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
-    return InitialState(y=y, charge=charge, current=np.zeros(mlcs.m), active=None,
-                        switches=switches)
+    current = np.zeros(mlcs.m)
+    settled = _settled_start(mlcs, charge, switches)
+    if settled is not None and _keeps_initial_conditions(circuit, mlcs, y, settled[0]):
+        y, current = settled  # (the pairs' currents too: a diode conducting at t = 0 showed 0 A)
+    return InitialState(y=y, charge=charge, current=current, active=None, switches=switches)
+
+
+def _keeps_initial_conditions(circuit: Circuit, mlcs: MLCS, given: np.ndarray,
+                              settled: np.ndarray) -> bool:
+    """Whether ``settled`` keeps every initial condition that ``given`` (the ``.ic`` values,
+    propagated) holds: each capacitor's voltage, each ``.ic`` node's voltage, each inductor's
+    current (within :data:`IC_AGREEMENT`). When it does not, the initial conditions contradict
+    each other or the circuit (capacitors in parallel at different voltages share their charge
+    at once): the first step makes that jump, and the row at ``t = 0`` shows what was given."""
+    def voltage(y: np.ndarray, node: str) -> float:
+        return _voltage(circuit, y, node)
+
+    pairs = [(cap.initial_voltage if cap.initial_voltage is not None
+              else voltage(given, cap.nodes[0]) - voltage(given, cap.nodes[1]),
+              voltage(settled, cap.nodes[0]) - voltage(settled, cap.nodes[1]))
+             for cap in circuit.elements if isinstance(cap, Capacitor)]
+    pairs += [(value, voltage(settled, node))
+              for node, (value, _) in circuit.initial_voltages.items() if node != "0"]
+    inductors = {f"i({e.name})" for e in circuit.elements if isinstance(e, Inductor)}
+    pairs += [(given[k], settled[k]) for k, name in enumerate(mlcs.unknowns) if name in inductors]
+    return all(_agrees(float(value), float(actual)) for value, actual in pairs)
+
+
+CONSISTENT_START_LIMIT = 400
+"""Circuits of up to this many unknowns get a consistent UIC start (a dense SVD of ``E``)."""
+
+
+def _settled_start(mlcs: MLCS, charge: np.ndarray, switches: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(y, pair currents)`` at ``t = 0`` that hold the initial ``charge`` and obey every algebraic
+    row and device law there: the limit of an implicit-Euler step as its length goes to 0.
+    With ``E = U Σ Vᵀ`` split into its range (``U_r``) and left null space (``U_0``), that is
+    ``U_rᵀ E y = U_rᵀ charge`` and ``U_0ᵀ (A y + B λ + s(0)) = 0``, with the pairs'
+    complementarity. A capacitor with ``ic=`` in series with its ESR (no other capacitor
+    linking it to ground) was reported at 0 V at ``t = 0``, and ``--losses`` booked its energy
+    as stored during the run. ``None`` (the propagated ``.ic`` values are then reported, as
+    before) for circuits above :data:`CONSISTENT_START_LIMIT` unknowns, and when no such
+    point exists without an impulse at ``t = 0`` (the first step then makes the jump)."""
+    n = mlcs.n
+    if n + mlcs.m > CONSISTENT_START_LIMIT:
+        return None
+    E = mlcs.E.toarray()
+    U, sigma, _ = np.linalg.svd(E)
+    rank = int(np.count_nonzero(sigma > sigma.max(initial=0.0) * n * np.finfo(float).eps))
+    kept, null = U[:, :rank], U[:, rank:]
+    A = mlcs.system_matrix(tuple(bool(on) for on in switches)).toarray()
+    B = mlcs.B.toarray()
+    matrix = np.vstack([kept.T @ E, null.T @ A])
+    coupling = np.vstack([np.zeros((rank, mlcs.m)), null.T @ B])
+    source = np.concatenate([-(kept.T @ charge), null.T @ mlcs.source(0.0)])
+    try:
+        result = solve_mlcp(matrix, coupling, mlcs.C.toarray(), mlcs.D.toarray(), source, mlcs.e)
+    except (LCPError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+    settled, currents = np.asarray(result.u, dtype=float), np.asarray(result.z, dtype=float)
+    return (settled, currents) if np.isfinite(settled).all() and np.isfinite(currents).all() else None
 
 
 def _consistent_auxiliaries(circuit: Circuit, mlcs: MLCS, y: np.ndarray) -> None:
@@ -311,6 +389,24 @@ def _warn_switches_at_threshold(circuit: Circuit, mlcs: MLCS, states: np.ndarray
                 f"rises above {level} and comes back; set {level} between the control's levels "
                 f"(e.g. {level}=0.5 for a 0/1 {unit} control) or give {band} > 0 to make the start "
                 "unambiguous", NetlistWarning, stacklevel=4)
+
+
+def _note_switches_closed_by_the_circuit(mlcs: MLCS, states: np.ndarray, y: np.ndarray) -> None:
+    """Note each switch (or comparator) controlled by the circuit that the operating point
+    closed: its control at DC (capacitors open, inductors shorted) is above its threshold, so
+    the run starts from the state the circuit would settle in with it closed for ever. A
+    12 → 1.2 V buck whose comparator was true at t = 0 started at v(out) = 11 V and
+    i(L) = 47 A with no word."""
+    for switch, on in zip(mlcs.switches, states):
+        if not on or switch.initially_on or switch.control_stimulus is not None:
+            continue
+        warnings.warn(RunNote(
+            f"{switch.name}: the DC operating point starts it closed (its control is "
+            f"{_control_at_zero(mlcs, switch, y):.4g} at DC, with capacitors open and inductors "
+            f"shorted, above its threshold {switch.on_threshold:.4g}), so the run starts from "
+            "the state the circuit reaches with it closed for ever (a converter at its "
+            "full-duty output); add UIC to .tran to start from the initial conditions instead, "
+            "with every switch in its ON/OFF state"), stacklevel=4)
 
 
 def _warn_unused_element_ics(circuit: Circuit) -> None:

@@ -29,6 +29,7 @@ from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
 from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.checks.time_scales import exact_monodromy
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements.diode_notes import waveform_diode_peaks
 from circuitnsds.engine.driver import drive
@@ -42,6 +43,7 @@ from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
+from circuitnsds.units import format_si
 
 DEFAULT_POINTS = 1000
 """Steps per period when neither ``step``, ``.pss PSSPOINTS`` nor ``.tran`` TSTEP says."""
@@ -57,6 +59,17 @@ SINGULAR = 1e-10
 """A Floquet multiplier closer than this to 1 makes ``I − Φ`` singular."""
 ILL_CONDITIONED = 1e12
 """Condition number of ``I − Φ`` above which the Newton step is refused."""
+RESONANCE_GAP = 0.05
+"""A mode whose exact multiplier over the period lies this close to 1 amplifies what the
+sources put into it 20 times or more (resonance): there the step's numerical damping, not the
+circuit, may set the response. Further from 1 the step's errors in what goes in and in what
+stays cancel (an undamped LC driven at 1 kHz, its own 5 kHz damped 2x too much per period by
+the steps: the same 1.0411 V at 1 µs and 0.1 µs as the closed form)."""
+STEP_DAMPING_RATIO = 2.0
+"""A period's implicit-Euler multiplier this many times further from 1 than the exact one is
+warned about (the response along that mode is then set by the step)."""
+NO_PERIODIC_RATIO = 10.0
+"""... and this many times further is an error (the answer is off by more than that)."""
 PERIOD_MATCH = 1e-9
 """Relative tolerance when testing that source periods divide the common period."""
 UNDAMPED_HINT = ("look for a capacitor in a cut-set with only sources, capacitors or blocked "
@@ -342,7 +355,6 @@ memory, 1e5-4e5 steps per period, an RLC and the buck converter, 2026-11-23), wi
 def _check_memory(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, whole: np.ndarray | None) -> None:
     """Refuse, before starting, a periodic steady state whose period maps (or warm-up run,
     freed before them) cannot fit in memory."""
-    from circuitnsds.units import format_si
 
     needed = max(PERIOD_MAP_BYTES * trajectory_bytes(mlcs, grid.size),
                  trajectory_bytes(mlcs, whole.size) if whole is not None else 0)
@@ -459,7 +471,50 @@ class _Shooter:
         # run's trajectory is freed
         return run.y[-1].copy(), None, run.active[-1].copy(), run.switches[-1].copy()
 
+    def _check_step_damping(self, maps: StepMaps, phi: np.ndarray) -> None:
+        """Refuse (or warn about) a periodic solution that the step's numerical damping sets
+        rather than the circuit: along a mode, the response is ``1/(1 − multiplier)`` times what
+        the sources put in, so where the period's implicit-Euler multiplier ``phi`` lies much
+        further from 1 than the exact one (:func:`exact_monodromy`: each stretch of a mode
+        integrated exactly; an undamped LC driven at its resonance: exactly 1), the amplitude
+        found scales as 1/h. Only modes near resonance (:data:`RESONANCE_GAP`)."""
+        if not phi.size:
+            return
+        exact = exact_monodromy(maps)
+        if exact is None:
+            return
+        exact_values, exact_vectors = np.linalg.eig(exact)
+        closest = int(np.argmin(np.abs(1.0 - exact_values)))
+        gap = float(abs(1.0 - exact_values[closest]))
+        if gap > RESONANCE_GAP:
+            return
+        values, vectors = np.linalg.eig(phi)
+        along = exact_vectors[:, closest] / np.linalg.norm(exact_vectors[:, closest])
+        match = int(np.argmax(np.abs(vectors.conj().T @ along)
+                              / np.maximum(np.linalg.norm(vectors, axis=0), 1e-300)))
+        stepped = float(abs(1.0 - values[match]))
+        if stepped < SINGULAR or stepped <= STEP_DAMPING_RATIO * gap:
+            return
+        names = self._along(maps, exact_vectors[:, closest])
+        what = (f"along {names} the circuit forgets |1 − μ| = {gap:.2g} of its state per period "
+                f"(μ: its exact Floquet multiplier), the implicit-Euler steps {stepped:.2g}: the "
+                "amplitude found there is set by the step's numerical damping, not by the circuit")
+        if stepped > NO_PERIODIC_RATIO * gap:
+            raise SimulationError(
+                f"no periodic steady state to show: {what} (it scales as 1/h; the circuit's own "
+                f"response grows without bound, or to {stepped / max(gap, 1e-300):.2g} times the "
+                "one found)", where=self.circuit.file, hint="the sources drive an undamped or "
+                "nearly undamped mode at its resonance (a harmonic of the period): add the "
+                "damping the real circuit has (an inductor's or capacitor's series resistance), "
+                "or run a transient to see the growth")
+        import warnings
+
+        warnings.warn(CircuitWarning(
+            f"{self.circuit.file}: {what} ({stepped / gap:.2g} times the circuit's); a smaller "
+            "step (--step) brings it closer"), stacklevel=6)
+
     def _result(self, maps: StepMaps, phi: np.ndarray, residual: float, relative: float) -> PSSResult:
+        self._check_step_damping(maps, phi)
         run = maps.trajectory
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]

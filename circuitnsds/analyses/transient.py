@@ -10,12 +10,15 @@ from dataclasses import replace
 import numpy as np
 
 from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
+from circuitnsds.analyses.fast_modes import FastModeWatch
 from circuitnsds.analyses.memory import refuse_beyond_memory
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import SEGMENT_BYTES, Observed, SignalRecorder, TrajectoryRecorder
 from circuitnsds.analyses.refits import fit_observer, refit_diodes, refits_allowed
 from circuitnsds.analyses.signals import trajectory_waveforms
+from circuitnsds.checks.diode_loops import warn_free_diode_loops
 from circuitnsds.checks.rules import check_initial_conditions
+from circuitnsds.checks.source_notes import note_zero_pulse_widths
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import CurrentSource, Diode
 from circuitnsds.circuit.observers import RunObserver, observers_of
@@ -27,7 +30,7 @@ from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, Simulation
 from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import TransientSpec
 from circuitnsds.system.stimuli import POINTS_PER_PERIOD, resolving_step
-from circuitnsds.theta import theta_in_range
+from circuitnsds.theta import theta_in_range, theta_text
 
 
 def transient_spec(circuit: Circuit, **given: float | bool | None) -> TransientSpec:
@@ -129,7 +132,7 @@ def _run_transient(
                                "seconds (--step, --stop on the command line); leave one out for the "
                                "netlist's .tran value")
     if not theta_in_range(theta):
-        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+        raise CircuitError(f"theta = {theta_text(theta)} is outside [0.5, 1]", where=circuit.file,
                            hint="theta = 1 is implicit Euler (default), 0.5 the trapezoidal rule")
     if stepping not in STEPPINGS:
         raise CircuitError(f"stepping = {stepping!r} is not one of {', '.join(map(repr, STEPPINGS))}",
@@ -173,26 +176,29 @@ def _run_transient(
     stepper = _stepper(circuit, mlcs, method, theta=theta, tol=tol, loop=stepping)
     _check_memory(circuit, stepper, grid, signals if report_step is None else None)
     _check_blocked_currents(circuit, grid)
+    warn_free_diode_loops(circuit)
+    note_zero_pulse_widths(circuit, stop)
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     owned = observers is None  # the run's own observers note; given ones are the caller's
     observers = observers_of(circuit) if owned else observers
+    fast_modes = FastModeWatch(circuit, mlcs, theta, jumps=uic or breakpoints.size > 1)  # (+ TSTART)
+    watched = [*observers, fast_modes]  # every run's time scales are checked (issue 36 item 8)
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         kept = SignalRecorder(circuit, mlcs, grid, [name.strip().lower() for name in signals],
                               start, stop, sink)
         try:
-            drive(stepper, grid, state, Observed(kept, mlcs, observers),
+            drive(stepper, grid, state, Observed(kept, mlcs, watched),
                   part_steps=kept.part_steps(), progress=progress)
         except (SimulationError, KeyboardInterrupt) as exc:
             if isinstance(exc, SimulationError):
                 _explain(exc, circuit, mlcs, grid, theta)
             exc.partial = kept.result()
             raise
-        if owned:
-            _report(observers)
+        _report([*observers, fast_modes] if owned else [fast_modes])
         return kept.result()
     recorder = TrajectoryRecorder()
     try:
-        drive(stepper, grid, state, Observed(recorder, mlcs, observers), progress=progress)
+        drive(stepper, grid, state, Observed(recorder, mlcs, watched), progress=progress)
     except (SimulationError, KeyboardInterrupt) as exc:  # the waveforms so far, for the caller
         if isinstance(exc, SimulationError):
             _explain(exc, circuit, mlcs, grid, theta)
@@ -215,8 +221,7 @@ def _run_transient(
     waves = trajectory_waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
-    if owned:
-        _report(observers)
+    _report([*observers, fast_modes] if owned else [fast_modes])
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -300,9 +305,16 @@ def _cut_inductors(mlcs, trajectory) -> dict[str, np.ndarray]:
         before = np.concatenate([[np.inf], change[:-1]])
         cut = np.flatnonzero((np.abs(current[:-1]) > 0.05 * scale) & (np.abs(current[1:]) < 1e-3 * scale)
                              & (change > 10.0 * before))
+        inductance = float(inductances[row])
+        columns, values = mlcs.E.row(row)
+        if cut.size and (columns != row).any():
+            # a coupled winding: its voltage is a Dirac only if its flux linkage Σ M·i jumps;
+            # with K = 1 the flux moves to the other winding when this current is cut
+            flux_linkage = y[:, columns] @ values
+            jump = np.abs(flux_linkage[cut + 1] - flux_linkage[cut])
+            cut = cut[jump > 0.1 * inductance * np.abs(current[cut + 1] - current[cut])]
         if not cut.size:
             continue
-        inductance = float(inductances[row])
         weights = np.zeros(current.size)
         weights[cut + 1] = inductance * (current[cut + 1] - current[cut])
         fluxes[name[2:-1]] = weights

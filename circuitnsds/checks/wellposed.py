@@ -63,7 +63,7 @@ from circuitnsds.solvers.linalg import RCOND_MIN, factorise
 from circuitnsds.solvers.pivot_transform import PivotTransform, completion_mask
 from circuitnsds.specs import SourceDefaults
 from circuitnsds.system.mlcs import MLCS
-from circuitnsds.theta import THETA_HINT, theta_in_range
+from circuitnsds.theta import THETA_HINT, theta_in_range, theta_text
 
 EXACT_LIMIT = 12
 """Up to this many pairs the P-matrix test checks all ``2**m - 1`` principal minors."""
@@ -429,7 +429,7 @@ def analyse_circuit(circuit, step: float | None = None, *, states=None,
         raise CircuitError(f"step = {step:g} must be positive and finite", where=circuit.file,
                            hint="the time step [s] of the LCP examined; leave it out for .tran's TSTEP")
     if not theta_in_range(theta):
-        raise CircuitError(f"theta = {theta:g} is outside [0.5, 1]", where=circuit.file,
+        raise CircuitError(f"theta = {theta_text(theta)} is outside [0.5, 1]", where=circuit.file,
                            hint=f"theta: {THETA_HINT}")
     mlcs = circuit.mlcs(SourceDefaults(step, tran.stop if tran else max(step, 1.0)))
     reports = []

@@ -65,6 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Transient simulation of SPICE netlists with ideal diodes and Zeners.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    from circuitnsds import __version__  # (the package is imported already: no cost)
+
+    parser.add_argument("--version", action="version", version=f"circuitnsds {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     run = commands.add_parser("run", help="run the transient of a netlist, write CSV (and PNG)")
@@ -280,9 +283,21 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
+    """circuitnsds's own warnings and notes, one line each; a warning of a library (numpy's
+    overflow in some intermediate) once per message with its count and origin, not as one of
+    ours (a 1000-diode chain printed 178 lines of numpy overflow as circuitnsds warnings)."""
+    foreign: dict[tuple[str, str], list] = {}
     for warning in caught:
+        if not issubclass(warning.category, (NetlistWarning, RunNote)):
+            key = (warning.category.__name__, str(warning.message))
+            foreign.setdefault(key, [0, f"{Path(warning.filename).name}:{warning.lineno}"])[0] += 1
+            continue
         kind = "note" if issubclass(warning.category, RunNote) else "warning"
         print(f"circuitnsds: {kind}: {for_terminal(str(warning.message))}", file=sys.stderr)
+    for (category, message), (count, origin) in foreign.items():
+        times = f", {count} times" if count > 1 else ""
+        print(f"circuitnsds: library {category} ({origin}{times}): {for_terminal(message)} "
+              "(from a library the run uses, not a finding about the circuit)", file=sys.stderr)
 
 
 def _read(path: Path):

@@ -102,8 +102,11 @@ def run_compare(args: argparse.Namespace) -> int:
     from circuitnsds.compare.api import compare
 
     signals = None
-    if args.signals:
-        signals = [name.strip() for name in args.signals.split(",") if name.strip()]
+    if args.signals:  # (commas inside parentheses kept: "v(a,b), i(l1)")
+        import re
+
+        signals = [re.sub(r"\s+", "", name) for name in
+                   re.findall(r"[a-z]+\s*\([^)]*\)|[^,\s]+", args.signals, re.IGNORECASE)]
     _check_outputs(args)
     comparison = compare(args.netlist, signals=signals, window=args.window, n=args.n, is_=args.is_,
                          rs=args.rs, cjo=args.cjo, step=args.step, stop=args.stop,

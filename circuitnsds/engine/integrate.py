@@ -87,6 +87,17 @@ Measured on the diode-RC ladder (``benchmarks/performance.py``), µs per mapped 
 dense / sparse: N = 10 sections 0.79 / 0.90, 30: 1.21 / 0.99, 50: 2.46 / 1.46,
 100: 10.3 / 2.95. The dense table also changes modes without leaving the compiled
 loop, which is what converters (small ``n``, many switchings) need."""
+# With θ < 1, how many implicit-Euler steps follow a switching into a mode whose θ-step has
+# an eigenvalue below -RINGING_FACTOR (GridStepping.rings). One is not enough there: it leaves
+# the fast mode (Ron·C, τ << h) a residue 1/(1 + h/τ) of its jump, which the θ = ½ step then
+# carries with factor -(1 - h/2τ)/(1 + h/2τ) ≈ -1 for ever (a gate RC closing a 10 mΩ switch
+# onto 3 nF at h = 1 ns rang ±30 A about 1.2 A). Four leave 1/(1 + h/τ)⁴ (i(s1) then swings
+# 0.004 % of 1.2 A there; three left 0.12 %, and a PWM-driven switch closing the same way
+# 2 %). Other switchings keep one: each extra implicit-Euler step costs accuracy on the slow
+# modes (benchmarks/restart_steps.py; docs/method.md).
+RESTART_STEPS = 4
+RINGING_FACTOR = 0.5
+RINGING_CHECK_LIMIT = 400  # unknowns + pairs: a dense eigenvalue problem per mode met
 STEPPINGS = ("auto", "compiled", "numpy", "mlcp")
 """The stepping strategies of :func:`integrate` (its ``stepping`` argument)."""
 ENUMERATED_PAIRS = 4
@@ -281,7 +292,9 @@ def integrate(
         states[k] = parts.states
         events += parts.events
         stepping.splits[k - 1] = parts.parts
-        restart = parts.at_end
+        # a switching inside the step: its rest was implicit Euler, but perhaps too short to
+        # damp a fast mode (restart_longer)
+        restart = parts.at_end or (bool(parts.events) and stepping.rings(k, states[k], guess))
         last_active[states[k].tobytes()] = guess
         charge = mlcs.E @ y[k]
 
@@ -295,6 +308,7 @@ def integrate(
             changed = (k > 0 or continued) and (restart or bool((states[k + 1] != states[k]).any()))
             restart = False
             if changed:
+                stepping.restart_longer(k, states[k + 1], last_active.get(states[k + 1].tobytes(), guess))
                 # a switch changed: the pairs most likely take the mode they had the last
                 # time the switches were in this state (the other phase of a converter)
                 guess = last_active.get(states[k + 1].tobytes(), guess)
@@ -544,6 +558,7 @@ class GridStepping:
         self.free_off = np.array([mlcs.switches[j].off_threshold for j in free])
         self._no_free = FreeSwitches(controls, self.free_on, self.free_off, np.zeros(0, dtype=bool))
         self._free_ids: dict[bytes, int] = {}
+        self._ringing: dict[tuple, bool] = {}  # see rings()
         self.solvers: OrderedDict[tuple, _StepSolver] = OrderedDict()
         self.retired: list[_StepSolver] = []
         self.dense = mlcs.n + mlcs.m <= DENSE_MAP_LIMIT
@@ -559,6 +574,7 @@ class GridStepping:
         self._dense_cache: dict[tuple, _DenseMode] = {}
         self.splits: dict[int, list[SplitPart]] = {}  # the last run's split steps
         self._counted = self.counters(absolute=True)  # the solvers' counters before this grid
+        self._restart_scheduled_longer()
 
     def target(self, grid: np.ndarray, initial_states: np.ndarray, continued: bool,
                classes: np.ndarray, buffers: dict | None = None,
@@ -590,6 +606,15 @@ class GridStepping:
         restart[0] |= not continued or (theta != 1.0 and self.scheduled.size > 0 and bool(
             (self.schedule[0] != initial_states[self.scheduled]).any()))
         self.step_class[restart] += self.sizes
+        self._restarts = np.flatnonzero(restart)  # (see _restart_scheduled_longer)
+        if not continued or not hasattr(self, "_start_states"):  # (parts: as one run began)
+            self._start_states = np.asarray(initial_states, dtype=bool).copy()
+        # the longer restarts that a switching near the previous part's end asks of this one's
+        # first steps (restart_longer), so that the parts take the steps of one run
+        carried, self._carry = (getattr(self, "_carry", 0) if continued else 0), 0
+        self.step_class[:carried] = classes[:carried] + self.sizes
+        if hasattr(self, "_ringing"):  # (a new part; the first is done at the end of __init__)
+            self._restart_scheduled_longer()
         if hasattr(self, "_counted"):  # a new part: the counters start again
             self._counted = self.counters(absolute=True)
             self.built = 0
@@ -599,6 +624,59 @@ class GridStepping:
     def restart_class(self, k: int) -> int:
         """Class of step ``k`` when a switch changed state at ``t_k``."""
         return int(self.base_class[k]) + (self.sizes if self.theta != 1.0 else 0)
+
+    def rings(self, k: int, states: np.ndarray, active: np.ndarray | None) -> bool:
+        """Whether the θ-step of step ``k``'s size in the mode (switch ``states``, pairs
+        ``active``) has an eigenvalue with real part below ``-RINGING_FACTOR``: a mode so
+        fast for the step (Ron·C, τ < h/3 at θ = ½) that the θ-method carries what is left
+        of its jump on alternating in sign. Circuits of up to ``RINGING_CHECK_LIMIT`` unknowns
+        (others: ``False``); every stepping path asks the same, so all take the same steps."""
+        if self.theta == 1.0 or self.mlcs.n + self.mlcs.m > RINGING_CHECK_LIMIT or active is None:
+            return False
+        cls = int(self.base_class[k])
+        key = (cls, states.tobytes(), np.asarray(active, dtype=bool).tobytes())
+        if key not in self._ringing:
+            mode = self.build_mode(k, cls, states, np.asarray(active, dtype=bool))
+            n = self.mlcs.n
+            self._ringing[key] = mode is not None and bool(
+                (np.linalg.eigvals(mode.P[:n, :n]).real < -RINGING_FACTOR).any())
+        return self._ringing[key]
+
+    def _restart_scheduled_longer(self) -> None:
+        """:meth:`restart_longer` for the restarts known before the run (the first step, the
+        switchings of source-controlled switches, the sources' corners), which the mode loop
+        takes without coming back here: the scheduled state of each is examined once, with
+        the other switches as the run (not the part) began and no pair conducting (a switch closing
+        onto a capacitor, or a source's jump across Ron·C, rings whatever the diodes do).
+        A PWL source dropping 1 V across 1 Ω into 1 µF at h = 10 µs left i(r1) alternating
+        -91, +61, -40 mA after its corner."""
+        marks = self._restarts
+        if self.theta == 1.0 or not marks.size:
+            return
+        none = np.zeros(self.mlcs.m, dtype=bool)
+        ringing = []
+        for state in np.unique(self.sched_state[marks]):
+            k = int(marks[np.argmax(self.sched_state[marks] == state)])
+            states = self._start_states.copy()
+            if self.scheduled.size:
+                states[self.scheduled] = self.schedule[k]
+            if self.rings(k, states, none):
+                ringing.append(state)
+        marks = marks[np.isin(self.sched_state[marks], ringing)]
+        for later in range(1, RESTART_STEPS):
+            after = marks[marks + later < self.step_class.size] + later
+            self.step_class[after] = self.base_class[after] + self.sizes
+        if marks.size:
+            self._carry = max(self._carry, int(marks[-1]) + RESTART_STEPS - self.step_class.size)
+
+    def restart_longer(self, k: int, states: np.ndarray, active: np.ndarray | None) -> None:
+        """After a switching at ``t_k`` into a mode that :meth:`rings`, make the
+        ``RESTART_STEPS - 1`` steps after step ``k`` restarts (implicit Euler) too."""
+        if self.rings(k, states, active):
+            after = slice(k + 1, min(k + RESTART_STEPS, self.step_class.size))
+            self.step_class[after] = self.base_class[after] + self.sizes
+            # (steps beyond this part's end: the next part's first, see target)
+            self._carry = max(self._carry, k + RESTART_STEPS - self.step_class.size)
 
     def theta_of(self, cls: int) -> float:
         return 1.0 if cls >= self.sizes else self.theta

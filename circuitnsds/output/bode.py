@@ -8,6 +8,7 @@ import numpy as np
 
 from circuitnsds.output.files import atomic_path
 from circuitnsds.output.plot import save_figure
+from circuitnsds.units import format_si
 
 
 def write_bode_csv(result, path) -> None:
@@ -49,7 +50,7 @@ def plot_bode(result, path: str | Path, marks: dict | None = None, dpi: int = 12
         if np.isfinite(crossover):
             for axis in (magnitude, phase):
                 axis.axvline(crossover, color="grey", linestyle="--", linewidth=0.8)
-            magnitude.annotate(f"{name}: crossover {crossover:.4g} Hz", (crossover, 0),
+            magnitude.annotate(f"{name}: crossover {format_si(crossover, 'Hz', 3)}", (crossover, 0),
                                textcoords="offset points", xytext=(4, 4), fontsize=8)
             phase.annotate(f"phase margin {margin:.3g}°", (crossover, margin - 180),
                            textcoords="offset points", xytext=(4, 4), fontsize=8)

@@ -468,27 +468,39 @@ class LossTable:
         return self.total("output") / inflow if inflow else float("nan")
 
     def format(self) -> str:
+        """The table as text; columns separated by at least one space whatever the widths,
+        a share only where a source delivers net power, the efficiency only with loads named."""
         watts = [("power", "power")] + [(column, column.replace("_", "-")) for column in LOSS_COLUMNS]
         lines = [f"power balance over {format_si(self.t0, 's')} .. {format_si(self.t1, 's')}",
-                 f"  {'element':<16}{'kind':<8}" + "".join(f"{title:>12}" for _, title in watts)
-                 + f"{'share':>9}"]
-        inflow = self.total("input") or float("nan")
+                 f"  {'element':<16} {'kind':<8}" + "".join(f" {title:>12}" for _, title in watts)
+                 + f" {'share':>9}"]
+        inflow = self.total("input")
+
+        def share(power: float) -> str:
+            return f"{100 * power / inflow + 0.0:>8.3g}%" if inflow > 0 else f"{'-':>9}"
+
         for row in self.rows:
             values = (getattr(row, field) for field, _ in watts)
-            cells = "".join(f"{'' if value is None else format_si(value, 'W'):>12}"
+            cells = "".join(f" {'' if value is None else format_si(value + 0.0, 'W'):>12}"
                             for value in values)
-            lines.append(f"  {row.element:<16}{row.kind:<8}{cells}"
-                         f"{100 * row.power / inflow:>8.3g}%")
-        lines.append(f"  {'unaccounted':<16}{'':<8}{format_si(self.unaccounted, 'W'):>12}"
-                     f"{'':>48}{100 * self.relative:>8.3g}%  (impulses, numerical dissipation)")
+            lines.append(f"  {row.element:<16} {row.kind:<8}{cells} {share(row.power)}")
+        blank = "".join(f" {'':>12}" for _ in LOSS_COLUMNS)
+        lines.append(f"  {'unaccounted':<16} {'':<8} {format_si(self.unaccounted, 'W'):>12}{blank} "
+                     f"{share(self.unaccounted)}  (impulses, numerical dissipation)")
         extra = self.datasheet_extra
         if extra:
             lines.append(f"  datasheet losses beyond the circuit's own: {format_si(extra, 'W')} "
                          "(switching energy, conduction tables; not drawn by the ideal circuit)")
-        if self.has_outputs:
+        if not inflow > 0:
+            lines.append("  no source delivers net power over the window: no shares, no "
+                         + ("efficiency" if self.has_outputs else "outputs / inputs"))
+        elif not self.has_outputs:
+            lines.append("  name the loads (--losses rload) to get outputs / inputs")
+        elif extra:
             lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / (inputs + "
-                         "datasheet losses))" if extra else
-                         f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
+                         "datasheet losses))")
+        else:
+            lines.append(f"  efficiency {100 * self.efficiency:.4g} % (outputs / inputs)")
         return "\n".join(lines)
 
     def to_csv(self, path) -> None:

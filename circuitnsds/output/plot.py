@@ -1,7 +1,8 @@
 """Figures of waveforms: one panel per kind of quantity, engineering units.
 
-Voltages (``v(...)``) share the top panel, currents (``i(...)``) the next one, any
-other signal a panel of its own kind. Each panel's axis is scaled to an SI prefix
+Voltages (``v(...)``) come first, currents (``i(...)``) next, any other signal in a panel
+of its own kind; the signals of one unit are spread over panels of similar scale (a signal
+20 times smaller than the largest of its panel gets the next one). Each panel's axis is scaled to an SI prefix
 (``current [mA]``), the time axis to s, ms, µs or ns, and every trace is named in
 the panel's legend. :func:`plot_waveforms` writes a file (PNG, drawn with Pillow by
 :mod:`circuitnsds.output.raster_figure`, or PDF/SVG ... by the extension, drawn with
@@ -47,26 +48,71 @@ class PlotError(CircuitnsdsError):
     matplotlib backend)."""
 
 
+KEPT_CURRENTS = frozenset("ldswm")
+"""Element letters whose currents a default plot always shows: inductors, diodes, switches and
+MOSFETs (an LLC's current panel had lost i(lr) and its diodes' currents to the cap of 8)."""
+
+SCALE_RATIO = 20.0
+"""A signal whose peak is below this fraction of the largest in its panel gets a panel of its
+own scale (a 0..1 V control signal drawn flat under a 400 V bus was unreadable)."""
+MAX_PANELS_PER_UNIT = 3
+"""Signals of one unit are spread over at most this many panels of different scales."""
+
+
+def _letter(name: str) -> str:
+    """The element letter of a current ``i(x1.lr)`` (its last name part's first letter)."""
+    return name[2:-1].rsplit(".", 1)[-1][:1]
+
+
 def default_signals(waves: Waveforms) -> list[str]:
-    """Up to 8 node voltages, up to 8 currents of devices other than resistors and up to 8
-    junction temperatures ``tj(...)`` (devices with datasheets, docs/losses.md)."""
+    """Up to 8 node voltages; the currents of every inductor, diode, switch and MOSFET, and of
+    other devices but resistors up to 8 currents in all; up to 8 junction temperatures
+    ``tj(...)`` (devices with datasheets, docs/losses.md); in the order of ``waves``."""
     voltages = [n for n in waves.names if n.startswith("v(")][:MAX_DEFAULT_SIGNALS]
-    currents = [n for n in waves.names if n.startswith("i(") and not n.startswith("i(r")]
+    currents = [n for n in waves.names if n.startswith("i(") and _letter(n) != "r"]
+    kept = {n for n in currents if _letter(n) in KEPT_CURRENTS}
+    room = max(MAX_DEFAULT_SIGNALS - len(kept), 0)
+    kept |= set([n for n in currents if n not in kept][:room])
     junctions = [n for n in waves.names if n.startswith("tj(")]
-    return voltages + currents[:MAX_DEFAULT_SIGNALS] + junctions[:MAX_DEFAULT_SIGNALS]
+    return voltages + [n for n in currents if n in kept] + junctions[:MAX_DEFAULT_SIGNALS]
 
 
-def _panels(names: Sequence[str]) -> list[tuple[str, str, list[str]]]:
-    """``(quantity, unit, names)`` for each panel, voltages first, then currents, then the rest."""
+def _by_scale(group: list[str], peaks: dict[str, float]) -> list[list[str]]:
+    """``group`` split into panels of similar scale (see :data:`SCALE_RATIO`), the largest
+    scale first, each in the order of ``group``; signals that are zero throughout go with the
+    smallest scale."""
+    order = sorted(group, key=lambda n: -peaks.get(n, 0.0))
+    panels: list[list[str]] = []
+    leader = 0.0
+    for name in order:
+        peak = peaks.get(name, 0.0)
+        if panels and (peak >= leader / SCALE_RATIO or len(panels) == MAX_PANELS_PER_UNIT
+                       or peak == 0.0):
+            panels[-1].append(name)
+        else:
+            panels.append([name])
+            leader = peak
+    return [[n for n in group if n in panel] for panel in panels]
+
+
+def _panels(names: Sequence[str], peaks: dict[str, float] | None = None
+            ) -> list[tuple[str, str, list[str]]]:
+    """``(quantity, unit, names)`` for each panel: voltages first, then currents, then the
+    rest; with ``peaks`` (signal -> largest magnitude), each unit split by scale (:func:`_by_scale`)."""
     panels = []
     for prefix, quantity, unit in KINDS:
         group = [n for n in names if n.startswith(prefix)]
-        if group:
-            panels.append((quantity, unit, group))
+        for part in (_by_scale(group, peaks) if peaks is not None and group else [group] if group
+                     else []):
+            panels.append((quantity, unit, part))
     rest = [n for n in names if not any(n.startswith(prefix) for prefix, _, _ in KINDS)]
     if rest:
         panels.append(("value", "", rest))
     return panels
+
+
+def _peaks(waves: Waveforms, names: Sequence[str]) -> dict[str, float]:
+    return {n: _finite_peak(waves[n]) for n in names if n in waves}
 
 
 @dataclass(frozen=True)
@@ -114,7 +160,7 @@ def figure_data(waves: Waveforms, names: Sequence[str] | None = None,
     missing = [n for n in names if n not in waves]
     if missing:
         raise KeyError(f"no signal {', '.join(missing)}; available: {', '.join(waves.names)}")
-    groups = _panels(names)
+    groups = _panels(names, _peaks(waves, names))
     if not groups:
         raise PlotError("nothing to plot: no signals", where="plot")
     time = np.asarray(waves.time, dtype=float)
@@ -176,7 +222,8 @@ def plot_waveforms(waves: Waveforms, path: str | Path, names: Sequence[str] | No
     """
     file_format = plot_format(path)
     chosen = default_signals(waves) if names is None else list(names)
-    size = _size(len(_panels([n.strip().lower() for n in chosen])))
+    lowered = [n.strip().lower() for n in chosen]
+    size = _size(len(_panels(lowered, _peaks(waves, lowered))))
     if file_format == "png":
         from circuitnsds.output.raster_figure import png_bytes
 
@@ -253,7 +300,8 @@ def show_waveforms(waves: Waveforms, names: Sequence[str] | None = None,
                         where="plot", hint="install one (tkinter: apt install python3-tk; or "
                         "pip install PyQt6), or write a file with --plot out.png")
     chosen = default_signals(waves) if names is None else list(names)
-    figure = plt.figure(figsize=_size(len(_panels([n.strip().lower() for n in chosen]))),
+    lowered = [n.strip().lower() for n in chosen]
+    figure = plt.figure(figsize=_size(len(_panels(lowered, _peaks(waves, lowered)))),
                         layout="constrained")
     draw(figure, waves, chosen, events)
     plt.show()

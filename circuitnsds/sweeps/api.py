@@ -17,8 +17,7 @@ from circuitnsds.errors import CircuitError
 from circuitnsds.frontend.build import CircuitBuilder
 from circuitnsds.netlist.steps import Step, StepSyntaxError, grid, linear_values, steps_from_mapping
 from circuitnsds.output.files import OutputError, writing
-from circuitnsds.output.measure import parse_measurement
-from circuitnsds.sweeps.task import Job, Point, check_analysis
+from circuitnsds.sweeps.task import Job, Point, check_analysis, check_measurement
 
 RUN = "run"
 """The Monte Carlo run-count parameter (``samples=N`` steps it from 1 to N)."""
@@ -120,7 +119,7 @@ def sweep(netlist: str | Path | CircuitBuilder, params: Mapping[str, object] | N
     if scheduler is not None:  # a malformed address refused before anything runs
         scheduler = execute.scheduler_address(scheduler)
     for expression in measure:  # syntax errors now, not at every point
-        parse_measurement(expression)
+        check_measurement(expression)
     builder = netlist if isinstance(netlist, CircuitBuilder) else CircuitBuilder.load(netlist)
     steps = sweep_steps(builder, params, samples)
     unknown = builder.unknown({s.name: 0.0 for s in steps if s.name.lower() != RUN})

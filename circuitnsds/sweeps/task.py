@@ -20,6 +20,33 @@ from circuitnsds.frontend.build import CircuitBuilder, NetlistSource
 from circuitnsds.netlist.steps import point_generator
 from circuitnsds.output.measure import evaluate, parse_measurement
 
+
+def is_meas_line(expression: str) -> bool:
+    """Whether a measurement is written as ngspice's ``.meas`` (``"tran vavg AVG v(out)
+    from=1m to=2m"``, as ``run --measure`` takes it) rather than as ``mean(v(out), 1m, 2m)``."""
+    return expression.split()[:1] != [] and expression.split()[0].lower() == "tran"
+
+
+def check_measurement(expression: str) -> None:
+    """Raise the syntax error of a measurement in either form (before any point runs)."""
+    if is_meas_line(expression):
+        from circuitnsds.frontend.cards.meas import parse_meas
+
+        parse_meas(f".meas {expression}")
+    else:
+        parse_measurement(expression)
+
+
+def measured(expression: str, waves, circuit: Circuit) -> float:
+    """The value of a measurement in either form (:func:`is_meas_line`) on ``waves``."""
+    if is_meas_line(expression):
+        from circuitnsds.frontend.cards.meas import parse_meas
+        from circuitnsds.output.meas import run_measurement
+
+        return float(run_measurement(parse_meas(f".meas {expression}"), waves).value)
+    return evaluate(parse_measurement(expression), waves, circuit).value
+
+
 ANALYSES: dict[str, str] = {"tran": "transient", "pss": "pss"}
 """Analysis name -> the :class:`~circuitnsds.circuit.circuit.Circuit` method that runs it
 (``method(**options) -> Waveforms``); a new analysis is one entry here."""
@@ -124,7 +151,7 @@ def run_point(job: Job, point: Point) -> dict:
             result = getattr(circuit, ANALYSES[job.analysis])(**job.options)
             waves = getattr(result, "waveforms", result)  # pss: one settled period
             for expression in job.measure:
-                values[expression] = evaluate(parse_measurement(expression), waves, circuit).value
+                values[expression] = measured(expression, waves, circuit)
             if job.losses is not None:
                 values.update(_loss_columns(job, circuit, waves))
             if job.keep_waveforms:

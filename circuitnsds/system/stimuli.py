@@ -364,9 +364,10 @@ def resolving_step(stimulus: Stimulus, stop: float) -> float | None:
     period / :data:`POINTS_PER_PERIOD` for a SIN of nonzero amplitude or a PULSE whose period
     is shorter than ``stop``; ``None`` for the others (their corners are grid points)."""
     if isinstance(stimulus, Sin) and stimulus.amplitude != 0 and stimulus.frequency:
-        return 1.0 / (stimulus.frequency * POINTS_PER_PERIOD)
+        # (a negative frequency is sin(-ωt): the same period; it divided by 0 when refining)
+        return 1.0 / (abs(stimulus.frequency) * POINTS_PER_PERIOD)
     if (isinstance(stimulus, Pulse) and stimulus.initial != stimulus.pulsed
-            and stimulus.period is not None and stimulus.period < stop
+            and stimulus.period is not None and 0 < stimulus.period < stop
             and (stimulus.count is None or stimulus.count > 1)):
         return stimulus.period / POINTS_PER_PERIOD
     return None

@@ -189,7 +189,7 @@ def mutual_inductance(reader: StatementReader, inductors: dict[str, Inductor]) -
     if len(set(names)) != len(names):
         raise reader.error(f"{name}: an inductor cannot be coupled to itself")
     if not 0 < abs(coupling) <= 1:
-        raise reader.error(f"{name}: coupling coefficient k={coupling:g} must satisfy 0 < |k| <= 1")
+        raise reader.error(f"{name}: coupling coefficient k={coupling!r} must satisfy 0 < |k| <= 1")
     pairs = [(a, b) for k, a in enumerate(names) for b in names[k + 1:]]
     return [MutualInductance(name if len(pairs) == 1 else f"{name}_{a}_{b}", (), reader.location,
                              inductors=(a, b), inductances=(inductors[a].inductance,
