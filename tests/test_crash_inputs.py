@@ -40,11 +40,6 @@ def test_a_bad_options_seed_is_an_error_at_its_line(tmp_path, capsys, seed):
     assert status == 1 and f"case.cir:15: .options seed={seed} must be a non-negative integer" in err
 
 
-def test_a_negative_sin_frequency_is_an_error_at_its_line(tmp_path, capsys):
-    status, err = _run(tmp_path, capsys, "sin\nV1 in 0 SIN(0 5 -50)\nR1 in 0 1k\n.tran 1u 1m\n.end\n")
-    assert status == 1 and "case.cir:2: v1: SIN FREQ (3rd argument) = -50 Hz must not be negative" in err
-
-
 def test_a_tstep_beyond_the_doubles_integrates_like_any_tstep_longer_than_the_run():
     # TSTEP/TSTOP overflowed the refinement factor (inf); any TSTEP above TSTOP reports the
     # two ends, integrated with the step the PULSE needs (its period / 20 = 0.5 µs)

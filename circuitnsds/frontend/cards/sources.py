@@ -186,10 +186,6 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
         function = Sin(*args[:2], *_defaults(args[2:], [None, 0.0, 0.0, 0.0, None]))
         if function.cycles is not None and function.cycles <= 0:
             raise reader.error(f"{name}: SIN NCYCLES (7th argument) must be positive")
-        if function.frequency is not None and function.frequency < 0:
-            raise reader.error(f"{name}: SIN FREQ (3rd argument) = {function.frequency:g} Hz must not "
-                               "be negative", hint="a negative frequency is the sine of the positive "
-                               "one with the amplitude negated: write that (0: the default, 1/TSTOP)")
         return function
     if kind == "pulse":
         pulse = Pulse(*args[:2], *_defaults(args[2:], [0.0, None, None, None, None, None]))
