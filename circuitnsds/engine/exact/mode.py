@@ -1,0 +1,112 @@
+"""One mode of an MLCS reduced to its state equations (DESIGN.md "Event-driven exact
+integration", step 1).
+
+With the active pairs ``a`` and the switch states fixed, the MLCS is the linear DAE
+
+    E y' = A y + B_a λ_a + S f(t),        0 = C_a y + D_aa λ_a + e_a
+
+in ``z = [y; λ_a]``. The singular value decomposition ``E = U_1 Σ_1 V_1ᵀ`` (rank ``r``)
+names the state ``x = V_1ᵀ y`` (``E y = U_1 Σ_1 x``: charges and fluxes, continuous while
+no impulse acts, the same coordinates in every mode); the other rows are algebraic and,
+for an index-1 mode, give ``z`` from ``x`` and the sources:
+
+    z = P x + Q φ,      x' = F x + H φ,      φ = [S f(t); e_a].
+
+A mode whose algebraic block is singular (a capacitor closed across a source by a
+conducting diode: index 2) is :class:`NotIndexOne`; so is one whose ``F`` is not
+diagonalisable to a reasonable condition: the θ-method takes those stretches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from circuitnsds.engine.exact.exppoly import ExpPoly, response
+
+
+class NotIndexOne(Exception):
+    """The mode cannot be reduced to state equations (index 2 or a defective ``F``)."""
+
+
+@dataclass(frozen=True)
+class StateCoordinates:
+    """``x = V1ᵀ y`` from ``E = U Σ Vᵀ`` (shared by every mode of one MLCS)."""
+
+    U1: np.ndarray
+    U2: np.ndarray
+    V1: np.ndarray
+    V2: np.ndarray
+    sigma: np.ndarray
+
+    @classmethod
+    def of(cls, E: np.ndarray) -> StateCoordinates:
+        U, sigma, Vt = np.linalg.svd(E)
+        rank = int(np.sum(sigma > sigma[0] * 1e-13)) if sigma.size and sigma[0] > 0 else 0
+        return cls(U[:, :rank], U[:, rank:], Vt[:rank].T, Vt[rank:].T, sigma[:rank])
+
+    @property
+    def rank(self) -> int:
+        return self.sigma.size
+
+
+class ModeDynamics:
+    """The reduced equations of one mode (module docstring)."""
+
+    def __init__(self, coordinates: StateCoordinates, A: np.ndarray, B: np.ndarray, C: np.ndarray,
+                 D: np.ndarray, e: np.ndarray, S: np.ndarray, active: np.ndarray):
+        n, r = A.shape[0], coordinates.rank
+        act = np.flatnonzero(active)
+        k = act.size
+        self.active = np.asarray(active, dtype=bool).copy()
+        self.n = n
+        A_bar = np.block([[A, B[:, act]], [C[act], D[np.ix_(act, act)]]])
+        T1 = np.vstack([coordinates.V1, np.zeros((k, r))])
+        T2 = np.block([[coordinates.V2, np.zeros((n, k))], [np.zeros((k, n - r)), np.eye(k)]])
+        R1 = np.hstack([coordinates.U1.T, np.zeros((r, k))])
+        R2 = np.block([[coordinates.U2.T, np.zeros((n - r, k))], [np.zeros((k, n)), np.eye(k)]])
+        N = R2 @ A_bar @ T2
+        if N.size and np.linalg.cond(N) > 1e13:
+            raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
+        solve = np.linalg.solve(N, R2) if N.size else np.zeros((0, n + k))
+        self.P = T1 - T2 @ solve @ A_bar @ T1
+        self.Q = -T2 @ solve
+        inv_sigma = 1.0 / coordinates.sigma
+        self.F = inv_sigma[:, None] * (R1 @ A_bar @ self.P)
+        self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
+        if r:
+            eigenvalues, W = np.linalg.eig(self.F)
+            if np.linalg.cond(W) > 1e10:
+                raise NotIndexOne("the mode's state matrix is not diagonalisable")
+            self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)
+        else:
+            self.eigenvalues = np.zeros(0, complex)
+            self.W = self.W_inv = np.zeros((0, 0))
+        self.S = S
+        self.e_active = e[act]
+        self.active_index = act
+        self.V1t = coordinates.V1.T
+
+    def forcing(self, sources: ExpPoly) -> ExpPoly:
+        """``φ(τ) = [S f(τ); e_a]`` for the sources' piece ``f``."""
+        upper = sources.map(self.S)
+        padded = ExpPoly(np.hstack([upper.coefficients, np.zeros((upper.coefficients.shape[0],
+                                                                  self.active_index.size))]),
+                         upper.powers, upper.exponents)
+        constant = np.concatenate([np.zeros(self.n), self.e_active])
+        return padded + ExpPoly.constant(constant)
+
+    def solution(self, x0: np.ndarray, sources: ExpPoly) -> ExpPoly:
+        """``z(τ) = [y(τ); λ_a(τ)]`` from the state ``x0`` at ``τ = 0``."""
+        phi = self.forcing(sources)
+        if self.eigenvalues.size:
+            modal = response(self.eigenvalues, self.W_inv @ x0, phi.map(self.W_inv @ self.H))
+            state = modal.map(self.W)
+        else:
+            state = ExpPoly.zero(0)
+        return (state.map(self.P) + phi.map(self.Q)).merged()
+
+    def state(self, y: np.ndarray) -> np.ndarray:
+        """``x = V1ᵀ y``."""
+        return self.V1t @ y

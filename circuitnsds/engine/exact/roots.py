@@ -1,0 +1,90 @@
+"""The first instant an event function goes negative, with no earlier crossing missed.
+
+An event function is a real exponential polynomial ``g(τ) = Re Σ c_j τ^p_j e^{ν_j τ}``
+(:class:`~circuitnsds.engine.exact.exppoly.ExpPoly`), non-negative while the mode holds
+(a conducting diode's current, a blocking diode's distance from its threshold, a switch
+control's distance from the threshold it would cross). The search for its first root on
+``[0, T]`` is certified: an interval ``[a, b]`` is declared free of roots only when a
+*lower bound* of ``g`` over it is above ``-tol``. The bound splits the terms:
+
+* a *slow* term (``|ν|·(b-a) <= 1``) enters a Taylor model at ``a``:
+  ``g_s(a) + g_s'(a)(τ-a) - M (τ-a)²/2`` with ``M`` an upper bound of ``|g_s''|`` on ``[a, b]``;
+* a *fast* term (a quickly decaying or oscillating one) enters by its largest magnitude on
+  ``[a, b]``, ``|c| b^p e^{max(Re ν a, Re ν b)}``.
+
+An interval that cannot be declared root-free is halved, left half first, so the root
+found is the first one. Once ``g'`` is certified negative on an interval where ``g``
+changes sign, the single root there is refined by Brent's method to round-off. A function
+that touches ``-tol`` without crossing it (grazing) ends in intervals below the time
+resolution, where the sign at the right end decides.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from circuitnsds.engine.exact.exppoly import ExpPoly
+
+MAX_DEPTH = 200
+"""Halvings of one interval at most (far below the resolution of a double)."""
+
+
+def _lower_bound(g: ExpPoly, a: float, b: float) -> float:
+    """A lower bound of ``g`` on ``[a, b]`` (module docstring)."""
+    width = b - a
+    slow = np.abs(g.exponents) * width <= 1.0
+    magnitude = np.abs(g.coefficients[:, 0])
+    growth = np.exp(np.maximum(g.exponents.real * a, g.exponents.real * b))
+    p = g.powers
+    fast_bound = float(np.sum((magnitude * b ** p * growth)[~slow]))
+    if not slow.any():
+        return -fast_bound
+    ps, nu = p[slow], np.abs(g.exponents[slow])
+    second = magnitude[slow] * growth[slow] * (
+        nu**2 * b**ps + 2 * ps * nu * b ** np.maximum(ps - 1, 0)
+        + ps * (ps - 1) * b ** np.maximum(ps - 2, 0))
+    sub = ExpPoly(g.coefficients[slow], ps, g.exponents[slow])
+    g0 = float(sub(a)[0])
+    g1 = float(sub.derivative()(a)[0])
+    bend = float(np.sum(second))
+    return min(g0, g0 + g1 * width - bend * width**2 / 2) - fast_bound
+
+
+def first_root(g: ExpPoly, horizon: float, tol: float, resolution: float) -> float | None:
+    """The first ``τ`` in ``(0, horizon]`` where ``g`` crosses below ``-tol`` (returned as the
+    root of ``g`` itself, to round-off), or ``None`` if ``g >= -tol`` on the whole interval.
+
+    ``resolution`` [s]: intervals shorter than this are not halved further.
+    """
+    slope = g.derivative()
+    stack = [(0.0, horizon, 0)]
+    while stack:
+        a, b, depth = stack.pop()
+        if _lower_bound(g, a, b) > -tol:
+            continue
+        gb = float(g(b)[0])
+        if gb < -tol and _lower_bound(ExpPoly(-slope.coefficients, slope.powers, slope.exponents),
+                                      a, b) > 0:
+            return _refine(g, a, b)
+        if b - a <= resolution or depth >= MAX_DEPTH:
+            if gb < -tol:
+                return _refine(g, a, b)
+            continue
+        m = 0.5 * (a + b)
+        stack.append((m, b, depth + 1))
+        stack.append((a, m, depth + 1))
+    return None
+
+
+def _refine(g: ExpPoly, a: float, b: float) -> float:
+    """The root of ``g`` in ``[a, b]`` (``g(a) >= 0 > g(b)`` up to the tolerance); ``a`` if
+    ``g(a)`` is already negative."""
+    ga, gb = float(g(a)[0]), float(g(b)[0])
+    if ga <= 0:
+        return a
+    from scipy.optimize import brentq
+
+    return float(brentq(lambda t: float(g(t)[0]), a, b, xtol=4 * math.ulp(max(b, 1e-300)),
+                        rtol=4 * np.finfo(float).eps, maxiter=200)) if gb < 0 else b

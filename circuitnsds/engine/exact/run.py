@@ -1,0 +1,238 @@
+"""The event loop of the exact integrator (DESIGN.md "Event-driven exact integration").
+
+From a consistent state, repeat: take the sources' current piece; solve the mode's state
+equations in closed form over it (:class:`~.mode.ModeDynamics`); find the first event
+(:func:`~.roots.first_root` over every pair's and switch's event function, and the piece's
+end); write the output rows that fall before it; at the event choose the next mode
+(:func:`choose_mode`) and go on. Nothing is approximated between events: the error is the
+round-off of the closed forms and of the located instants.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from circuitnsds.engine.exact.exppoly import ExpPoly
+from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
+from circuitnsds.engine.exact.roots import first_root
+from circuitnsds.engine.exact.sources import SourcePieces
+from circuitnsds.system.mlcs import MLCS
+
+MAX_MODE_CHANGES = 64
+"""Mode changes at one instant at most before the run stops as chattering."""
+
+RELATIVE_TOL = 1e-12
+"""Relative round-off of an event function: it counts as negative below ``-tol`` (see
+:meth:`ExactSystem.event_functions`)."""
+
+
+class Chattering(Exception):
+    """No consistent mode was found at an instant (a sliding mode or a latch that does not settle)."""
+
+
+@dataclass
+class ExactEvent:
+    time: float
+    name: str
+    kind: str
+    """``"on"``/``"off"`` for a pair (conducting/blocking), ``"close"``/``"open"`` for a switch."""
+
+
+@dataclass
+class ExactRun:
+    """Output of :func:`run_exact`: rows on ``times``."""
+
+    times: np.ndarray
+    y: np.ndarray
+    currents: np.ndarray
+    events: list[ExactEvent] = field(default_factory=list)
+    segments: int = 0
+
+
+class ExactSystem:
+    """An MLCS prepared for exact integration: dense blocks, state coordinates, mode cache."""
+
+    def __init__(self, mlcs: MLCS):
+        self.mlcs = mlcs
+        self.E = mlcs.E.toarray()
+        self.B, self.C, self.D = mlcs.B.toarray(), mlcs.C.toarray(), mlcs.D.toarray()
+        self.S = mlcs.S.toarray() if mlcs.stimuli else np.zeros((mlcs.n, 0))
+        self.e = np.asarray(mlcs.e, dtype=float)
+        self.coordinates = StateCoordinates.of(self.E)
+        self.n, self.m = mlcs.n, mlcs.m
+        self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
+        self._modes: dict[tuple, ModeDynamics] = {}
+        self.controls = [self._row(s.control) for s in mlcs.switches]
+
+    def _row(self, row) -> np.ndarray:
+        vector = np.zeros(self.n)
+        for column, value in row:
+            vector[column] += value
+        return vector
+
+    def mode(self, active: np.ndarray, closed: tuple[bool, ...]) -> ModeDynamics:
+        key = (tuple(bool(a) for a in active), closed)
+        if key not in self._modes:
+            if closed not in self._system_matrices:
+                self._system_matrices[closed] = self.mlcs.system_matrix(closed).toarray()
+            self._modes[key] = ModeDynamics(self.coordinates, self._system_matrices[closed], self.B,
+                                            self.C, self.D, self.e, self.S, active)
+        return self._modes[key]
+
+    def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
+                        sources: ExpPoly, x_size: np.ndarray) -> list[tuple[str, int, ExpPoly, float]]:
+        """``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
+        (a conducting pair's current, a blocking pair's ``w``, a switch control's distance from
+        the threshold it would cross); ``tol`` is the round-off of ``g`` propagated from ``x``
+        and the sources (:data:`RELATIVE_TOL` times the magnitudes that make up ``g(0)``);
+        ``x_size`` [state units]: the magnitudes that were summed to compute ``x``, whose
+        round-off ``x`` carries (a located instant's state comes from a sum of large terms)."""
+        n = self.n
+        act = mode.active_index
+        rows = np.zeros((self.m + len(closed), n + act.size))
+        constants = np.zeros(self.m + len(closed))
+        signs = np.ones(self.m + len(closed))
+        for position, j in enumerate(act):
+            rows[j, n + position] = 1.0
+        inactive = np.flatnonzero(~mode.active)
+        rows[inactive, :n] = self.C[inactive]
+        rows[np.ix_(inactive, n + np.arange(act.size))] = self.D[np.ix_(inactive, act)]
+        constants[inactive] = self.e[inactive]
+        for index, (switch, control) in enumerate(zip(self.mlcs.switches, self.controls)):
+            r = self.m + index
+            rows[r, :n] = control
+            if closed[index]:
+                constants[r] = -switch.off_threshold
+            else:
+                signs[r], constants[r] = -1.0, switch.on_threshold
+        rows *= signs[:, None]
+        z = mode.solution(x, sources)
+        values = z.map(rows)
+        phi0 = np.abs(mode.forcing(sources)(0.0))
+        scale = (np.abs(rows @ mode.P) @ np.maximum(np.abs(x), x_size)
+                 + np.abs(rows @ mode.Q) @ phi0 + np.abs(constants))
+        functions = []
+        for k in range(rows.shape[0]):
+            g = (values.row(np.eye(rows.shape[0])[k])
+                 + ExpPoly.constant(np.array([constants[k]]))).merged()
+            kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
+            functions.append((kind, index, g, RELATIVE_TOL * float(scale[k]) + 1e-300))
+        return functions
+
+
+def _tolerance(g: ExpPoly) -> float:
+    """Round-off of a derivative of an event function: its terms' magnitudes at 0."""
+    return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
+
+
+def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, sources: ExpPoly,
+                x_size: np.ndarray) -> list[tuple[str, int]]:
+    """The functions that are negative at ``τ = 0``, or zero and decreasing (to the second
+    derivative): the mode cannot hold just after the instant."""
+    bad = []
+    for kind, index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
+        value = float(g(0.0)[0])
+        if value < -tol:
+            bad.append((kind, index))
+            continue
+        if value <= tol:
+            d1 = g.derivative()
+            slope = float(d1(0.0)[0])
+            if slope < -_tolerance(d1):
+                bad.append((kind, index))
+            elif abs(slope) <= _tolerance(d1):
+                d2 = d1.derivative()
+                if float(d2(0.0)[0]) < -_tolerance(d2):
+                    bad.append((kind, index))
+    return bad
+
+
+def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
+                sources: ExpPoly, x_size: np.ndarray) -> tuple[np.ndarray, tuple[bool, ...]]:
+    """A mode that holds just after the instant, starting from ``active``/``closed``: each
+    violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
+    enumerated."""
+    active = active.copy()
+    closed = tuple(closed)
+    seen = set()
+    for _ in range(MAX_MODE_CHANGES):
+        key = (tuple(active), closed)
+        if key in seen:
+            break
+        seen.add(key)
+        bad = _violations(system, system.mode(active, closed), closed, x, sources, x_size)
+        if not bad:
+            return active, closed
+        states = list(closed)
+        for kind, index in bad:
+            if kind == "pair":
+                active[index] = not active[index]
+            else:
+                states[index] = not states[index]
+        closed = tuple(states)
+    # the flipping cycled: enumerate the pairs it moved
+    candidates = sorted({j for key in seen for j in range(system.m) if key[0][j] != active[j]})
+    for flips in itertools.product((False, True), repeat=len(candidates)):
+        trial = active.copy()
+        for j, flip in zip(candidates, flips):
+            trial[j] ^= flip
+        if not _violations(system, system.mode(trial, closed), closed, x, sources, x_size):
+            return trial, closed
+    raise Chattering("no mode holds after this instant")
+
+
+def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
+              closed0: tuple[bool, ...]) -> ExactRun:
+    """Integrate exactly from ``y0`` at ``times[0] = 0`` to ``times[-1]``, writing a row at each
+    of ``times``."""
+    system = ExactSystem(mlcs)
+    stop = float(times[-1])
+    pieces = SourcePieces(mlcs.stimuli, stop)
+    n, m = system.n, system.m
+    Y = np.zeros((len(times), n))
+    L = np.zeros((len(times), m))
+    Y[0] = y0
+    row = 1
+    t = 0.0
+    active = np.asarray(active0, dtype=bool).copy()
+    closed = tuple(closed0)
+    x = system.coordinates.V1.T @ y0
+    x_size = np.abs(system.coordinates.V1.T) @ np.abs(y0)
+    events: list[ExactEvent] = []
+    segments = 0
+    while t < stop:
+        end = pieces.next_corner(t)
+        sources = pieces.piece(t, end)
+        new_active, new_closed = choose_mode(system, active, closed, x, sources, x_size)
+        for j in np.flatnonzero(new_active != active):
+            events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
+        for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
+            events.append(ExactEvent(t, mlcs.switches[k].name, "close" if new_closed[k] else "open"))
+        active, closed = new_active, new_closed
+        mode = system.mode(active, closed)
+        z = mode.solution(x, sources)
+        horizon = end - t
+        tau = horizon
+        for _kind, _index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
+            root = first_root(g, tau, tol, resolution=1e-13 * max(horizon, 1e-300))
+            if root is not None and root < tau:
+                tau = root
+        segments += 1
+        stop_at = t + tau
+        last = row
+        while last < len(times) and times[last] <= stop_at:
+            last += 1
+        if last > row:
+            local = times[row:last] - t
+            weights = local[:, None] ** z.powers[None, :] * np.exp(local[:, None] * z.exponents[None, :])
+            values = (weights @ z.coefficients).real
+            Y[row:last] = values[:, :n]
+            L[row:last][:, mode.active_index] = values[:, n:]
+            row = last
+        x = mode.state(z(tau)[:n])
+        x_size = np.abs(mode.V1t) @ z.magnitudes(tau)[:n]
+        t = stop_at if tau < horizon else end
+    return ExactRun(np.asarray(times, dtype=float), Y, L, events, segments)

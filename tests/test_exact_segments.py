@@ -1,0 +1,99 @@
+"""The closed-form pieces of the event-driven exact integrator (issue 31's first half:
+``circuitnsds/engine/exact/``), each against an independent reference: the solution of a
+linear system driven by exponential-polynomial sources against scipy's matrix exponential
+of the augmented system, the certified first-root search against a root known in closed
+form that a sampled search misses, and a whole run against the closed form of an
+RC-triggered switch."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+import circuitnsds
+from circuitnsds.analyses.operating_point import uic_state
+from circuitnsds.engine.exact.exppoly import ExpPoly, response
+from circuitnsds.engine.exact.roots import first_root
+from circuitnsds.engine.exact.run import run_exact
+
+
+def test_response_matches_the_matrix_exponential_of_the_augmented_system():
+    # x' = F x + b0 + b1 τ + bs sin(ωτ), x(0) = x0: augment [x; 1; τ; sin; cos]
+    rng = np.random.default_rng(7)
+    n, omega = 4, 2 * math.pi * 50.0
+    F = rng.normal(size=(n, n)) * 30 - 60 * np.eye(n)
+    x0, b0, b1, bs = (rng.normal(size=n) for _ in range(4))
+    eigenvalues, W = np.linalg.eig(F)
+    W_inv = np.linalg.inv(W)
+    nu = 1j * omega
+    # sin(ωτ) = (e^{iωτ} - e^{-iωτ}) / 2i
+    forcing = ExpPoly(np.array([b0, b1, bs / 2j, -bs / 2j], complex), np.array([0, 1, 0, 0]),
+                      np.array([0, 0, nu, -nu]))
+    x = response(eigenvalues, W_inv @ x0, forcing.map(W_inv)).map(W)
+    big = np.zeros((n + 4, n + 4))
+    big[:n, :n] = F
+    big[:n, n], big[:n, n + 1], big[:n, n + 2] = b0, b1, bs
+    big[n + 1, n] = 1.0                      # τ' = 1
+    big[n + 2, n + 3], big[n + 3, n + 2] = omega, -omega   # sin' = ω cos, cos' = -ω sin
+    start = np.concatenate([x0, [1.0, 0.0, 0.0, 1.0]])
+    for tau in (0.0, 1e-4, 3e-3, 0.02, 0.1):
+        reference = (expm(big * tau) @ start)[:n]
+        assert np.allclose(x(tau), reference, rtol=1e-9, atol=1e-12)
+
+
+def test_response_with_a_mode_resonant_with_its_forcing():
+    # x' = -a x + e^{-aτ}: x = (x0 + τ) e^{-aτ}
+    a = 250.0
+    forcing = ExpPoly(np.array([[1.0 + 0j]]), np.array([0]), np.array([-a + 0j]))
+    x = response(np.array([-a + 0j]), np.array([0.3]), forcing)
+    for tau in (0.0, 1e-3, 0.01):
+        assert x(tau)[0] == pytest.approx((0.3 + tau) * math.exp(-a * tau), rel=1e-13)
+
+
+def test_first_root_finds_a_narrow_early_dip_that_sampling_misses():
+    # g = 0.9999 + cos(2π 1 kHz τ) dips below 0 for ~4.5 µs around 0.5 ms, then every ms
+    f = 1e3
+    w = 2 * math.pi * f
+    g = ExpPoly(np.array([[0.9999], [0.5], [0.5]], complex), np.zeros(3, int),
+                np.array([0, 1j * w, -1j * w]))
+    samples = 3.7e-5 + 1e-4 * np.arange(100)   # every 0.1 ms: none within 37 µs of a dip
+    assert min(g(t)[0] for t in samples) > 0
+    root = first_root(g, 10e-3, tol=1e-14, resolution=1e-15)
+    exact = (math.pi - math.acos(0.9999)) / w
+    assert root == pytest.approx(exact, rel=1e-12)
+
+
+def test_first_root_none_when_the_function_stays_positive():
+    g = ExpPoly(np.array([[1.0], [-0.5]], complex), np.zeros(2, int), np.array([0, -1e4 + 0j]))
+    assert first_root(g, 1.0, tol=1e-14, resolution=1e-16) is None
+
+
+RC_SWITCH = """rc triggered switch
+V1 in 0 10
+R1 in c 1k
+C1 c 0 1u
+S1 out 0 c 0 sw
+V2 a 0 5
+R2 a out 1k
+.model sw SW(VT=5 RON=1 ROFF=1e9)
+.tran 10u 2m uic
+.end
+"""
+
+
+def test_an_rc_triggered_switch_closes_at_its_closed_form_instant():
+    circuit = circuitnsds.read_netlist(RC_SWITCH)
+    mlcs = circuit.mlcs()
+    state = uic_state(circuit, mlcs)
+    times = np.linspace(0, 2e-3, 201)
+    run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
+    tau = 1e-3  # R1·C1
+    (event,) = run.events
+    assert event.name == "s1" and event.kind == "close"
+    assert event.time == pytest.approx(tau * math.log(2), rel=1e-8)   # v(c) = 5 V
+    vc = run.y[:, mlcs.unknowns.index("v(c)")]
+    assert np.max(np.abs(vc - 10 * (1 - np.exp(-times / tau)))) < 1e-12
+    closed = times > event.time
+    vout = run.y[closed, mlcs.unknowns.index("v(out)")]
+    assert np.allclose(vout, 5 * 1 / (1 + 1e3) + 0 * vout, rtol=1e-6)  # 5 V · Ron/(Ron+R2), Roff aside
