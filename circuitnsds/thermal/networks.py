@@ -20,16 +20,22 @@ import numpy as np
 
 
 @dataclass(frozen=True)
-class FosterNetwork:
-    """Stages ``resistance[k]`` [K/W] with time constants ``tau[k]`` [s] (all positive)."""
+class ThermalNetwork:
+    """A thermal RC network by its stages' resistances ``resistance[k]`` [K/W]."""
 
     resistance: tuple[float, ...]
-    tau: tuple[float, ...]
 
     @property
     def total(self) -> float:
         """``Σ R_k`` [K/W]: the steady-state rise per watt."""
         return float(sum(self.resistance))
+
+
+@dataclass(frozen=True)
+class FosterNetwork(ThermalNetwork):
+    """Stages ``resistance[k]`` [K/W] with time constants ``tau[k]`` [s] (all positive)."""
+
+    tau: tuple[float, ...]
 
     def step(self, time: np.ndarray) -> np.ndarray:
         """The rise [K] at ``time`` [s] after a 1 W step applied at ``t = 0``."""
@@ -69,15 +75,10 @@ class FosterNetwork:
 
 
 @dataclass(frozen=True)
-class CauerNetwork:
+class CauerNetwork(ThermalNetwork):
     """A ladder of ``resistance[k]`` [K/W] and ``capacitance[k]`` [J/K], junction first."""
 
-    resistance: tuple[float, ...]
     capacitance: tuple[float, ...]
-
-    @property
-    def total(self) -> float:
-        return float(sum(self.resistance))
 
 
 def cauer_to_foster(network: CauerNetwork) -> FosterNetwork:

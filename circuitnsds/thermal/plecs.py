@@ -23,6 +23,7 @@ after ``scale`` (vendors write mJ with ``scale="0.001"``); temperatures in °C.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
@@ -187,7 +188,8 @@ class _Reader:
         where = f"{self.path}:{node.line}"
         if method == "formula" and node.find("Energy") is None:
             empty = np.zeros(1)
-            return EnergyTable(empty, empty, empty, np.zeros((1, 1, 1)), method, formula, where)
+            return EnergyTable(empty, empty, empty, np.zeros((1, 1, 1)), method=method, formula=formula,
+                               where=where)
         self.check_children(node, {"ComputationMethod", "Formula", "CurrentAxis", "VoltageAxis",
                                    "TemperatureAxis", "Energy"})
         current, voltage = self.axis(node, "CurrentAxis"), self.axis(node, "VoltageAxis")
@@ -211,14 +213,15 @@ class _Reader:
                     raise self.error(row, f"<Voltage> has {values.size} values for "
                                      f"{current.size} currents")
                 table[t, v] = values
-        return EnergyTable(current, voltage, temperature, table * self.scale(energy_node), method,
-                           formula, where)
+        return EnergyTable(current, voltage, temperature, table * self.scale(energy_node),
+                           method=method, formula=formula, where=where)
 
     def conduction(self, node: Node) -> ConductionTable:
         method, formula = self.method(node)
         where = f"{self.path}:{node.line}"
         if method == "formula" and node.find("VoltageDrop") is None:
-            return ConductionTable(np.zeros(1), np.zeros(1), np.zeros((1, 1)), method, formula, where)
+            return ConductionTable(np.zeros(1), np.zeros(1), np.zeros((1, 1)), method=method,
+                                   formula=formula, where=where)
         self.check_children(node, {"ComputationMethod", "Formula", "CurrentAxis",
                                    "TemperatureAxis", "VoltageDrop"})
         current, temperature = self.axis(node, "CurrentAxis"), self.axis(node, "TemperatureAxis")
@@ -236,8 +239,8 @@ class _Reader:
                 raise self.error(row, f"<Temperature> has {values.size} values for "
                                  f"{current.size} currents")
             table[t] = values
-        return ConductionTable(current, temperature, table * self.scale(drop_node), method,
-                               formula, where)
+        return ConductionTable(current, temperature, table * self.scale(drop_node),
+                               method=method, formula=formula, where=where)
 
     def network(self, node: Node) -> FosterNetwork | CauerNetwork:
         branches = node.all("Branch")
@@ -299,12 +302,12 @@ class _Reader:
             None if thermal is None else self.network(thermal))
 
 
+NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*")
+"""A number as the XML writes it (no SPICE suffixes: ``1k`` is not one)."""
+
+
 def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return NUMBER.fullmatch(text) is not None
 
 
 def read_thermal_description(path: str | Path) -> DeviceData:

@@ -80,26 +80,37 @@ class Clamps:
                          f"{units[axis]}" for axis, count in self.counts.items())
 
 
+@dataclass(kw_only=True)
+class TableMethod:
+    """How a table gives its value (the XML's ``method``; keyword fields of every table).
+
+    Attributes:
+        method: ``table``, ``formula`` or ``table and formula`` (see the module docstring).
+        formula: the expression, for the formula methods.
+        where: ``file:line`` of the element, for messages.
+        clamps: the lookups that fell outside the table's axes.
+    """
+
+    method: str = "table"
+    formula: str = ""
+    where: str = ""
+    clamps: Clamps = field(default_factory=Clamps)
+
+
 @dataclass
-class EnergyTable:
+class EnergyTable(TableMethod):
     """``<TurnOnLoss>`` or ``<TurnOffLoss>``: energy [J] per event.
 
     Attributes:
         current, voltage, temperature: the axes [A], [V], [°C], increasing.
         energy: ``energy[t, v, i]`` [J] (the XML's ``scale`` applied).
-        method: ``table``, ``formula`` or ``table and formula`` (see the module docstring).
-        formula: the expression, for the formula methods.
-        where: ``file:line`` of the element, for messages.
+        method, formula, where, clamps: see :class:`TableMethod`.
     """
 
     current: np.ndarray
     voltage: np.ndarray
     temperature: np.ndarray
     energy: np.ndarray
-    method: str = "table"
-    formula: str = ""
-    where: str = ""
-    clamps: Clamps = field(default_factory=Clamps)
 
     def table_value(self, current: float, voltage: float, temperature: float) -> float:
         """Trilinear interpolation of the table at ``(i, v, T)``, clamped to its range."""
@@ -129,7 +140,7 @@ class EnergyTable:
 
 
 @dataclass
-class ConductionTable:
+class ConductionTable(TableMethod):
     """``<ConductionLoss>``: on-state voltage ``v(i, Tj)`` [V].
 
     Attributes:
@@ -142,10 +153,6 @@ class ConductionTable:
     current: np.ndarray
     temperature: np.ndarray
     drop: np.ndarray
-    method: str = "table"
-    formula: str = ""
-    where: str = ""
-    clamps: Clamps = field(default_factory=Clamps)
 
     def table_values(self, current: np.ndarray, temperature: np.ndarray | float) -> np.ndarray:
         """The drop [V] at each current [A] and temperature [°C] (one, or one per current),
