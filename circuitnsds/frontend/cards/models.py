@@ -201,15 +201,29 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
     return fitted
 
 
+LTSPICE_SWITCH_PARAMETERS = {
+    "lser": "Lser: series inductance", "vser": "Vser: series voltage drop when on",
+    "ilimit": "Ilimit: current limit when on", "level": "Level: smooth transition",
+    "oneway": "Oneway: diode-like conduction", "epsilon": "Epsilon: smooth transition width",
+}
+"""Switch-model parameters of LTspice that ngspice 39 ignores with a warning; so does circuitnsds."""
+
+
 def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
                   off_resistance: float) -> SwitchModel:
     current = kind == "csw"
     threshold_key, hysteresis_key = ("it", "ih") if current else ("vt", "vh")
     known = {threshold_key, hysteresis_key, "ron", "roff"}
     for key in params:
-        if key not in known:
+        if key not in known and key not in LTSPICE_SWITCH_PARAMETERS:
             raise reader.error(f".model {name} {kind.upper()}: unknown parameter {key!r}",
                                hint=f"{kind.upper()} models take {', '.join(sorted(known))}")
+    ignored = [key for key in params if key in LTSPICE_SWITCH_PARAMETERS]
+    if ignored:
+        reader.warn(f".model {name} {kind.upper()}: {', '.join(ignored)} ignored (LTspice's "
+                    + "; ".join(LTSPICE_SWITCH_PARAMETERS[key] for key in ignored) + "; ngspice "
+                    "ignores them too): the ideal switch has only RON, ROFF and its threshold; "
+                    "write a series L, V or D beside the switch for what they stand for")
     on_resistance = params.get("ron", 1.0)
     off = params.get("roff", off_resistance)
     if on_resistance < 0:
