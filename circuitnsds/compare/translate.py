@@ -218,10 +218,16 @@ def _translate_lines(lines: list[str], context: _Context) -> list[str]:
         keyword = logical.split()[0].lower() if logical.split() else ""
         if in_control:
             in_control = keyword != ".endc"
+            if keyword == "tran":  # the script's analysis, which circuitnsds runs too
+                translation.has_tran = True
+                out.append(_tran("." + logical, step, stop))
+            elif keyword in {"meas", "measure"} and translation.measures:
+                out.append("." + logical)
             continue
         if keyword == ".control":
             in_control = True
-            translation.notes.append(f"{name}: .control block removed")
+            translation.notes.append(f"{name}: .control block removed (its tran and meas lines "
+                                     "kept as .tran and .meas)")
             continue
         if keyword == ".end":
             break

@@ -51,8 +51,12 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     """
     circuit = Circuit(title=netlist.title, file=netlist.file, included=list(netlist.included))
     for block in netlist.control_blocks:
-        warn_at(block.location, ".control ... .endc block skipped (ngspice scripting is not run "
-                f"by circuitnsds): {', '.join(block.commands) or 'empty'}")
+        if block.commands:
+            skipped = ", ".join(f"{word} (line {line})" for word, line in zip(block.commands, block.lines))
+            taken = (f"; its {', '.join(dict.fromkeys(block.taken))} read as dot commands"
+                     if block.taken else "")
+            warn_at(block.location, f".control script: {skipped} not executed (circuitnsds runs "
+                    f"the analyses, .meas and .save of a script, no other command){taken}")
     statements = netlist.statements
     for statement in statements:
         if statement.keyword in commands.OPTION_KEYWORDS:
@@ -62,10 +66,20 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     diodes = DiodeReading(ideal=circuit.options.get("diode") == "ideal",
                           fit_current=None if circuit.options.get("pwlfit") == "auto"
                           else circuit.options.get("pwlfit"))
+    element_tokens = {token for s in statements if not s.is_command for token in s.tokens[1:]}
     for statement in statements:
         if statement.keyword == ".model":
             reader = StatementReader(statement)
-            name, model = read_model(reader, off_resistance, diodes)
+            try:
+                name, model = read_model(reader, off_resistance, diodes)
+            except NetlistError as error:
+                used = len(statement.tokens) < 2 or statement.tokens[1] in element_tokens
+                if used or statement.location.file == netlist.file:
+                    raise
+                warn_at(statement.location, f"unused .model {statement.tokens[1]} of an included "
+                        f"library left out ({error.message}); ngspice reads a model only when an "
+                        "element uses it")
+                continue
             if name in circuit.models:
                 raise reader.error(f".model {name} is defined twice",
                                    hint=f"the first is at {circuit.model_locations[name]}")

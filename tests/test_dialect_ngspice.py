@@ -1,0 +1,84 @@
+"""Issue 32: netlists as people write them, each construct read by circuitnsds and by ngspice
+39 from the same text (marker ``ngspice``): the same waveforms, or both refusing."""
+
+import warnings
+
+import pytest
+
+import circuitnsds
+from circuitnsds.compare import compare
+from circuitnsds.errors import NetlistWarning
+
+pytestmark = pytest.mark.ngspice
+
+RC_PULSE = "V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out 1k\nC1 out 0 1u\n"
+
+
+def quiet_compare(text, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return compare(text, **kwargs)
+
+
+def agreement(comparison, signal):
+    assert comparison.run.ok, comparison.table()
+    return comparison.run.metrics[signal].nrms
+
+
+def test_analysis_and_meas_inside_control_are_run_as_ngspice_runs_them():
+    # Qucs-S writes the analysis only inside .control; before, circuitnsds said "no .tran line"
+    text = ("rc\n" + RC_PULSE + ".control\nset noaskquit\ntran 10u 3m\nmeas tran vmax MAX v(out)\n"
+            "let x = v(out)*2\nplot v(out)\n.endc\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"<text>:5: \.control script: set \(line 6\), let \(line 9\), "
+                      r"plot \(line 10\) not executed .*tran, meas read as dot commands"):
+        circuit = circuitnsds.read_netlist(text)
+    assert circuit.analyses["tran"].stop == pytest.approx(3e-3)
+    comparison = quiet_compare(text)
+    assert agreement(comparison, "v(out)") < 0.005
+    ours, theirs = comparison.run.measurements["vmax"]
+    assert ours == pytest.approx(theirs, rel=5e-3)
+
+
+def test_gnd_port_is_global_ground_inside_as_in_ngspice():
+    # ngspice 39: a port named gnd stays ground inside; the instance's node there is left unconnected
+    text = (".subckt rc a gnd\nR1 a b 1k\nC1 b gnd 1u\n.ends\n" "V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\n"
+            "X1 in 0 rc\nX2 in n2 rc\nR2 n2 n3 1k\nR3 n3 0 1k\n.tran 10u 3m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"x2: port 'gnd' of \.subckt rc is ground inside it .*'n2' "
+                      "is not connected"):
+        circuitnsds.read_netlist("gnd port\n" + text)
+    comparison = quiet_compare("gnd port\n" + text)
+    assert agreement(comparison, "v(x2.b)") < 0.005
+    assert comparison.run.metrics["v(n2)"].mean_other == pytest.approx(0, abs=1e-9)
+    assert comparison.run.metrics["v(n2)"].mean_ref == pytest.approx(0, abs=1e-9)
+
+
+@pytest.mark.parametrize("closing", [")", "+ )"])
+def test_lone_closing_parenthesis_ends_a_multiline_model(closing):
+    text = ("paren\nV1 in 0 SIN(0 5 1k)\nD1 in out dmod\nR1 out 0 1k\n"
+            f".model dmod D (\n+ IS=1e-14\n+ N=0.05\n{closing}\n.tran 10u 2m\n.end\n")
+    assert agreement(quiet_compare(text), "v(out)") < 0.01
+
+
+def test_ltspice_switch_parameters_are_ignored_with_a_warning_as_ngspice_does():
+    text = ("sw\nV1 in 0 10\nV2 c 0 PULSE(0 5 0 1u 1u 1m 2m)\nS1 in out c 0 smod\nR1 out 0 10\n"
+            ".model smod SW(Ron=0.1 Roff=1meg Vt=2.5 Vh=0.1 Lser=1n Vser=0.2)\n.tran 1u 3m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"<text>:6: \.model smod SW: lser, vser ignored"):
+        circuitnsds.read_netlist(text)
+    comparison = quiet_compare(text)
+    assert agreement(comparison, "v(out)") < 0.03  # the edges fall between ngspice's points
+    out = comparison.run.metrics["v(out)"]
+    assert out.mean_other == pytest.approx(out.mean_ref, rel=0.01)  # 0.2 V Vser would move it 2 %
+
+
+def test_broken_unused_model_of_an_included_library_is_a_warning_as_in_ngspice(tmp_path):
+    (tmp_path / "vendor.lib").write_text(".model dgood D(IS=1e-14 N=0.05)\n.model dbad D(IS=1e-14 N=)\n")
+    netlist = tmp_path / "uses.cir"
+    netlist.write_text("uses\n.include vendor.lib\nV1 in 0 SIN(0 5 1k)\nD1 in out dgood\nR1 out 0 1k\n"
+                       ".tran 10u 2m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"vendor.lib:2: unused \.model dbad of an included library "
+                      r"left out \(\.model: missing value of n\)"):
+        circuitnsds.read_netlist(netlist)
+    assert agreement(quiet_compare(netlist), "v(out)") < 0.01
+    netlist.write_text(netlist.read_text().replace("dgood\nR1", "dbad\nR1"))
+    with pytest.raises(circuitnsds.NetlistError, match="vendor.lib:2: .model: missing value of n"):
+        circuitnsds.read_netlist(netlist)
