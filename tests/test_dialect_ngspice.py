@@ -82,3 +82,30 @@ def test_broken_unused_model_of_an_included_library_is_a_warning_as_in_ngspice(t
     netlist.write_text(netlist.read_text().replace("dgood\nR1", "dbad\nR1"))
     with pytest.raises(circuitnsds.NetlistError, match="vendor.lib:2: .model: missing value of n"):
         circuitnsds.read_netlist(netlist)
+
+
+TIME_RESISTORS = """time resistor forms
+.param rlow=1k
+V1 in 0 10
+R1 in o1 R = (time<1m ? rlow : 2k)
+R2 o1 0 1k
+R3 in o2 'time<1m ? 1k : 2k'
+R4 o2 0 1k
+.subckt tr a b params: r1=1 r2=2
+R1 a b {time >= 1.5m ? r1 : r2}
+.ends
+X1 in o3 tr r1=1k r2=3k
+R6 o3 0 1k
+.tran 10u 2m
+.end
+"""
+
+
+@pytest.mark.parametrize("window", [(0, 0.99e-3), (1.01e-3, 1.49e-3), (1.51e-3, 2e-3)])
+def test_resistors_stepping_in_time_agree_with_ngspice_between_the_corners(window):
+    # the three forms of issue 32 (parenthesised, quoted, braced in a subcircuit); before:
+    # "'(' is not a number" and "undefined parameter 'time'". At a corner itself circuitnsds
+    # shows the value before the step (its corners are left-continuous), ngspice the one after.
+    comparison = quiet_compare(TIME_RESISTORS, window=window)
+    for signal in ("v(o1)", "v(o2)", "v(o3)", "i(v1)"):
+        assert agreement(comparison, signal) < 1e-9, signal

@@ -138,6 +138,10 @@ def _element(statement: Statement, models: dict[str, object],
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
         raise reader.error(f"{statement.keyword}: not an element name",
                            hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
+    if letter in "rclvi" and statement.tokens[3:4] and statement.tokens[3].startswith("{"):
+        from circuitnsds.frontend.cards.time_values import time_valued_element  # only then
+
+        return time_valued_element(reader, letter)
     if letter in "rcl":
         return devices.passive(reader, letter, models)
     if letter in "vi":

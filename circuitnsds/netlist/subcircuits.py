@@ -71,8 +71,17 @@ def _mosfet_nodes(tokens: list[str]) -> int:
     return 4 if words >= 5 else 3
 
 
+_TIME_VALUED = frozenset("rclvi")  # (netlist.behavioural.TIME_VALUED_LETTERS, not imported here)
+
+
 def _behavioural(statement: Statement) -> bool:
     letter = element_letter(statement.keyword)
+    if letter in _TIME_VALUED:
+        if not any("time" in token for token in statement.tokens[3:]):
+            return False
+        from circuitnsds.netlist.behavioural import is_time_valued  # only for such lines
+
+        return is_time_valued(letter, statement.tokens)
     return letter == "b" or (letter in {"e", "f", "g", "h"}
                              and not _BEHAVIOURAL_KEYWORDS.isdisjoint(statement.tokens))
 
@@ -82,8 +91,13 @@ def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, .
     nodes and elements renamed (:func:`circuitnsds.netlist.behavioural.flat_tokens`)."""
     from circuitnsds.netlist.behavioural import flat_tokens  # only for a netlist with such lines
 
+    letter = element_letter(statement.keyword)
     try:
-        return flat_tokens(element_letter(statement.keyword), statement.text, node=context.node,
+        if letter in _TIME_VALUED:
+            from circuitnsds.netlist.behavioural import time_valued_tokens
+
+            return time_valued_tokens(statement.text, node=context.node, lookup=context.scope.lookup)
+        return flat_tokens(letter, statement.text, node=context.node,
                            element=context.element, lookup=context.scope.lookup)
     except ExpressionError as exc:
         where = f" (in instance {context.path})" if context.path else ""

@@ -1,0 +1,60 @@
+"""Element values written as expressions of time (issue 32): exact steps for R, V and I,
+clear refusals for what varies continuously and for C and L."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import circuitnsds
+from circuitnsds.errors import NetlistError
+
+
+def run(body, stop="3m", step="10u"):
+    circuit = circuitnsds.read_netlist(f"t\n{body}\n.tran {step} {stop}\n.end\n")
+    return circuit.transient()
+
+
+def test_voltage_source_stepping_in_time_charges_an_rc_as_the_analytic_solution():
+    result = run("V1 in 0 {time < 1m ? 0 : 5}\nR1 in out 1k\nC1 out 0 1u", step="1u")
+    t, v = result["time"], result["v(out)"]
+    after = t >= 1e-3
+    assert np.all(v[~after] == 0)
+    expected = 5 * (1 - np.exp(-(t[after] - 1e-3) / 1e-3))
+    assert np.max(np.abs(v[after] - expected)) < 5 * 1e-3 / 2 * 1.0  # implicit Euler, h = 1 µs
+
+
+def test_current_source_window_of_time():
+    result = run("I1 0 out {(time > 0.5m && time < 1.5m) ? 1m : 0}\nR1 out 0 1k")
+    t, v = result["time"], result["v(out)"]
+    inside = (t > 0.5e-3) & (t <= 1.5e-3)
+    assert np.allclose(v[inside], 1.0) and np.allclose(v[~inside], 0.0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(0.1, 2.9), min_size=1, max_size=3, unique=True),
+       st.lists(st.sampled_from([1.0, 2.0, 5.0, 10.0]), min_size=4, max_size=4))
+def test_a_resistor_of_nested_conditions_on_time_has_its_value_between_every_corner(corners, values):
+    corners = sorted(round(c, 2) for c in corners)
+    corners = sorted(set(corners))
+    expression = str(values[len(corners)])
+    for corner, value in reversed(list(zip(corners, values))):
+        expression = f"time < {corner}m ? {value} : ({expression})"
+    result = run(f"V1 a 0 1\nR1 a 0 {{{expression}}}", step="10u")
+    t, current = result["time"], result["i(r1)"]
+    edges = [0.0] + [c * 1e-3 for c in corners] + [np.inf]
+    for k, (low, high) in enumerate(zip(edges, edges[1:])):
+        inside = (t > low * (1 + 1e-9)) & (t < high)  # (at a corner: the value before it)
+        assert np.allclose(current[inside], 1 / values[k]), (expression, k)
+
+
+@pytest.mark.parametrize(("line", "pattern"), [
+    ("R1 a 0 {1+time*1k}", r"r1: resistance \{.*\} varies continuously with time: not supported"),
+    ("R1 a 0 {time<1m ? 1k : 0}", r"r1: resistance .* takes the value 0; it must be positive"),
+    ("C1 a 0 {time<1m ? 1u : 2u}", r"c1: a capacitance that depends on time .* is not supported"),
+    ("R1 a 0 {time<1m ? 1k : 2k} tc1=1", r"r1: unexpected 'tc1=1' after the value"),
+])
+def test_what_is_not_a_step_in_time_is_refused_with_what_to_write(line, pattern):
+    with pytest.raises(NetlistError, match=pattern) as error:
+        run(f"V1 a 0 1\n{line}")
+    assert error.value.hint
