@@ -3,6 +3,7 @@
 
 import warnings
 
+import numpy as np
 import pytest
 
 import circuitnsds
@@ -109,3 +110,39 @@ def test_resistors_stepping_in_time_agree_with_ngspice_between_the_corners(windo
     comparison = quiet_compare(TIME_RESISTORS, window=window)
     for signal in ("v(o1)", "v(o2)", "v(o3)", "i(v1)"):
         assert agreement(comparison, signal) < 1e-9, signal
+
+
+LTSPICE_PARASITICS = """ltspice parasitics
+V1 in 0 PULSE(0 1 0 1u 1u 1m 2m) Rser=1 Cpar=0
+L1 in out 1m Rser=0.1 Cpar=1n Rpar=10k
+C1 out 0 1u Rser=0.01 Lser=1n
+R1 out 0 10
+.tran 1u 3m
+.end
+"""
+WRITTEN_OUT = """ltspice parasitics written as elements (ngspice's names start with the type letter)
+V1 v1.1 0 PULSE(0 1 0 1u 1u 1m 2m)
+Rv1ser in v1.1 1
+L1 l1.1 out 1m
+Rl1ser in l1.1 0.1
+Rl1par in out 10k
+Cl1par in out 1n
+C1 c1.2 0 1u
+Rc1ser out c1.1 0.01
+Lc1ser c1.1 c1.2 1n
+R1 out 0 10
+.tran 1u 3m
+.end
+"""
+
+
+def test_ltspice_parasitics_are_the_elements_they_stand_for_as_ngspice_runs_them_written_out():
+    # ngspice 39 refuses Rser= on a V line; LTspice users write it. circuitnsds reads each as
+    # the element it stands for; ngspice runs those elements written out, and agrees.
+    refused = quiet_compare(LTSPICE_PARASITICS)
+    assert not refused.run.ok and "rser" in refused.run.ngspice.message.lower()
+    ours = circuitnsds.read_netlist(LTSPICE_PARASITICS).transient()
+    theirs = quiet_compare(WRITTEN_OUT).run.resampled
+    for signal in ("v(out)", "i(l1)", "i(v1)", "v(c1.2)"):
+        scale = np.ptp(ours[signal])
+        assert np.sqrt(np.nanmean((ours[signal] - theirs[signal]) ** 2)) < 0.01 * scale, signal

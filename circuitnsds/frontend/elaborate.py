@@ -22,7 +22,7 @@ from circuitnsds.circuit.elements import (
 )
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import commands, devices, sources
+from circuitnsds.frontend.cards import commands, devices, parasitics, sources
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
@@ -138,6 +138,10 @@ def _element(statement: Statement, models: dict[str, object],
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
         raise reader.error(f"{statement.keyword}: not an element name",
                            hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
+    if parasitics.has_parasitics(statement, letter):
+        made = [_element(part, models, voltage_sources)
+                for part in parasitics.split_parasitics(statement, letter)]
+        return [element for part in made for element in (part if isinstance(part, list) else [part])]
     if letter in "rclvi" and statement.tokens[3:4] and statement.tokens[3].startswith("{"):
         from circuitnsds.frontend.cards.time_values import time_valued_element  # only then
 

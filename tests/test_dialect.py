@@ -1,5 +1,5 @@
-"""Element values written as expressions of time (issue 32): exact steps for R, V and I,
-clear refusals for what varies continuously and for C and L."""
+"""Issue 32, the dialect people write: element values that step in time (exact for R, V, I;
+clear refusals for what varies continuously and for C, L) and LTspice's parasitics."""
 
 import numpy as np
 import pytest
@@ -58,3 +58,19 @@ def test_what_is_not_a_step_in_time_is_refused_with_what_to_write(line, pattern)
     with pytest.raises(NetlistError, match=pattern) as error:
         run(f"V1 a 0 1\n{line}")
     assert error.value.hint
+
+
+@pytest.mark.parametrize(("line", "pattern"), [
+    ("V1 a 0 1 Rpar=1", r"v1: Rpar= is not a parasitic of a voltage source \(LTspice gives it Rser, Cpar\)"),
+    ("I1 a 0 1 Rser=1", r"i1: Rser= is not a parasitic of a current source \(LTspice gives it none\)"),
+])
+def test_a_parasitic_ltspice_does_not_give_the_element_is_refused(line, pattern):
+    with pytest.raises(NetlistError, match=pattern):
+        run(f"{line}\nR1 a 0 1")
+
+
+def test_source_series_resistance_divides_as_the_resistors_it_stands_for():
+    # V1 = 1 V with Rser = 1 Ω into 3 Ω: 0.75 V; Cpar=0 and Rser=0 mean none, as in LTspice
+    result = run("V1 a 0 1 Rser=1 Cpar=0\nR1 a 0 3\nV2 b 0 2 Rser=0\nR2 b 0 1", stop="10u", step="1u")
+    assert np.allclose(result["v(a)"], 0.75) and np.allclose(result["i(v1)"], -0.25)
+    assert np.allclose(result["v(b)"], 2.0)
