@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import circuitnsds
-from circuitnsds.errors import NetlistError
+from circuitnsds.errors import NetlistError, NetlistWarning
 
 
 def run(body, stop="3m", step="10u"):
@@ -74,3 +74,34 @@ def test_source_series_resistance_divides_as_the_resistors_it_stands_for():
     result = run("V1 a 0 1 Rser=1 Cpar=0\nR1 a 0 3\nV2 b 0 2 Rser=0\nR2 b 0 1", stop="10u", step="1u")
     assert np.allclose(result["v(a)"], 0.75) and np.allclose(result["i(v1)"], -0.25)
     assert np.allclose(result["v(b)"], 2.0)
+
+
+def test_unquoted_library_path_with_spaces_is_read_with_a_warning(tmp_path):
+    (tmp_path / "my models").mkdir()
+    (tmp_path / "my models" / "d lib.lib").write_text(".lib fast\n.model dx D(Ron=1 Vfwd=0.5)\n.endl\n")
+    netlist = tmp_path / "t.cir"
+    netlist.write_text("t\n.lib my models/d lib.lib fast\nV1 a 0 1\nD1 a 0 dx\n.tran 1u 10u\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"t.cir:2: \.lib: the unquoted path 'my models/d lib.lib' "
+                      r".* quotes"):
+        result = circuitnsds.read_netlist(netlist).transient()
+    assert np.allclose(result["i(d1)"], 0.5)  # (1 V - 0.5 V) / 1 Ω
+    netlist.write_text("t\n.lib my models/other lib.lib fast\n.end\n")
+    with pytest.raises(NetlistError, match=r"\.lib takes a file and a section name, got 4 words"):
+        circuitnsds.read_netlist(netlist)
+
+
+@pytest.mark.parametrize(("options", "pattern"), [
+    ("r=0.5m", r"PWL r=0.0005 must be one of its times before the last \(0, 0.001\)"),
+    ("r=2m", r"PWL r=0.002 must be one of its times before the last"),
+    ("td=-1m", r"PWL td=-0.001 must not be negative"),
+])
+def test_pwl_repeat_and_delay_are_checked(options, pattern):
+    with pytest.raises(NetlistError, match=pattern):
+        run(f"V1 a 0 PWL(0 0 1m 1 2m 0) {options}\nR1 a 0 1")
+
+
+def test_pwl_repeat_writes_the_repetitions_out_to_the_stop_time():
+    result = run("V1 a 0 PWL(0 0 1m 1 2m 0) r=0 td=0.5m\nR1 a 0 1", stop="7m", step="50u")
+    t, v = result["time"], result["v(a)"]
+    expected = np.interp((t - 0.5e-3) % 2e-3, [0, 1e-3, 2e-3], [0, 1, 0]) * (t >= 0.5e-3)
+    assert np.allclose(v, expected, atol=1e-12)

@@ -146,3 +146,50 @@ def test_ltspice_parasitics_are_the_elements_they_stand_for_as_ngspice_runs_them
     for signal in ("v(out)", "i(l1)", "i(v1)", "v(c1.2)"):
         scale = np.ptp(ours[signal])
         assert np.sqrt(np.nanmean((ours[signal] - theirs[signal]) ** 2)) < 0.01 * scale, signal
+
+
+def test_pspice_and_ngspice_spellings_agree_with_ngspice(tmp_path):
+    # SINE(, PWL r= td=, .save V(*) I(*), .meas PARAM= and a quoted include path with a space
+    # (before: "unexpected sine", "unexpected r", "unknown signal v(*)", PARAM refused the run);
+    # the PWL is continuous where it repeats: ngspice smears a vertical jump over its own step
+    (tmp_path / "my models").mkdir()
+    (tmp_path / "my models" / "diode lib.lib").write_text(".model dsp D(IS=1e-14 N=0.05)\n")
+    netlist = tmp_path / "spellings.cir"
+    netlist.write_text("""spellings
+.include "my models/diode lib.lib"
+V1 in 0 SINE(0 5 1k)
+D1 in b dsp
+R1 b 0 1k
+V2 c 0 PWL(0 0 0.25m 5 0.5m 0) r=0
+R2 c 0 1k
+V3 d 0 PWL(0 0 1m 1 1.5m 0.5 2m 1) r=1m td=0.3m
+R3 d 0 1k
+.save V(*) I(*)
+.meas tran vavg AVG v(b)
+.meas tran twice PARAM='vavg*2'
+.tran 10u 5m
+.end
+""")
+    comparison = quiet_compare(netlist)
+    for signal in ("v(b)", "v(c)", "v(d)"):
+        assert agreement(comparison, signal) < 0.005, signal
+    for name in ("vavg", "twice"):
+        ours, theirs = comparison.run.measurements[name]
+        assert ours == pytest.approx(theirs, rel=5e-3), name
+
+
+def test_pspice_vswitch_is_the_ideal_switch_at_the_middle_of_its_transition():
+    # ngspice 39 refuses VSWITCH; circuitnsds reads it as SW(VT=(VON+VOFF)/2, VH=0), which
+    # ngspice runs written out
+    body = ("V1 in 0 10\nV2 c 0 PULSE(0 5 0 1m 1m 0.5m 3m)\nS1 in out c 0 sv\nR1 out 0 10\n"
+            ".tran 1u 6m\n")
+    pspice = "vswitch\n" + body + ".model sv VSWITCH(Ron=0.1 Roff=1meg Von=3 Voff=2)\n.end\n"
+    refused = quiet_compare(pspice)
+    assert not refused.run.ok
+    with pytest.warns(NetlistWarning, match=r"\.model sv VSWITCH .* read as the ideal switch "
+                      r"SW\(VT=2.5 VH=0\)"):
+        ours = circuitnsds.read_netlist(pspice).transient()
+    theirs = quiet_compare("sw\n" + body + ".model sv SW(Ron=0.1 Roff=1meg Vt=2.5)\n.end\n").run.resampled
+    scale = np.ptp(ours["v(out)"])  # (the edges fall between ngspice's points: 1.5 % of RMS)
+    assert np.sqrt(np.nanmean((ours["v(out)"] - theirs["v(out)"]) ** 2)) < 0.03 * scale
+    assert np.mean(ours["v(out)"]) == pytest.approx(np.nanmean(theirs["v(out)"]), rel=0.005)

@@ -34,6 +34,7 @@ DEFAULT_RESISTOR_LENGTH = 10e-6
 """ngspice's ``DEFL`` [m]."""
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
+               "vswitch": "voltage-controlled switch", "iswitch": "current-controlled switch",
                "r": "resistor", "res": "resistor", **MOS_KINDS}
 
 
@@ -129,6 +130,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         params[key] = reader.number(key, text)
     if kind == "d":
         return name, _diode_model(name, params, reader, off_resistance, diodes)
+    if kind in PSPICE_SWITCHES:
+        kind, params = _pspice_switch(name, kind, params, reader)
     if kind in {"sw", "csw"}:
         return name, _switch_model(name, kind, params, reader, off_resistance)
     return name, _resistor_model(name, params, reader)
@@ -199,6 +202,43 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
         fitted = replace(fitted, origin=fitted.origin + f"; {', '.join(dynamic)} ignored (junction "
                          "capacitance and transit time are outside the ideal model)")
     return fitted
+
+
+PSPICE_SWITCHES = {
+    "vswitch": ("sw", "v", {"von": 1.0, "voff": 0.0}),
+    "iswitch": ("csw", "i", {"ion": 1e-3, "ioff": 0.0}),
+}
+"""PSpice's switch models -> (the SW/CSW kind, the control's letter, PSpice's defaults of ON/OFF)."""
+
+
+def _pspice_switch(name: str, kind: str, params: dict[str, float],
+                   reader: StatementReader) -> tuple[str, dict[str, float]]:
+    """A PSpice ``VSWITCH(RON ROFF VON VOFF)`` (``ISWITCH``: ``ION IOFF``) as the ideal switch
+    at the middle of its transition, ``VT = (VON + VOFF)/2``, ``VH = 0``: PSpice's resistance
+    moves smoothly (log-linearly) from ``ROFF`` at ``VOFF`` to ``RON`` at ``VON``, which the
+    ideal switch does at one threshold. PSpice's ``ROFF`` default 1 MΩ is kept."""
+    sw_kind, letter, defaults = PSPICE_SWITCHES[kind]
+    on = params.pop(f"{letter}on", defaults[f"{letter}on"])
+    off = params.pop(f"{letter}off", defaults[f"{letter}off"])
+    for key in (f"{letter}t", f"{letter}h"):
+        if key in params:
+            raise reader.error(f".model {name} {kind.upper()}: {key.upper()} is not a PSpice {kind.upper()} "
+                               f"parameter", hint=f"write {letter.upper()}ON and {letter.upper()}OFF, or "
+                               f"a {sw_kind.upper()} model with {letter.upper()}T and {letter.upper()}H")
+    if on == off:
+        raise reader.error(f".model {name} {kind.upper()}: {letter.upper()}ON = {letter.upper()}OFF "
+                           f"= {on:g}: no transition", hint=f"give {letter.upper()}ON and "
+                           f"{letter.upper()}OFF different values")
+    if on < off:  # closed below the threshold: ngspice's SW cannot say so
+        raise reader.error(f".model {name} {kind.upper()}: {letter.upper()}ON < {letter.upper()}OFF "
+                           "(a switch closed by a low control) is not supported",
+                           hint="swap the control's nodes (S n+ n- nc- nc+) and the values")
+    threshold = (on + off) / 2
+    reader.warn(f".model {name} {kind.upper()} (PSpice; ngspice 39 does not read it) is read as the "
+                f"ideal switch {sw_kind.upper()}({letter.upper()}T={threshold:g} {letter.upper()}H=0): "
+                f"PSpice's smooth change of resistance between {letter.upper()}OFF={off:g} and "
+                f"{letter.upper()}ON={on:g} becomes one step at their middle")
+    return sw_kind, {**params, f"{letter}t": threshold, "roff": params.get("roff", 1e6)}
 
 
 LTSPICE_SWITCH_PARAMETERS = {
