@@ -193,3 +193,19 @@ def test_pspice_vswitch_is_the_ideal_switch_at_the_middle_of_its_transition():
     scale = np.ptp(ours["v(out)"])  # (the edges fall between ngspice's points: 1.5 % of RMS)
     assert np.sqrt(np.nanmean((ours["v(out)"] - theirs["v(out)"]) ** 2)) < 0.03 * scale
     assert np.mean(ours["v(out)"]) == pytest.approx(np.nanmean(theirs["v(out)"]), rel=0.005)
+
+
+@pytest.mark.parametrize(("lines", "pattern"), [
+    ("V1 a 0 SIN(0 1 1k)\nL1 a 0 1m\nL2 b 0 1m\nR1 b 0 1k\nK1 L1 L2 1.0 tMod\n.model tMod CORE",
+     r"k1: 'tmod' after the coupling coefficient is a core model \(Xyce's"),
+    ("V1 a 0 SIN(0 1 1k)\nD1 a b\nR1 b 0 1k", r"d1: the diode has no model"),
+])
+def test_both_refuse_with_a_message_that_says_what_to_write(lines, pattern):
+    # before: "coupling coefficient 'tmod' is not a number", "missing model name" (no hint)
+    text = f"refused\n{lines}\n.tran 10u 2m\n.end\n"
+    with pytest.raises(circuitnsds.NetlistError, match=pattern) as error:
+        circuitnsds.read_netlist(text)
+    assert "write" in error.value.hint or "leave" in error.value.hint
+    from circuitnsds.compare.ngspice import run_ngspice
+
+    assert run_ngspice(text, ["v(a)"], 2e-3).status == "rejected"
