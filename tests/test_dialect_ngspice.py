@@ -9,6 +9,7 @@ import pytest
 import circuitnsds
 from circuitnsds.compare import compare
 from circuitnsds.errors import NetlistWarning
+from tests.conftest import NETLISTS
 
 pytestmark = pytest.mark.ngspice
 
@@ -209,3 +210,17 @@ def test_both_refuse_with_a_message_that_says_what_to_write(lines, pattern):
     from circuitnsds.compare.ngspice import run_ngspice
 
     assert run_ngspice(text, ["v(a)"], 2e-3).status == "rejected"
+
+
+def test_comparator_toggling_at_dc_starts_from_zero_with_a_warning_and_settles_as_ngspice():
+    # issue 32: a voltage-mode buck whose comparator toggles its switch at DC has no operating
+    # point; ngspice finds one of its smooth models by source stepping, circuitnsds refused.
+    netlist = NETLISTS / "voltage_mode_buck_no_dc_op.cir"
+    with pytest.warns(NetlistWarning, match=r"no DC operating point: switch\(es\) s1 \(control "
+                      r"v\(ctrl, ramp\)\) toggle .* starting from the zero state"):
+        circuitnsds.read_netlist(netlist).transient(stop=20e-6)
+    comparison = quiet_compare(netlist, window=(2e-3, 3e-3), signals=["v(out)", "i(l1)"])
+    out = comparison.run.metrics["v(out)"]
+    assert out.rrms < 0.005  # settled to the same 5 V
+    assert comparison.run.metrics["i(l1)"].mean_other == pytest.approx(
+        comparison.run.metrics["i(l1)"].mean_ref, rel=0.01)
