@@ -224,3 +224,26 @@ def test_comparator_toggling_at_dc_starts_from_zero_with_a_warning_and_settles_a
     assert out.rrms < 0.005  # settled to the same 5 V
     assert comparison.run.metrics["i(l1)"].mean_other == pytest.approx(
         comparison.run.metrics["i(l1)"].mean_ref, rel=0.01)
+
+
+def test_when_ngspice_fails_with_compares_ammeters_it_runs_the_netlist_as_written(monkeypatch):
+    # issue 32: the 0 V ammeters compare puts in series with diodes made ngspice fail on a
+    # buck-boost it runs as written, and the failure was reported as ngspice's
+    from circuitnsds.compare import api
+    from circuitnsds.compare.ngspice import NgspiceRun
+
+    real = api.run_ngspice
+
+    def failing_with_ammeters(text, *args, **kwargs):
+        if "v_cnsds_d1" in text:
+            return NgspiceRun("failed", message="Timestep too small (caused by the ammeter)")
+        return real(text, *args, **kwargs)
+
+    monkeypatch.setattr(api, "run_ngspice", failing_with_ammeters)
+    text = ("rectifier\nV1 a 0 SIN(0 5 1k)\nD1 a k dm\nR1 k 0 1k\n.model dm D(IS=1e-14 N=0.05)\n"
+            ".tran 10u 2m\n.end\n")
+    comparison = quiet_compare(text)
+    assert comparison.run.ok
+    assert any("ran again on the netlist as written" in note and "Timestep too small" in note
+               for note in comparison.notes)
+    assert comparison.run.metrics["i(d1)"].nrms < 0.03  # ngspice's @d1[id], N = 0.05 against the ideal diode
