@@ -105,3 +105,29 @@ def test_pwl_repeat_writes_the_repetitions_out_to_the_stop_time():
     t, v = result["time"], result["v(a)"]
     expected = np.interp((t - 0.5e-3) % 2e-3, [0, 1e-3, 2e-3], [0, 1, 0]) * (t >= 0.5e-3)
     assert np.allclose(v, expected, atol=1e-12)
+
+
+def test_a_parameter_in_braces_inside_a_behavioural_expression_is_its_value():
+    # KiCad power-electronics libraries write V=i(vs1)*{N} in a subcircuit (ngspice reads it)
+    body = (".subckt amp a b n=1\nB1 b 0 V=v(a)*{N}\n.ends\nV1 in 0 2\nX1 in out amp n=3\n"
+            "R1 out 0 1")
+    assert np.allclose(run(body, stop="10u", step="1u")["v(out)"], 6.0)
+
+
+def test_a_parameter_in_braces_inside_an_xspice_vector_is_its_value():
+    body = (".subckt s a b out kp=1\nA1 [a b] out sum1\n.model sum1 summer(in_gain=[{kp} 1.0])\n.ends\n"
+            "V1 a 0 2\nV2 b 0 1\nX1 a b out s kp=3\nR1 out 0 1")
+    assert np.allclose(run(body, stop="10u", step="1u")["v(out)"], 7.0)
+
+
+def test_a_capacitance_of_node_voltages_is_refused_as_a_smooth_nonlinear_element():
+    with pytest.raises(NetlistError, match=r"c1: a capacitance that depends on v\(a\) is a smooth "
+                       r"nonlinear element: not supported .*issue 33"):
+        run("V1 a 0 1\nR1 a b 1\nC1 b 0 c = 'v(a) < 5 ? 1u : 2u'")
+
+
+def test_a_model_defined_twice_the_same_way_is_a_warning_and_differently_an_error():
+    with pytest.warns(NetlistWarning, match=r"\.model d1 is defined again with the same parameters"):
+        run("V1 a 0 1\nD1 a 0 d1 \n.model d1 D(Ron=1)\n.model d1 D(Ron=1)", stop="10u", step="1u")
+    with pytest.raises(NetlistError, match=r"\.model d1 is defined twice, with different parameters"):
+        run("V1 a 0 1\nD1 a 0 d1 \n.model d1 D(Ron=1)\n.model d1 D(Ron=2)", stop="10u", step="1u")

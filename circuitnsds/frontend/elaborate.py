@@ -36,6 +36,8 @@ UNSUPPORTED_ELEMENTS = {
     "q": "bipolar transistors", "t": "transmission lines", "u": "RC lines",
     "y": "transmission lines", "z": "MESFETs", "n": "OSDI devices",
 }
+SMOOTH_NONLINEAR = frozenset("jqz")
+"""Element letters of smooth nonlinear devices (issue 33 brings them): their refusal says so."""
 SUPPORTED_LETTERS = "R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A and X (subcircuit instances)"
 
 
@@ -67,6 +69,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                           fit_current=None if circuit.options.get("pwlfit") == "auto"
                           else circuit.options.get("pwlfit"))
     element_tokens = {token for s in statements if not s.is_command for token in s.tokens[1:]}
+    model_texts: dict[str, tuple[str, ...]] = {}
     for statement in statements:
         if statement.keyword == ".model":
             reader = StatementReader(statement)
@@ -81,8 +84,13 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                         "element uses it")
                 continue
             if name in circuit.models:
-                raise reader.error(f".model {name} is defined twice",
+                if model_texts[name] == statement.tokens[2:]:  # the same text: no ambiguity
+                    warn_at(statement.location, f".model {name} is defined again with the same "
+                            f"parameters (first at {circuit.model_locations[name]}): the first is used")
+                    continue
+                raise reader.error(f".model {name} is defined twice, with different parameters",
                                    hint=f"the first is at {circuit.model_locations[name]}")
+            model_texts[name] = statement.tokens[2:]
             circuit.models[name] = model
             circuit.model_locations[name] = statement.location
     voltage_sources = {s.keyword for s in statements
@@ -170,7 +178,8 @@ def _element(statement: Statement, models: dict[str, object],
     if letter in UNSUPPORTED_ELEMENTS:
         raise reader.error(
             f"{statement.keyword}: {UNSUPPORTED_ELEMENTS[letter]} ('{letter.upper()}' lines) "
-            "are not supported by the ideal engine",
+            "are not supported by the ideal engine"
+            + (" (smooth nonlinear devices: issue 33)" if letter in SMOOTH_NONLINEAR else ""),
             hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
             "with an S switch driven by its gate signal, or a MOSFET (M line)",
         )

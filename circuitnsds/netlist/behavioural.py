@@ -61,7 +61,9 @@ def parse(text: str) -> Node:
             return tree
         return (kind, *(binary(a) for a in item[1:]))
 
-    return binary(expressions.parse(text, probes=True))
+    # a parameter expression in braces inside the expression (V=i(vs1)*{N}, as ngspice's
+    # numparam reads it) is a parenthesised term
+    return binary(expressions.parse(text.replace("{", "(").replace("}", ")"), probes=True))
 
 
 def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,
@@ -154,13 +156,20 @@ _TIME = re.compile(r"\btime\b")
 _VALUE_KEY = re.compile(r"(r|c|l|dc|value)\s*=\s*(.*)", re.DOTALL)
 
 
+_PROBE = re.compile(r"\b[vi]\s*\(")
+
+
 def is_time_valued(letter: str, tokens: tuple[str, ...]) -> bool:
     """Whether an R, C, L, V or I line's value is an expression of ``time`` (an expression
-    token naming it; for R, C, L also the bare form ``R = (time<1m ? 1k : 2k)``)."""
+    token naming it; for R, C, L also the bare form ``R = (time<1m ? 1k : 2k)``), or, for R,
+    C, L, an expression token of the circuit's unknowns (``C = 'v(a) < 5 ? c1 : c2'``: a
+    nonlinear element, which the front end refuses by name)."""
     if letter not in TIME_VALUED_LETTERS:
         return False
-    values = tokens[3:] if letter in "rcl" else [t for t in tokens[3:] if t[:1] in {"{", "'"}]
-    return any(_TIME.search(token) for token in values)
+    expressions = [t for t in tokens[3:] if t[:1] in {"{", "'"}]
+    values = tokens[3:] if letter in "rcl" else expressions
+    return (any(_TIME.search(token) for token in values)
+            or (letter in "rcl" and any(_PROBE.search(token) for token in expressions)))
 
 
 def _closing_parenthesis(text: str) -> int:

@@ -50,6 +50,13 @@ def time_valued_element(reader: StatementReader, letter: str) -> Element:
     text = reader.next(_QUANTITY[letter])[1:-1]
     if not reader.done():
         raise reader.error(f"{name}: unexpected {reader.peek()!r} after the value {{{text}}}")
+    nonlinear = _probes(parse(text))
+    if nonlinear:
+        raise reader.error(f"{name}: a {_QUANTITY[letter]} that depends on {', '.join(nonlinear)} is a "
+                           "smooth nonlinear element: not supported (smooth nonlinear devices are "
+                           "the next step, issue 33)", hint="write a constant value, or model the "
+                           "change as values that step: separate elements switched in and out by S "
+                           "switches")
     if letter in "cl":
         raise reader.error(f"{name}: a {_QUANTITY[letter]} that depends on time ({{{text}}}) is not "
                            "supported", hint="write the values as separate elements switched in and "
@@ -107,6 +114,28 @@ def _corners(tree: Node, corners: set[float]) -> None:
             else:  # the arguments of a call
                 for argument in child:
                     _corners(argument, corners)
+
+
+def _probes(tree: Node) -> list[str]:
+    """The probes ``v(a)``, ``v(a,b)``, ``i(v1)`` of an expression tree, in order, once each."""
+    found: list[str] = []
+
+    def walk(item: Node) -> None:
+        if item[0] in {"v", "i"}:
+            text = to_text(item)
+            if text not in found:
+                found.append(text)
+            return
+        for child in item[1:]:
+            if isinstance(child, tuple) and child:
+                if isinstance(child[0], str):
+                    walk(child)
+                else:
+                    for argument in child:
+                        walk(argument)
+
+    walk(tree)
+    return found
 
 
 def _uses_time(tree: Node) -> bool:
