@@ -4,11 +4,17 @@ Prints one row per netlist: the largest error over the signals (compare's `error
 to the RMS value for DC-like signals, to the range otherwise), and both run times. Diode
 netlists with Shockley models run a study in N (ideal limit); the others at their own models.
 
-    python benchmarks/external_netlists.py
+Then the issue-32 batch (netlists/external/SOURCES.md), each run as written: whether ngspice
+runs it, whether circuitnsds does, the worst nRMS over the signals (or the error we give).
+
+    python benchmarks/external_netlists.py [--batch32]
 """
 
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -39,6 +45,65 @@ CASES = [
 ]
 
 
+BATCH_32 = [  # issue 32: (netlist, compare's arguments), each as written
+    ("external/kicad_pe/buck/buck.net", {"window": (20e-3, 30e-3)}),
+    ("external/kicad_pe/BuckBoo/BuckBoo.net", {"window": (20e-3, 30e-3)}),
+    ("external/kicad_pe/rectifier/rectifier.net", {}),
+    ("external/kicad_pe/Rectifier_3P/Rectifier_3P.net", {}),
+    ("external/kicad_pe/HWB/HWB.net", {}),
+    ("external/kicad_pe/buckclose/buckclose.net", {}),
+    ("external/kicad_pe/PushPull_Conv/PushPull_Conv.net", {}),
+    ("external/kicad_pe/FlyBavk/FlyBavk.net", {}),
+    ("external/ng_cutout1.cir", {}),
+    ("external/ng_resume-1.cir", {}),
+    ("external/ng_xspice_c2.cir", {}),
+    ("external/ng_ddt-test3.cir", {}),
+    ("external/ng_transformers1.cir", {}),
+    ("external/ng_simple-meas-tran.sp", {}),
+    ("external/ng_memristor.sp", {}),
+    ("external/ng_integrate1.cir", {}),
+    ("external/xy_bug45_diode_bridge.cir", {}),
+    ("external/xy_cmc_diode_clipper.cir", {}),
+    ("external/xy_diode_clipper_2par.net", {}),
+    ("external/xy_bug767a.cir", {}),
+    ("external/xy_bug1017.cir", {}),
+    ("external/xy_bug775son_core.cir", {}),
+]
+
+
+def ngspice_runs(path: Path) -> str:
+    """``yes`` or ngspice 39's first error line, from ``ngspice -b`` on the file as written."""
+    try:
+        done = subprocess.run(["ngspice", "-b", path.name], cwd=path.parent, capture_output=True,
+                              text=True, errors="replace", timeout=600)
+    except subprocess.TimeoutExpired:
+        return "no: over 600 s"
+    text = done.stdout + done.stderr
+    bad = [line.strip() for line in text.splitlines()
+           if re.search(r"error|fatal|too small|interrupted|no simulations run", line, re.IGNORECASE)
+           and "PrinterOnly" not in line and "unknown option" not in line]
+    return "yes" if not bad and done.returncode == 0 else f"no: {' / '.join(bad[:2])[:70]}"
+
+
+def batch32() -> None:
+    print(f"{'netlist':<50}{'ngspice runs?':<28}{'we run?':<9}{'worst nRMS (signal) or our error'}")
+    for name, arguments in BATCH_32:
+        path = ROOT / name
+        ngspice = ngspice_runs(path)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                comparison = compare(path, **arguments)
+        except Exception as exc:  # our refusal (or compare's), printed as the user sees it
+            print(f"{name:<50}{ngspice:<28}{'no':<9}{str(exc).splitlines()[0][:160]}")
+            continue
+        run = comparison.run
+        worst = run.worst("nrms")
+        result = (f"{100 * worst.nrms:.3g}% ({worst.signal})" if worst and run.ok
+                  else f"ngspice {run.ngspice.status}: {run.ngspice.message[:80]}")
+        print(f"{name:<50}{ngspice:<28}{'yes':<9}{result}")
+
+
 def main() -> None:
     print(f"{'netlist':<40}{'ngspice':<22}{'error':>10}  {'signal':<14}{'ours [s]':>9}{'ngspice [s]':>12}")
     for name, n, arguments in CASES:
@@ -55,4 +120,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    batch32() if "--batch32" in sys.argv else main()
