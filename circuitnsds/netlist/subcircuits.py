@@ -77,7 +77,8 @@ _TIME_VALUED = frozenset("rclvi")  # (netlist.behavioural.TIME_VALUED_LETTERS, n
 def _behavioural(statement: Statement) -> bool:
     letter = element_letter(statement.keyword)
     if letter in _TIME_VALUED:
-        if not any("time" in token or "(" in token for token in statement.tokens[3:]):
+        if not any("time" in token or (token[:1] in "{'" and "(" in token)
+                   for token in statement.tokens[3:]):
             return False
         from circuitnsds.netlist.behavioural import is_time_valued  # only for such lines
 
