@@ -1,6 +1,9 @@
 """Issue 32, the dialect people write: element values that step in time (exact for R, V, I;
 clear refusals for what varies continuously and for C, L) and LTspice's parasitics."""
 
+import warnings
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -131,3 +134,38 @@ def test_a_model_defined_twice_the_same_way_is_a_warning_and_differently_an_erro
         run("V1 a 0 1\nD1 a 0 d1 \n.model d1 D(Ron=1)\n.model d1 D(Ron=1)", stop="10u", step="1u")
     with pytest.raises(NetlistError, match=r"\.model d1 is defined twice, with different parameters"):
         run("V1 a 0 1\nD1 a 0 d1 \n.model d1 D(Ron=1)\n.model d1 D(Ron=2)", stop="10u", step="1u")
+
+
+EXTERNAL = Path(__file__).resolve().parent.parent / "netlists" / "external"
+
+
+@pytest.mark.parametrize(("name", "refusal"), [
+    ("kicad_pe/buck/buck.net", None),
+    ("kicad_pe/BuckBoo/BuckBoo.net", None),
+    ("kicad_pe/rectifier/rectifier.net", None),
+    ("kicad_pe/Rectifier_3P/Rectifier_3P.net", None),
+    ("kicad_pe/HWB/HWB.net", r"xbdge1.cper: a capacitance that depends on .* issue 33"),
+    ("kicad_pe/PushPull_Conv/PushPull_Conv.net", r"xfmpush1.cper: a capacitance that depends on .* issue 33"),
+    ("kicad_pe/FlyBavk/FlyBavk.net", r"xfmer1.cper: a capacitance that depends on .* issue 33"),
+    ("kicad_pe/buckclose/buckclose.net", r"xpid1.adif: code model d_dt"),
+    ("ng_cutout1.cir", None),
+    ("ng_resume-1.cir", None),
+    ("ng_xspice_c2.cir", None),
+    ("ng_ddt-test3.cir", r"unknown function ddt\(\)"),
+    ("xy_bug45_diode_bridge.cir", None),
+    ("xy_cmc_diode_clipper.cir", None),
+    ("xy_diode_clipper_2par.net", None),
+    ("xy_bug767a.cir", None),
+    ("xy_bug1017.cir", None),
+    ("xy_bug775son_core.cir", r"'xbr1.tmod' after the coupling coefficient is a core model"),
+])
+def test_the_issue_32_batch_reads_as_written_or_names_what_it_lacks(name, refusal):
+    """The public netlists of docs/compare.md's issue-32 table, read as written (their
+    agreement with ngspice: benchmarks/external_netlists.py --batch32)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if refusal is None:
+            assert circuitnsds.read_netlist(EXTERNAL / name).analyses["tran"]
+        else:
+            with pytest.raises(NetlistError, match=refusal):
+                circuitnsds.read_netlist(EXTERNAL / name)
