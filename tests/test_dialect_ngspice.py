@@ -215,7 +215,7 @@ def test_both_refuse_with_a_message_that_says_what_to_write(lines, pattern):
 def test_comparator_toggling_at_dc_starts_from_zero_with_a_warning_and_settles_as_ngspice():
     # issue 32: a voltage-mode buck whose comparator toggles its switch at DC has no operating
     # point; ngspice finds one of its smooth models by source stepping, circuitnsds refused.
-    netlist = NETLISTS / "voltage_mode_buck_no_dc_op.cir"
+    netlist = NETLISTS / "dialect" / "voltage_mode_buck_no_dc_op.cir"
     with pytest.warns(NetlistWarning, match=r"no DC operating point: switch\(es\) s1 \(control "
                       r"v\(ctrl, ramp\)\) toggle .* starting from the zero state"):
         circuitnsds.read_netlist(netlist).transient(stop=20e-6)
