@@ -86,6 +86,10 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
 NOT_AN_ELEMENT = ElementLetter("unknown elements", 0, supported=False)
 """What a letter outside :data:`ELEMENT_LETTERS` is: no nodes renamed, refused."""
 
+SMOOTH_NONLINEAR = frozenset("jqz")
+"""Letters of smooth nonlinear devices (BJTs, JFETs, MESFETs): issue 33 brings them, and their
+refusal says so."""
+
 SUPPORTED_LETTERS = (", ".join(letter.upper() for letter, kind in ELEMENT_LETTERS.items()
                                if kind.supported and letter != "x") + " and X (subcircuit instances)")
 """The letters circuitnsds reads, for messages."""

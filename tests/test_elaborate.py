@@ -159,7 +159,7 @@ def test_errors_name_the_line(body, pattern):
         (".model u D(Ilimit=1)", r"ilimit ignored"),
         (".model u D(foo=1)", r"unknown diode parameter 'foo'"),
         (".model u D(rrev=1)", r"Rrev ignored"),
-        (".control\nrun\n.endc", r"\.control \.\.\. \.endc block skipped"),
+        (".control\nrun\nplot v(a)\n.endc", r"\.control script: plot \(line 5\) not executed"),
         ("D1 a 0 m off\n.model m D", r"'off' ignored"),
     ],
 )

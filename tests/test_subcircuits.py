@@ -222,7 +222,7 @@ C1 a n 1u
     (".subckt a p\n.ends b", r"s.cir:3: .ends b closes .subckt a \(s.cir:2\)"),
     (".subckt a p\n.ends\n.subckt A q\n.ends",
      r"s.cir:4: subcircuit 'a' is defined twice \(first at s.cir:2\)"),
-    (".subckt a p 0\n.ends", r"s.cir:2: .subckt a: '0' cannot be a port"),
+    (".subckt a p (\n.ends", r"s.cir:2: .subckt a: '\(' cannot be a port"),
     (".subckt a p p\n.ends", r"s.cir:2: .subckt a: port 'p' is listed twice"),
     (".subckt", r"s.cir:2: .subckt has no name"),
     (".subckt a p r=1 r=2\n.ends", r"s.cir:2: .subckt a: parameter 'r' is given twice"),

@@ -60,8 +60,11 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     """Solve the DC operating point with ideal devices (see module docstring).
 
     Switches start in their ``ON``/``OFF`` state, then follow their control at the
-    operating point (with hysteresis) until no state changes; a set of switches
-    that keeps toggling is an error.
+    operating point (with hysteresis) until no state changes. When a set of switches keeps
+    toggling (a comparator in a loop: no DC operating point exists), a warning names them
+    and the state is UIC's (:func:`uic_state`: the zero state unless ``ic=`` values say
+    otherwise), where ngspice would find a point of its smooth comparator by source
+    stepping and LTspice and PLECS start from zero.
     """
     check_source_loops(circuit.elements, operating_point=True)
     check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
@@ -79,11 +82,8 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
         seen.append(states.tobytes())
         if following.tobytes() in seen:
             names = [s.name for s, a, b in zip(mlcs.switches, states, following) if a != b]
-            raise SimulationError(
-                f"the DC operating point is not consistent: switch(es) {', '.join(names)} "
-                "open and close each other", where="operating point",
-                hint="give the switches an initial state with ON/OFF and a hysteresis (VH), "
-                "or add UIC to .tran")
+            _warn_toggling(circuit, names)
+            return uic_state(circuit, mlcs)
         states = following
     if not np.all(np.isfinite(y)):
         raise SimulationError("the DC operating point is not finite", where="operating point",
@@ -92,6 +92,24 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     _note_switches_closed_by_the_circuit(mlcs, states, y)
     return InitialState(y=y, charge=mlcs.E @ y, current=np.asarray(result.z, dtype=float),
                         active=np.asarray(result.active, dtype=bool), switches=states)
+
+
+def _warn_toggling(circuit: Circuit, names: list[str]) -> None:
+    """Say that no DC operating point exists because switches ``names`` toggle each other (a
+    comparator in a loop: whichever state they take, their control crosses the threshold)
+    and that the run starts from the zero state instead, as UIC (and PLECS) start."""
+    controls = []
+    for name in names:
+        element = circuit.element(name)
+        nodes = element.control_nodes() if hasattr(element, "control_nodes") else None
+        control = getattr(element, "control", None)
+        controls.append(f"{name} (control i({control}))" if control else
+                        f"{name} (control v({nodes[0]}, {nodes[1]}))" if nodes else name)
+    warnings.warn(NetlistWarning(
+        f"{circuit.file}: no DC operating point: switch(es) {', '.join(controls)} toggle whichever "
+        "state they take (a comparator in a loop); starting from the zero state, as UIC and "
+        "PLECS do (ic= values kept, switches in their ON/OFF state); write UIC to say so"),
+        stacklevel=3)
 
 
 def _control_at_zero(mlcs: MLCS, switch, y: np.ndarray) -> float:

@@ -234,6 +234,20 @@ def compare(
                           + translation.notes)
         result = run_ngspice(translation.text, chosen, stop_time, overrides=override,
                              title=circuit.title, ltspice=ltspice)
+        if ammeters and not result.ok:  # compare's own edit may be what ngspice failed on
+            as_written = translate_netlist(source, overrides=override, step=step, stop=stop,
+                                           saves=sorted({*saves, *_junction_currents(chosen)}),
+                                           options=ngspice_options, ltspice=ltspice,
+                                           off_resistance=off_resistance,
+                                           measures=bool(circuit.measurements))
+            failure = result.message
+            result = run_ngspice(as_written.text, chosen, stop_time, overrides=override,
+                                 title=circuit.title, ltspice=ltspice)
+            notes.append(f"ngspice failed on the netlist with compare's 0 V ammeters in series "
+                         f"with {', '.join(ammeters)} ({failure}); it ran again on the netlist "
+                         "as written, where a diode's current is ngspice's @d[id] (its junction "
+                         "current at the last linearisation)"
+                         + ("" if result.ok else ", and failed there too: its own failure"))
         runs.append(_measure(result, waves, chosen, chosen_window))
         if circuit.measurements:
             from circuitnsds.output.meas import run_measurements
@@ -331,6 +345,13 @@ def _signals(waves: Waveforms, signals: Iterable[str] | None) -> list[str]:
         raise CompareError("no signal to compare", where="signals",
                            hint=f"available: {', '.join(waves.names)}")
     return chosen
+
+
+def _junction_currents(signals: list[str]) -> list[str]:
+    """The ``@d[id]`` vectors of the diode currents among ``signals`` (saved when ngspice runs
+    the netlist as written, without ammeters)."""
+    return [save for name in signals if _element_letter(name) == "d"
+            and (save := ngspice_vector(name, ammeter=False)[1]) is not None]
 
 
 def _element_letter(signal: str) -> str:

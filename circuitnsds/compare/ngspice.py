@@ -316,8 +316,10 @@ def _read_plot(engine, plot: str, signals: list[str], title: str) -> tuple[Wavef
     values, missing = {}, []
     for signal in signals:
         vector = ngspice_vector(signal)[0]
-        # ngspice names the vector of a node whose name starts with a digit V(1), not 1
-        candidates = (vector, f"v({vector})") if signal.startswith("v(") else (vector,)
+        # ngspice names the vector of a node whose name starts with a digit V(1), not 1; a
+        # diode's current is its ammeter's, or @d1[id] in a netlist run without ammeters
+        candidates = ((vector, f"v({vector})") if signal.startswith("v(")
+                      else (vector, ngspice_vector(signal, ammeter=False)[0]))
         found = [name for name in candidates
                  if name in arrays and arrays[name].shape == time_points.shape]
         if found:

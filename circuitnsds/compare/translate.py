@@ -247,6 +247,8 @@ def _translate_statement(statement: Statement, context: _Context) -> list[str]:
         translation.notes.append(f"{where}: {keyword} removed (not an element)")
         return []
     if keyword[:1] == "d" and keyword in translation.ammeters:
+        translation.notes.append(f"{where}: {keyword}: a 0 V ammeter ({AMMETER_PREFIX}{keyword}) "
+                                 "added in series, whose current is the diode's")
         return _ammeter(text)
     return [text]
 
@@ -333,7 +335,7 @@ def _tran(logical: str, step: float | None, stop: float | None) -> str:
     return " ".join(tokens)
 
 
-def ngspice_vector(signal: str) -> tuple[str, str | None]:
+def ngspice_vector(signal: str, ammeter: bool = True) -> tuple[str, str | None]:
     """ngspice's vector for a circuitnsds signal name, and the ``.save`` entry it needs.
 
     ``v(node)`` → ``node``; ``i(v1)``, ``i(l1)``, ``i(e1)``, ``i(h1)`` → ``v1#branch``;
@@ -343,7 +345,9 @@ def ngspice_vector(signal: str) -> tuple[str, str | None]:
     capacitors, switches and G/F sources ``@r1[i]`` (first → second node), current
     sources ``@i1[c]``. Elements inside subcircuit instances (``x1.d1`` in
     circuitnsds) are ``d.x1.d1`` in ngspice (``v.x1.v_cnsds_d1#branch`` for the
-    ammeter); their nodes (``x1.n1``) have the same name in both.
+    ammeter); their nodes (``x1.n1``) have the same name in both. With ``ammeter=False``
+    (the netlist as written, no ammeter added) a diode's current is ``@d1[id]``: its
+    junction current at ngspice's last linearisation, capacitance current excluded.
     """
     key = signal.strip().lower()
     kind, inner = key[:2], key[2:-1]
@@ -353,11 +357,11 @@ def ngspice_vector(signal: str) -> tuple[str, str | None]:
         raise ValueError(f"{signal!r} is not a v(...) or i(...) signal")
     *path, element = inner.split(".")
     letter = element[0]
-    if letter == "d":
+    if letter == "d" and ammeter:
         element, letter = f"{AMMETER_PREFIX}{element}", "v"
     device = ".".join([letter, *path, element]) if path else element
     if letter in "vleh":
         return f"{device}#branch", None
-    parameter = {"i": "c"}.get(letter, "i")
+    parameter = {"i": "c", "d": "id"}.get(letter, "i")
     vector = f"@{device}[{parameter}]"
     return vector, vector

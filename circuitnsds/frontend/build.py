@@ -42,14 +42,14 @@ class NetlistSource:
         text: title line, then one statement per line (continuations joined), ``.end``.
         file: the netlist's name, for messages.
         locations: ``(file, line)`` of each statement, in order.
-        control_blocks: ``(file, line, commands)`` of each ngspice ``.control`` script (not
-            run; the elaborator says so).
+        control_blocks: ``(file, line, commands, lines, taken)`` of each ngspice ``.control``
+            script (see :class:`~circuitnsds.netlist.parser.ControlBlock`).
     """
 
     text: str
     file: str
     locations: tuple[tuple[str, int], ...]
-    control_blocks: tuple[tuple[str, int, tuple[str, ...]], ...] = ()
+    control_blocks: tuple[tuple[str, int, tuple[str, ...], tuple[int, ...], tuple[str, ...]], ...] = ()
 
 
 class CircuitBuilder:
@@ -91,8 +91,8 @@ class CircuitBuilder:
             raise ValueError("the netlist source's text and locations do not match")
         statements = [Statement(s.tokens, SourceLocation(*where), s.text)
                       for s, where in zip(parsed.statements, source.locations)]
-        blocks = [ControlBlock(SourceLocation(file, line), list(commands))
-                  for file, line, commands in source.control_blocks]
+        blocks = [ControlBlock(SourceLocation(file, line), list(commands), list(lines), list(taken))
+                  for file, line, commands, lines, taken in source.control_blocks]
         return cls(Netlist(parsed.title, statements, source.file, parsed.ended, blocks))
 
     def source(self) -> NetlistSource:
@@ -104,8 +104,8 @@ class CircuitBuilder:
             locations.append((statement.location.file, statement.location.line))
         if self.netlist.ended:
             lines.append(".end")
-        blocks = tuple((b.location.file, b.location.line, tuple(b.commands))
-                       for b in self.netlist.control_blocks)
+        blocks = tuple((b.location.file, b.location.line, tuple(b.commands), tuple(b.lines),
+                        tuple(b.taken)) for b in self.netlist.control_blocks)
         return NetlistSource("\n".join(lines) + "\n", self.netlist.file, tuple(locations), blocks)
 
     @property

@@ -14,9 +14,9 @@ from __future__ import annotations
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
-from circuitnsds.element_letters import ELEMENT_LETTERS, SUPPORTED_LETTERS, element_letter
+from circuitnsds.element_letters import ELEMENT_LETTERS, SMOOTH_NONLINEAR, SUPPORTED_LETTERS, element_letter
 from circuitnsds.errors import NetlistError, SourceLocation
-from circuitnsds.frontend.cards import commands, devices
+from circuitnsds.frontend.cards import commands, devices, parasitics
 from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
@@ -38,8 +38,12 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
     """
     circuit = Circuit(title=netlist.title, file=netlist.file, included=list(netlist.included))
     for block in netlist.control_blocks:
-        warn_at(block.location, ".control ... .endc block skipped (ngspice scripting is not run "
-                f"by circuitnsds): {', '.join(block.commands) or 'empty'}")
+        if block.commands:
+            skipped = ", ".join(f"{word} (line {line})" for word, line in zip(block.commands, block.lines))
+            taken = (f"; its {', '.join(dict.fromkeys(block.taken))} read as dot commands"
+                     if block.taken else "")
+            warn_at(block.location, f".control script: {skipped} not executed (circuitnsds runs "
+                    f"the analyses, .meas and .save of a script, no other command){taken}")
     statements = netlist.statements
     for statement in statements:
         if statement.keyword in commands.OPTION_KEYWORDS:
@@ -50,13 +54,29 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                           limit=circuit.options.get("diode") == "limit",
                           fit_current=None if circuit.options.get("pwlfit") == "auto"
                           else circuit.options.get("pwlfit"))
+    element_tokens = {token for s in statements if not s.is_command for token in s.tokens[1:]}
+    model_texts: dict[str, tuple[str, ...]] = {}
     for statement in statements:
         if statement.keyword == ".model":
             reader = StatementReader(statement)
-            name, model = read_model(reader, off_resistance, diodes)
+            try:
+                name, model = read_model(reader, off_resistance, diodes)
+            except NetlistError as error:
+                used = len(statement.tokens) < 2 or statement.tokens[1] in element_tokens
+                if used or statement.location.file == netlist.file:
+                    raise
+                warn_at(statement.location, f"unused .model {statement.tokens[1]} of an included "
+                        f"library left out ({error.message}); ngspice reads a model only when an "
+                        "element uses it")
+                continue
             if name in circuit.models:
-                raise reader.error(f".model {name} is defined twice",
+                if model_texts[name] == statement.tokens[2:]:  # the same text: no ambiguity
+                    warn_at(statement.location, f".model {name} is defined again with the same "
+                            f"parameters (first at {circuit.model_locations[name]}): the first is used")
+                    continue
+                raise reader.error(f".model {name} is defined twice, with different parameters",
                                    hint=f"the first is at {circuit.model_locations[name]}")
+            model_texts[name] = statement.tokens[2:]
             circuit.models[name] = model
             circuit.model_locations[name] = statement.location
     voltage_sources = {s.keyword for s in statements
@@ -108,6 +128,13 @@ def _element(statement: Statement, context: CardContext) -> Element | list[Eleme
     if len(letter) != 1:  # a name such as "fig." ends with the hierarchy separator
         raise reader.error(f"{statement.keyword}: not an element name",
                            hint=f"element names start with their type letter: {SUPPORTED_LETTERS}")
+    if parasitics.has_parasitics(statement, letter):
+        made = [_element(part, context) for part in parasitics.split_parasitics(statement, letter)]
+        return [element for part in made for element in (part if isinstance(part, list) else [part])]
+    if letter in "rclvi" and statement.tokens[3:4] and statement.tokens[3].startswith("{"):
+        from circuitnsds.frontend.cards.time_values import time_valued_element  # only then
+
+        return time_valued_element(reader, letter)
     card = reader_for(letter, statement.tokens)
     if card is not None:
         return card.read(reader, letter, context)
@@ -117,7 +144,8 @@ def _element(statement: Statement, context: CardContext) -> Element | list[Eleme
     if letter in ELEMENT_LETTERS:
         raise reader.error(
             f"{statement.keyword}: {ELEMENT_LETTERS[letter].what} ('{letter.upper()}' lines) "
-            "are not supported by the ideal engine",
+            "are not supported by the ideal engine"
+            + (" (smooth nonlinear devices: issue 33)" if letter in SMOOTH_NONLINEAR else ""),
             hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
             "with an S switch driven by its gate signal, or a MOSFET (M line)",
         )

@@ -61,7 +61,9 @@ def parse(text: str) -> Node:
             return tree
         return (kind, *(binary(a) for a in item[1:]))
 
-    return binary(expressions.parse(text, probes=True))
+    # a parameter expression in braces inside the expression (V=i(vs1)*{N}, as ngspice's
+    # numparam reads it) is a parenthesised term
+    return binary(expressions.parse(text.replace("{", "(").replace("}", ")"), probes=True))
 
 
 def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,
@@ -145,6 +147,75 @@ def _expression(text: str, statement_text: str) -> str:
                                   f"(instance parameters of behavioural sources are not supported)")
         return text[1:end]
     return text
+
+
+TIME_VALUED_LETTERS = frozenset("rclvi")
+"""Elements whose value may be an expression of ``time`` (``R1 a b {time < 1m ? 1k : 2k}``)."""
+
+_TIME = re.compile(r"\btime\b")
+_VALUE_KEY = re.compile(r"(r|c|l|dc|value)\s*=\s*(.*)", re.DOTALL)
+
+
+_PROBE = re.compile(r"\b[vi]\s*\(")
+
+
+def is_time_valued(letter: str, tokens: tuple[str, ...]) -> bool:
+    """Whether an R, C, L, V or I line's value is an expression of ``time`` (an expression
+    token naming it; for R, C, L also the bare form ``R = (time<1m ? 1k : 2k)``), or, for R,
+    C, L, an expression token of the circuit's unknowns (``C = 'v(a) < 5 ? c1 : c2'``: a
+    nonlinear element, which the front end refuses by name)."""
+    if letter not in TIME_VALUED_LETTERS:
+        return False
+    expressions = [t for t in tokens[3:] if t[:1] in {"{", "'"}]
+    values = tokens[3:] if letter in "rcl" else expressions
+    return (any(_TIME.search(token) for token in values)
+            or (letter in "rcl" and any(_PROBE.search(token) for token in expressions)))
+
+
+def _closing_parenthesis(text: str) -> int:
+    """Index of the ``)`` closing the ``(`` at ``text[0]``, or -1."""
+    depth = 0
+    for index, char in enumerate(text):
+        depth += {"(": 1, ")": -1}.get(char, 0)
+        if depth == 0:
+            return index
+    return -1
+
+
+def time_valued_tokens(text: str, *, node: Callable[[str], str] = lambda n: n,
+                       lookup: Callable[[str], float | None] = lambda name: None) -> tuple[str, ...]:
+    """``R|C|L|V|I name n1 n2 [key=]expr`` -> ``(name, n1, n2, "{expr}")``, the expression
+    with its parameters replaced by their values and ``time`` kept, the nodes renamed.
+
+    Raises:
+        ExpressionError: the value cannot be read, or something follows it.
+    """
+    from circuitnsds.netlist.parser import closing_position
+
+    head = _HEAD.fullmatch(text.strip())
+    if head is None:
+        raise ExpressionError(f"expected NAME n1 n2 VALUE in {text!r}")
+    name, plus, minus, rest = head.groups()
+    rest = rest.lower().strip()
+    keyed = _VALUE_KEY.fullmatch(rest)
+    if keyed is not None:
+        rest = keyed[2].strip()
+    if rest.startswith("("):
+        end = _closing_parenthesis(rest)
+        if end == -1:
+            raise ExpressionError(f"'(' is not closed in {text!r}")
+        if rest[end + 1:].strip():
+            raise ExpressionError(f"unexpected {rest[end + 1:].split()[0]!r} after the value (a "
+                                  "time-dependent value takes no other parameter)")
+        expression = rest[1:end]
+    elif rest[:1] in {"{", "'"} and closing_position(rest, 0) not in {-1, len(rest) - 1}:
+        after = rest[closing_position(rest, 0) + 1:].split()[0]
+        raise ExpressionError(f"unexpected {after!r} after the value (a time-dependent value "
+                              "takes no other parameter)")
+    else:
+        expression = _expression(rest, text)
+    tree = transform(parse(expression), node=node, lookup=lookup)
+    return (name.lower(), node(plus.lower()), node(minus.lower()), "{" + to_text(tree) + "}")
 
 
 def flat_tokens(letter: str, text: str, *, node: Callable[[str], str] = lambda n: n,

@@ -19,10 +19,11 @@ section) that includes itself, directly or not, is an error naming the chain.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from circuitnsds.errors import NetlistError
+from circuitnsds.errors import NetlistError, NetlistWarning
 from circuitnsds.netlist.parser import ControlBlock, Netlist, Statement, parse_netlist, read_source_text
 
 INCLUDE_COMMANDS = frozenset({".include", ".inc"})
@@ -45,6 +46,25 @@ def path_arguments(statement: Statement) -> list[str]:
             word, *tail = rest.split(None, 1)
             arguments.append(word)
             rest = tail[0].strip() if tail else ""
+    return arguments
+
+
+def _spaced_path(statement: Statement, arguments: list[str], directory: Path) -> list[str]:
+    """``arguments``, or, when they are more words than the command takes and the words (all,
+    or all but the last: a ``.lib`` section) are the name of an existing file written
+    without quotes (``.lib C:/My Models/diodes.lib``), that name (and the section), with a
+    warning: ngspice needs the quotes."""
+    takes = 2 if statement.keyword == ".lib" else 1
+    if len(arguments) <= takes or any(word[:1] in "\"'" for word in statement.text.split()[1:]):
+        return arguments
+    readings = [(arguments, [])] + ([(arguments[:-1], arguments[-1:])] if takes == 2 else [])
+    for words, rest in readings:
+        name = " ".join(words)
+        if (directory / name).is_file():
+            warnings.warn(f"{statement.location}: {statement.keyword}: the unquoted path {name!r} "
+                          f'(it has spaces) is read as one file name; write it in quotes ("{name}"), '
+                          "which ngspice needs", NetlistWarning, stacklevel=2)
+            return [name, *rest]
     return arguments
 
 
@@ -79,15 +99,15 @@ class _Expander:
         while index < len(statements):
             statement = statements[index]
             keyword = statement.keyword
+            if keyword in INCLUDE_COMMANDS or keyword == ".lib":
+                arguments = _spaced_path(statement, path_arguments(statement), directory)
             if keyword in INCLUDE_COMMANDS:
-                arguments = path_arguments(statement)
                 if len(arguments) != 1:
                     raise NetlistError(f"{keyword} takes one file name, got {len(arguments)} words",
                                        where=statement.location,
                                        hint=f'write {keyword} FILE (quote a path with spaces: "my file.lib")')
                 result.extend(self.include(statement, arguments[0], None, directory, stack))
             elif keyword == ".lib":
-                arguments = path_arguments(statement)
                 if len(arguments) == 2:
                     result.extend(self.include(statement, arguments[0], arguments[1].lower(),
                                                directory, stack))
@@ -99,7 +119,8 @@ class _Expander:
                     raise NetlistError(f".lib takes a file and a section name, got {len(arguments)} words",
                                        where=statement.location,
                                        hint="write .lib FILE SECTION to read a section, "
-                                       ".lib NAME ... .endl to define one")
+                                       ".lib NAME ... .endl to define one; quote a path with "
+                                       'spaces: .lib "my models.lib"')
             elif keyword == ".endl":
                 raise NetlistError(".endl without a .lib section to close", where=statement.location,
                                    hint="a library section is .lib NAME ... .endl")

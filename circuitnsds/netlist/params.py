@@ -257,9 +257,12 @@ class Scope:
         """
         tokens = list(statement.tokens)
         for index, token in enumerate(tokens):
-            expression = strip_delimiters(token)
+            bracket = token[:1] if token[:1] == "[" else token[-1:] if token[-1:] == "]" else ""
+            core = token.strip("[]") if bracket else token  # an XSPICE vector: [{kp} 1 1]
+            expression = strip_delimiters(core)
             if expression is not None:
-                tokens[index] = repr(self.evaluate(expression, statement, tokens[0]))
+                value = repr(self.evaluate(expression, statement, tokens[0]))
+                tokens[index] = token.replace(core, value) if bracket else value
         return tuple(tokens)
 
 

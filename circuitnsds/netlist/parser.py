@@ -62,18 +62,34 @@ class Statement:
         return self.keyword.startswith(".")
 
 
+CONTROL_STATEMENTS = {"tran": ".tran", "ac": ".ac", "op": ".op", "dc": ".dc", "noise": ".noise",
+                      "tf": ".tf", "pz": ".pz", "sens": ".sens", "disto": ".disto",
+                      "meas": ".meas", "measure": ".measure", "save": ".save",
+                      "option": ".options", "options": ".options", "pss": ".pss"}
+"""Commands of a ``.control`` script that are read as the dot command of the same meaning in
+ngspice (an analysis, a measurement, what is saved, an option): ``tran 10u 3m`` is ``.tran 10u 3m``."""
+
+CONTROL_RUN = "run"
+"""The script command that runs the netlist's analyses: circuitnsds runs them anyway."""
+
+
 @dataclass
 class ControlBlock:
-    """An ngspice ``.control ... .endc`` script: circuitnsds does not run it, the front end
-    says so once per block.
+    """An ngspice ``.control ... .endc`` script. Its analyses and the commands that set up or
+    measure a run (:data:`CONTROL_STATEMENTS`) become statements; the rest is never executed,
+    and the front end names each such command with its line, once per block.
 
     Attributes:
         location: the ``.control`` line.
-        commands: the first word of each line of the script.
+        commands: the first word of each line of the script that is not executed.
+        lines: the line number of each of ``commands``.
+        taken: the first word of each line read as a statement.
     """
 
     location: SourceLocation
     commands: list[str] = field(default_factory=list)
+    lines: list[int] = field(default_factory=list)
+    taken: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -284,30 +300,51 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
         if keyword == ".end":
             netlist.ended = True
             break
-        if in_control is not None:  # an ngspice script: kept out of the statements
+        if in_control is not None:  # an ngspice script: its analyses become statements
             if keyword == ".endc":
                 in_control = None
-            else:
+            elif keyword in CONTROL_STATEMENTS:
+                text = CONTROL_STATEMENTS[keyword] + line.text[len(keyword):]
+                netlist.control_blocks[-1].taken.append(keyword)
+                netlist.statements.append(_statement(text, location))
+            elif keyword != CONTROL_RUN:
                 netlist.control_blocks[-1].commands.append(keyword)
+                netlist.control_blocks[-1].lines.append(line.number)
             continue
         if keyword == ".control":
             in_control = location
             netlist.control_blocks.append(ControlBlock(location))
             continue
-        try:
-            tokens = tokenize(line.text, strict=keyword != ".title")
-        except _TokenError as exc:
-            raise NetlistError(f"cannot read {line.text!r}: {exc}", where=location,
-                               hint="expressions are written {a*2} or 'a*2', paths \"my file.lib\"") from None
-        _check_visible(tokens, location)
-        if not tokens or tokens[0] in {"(", ")", "="}:
-            raise NetlistError(f"cannot read {line.text!r}: a statement starts with "
-                               "an element name or a dot command", where=location)
-        netlist.statements.append(Statement(tokens, location, line.text))
+        if line.text == ")" and netlist.statements and _open_parentheses(netlist.statements[-1]):
+            netlist.statements[-1] = _statement(netlist.statements[-1].text + " )",
+                                                netlist.statements[-1].location)
+            continue  # ngspice reads a lone ')' as a comment (with a warning): the '(' stays open
+        netlist.statements.append(_statement(line.text, location))
     if in_control is not None:
         raise NetlistError(".control block has no .endc", where=in_control,
                            hint="close the block with a .endc line")
     return netlist
+
+
+def _statement(text: str, location: SourceLocation) -> Statement:
+    """The statement of one logical line (text without comments, continuations joined)."""
+    keyword = text.split(None, 1)[0].lower()
+    try:
+        tokens = tokenize(text, strict=keyword != ".title")
+    except _TokenError as exc:
+        raise NetlistError(f"cannot read {text!r}: {exc}", where=location,
+                           hint="expressions are written {a*2} or 'a*2', paths \"my file.lib\"") from None
+    _check_visible(tokens, location)
+    if not tokens or tokens[0] in {"(", ")", "="}:
+        raise NetlistError(f"cannot read {text!r}: a statement starts with "
+                           "an element name or a dot command", where=location)
+    return Statement(tokens, location, text)
+
+
+def _open_parentheses(statement: Statement) -> bool:
+    """Whether ``statement`` has more ``(`` tokens than ``)`` (a ``.model`` closed on the
+    next line by a lone ``)``, which LTspice and ngspice's library files write)."""
+    return statement.tokens.count("(") > statement.tokens.count(")")
 
 
 MAX_SOURCE_BYTES = 256 * 2**20

@@ -10,7 +10,9 @@
 * every ``X`` line is replaced by the lines of its subcircuit, renamed as ngspice
   does: element ``d1`` of instance ``x1`` becomes ``x1.d1``, internal node ``mid``
   becomes ``x1.mid``, ports become the instance's nodes, ground (``0``, ``gnd``) and
-  ``.global`` nodes stay as they are, and instances nest (``x1.x2.d1``);
+  ``.global`` nodes stay as they are, and instances nest (``x1.x2.d1``); a port named
+  ``gnd`` or ``0`` is ground inside, and the instance's node there is not connected to it
+  (ngspice 39 reads it so; a warning names that node);
 * a ``.model`` written inside a subcircuit is local to each instance (``x1.dmod``,
   and the lines of that instance refer to it so); top-level models are global;
 * the controlling source of ``F``/``H``/``W`` lines and the inductors of ``K`` lines
@@ -23,11 +25,12 @@ definition) and its ``text`` ends with ``[in x1.x2]``, so messages are precise.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.element_letters import element_letter, letter_of
-from circuitnsds.errors import NetlistError
+from circuitnsds.errors import NetlistError, NetlistWarning
 from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
@@ -51,8 +54,18 @@ SUBSTITUTED_COMMANDS = frozenset({".model", ".tran", ".ic"})
 _BEHAVIOURAL_KEYWORDS = frozenset({"value", "vol", "cur", "table", "laplace", "freq", "poly"})
 
 
+_TIME_VALUED = frozenset("rclvi")  # (netlist.behavioural.TIME_VALUED_LETTERS, not imported here)
+
+
 def _behavioural(statement: Statement) -> bool:
     letter = element_letter(statement.keyword)
+    if letter in _TIME_VALUED:
+        if not any("time" in token or (token[:1] in "{'" and "(" in token)
+                   for token in statement.tokens[3:]):
+            return False
+        from circuitnsds.netlist.behavioural import is_time_valued  # only for such lines
+
+        return is_time_valued(letter, statement.tokens)
     return letter == "b" or (letter in {"e", "f", "g", "h"}
                              and not _BEHAVIOURAL_KEYWORDS.isdisjoint(statement.tokens))
 
@@ -62,8 +75,13 @@ def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, .
     nodes and elements renamed (:func:`circuitnsds.netlist.behavioural.flat_tokens`)."""
     from circuitnsds.netlist.behavioural import flat_tokens  # only for a netlist with such lines
 
+    letter = element_letter(statement.keyword)
     try:
-        return flat_tokens(element_letter(statement.keyword), statement.text, node=context.node,
+        if letter in _TIME_VALUED:
+            from circuitnsds.netlist.behavioural import time_valued_tokens
+
+            return time_valued_tokens(statement.text, node=context.node, lookup=context.scope.lookup)
+        return flat_tokens(letter, statement.text, node=context.node,
                            element=context.element, lookup=context.scope.lookup)
     except ExpressionError as exc:
         where = f" (in instance {context.path})" if context.path else ""
@@ -193,9 +211,9 @@ def _header(statement: Statement, parent: SubcircuitDefinition | None) -> Subcir
         raise NetlistError(".subckt has no name", where=statement.location, hint=hint)
     name, ports = words[1], words[2:]
     for port in ports:
-        if port in GROUND_NAMES or port in _PUNCTUATION:
+        if port in _PUNCTUATION:
             raise NetlistError(f".subckt {name}: {port!r} cannot be a port", where=statement.location,
-                               hint=hint + "; ground (0, gnd) is global and is not passed as a port")
+                               hint=hint)
         if ports.count(port) > 1:
             raise NetlistError(f".subckt {name}: port {port!r} is listed twice", where=statement.location)
     try:
@@ -424,6 +442,12 @@ class _Flattener:
                 scope.define(param)
         scope.evaluate_all()
         ports = {port: context.node(node) for port, node in zip(definition.ports, nodes)}
+        for port, node in zip(definition.ports, nodes):
+            if port in GROUND_NAMES and context.node(node) not in GROUND_NAMES:
+                warnings.warn(f"{statement.location}: {name}: port {port!r} of .subckt {subcircuit} is "
+                              f"ground inside it (ground is global, as in ngspice): node {node!r} is not "
+                              f"connected to it; name the port otherwise to pass {node!r} in",
+                              NetlistWarning, stacklevel=2)
         inner = _Context(definition, path, scope, ports, context.global_nodes, parent=context)
         self.expand(definition.body, inner)
 

@@ -18,6 +18,7 @@ Supported (ngspice manual, "MEASUREMENTS"; semantics of ngspice 39's ``com_measu
   grid segment that holds the instant).
 * ``.meas tran NAME TRIG OUT VAL=v [TD RISE FALL CROSS] TARG OUT VAL=v [...]`` (or
   ``TRIG AT=t``): the time from the trigger crossing to the target crossing.
+* ``.meas tran NAME PARAM='expr'``: an expression of the measurements before it, by name.
 
 The lines are read into specifications by :mod:`circuitnsds.frontend.cards.meas`.
 ``OUT`` is ``v(node)``, ``v(a,b)`` or ``i(element)`` (any circuitnsds signal). Results print as
@@ -191,8 +192,21 @@ def _run(spec, waves: Waveforms) -> MeasureResult:
 
 
 def run_measurements(specs: list, waves: Waveforms) -> list[MeasureResult]:
-    """Every measurement of a netlist, in order."""
-    return [run_measurement(spec, waves) for spec in specs]
+    """Every measurement of a netlist, in order; a ``PARAM`` one from the values of those
+    before it (a failed one, or an unknown name, fails it as in ngspice)."""
+    results: list[MeasureResult] = []
+    for spec in specs:
+        if spec.kind != "param":
+            results.append(run_measurement(spec, waves))
+            continue
+        known = {r.name: r.value for r in results if not math.isnan(r.value)}
+        try:
+            value = float(spec.formula(known))
+        except ValueError as exc:  # an expression error: a name not measured, a division by 0
+            results.append(MeasureResult(spec.name, math.nan, f"Error: measure  {spec.name}  PARAM : {exc}"))
+            continue
+        results.append(MeasureResult(spec.name, value, _line(spec.name, value)))
+    return results
 
 
 FOURIER_HARMONICS = 9

@@ -286,8 +286,9 @@ class MLCSBuilder:
         self._source_columns.setdefault((plus, minus), column)
 
     def switch(self, relation: dict, control_nodes: tuple[int, int] | None = None) -> None:
-        """Register a switch: the fields of :class:`SwitchRelation` except ``control_stimulus``,
-        which is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them."""
+        """Register a switch: the fields of :class:`SwitchRelation`; without ``control_stimulus``
+        it is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them
+        (an element switched by its own time function gives the stimulus's column itself)."""
         self._switches.append((relation, control_nodes))
 
     def pair(self, name: str, device: str, offset: float, sign: float = 1.0) -> int:
@@ -344,8 +345,9 @@ class MLCSBuilder:
         l_out = [(row, col, c) for row, (_, _, pair_terms) in enumerate(outputs) for col, c in pair_terms]
         switches = []
         for relation, control_nodes in self._switches:
-            stimulus = None
-            if control_nodes is not None:
+            relation = dict(relation)
+            stimulus = relation.pop("control_stimulus", None)
+            if stimulus is None and control_nodes is not None:
                 plus, minus = control_nodes
                 if (plus, minus) in self._source_columns:
                     stimulus = (self._source_columns[plus, minus], 1.0)

@@ -276,15 +276,38 @@ class Pulse(_TwoLevels):
         return np.sort(times[(times > 0) & (times < stop)]).tolist()
 
 
+MAX_PWL_POINTS = 10_000_000
+"""Most points a repeated PWL (``r=``) may expand to over a run."""
+
+
 @dataclass(frozen=True)
 class Pwl:
-    """``PWL(T1 V1 T2 V2 ...)``: linear between points, constant before the first and after the last."""
+    """``PWL(T1 V1 T2 V2 ...) [r=R] [td=TD]``: linear between points, constant before the
+    first and after the last. As in ngspice, ``td`` [s] delays the whole waveform and ``r``
+    [s] (one of the times, or 0) repeats the part from ``r`` to the last point for ever
+    (period: last time − ``r``); :meth:`resolve` writes the repetitions out up to TSTOP."""
 
     times: tuple[float, ...]
     values: tuple[float, ...]
+    repeat: float | None = None
+    delay: float = 0.0
 
     def resolve(self, tstep: float, tstop: float) -> Pwl:
-        return self
+        if self.repeat is None and not self.delay:
+            return self
+        times, values = [t + self.delay for t in self.times], list(self.values)
+        if self.repeat is not None:
+            first = self.times.index(self.repeat)  # (the reader checks it is one of the times)
+            period = self.times[-1] - self.repeat
+            copies = math.ceil((tstop - times[-1]) / period) if tstop > times[-1] else 0
+            if copies * (len(self.times) - first) > MAX_PWL_POINTS:
+                raise ValueError(f"PWL r={self.repeat:g} repeats a {period:g} s stretch "
+                                 f"{copies:,} times up to TSTOP: more than {MAX_PWL_POINTS:,} points")
+            part_times = [t + self.delay for t in self.times[first:]]
+            for copy in range(1, copies + 1):
+                times += [t + copy * period for t in part_times]
+                values += self.values[first:]
+        return Pwl(tuple(times), tuple(values))
 
     def value(self, t: float) -> float:
         times = self.times

@@ -31,6 +31,8 @@ from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist.behavioural import Node, parse, to_text
 from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
 
+NONLINEAR = "nonlinear (a smooth nonlinear device: issue 33)"
+"""What a smooth nonlinear term is called in refusals (the next issue brings such devices)."""
 REPRESENTABLE = ("the ideal engine represents affine combinations of v(node), v(node1, node2), "
                  "i(vsource) and constants, min(), max(), abs(), uramp(), limit(x, lo, hi) of "
                  "them (exact complementarity pairs), comparisons a > b, a < b (1 or 0), "
@@ -143,10 +145,10 @@ class Classifier:
                 return right.scaled(left.constant)
             if right.is_constant:
                 return left.scaled(right.constant)
-            raise Unrepresentable(text, "a product of two unknowns is nonlinear")
+            raise Unrepresentable(text, f"a product of two unknowns is {NONLINEAR}")
         if op == "/":
             if not right.is_constant:
-                raise Unrepresentable(text, "division by an unknown is nonlinear")
+                raise Unrepresentable(text, f"division by an unknown is {NONLINEAR}")
             if right.constant == 0:
                 raise Unrepresentable(text, "division by zero")
             return left.scaled(1.0 / right.constant)
@@ -155,7 +157,7 @@ class Classifier:
                 return Linear(constant=self.number(text, math.pow, left.constant, right.constant))
             if right.is_constant and right.constant == 1.0:
                 return left
-            raise Unrepresentable(text, "a power of an unknown is nonlinear")
+            raise Unrepresentable(text, f"a power of an unknown is {NONLINEAR}")
         raise Unrepresentable(text, f"the comparison {op!r} (equality is not a switching "
                               f"threshold): {SWITCHING_HINT}")
 
@@ -205,7 +207,7 @@ class Classifier:
                 raise Unrepresentable(text, f"{name}() takes {least} argument(s)")
             return Linear(constant=self.number(text, function, *(a.constant for a in args)))
         if name in FUNCTIONS:
-            raise Unrepresentable(text, f"{name}() of an unknown is nonlinear")
+            raise Unrepresentable(text, f"{name}() of an unknown is {NONLINEAR}")
         raise Unrepresentable(text, f"unknown function {name}()")
 
     def minmax(self, kind: str, a: Linear, b: Linear) -> Linear:

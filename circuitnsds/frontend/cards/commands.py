@@ -163,7 +163,7 @@ def _save(circuit: Circuit, statement: Statement) -> None:
     """``.save v(out) i(l1) ...`` selects the signals written by the command line."""
     text = statement.text.split(None, 1)[1] if " " in statement.text.strip() else ""
     names = [re.sub(r"\s+", "", name).lower() for name in _SIGNAL.findall(text)]
-    names = [name for name in names if name not in {"all", "allv", "alli"}]
+    names = [name for name in names if name not in {"all", "allv", "alli", "v(*)", "i(*)"}]  # (PSpice's *)
     for name in names:
         if name.startswith("@"):
             StatementReader(statement).warn(f".save {name} ignored: device parameters (@...) "

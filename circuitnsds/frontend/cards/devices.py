@@ -18,6 +18,7 @@ from circuitnsds.circuit.elements import (
 from circuitnsds.frontend.cards.models import MODEL_KINDS, ResistorModel
 from circuitnsds.frontend.cards.reader import StatementReader
 from circuitnsds.lazy import is_loaded_instance
+from circuitnsds.values import is_value
 
 IGNORED_PASSIVE_PARAMETERS = {"tc1", "tc2", "tc", "temp", "dtemp", "noisy", "scale", "ac"}
 
@@ -107,6 +108,11 @@ def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
     """``D name anode cathode MODEL [area] [area=..] [m=..] [off] [ic=..]``."""
     name = reader.name
     nodes = reader.nodes(2)
+    if reader.done():
+        raise reader.error(f"{name}: the diode has no model (ngspice refuses it too)",
+                           hint=f"write {name.upper()} {nodes[0]} {nodes[1]} DMOD and define it: "
+                           ".model DMOD D() for an ideal diode, D(Vfwd=0.7 Ron=10m) for a "
+                           "piecewise-linear one, or D(IS=1e-14 N=1) for ngspice's Shockley diode")
     model_name = reader.next("model name")
     model = reader.model(models, model_name, "diode model", f"add a line such as: .model {model_name} D()  "
                          f"(an ideal diode) or .model {model_name} D(Vfwd=0.7 Ron=10m)")
@@ -180,6 +186,11 @@ def mutual_inductance(reader: StatementReader, inductors: dict[str, Inductor]) -
     if len(fields) < 3:
         raise reader.error(f"{name}: missing inductors or the coupling coefficient k",
                            hint="write Kname L1 L2 k (LTspice: Kname L1 L2 L3 k)")
+    if not is_value(fields[-1]) and is_value(fields[-2]) and fields[-1] not in inductors:
+        raise reader.error(f"{name}: {fields[-1]!r} after the coupling coefficient is a core model "
+                           "(Xyce's nonlinear magnetic core, K ... k MODEL): not supported, the "
+                           "coupling here is linear", hint=f"leave the model out for a linear "
+                           f"transformer: {name.upper()} {' '.join(f.upper() for f in fields[:-1])}")
     names = tuple(reader.next("inductor") for _ in fields[:-1])
     coupling = reader.value("coupling coefficient")
     for inductor in names:

@@ -8,7 +8,9 @@ import each other).
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import partial
 
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.values import parse_value
@@ -43,11 +45,12 @@ class MeasureSpec:
     Attributes:
         name: the result's name (lower case).
         kind: ``avg``, ``rms``, ``min``, ``max``, ``pp``, ``integ``, ``min_at``, ``max_at``,
-            ``when``, ``find``, ``deriv`` or ``trig``.
+            ``when``, ``find``, ``deriv``, ``trig`` or ``param``.
         signal: OUT of window and FIND/DERIV measurements.
         start, stop, delay: FROM, TO, TD [s].
         when: the WHEN (or AT) condition; trig/targ: those of TRIG ... TARG.
         text: the statement; location: its file:line.
+        formula: of ``param``: the value from the earlier measurements' values by name.
     """
 
     name: str
@@ -61,6 +64,25 @@ class MeasureSpec:
     targ: Crossing | None = None
     text: str = ""
     location: SourceLocation | None = None
+    formula: Callable[[Mapping[str, float]], float] | None = None
+
+
+def _param(name: str, text: str, location: SourceLocation | None, fail) -> MeasureSpec:
+    """``.meas tran NAME PARAM='expr'``: an expression of the measurements before it (by
+    name), evaluated after them, as in ngspice."""
+    from circuitnsds.netlist.expressions import ExpressionError, evaluate, parse, strip_delimiters
+
+    match = re.search(r"\bparam\s*=\s*(.+)$", text, re.IGNORECASE | re.DOTALL)
+    if match is None:
+        raise fail("PARAM needs =expression, e.g. PARAM='vmax - vmin'")
+    expression = match[1].strip()
+    expression = strip_delimiters(expression) or expression
+    try:
+        parse(expression.lower())
+    except ExpressionError as exc:
+        raise fail(f"PARAM: {exc}") from None
+    return MeasureSpec(name, "param", text=text, location=location,
+                       formula=partial(evaluate, expression.lower()))
 
 
 _SIGNAL = r"[a-z]+\([^()]*\)"
@@ -90,7 +112,7 @@ def parse_meas(text: str, location: SourceLocation | None = None) -> MeasureSpec
         return None
     rest = tokens[4:]
     if kind == "param" or kind.startswith("param"):
-        raise fail("PARAM= expressions of other measurements are not supported")
+        return _param(name, text, location, fail)
     if kind in {"integral"}:
         kind = "integ"
     if kind == "derivative":

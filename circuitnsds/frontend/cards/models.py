@@ -34,6 +34,7 @@ DEFAULT_RESISTOR_LENGTH = 10e-6
 """ngspice's ``DEFL`` [m]."""
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
+               "vswitch": "voltage-controlled switch", "iswitch": "current-controlled switch",
                "r": "resistor", "res": "resistor", **MOS_KINDS}
 
 
@@ -143,6 +144,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
     if kind == "d":
         return name, replace(_diode_model(name, params, reader, off_resistance, diodes),
                              thermal=thermal)
+    if kind in PSPICE_SWITCHES:
+        kind, params = _pspice_switch(name, kind, params, reader)
     if kind in {"sw", "csw"}:
         return name, replace(_switch_model(name, kind, params, reader, off_resistance),
                              thermal=thermal)
@@ -254,15 +257,66 @@ def _fitted(model: DiodeModel, params: dict[str, float], reader: StatementReader
     return fitted
 
 
+PSPICE_SWITCHES = {
+    "vswitch": ("sw", "v", {"von": 1.0, "voff": 0.0}),
+    "iswitch": ("csw", "i", {"ion": 1e-3, "ioff": 0.0}),
+}
+"""PSpice's switch models -> (the SW/CSW kind, the control's letter, PSpice's defaults of ON/OFF)."""
+
+
+def _pspice_switch(name: str, kind: str, params: dict[str, float],
+                   reader: StatementReader) -> tuple[str, dict[str, float]]:
+    """A PSpice ``VSWITCH(RON ROFF VON VOFF)`` (``ISWITCH``: ``ION IOFF``) as the ideal switch
+    at the middle of its transition, ``VT = (VON + VOFF)/2``, ``VH = 0``: PSpice's resistance
+    moves smoothly (log-linearly) from ``ROFF`` at ``VOFF`` to ``RON`` at ``VON``, which the
+    ideal switch does at one threshold. PSpice's ``ROFF`` default 1 MΩ is kept."""
+    sw_kind, letter, defaults = PSPICE_SWITCHES[kind]
+    on = params.pop(f"{letter}on", defaults[f"{letter}on"])
+    off = params.pop(f"{letter}off", defaults[f"{letter}off"])
+    for key in (f"{letter}t", f"{letter}h"):
+        if key in params:
+            raise reader.error(f".model {name} {kind.upper()}: {key.upper()} is not a PSpice {kind.upper()} "
+                               f"parameter", hint=f"write {letter.upper()}ON and {letter.upper()}OFF, or "
+                               f"a {sw_kind.upper()} model with {letter.upper()}T and {letter.upper()}H")
+    if on == off:
+        raise reader.error(f".model {name} {kind.upper()}: {letter.upper()}ON = {letter.upper()}OFF "
+                           f"= {on:g}: no transition", hint=f"give {letter.upper()}ON and "
+                           f"{letter.upper()}OFF different values")
+    if on < off:  # closed below the threshold: ngspice's SW cannot say so
+        raise reader.error(f".model {name} {kind.upper()}: {letter.upper()}ON < {letter.upper()}OFF "
+                           "(a switch closed by a low control) is not supported",
+                           hint="swap the control's nodes (S n+ n- nc- nc+) and the values")
+    threshold = (on + off) / 2
+    reader.warn(f".model {name} {kind.upper()} (PSpice; ngspice 39 does not read it) is read as the "
+                f"ideal switch {sw_kind.upper()}({letter.upper()}T={threshold:g} {letter.upper()}H=0): "
+                f"PSpice's smooth change of resistance between {letter.upper()}OFF={off:g} and "
+                f"{letter.upper()}ON={on:g} becomes one step at their middle")
+    return sw_kind, {**params, f"{letter}t": threshold, "roff": params.get("roff", 1e6)}
+
+
+LTSPICE_SWITCH_PARAMETERS = {
+    "lser": "Lser: series inductance", "vser": "Vser: series voltage drop when on",
+    "ilimit": "Ilimit: current limit when on", "level": "Level: smooth transition",
+    "oneway": "Oneway: diode-like conduction", "epsilon": "Epsilon: smooth transition width",
+}
+"""Switch-model parameters of LTspice that ngspice 39 ignores with a warning; so does circuitnsds."""
+
+
 def _switch_model(name: str, kind: str, params: dict[str, float], reader: StatementReader,
                   off_resistance: float) -> SwitchModel:
     current = kind == "csw"
     threshold_key, hysteresis_key = ("it", "ih") if current else ("vt", "vh")
     known = {threshold_key, hysteresis_key, "ron", "roff"}
     for key in params:
-        if key not in known:
+        if key not in known and key not in LTSPICE_SWITCH_PARAMETERS:
             raise reader.error(f".model {name} {kind.upper()}: unknown parameter {key!r}",
                                hint=f"{kind.upper()} models take {', '.join(sorted(known))}")
+    ignored = [key for key in params if key in LTSPICE_SWITCH_PARAMETERS]
+    if ignored:
+        reader.warn(f".model {name} {kind.upper()}: {', '.join(ignored)} ignored (LTspice's "
+                    + "; ".join(LTSPICE_SWITCH_PARAMETERS[key] for key in ignored) + "; ngspice "
+                    "ignores them too): the ideal switch has only RON, ROFF and its threshold; "
+                    "write a series L, V or D beside the switch for what they stand for")
     on_resistance = params.get("ron", 1.0)
     off = params.get("roff", off_resistance)
     if on_resistance < 0:

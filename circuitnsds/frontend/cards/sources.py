@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.sources import CurrentSource, VoltageSource
@@ -78,6 +79,8 @@ def _is_number(token: str | None) -> bool:
 
 
 FUNCTION_ARITY = {"sin": (2, 7), "pulse": (2, 8), "exp": (2, 6), "pwl": (2, None)}
+FUNCTION_ALIASES = {"sine": "sin"}
+"""Other spellings of the functions (PSpice's and ngspice's ``SINE(...)``)."""
 
 
 def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, float] | None]:
@@ -99,10 +102,10 @@ def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, fl
             magnitude = reader.value("AC magnitude") if _is_number(reader.peek()) else 1.0
             phase = reader.value("AC phase") if _is_number(reader.peek()) else 0.0
             ac = (magnitude, phase)  # the small-signal .ac's stimulus; no effect on a transient
-        elif token in FUNCTION_ARITY:
+        elif token in FUNCTION_ARITY or token in FUNCTION_ALIASES:
             if function is not None:
                 raise reader.error(f"{name}: more than one transient function")
-            function = _function(reader, token)
+            function = _function(reader, FUNCTION_ALIASES.get(token, token))
         elif token in {"sffm", "am", "trnoise", "trrandom", "distof1", "distof2"}:
             raise reader.error(f"{name}: {token.upper()} sources are not supported",
                                hint="use DC, SIN, PULSE, PWL or EXP")
@@ -114,6 +117,27 @@ def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, fl
     if function is not None:
         return function, ac
     return Dc(0.0 if dc is None else dc), ac
+
+
+def _pwl_options(reader: StatementReader, options: dict[str, float]) -> None:
+    """Read ``r=R td=TD`` (ngspice's PWL options, inside or after the parentheses) into
+    ``options``."""
+    while reader.peek() in {"r", "td"} and reader.peek(1) == "=":
+        key = reader.next("PWL option")
+        reader.position += 1
+        options[key] = reader.value(f"PWL {key}")
+
+
+def _with_pwl_options(reader: StatementReader, pwl: Pwl, options: dict[str, float]) -> Pwl:
+    """``pwl`` repeated from time ``r`` and delayed by ``td`` (checked)."""
+    repeat = options.get("r")
+    if repeat is not None and (repeat not in pwl.times or repeat == pwl.times[-1]):
+        raise reader.error(f"{reader.name}: PWL r={repeat:g} must be one of its times before the "
+                           f"last ({', '.join(f'{t:g}' for t in pwl.times[:-1])})",
+                           hint="r=0 repeats the whole waveform (with a first point at time 0)")
+    if options.get("td", 0.0) < 0:
+        raise reader.error(f"{reader.name}: PWL td={options['td']:g} must not be negative")
+    return replace(pwl, repeat=repeat, delay=options.get("td", 0.0))
 
 
 def _pwl_file(reader: StatementReader) -> Pwl:
@@ -169,15 +193,21 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
     while not reader.done() and reader.peek() != ")":
         if not is_value(reader.peek()):
             if parenthesised:
-                options = " (PWL options r= and td= are not supported)" if kind == "pwl" else ""
+                if kind == "pwl" and reader.peek() in {"r", "td"} and reader.peek(1) == "=":
+                    break  # r= td= inside the parentheses (ngspice reads both places)
                 raise reader.error(f"{name}: {kind.upper()} argument {reader.peek()!r} "
-                                   f"is not a number{options}")
+                                   "is not a number")
             break
         args.append(reader.value(f"{kind.upper()} argument"))
+    options: dict[str, float] = {}
+    if kind == "pwl":
+        _pwl_options(reader, options)
     if parenthesised:
-        if reader.done():
+        if reader.done() or reader.peek() != ")":
             raise reader.error(f"{name}: {kind.upper()}( has no closing parenthesis")
         reader.position += 1
+        if kind == "pwl":
+            _pwl_options(reader, options)
     low, high = FUNCTION_ARITY[kind]
     if len(args) < low or (high is not None and len(args) > high):
         expected = f"{low} to {high}" if high else f"at least {low}"
@@ -205,7 +235,7 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
     times, values = tuple(args[0::2]), tuple(args[1::2])
     if any(b < a for a, b in zip(times, times[1:])):
         raise reader.error(f"{name}: PWL times must not decrease")
-    return Pwl(times, values)
+    return _with_pwl_options(reader, Pwl(times, values), options)
 
 
 def _defaults(given: list[float], defaults: list[float | None]) -> list[float | None]:

@@ -136,8 +136,10 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
                          f"add .model {model_name} KIND(...), KIND one of {', '.join(CODE_MODELS)}")
     if not isinstance(model, XspiceModel):
         kind = model if isinstance(model, str) else type(model).__name__
-        what = "an XSPICE digital or mixed-signal" if str(kind).startswith(("d_", "adc", "dac")) \
-            else f"the {kind!s}"
+        analog = {"d_dt": "the analog differentiator", "s_xfer": "the analog transfer-function",
+                  "lcouple": "the magnetic-core", "core": "the magnetic-core"}
+        what = analog.get(str(kind)) or ("an XSPICE digital or mixed-signal"
+                                         if str(kind).startswith(("d_", "adc", "dac")) else f"the {kind!s}")
         raise reader.error(f"{name}: code model {kind!s} ({what} model {model_name!r}) is not "
                            "supported by the ideal engine",
                            hint="supported A models: " + ", ".join(CODE_MODELS))

@@ -1,0 +1,249 @@
+"""Issue 32: netlists as people write them, each construct read by circuitnsds and by ngspice
+39 from the same text (marker ``ngspice``): the same waveforms, or both refusing."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.compare import compare
+from circuitnsds.errors import NetlistWarning
+from tests.conftest import NETLISTS
+
+pytestmark = pytest.mark.ngspice
+
+RC_PULSE = "V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out 1k\nC1 out 0 1u\n"
+
+
+def quiet_compare(text, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return compare(text, **kwargs)
+
+
+def agreement(comparison, signal):
+    assert comparison.run.ok, comparison.table()
+    return comparison.run.metrics[signal].nrms
+
+
+def test_analysis_and_meas_inside_control_are_run_as_ngspice_runs_them():
+    # Qucs-S writes the analysis only inside .control; before, circuitnsds said "no .tran line"
+    text = ("rc\n" + RC_PULSE + ".control\nset noaskquit\ntran 10u 3m\nmeas tran vmax MAX v(out)\n"
+            "let x = v(out)*2\nplot v(out)\n.endc\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"<text>:5: \.control script: set \(line 6\), let \(line 9\), "
+                      r"plot \(line 10\) not executed .*tran, meas read as dot commands"):
+        circuit = circuitnsds.read_netlist(text)
+    assert circuit.analyses["tran"].stop == pytest.approx(3e-3)
+    comparison = quiet_compare(text)
+    assert agreement(comparison, "v(out)") < 0.005
+    ours, theirs = comparison.run.measurements["vmax"]
+    assert ours == pytest.approx(theirs, rel=5e-3)
+
+
+def test_gnd_port_is_global_ground_inside_as_in_ngspice():
+    # ngspice 39: a port named gnd stays ground inside; the instance's node there is left unconnected
+    text = (".subckt rc a gnd\nR1 a b 1k\nC1 b gnd 1u\n.ends\n" "V1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\n"
+            "X1 in 0 rc\nX2 in n2 rc\nR2 n2 n3 1k\nR3 n3 0 1k\n.tran 10u 3m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"x2: port 'gnd' of \.subckt rc is ground inside it .*'n2' "
+                      "is not connected"):
+        circuitnsds.read_netlist("gnd port\n" + text)
+    comparison = quiet_compare("gnd port\n" + text)
+    assert agreement(comparison, "v(x2.b)") < 0.005
+    assert comparison.run.metrics["v(n2)"].mean_other == pytest.approx(0, abs=1e-9)
+    assert comparison.run.metrics["v(n2)"].mean_ref == pytest.approx(0, abs=1e-9)
+
+
+@pytest.mark.parametrize("closing", [")", "+ )"])
+def test_lone_closing_parenthesis_ends_a_multiline_model(closing):
+    text = ("paren\nV1 in 0 SIN(0 5 1k)\nD1 in out dmod\nR1 out 0 1k\n"
+            f".model dmod D (\n+ IS=1e-14\n+ N=0.05\n{closing}\n.tran 10u 2m\n.end\n")
+    assert agreement(quiet_compare(text), "v(out)") < 0.01
+
+
+def test_ltspice_switch_parameters_are_ignored_with_a_warning_as_ngspice_does():
+    text = ("sw\nV1 in 0 10\nV2 c 0 PULSE(0 5 0 1u 1u 1m 2m)\nS1 in out c 0 smod\nR1 out 0 10\n"
+            ".model smod SW(Ron=0.1 Roff=1meg Vt=2.5 Vh=0.1 Lser=1n Vser=0.2)\n.tran 1u 3m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"<text>:6: \.model smod SW: lser, vser ignored"):
+        circuitnsds.read_netlist(text)
+    comparison = quiet_compare(text)
+    assert agreement(comparison, "v(out)") < 0.03  # the edges fall between ngspice's points
+    out = comparison.run.metrics["v(out)"]
+    assert out.mean_other == pytest.approx(out.mean_ref, rel=0.01)  # 0.2 V Vser would move it 2 %
+
+
+def test_broken_unused_model_of_an_included_library_is_a_warning_as_in_ngspice(tmp_path):
+    (tmp_path / "vendor.lib").write_text(".model dgood D(IS=1e-14 N=0.05)\n.model dbad D(IS=1e-14 N=)\n")
+    netlist = tmp_path / "uses.cir"
+    netlist.write_text("uses\n.include vendor.lib\nV1 in 0 SIN(0 5 1k)\nD1 in out dgood\nR1 out 0 1k\n"
+                       ".tran 10u 2m\n.end\n")
+    with pytest.warns(NetlistWarning, match=r"vendor.lib:2: unused \.model dbad of an included library "
+                      r"left out \(\.model: missing value of n\)"):
+        circuitnsds.read_netlist(netlist)
+    assert agreement(quiet_compare(netlist), "v(out)") < 0.01
+    netlist.write_text(netlist.read_text().replace("dgood\nR1", "dbad\nR1"))
+    with pytest.raises(circuitnsds.NetlistError, match="vendor.lib:2: .model: missing value of n"):
+        circuitnsds.read_netlist(netlist)
+
+
+TIME_RESISTORS = """time resistor forms
+.param rlow=1k
+V1 in 0 10
+R1 in o1 R = (time<1m ? rlow : 2k)
+R2 o1 0 1k
+R3 in o2 'time<1m ? 1k : 2k'
+R4 o2 0 1k
+.subckt tr a b params: r1=1 r2=2
+R1 a b {time >= 1.5m ? r1 : r2}
+.ends
+X1 in o3 tr r1=1k r2=3k
+R6 o3 0 1k
+.tran 10u 2m
+.end
+"""
+
+
+@pytest.mark.parametrize("window", [(0, 0.99e-3), (1.01e-3, 1.49e-3), (1.51e-3, 2e-3)])
+def test_resistors_stepping_in_time_agree_with_ngspice_between_the_corners(window):
+    # the three forms of issue 32 (parenthesised, quoted, braced in a subcircuit); before:
+    # "'(' is not a number" and "undefined parameter 'time'". At a corner itself circuitnsds
+    # shows the value before the step (its corners are left-continuous), ngspice the one after.
+    comparison = quiet_compare(TIME_RESISTORS, window=window)
+    for signal in ("v(o1)", "v(o2)", "v(o3)", "i(v1)"):
+        assert agreement(comparison, signal) < 1e-9, signal
+
+
+LTSPICE_PARASITICS = """ltspice parasitics
+V1 in 0 PULSE(0 1 0 1u 1u 1m 2m) Rser=1 Cpar=0
+L1 in out 1m Rser=0.1 Cpar=1n Rpar=10k
+C1 out 0 1u Rser=0.01 Lser=1n
+R1 out 0 10
+.tran 1u 3m
+.end
+"""
+WRITTEN_OUT = """ltspice parasitics written as elements (ngspice's names start with the type letter)
+V1 v1.1 0 PULSE(0 1 0 1u 1u 1m 2m)
+Rv1ser in v1.1 1
+L1 l1.1 out 1m
+Rl1ser in l1.1 0.1
+Rl1par in out 10k
+Cl1par in out 1n
+C1 c1.2 0 1u
+Rc1ser out c1.1 0.01
+Lc1ser c1.1 c1.2 1n
+R1 out 0 10
+.tran 1u 3m
+.end
+"""
+
+
+def test_ltspice_parasitics_are_the_elements_they_stand_for_as_ngspice_runs_them_written_out():
+    # ngspice 39 refuses Rser= on a V line; LTspice users write it. circuitnsds reads each as
+    # the element it stands for; ngspice runs those elements written out, and agrees.
+    refused = quiet_compare(LTSPICE_PARASITICS)
+    assert not refused.run.ok and "rser" in refused.run.ngspice.message.lower()
+    ours = circuitnsds.read_netlist(LTSPICE_PARASITICS).transient()
+    theirs = quiet_compare(WRITTEN_OUT).run.resampled
+    for signal in ("v(out)", "i(l1)", "i(v1)", "v(c1.2)"):
+        scale = np.ptp(ours[signal])
+        assert np.sqrt(np.nanmean((ours[signal] - theirs[signal]) ** 2)) < 0.01 * scale, signal
+
+
+def test_pspice_and_ngspice_spellings_agree_with_ngspice(tmp_path):
+    # SINE(, PWL r= td=, .save V(*) I(*), .meas PARAM= and a quoted include path with a space
+    # (before: "unexpected sine", "unexpected r", "unknown signal v(*)", PARAM refused the run);
+    # the PWL is continuous where it repeats: ngspice smears a vertical jump over its own step
+    (tmp_path / "my models").mkdir()
+    (tmp_path / "my models" / "diode lib.lib").write_text(".model dsp D(IS=1e-14 N=0.05)\n")
+    netlist = tmp_path / "spellings.cir"
+    netlist.write_text("""spellings
+.include "my models/diode lib.lib"
+V1 in 0 SINE(0 5 1k)
+D1 in b dsp
+R1 b 0 1k
+V2 c 0 PWL(0 0 0.25m 5 0.5m 0) r=0
+R2 c 0 1k
+V3 d 0 PWL(0 0 1m 1 1.5m 0.5 2m 1) r=1m td=0.3m
+R3 d 0 1k
+.save V(*) I(*)
+.meas tran vavg AVG v(b)
+.meas tran twice PARAM='vavg*2'
+.tran 10u 5m
+.end
+""")
+    comparison = quiet_compare(netlist)
+    for signal in ("v(b)", "v(c)", "v(d)"):
+        assert agreement(comparison, signal) < 0.005, signal
+    for name in ("vavg", "twice"):
+        ours, theirs = comparison.run.measurements[name]
+        assert ours == pytest.approx(theirs, rel=5e-3), name
+
+
+def test_pspice_vswitch_is_the_ideal_switch_at_the_middle_of_its_transition():
+    # ngspice 39 refuses VSWITCH; circuitnsds reads it as SW(VT=(VON+VOFF)/2, VH=0), which
+    # ngspice runs written out
+    body = ("V1 in 0 10\nV2 c 0 PULSE(0 5 0 1m 1m 0.5m 3m)\nS1 in out c 0 sv\nR1 out 0 10\n"
+            ".tran 1u 6m\n")
+    pspice = "vswitch\n" + body + ".model sv VSWITCH(Ron=0.1 Roff=1meg Von=3 Voff=2)\n.end\n"
+    refused = quiet_compare(pspice)
+    assert not refused.run.ok
+    with pytest.warns(NetlistWarning, match=r"\.model sv VSWITCH .* read as the ideal switch "
+                      r"SW\(VT=2.5 VH=0\)"):
+        ours = circuitnsds.read_netlist(pspice).transient()
+    theirs = quiet_compare("sw\n" + body + ".model sv SW(Ron=0.1 Roff=1meg Vt=2.5)\n.end\n").run.resampled
+    scale = np.ptp(ours["v(out)"])  # (the edges fall between ngspice's points: 1.5 % of RMS)
+    assert np.sqrt(np.nanmean((ours["v(out)"] - theirs["v(out)"]) ** 2)) < 0.03 * scale
+    assert np.mean(ours["v(out)"]) == pytest.approx(np.nanmean(theirs["v(out)"]), rel=0.005)
+
+
+@pytest.mark.parametrize(("lines", "pattern"), [
+    ("V1 a 0 SIN(0 1 1k)\nL1 a 0 1m\nL2 b 0 1m\nR1 b 0 1k\nK1 L1 L2 1.0 tMod\n.model tMod CORE",
+     r"k1: 'tmod' after the coupling coefficient is a core model \(Xyce's"),
+    ("V1 a 0 SIN(0 1 1k)\nD1 a b\nR1 b 0 1k", r"d1: the diode has no model"),
+])
+def test_both_refuse_with_a_message_that_says_what_to_write(lines, pattern):
+    # before: "coupling coefficient 'tmod' is not a number", "missing model name" (no hint)
+    text = f"refused\n{lines}\n.tran 10u 2m\n.end\n"
+    with pytest.raises(circuitnsds.NetlistError, match=pattern) as error:
+        circuitnsds.read_netlist(text)
+    assert "write" in error.value.hint or "leave" in error.value.hint
+    from circuitnsds.compare.ngspice import run_ngspice
+
+    assert run_ngspice(text, ["v(a)"], 2e-3).status == "rejected"
+
+
+def test_comparator_toggling_at_dc_starts_from_zero_with_a_warning_and_settles_as_ngspice():
+    # issue 32: a voltage-mode buck whose comparator toggles its switch at DC has no operating
+    # point; ngspice finds one of its smooth models by source stepping, circuitnsds refused.
+    netlist = NETLISTS / "dialect" / "voltage_mode_buck_no_dc_op.cir"
+    with pytest.warns(NetlistWarning, match=r"no DC operating point: switch\(es\) s1 \(control "
+                      r"v\(ctrl, ramp\)\) toggle .* starting from the zero state"):
+        circuitnsds.read_netlist(netlist).transient(stop=20e-6)
+    comparison = quiet_compare(netlist, window=(2e-3, 3e-3), signals=["v(out)", "i(l1)"])
+    out = comparison.run.metrics["v(out)"]
+    assert out.rrms < 0.005  # settled to the same 5 V
+    assert comparison.run.metrics["i(l1)"].mean_other == pytest.approx(
+        comparison.run.metrics["i(l1)"].mean_ref, rel=0.01)
+
+
+def test_when_ngspice_fails_with_compares_ammeters_it_runs_the_netlist_as_written(monkeypatch):
+    # issue 32: the 0 V ammeters compare puts in series with diodes made ngspice fail on a
+    # buck-boost it runs as written, and the failure was reported as ngspice's
+    from circuitnsds.compare import api
+    from circuitnsds.compare.ngspice import NgspiceRun
+
+    real = api.run_ngspice
+
+    def failing_with_ammeters(text, *args, **kwargs):
+        if "v_cnsds_d1" in text:
+            return NgspiceRun("failed", message="Timestep too small (caused by the ammeter)")
+        return real(text, *args, **kwargs)
+
+    monkeypatch.setattr(api, "run_ngspice", failing_with_ammeters)
+    text = ("rectifier\nV1 a 0 SIN(0 5 1k)\nD1 a k dm\nR1 k 0 1k\n.model dm D(IS=1e-14 N=0.05)\n"
+            ".tran 10u 2m\n.end\n")
+    comparison = quiet_compare(text)
+    assert comparison.run.ok
+    assert any("ran again on the netlist as written" in note and "Timestep too small" in note
+               for note in comparison.notes)
+    assert comparison.run.metrics["i(d1)"].nrms < 0.03  # ngspice's @d1[id], N = 0.05 against the ideal diode
