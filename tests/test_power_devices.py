@@ -1,0 +1,145 @@
+"""IGBTs and thyristors (``Z`` lines with ``IGBT``/``SCR`` models): a controlled switch in series
+with the on-state diode ``V0 + r·i`` (see circuitnsds/circuit/elements/power.py).
+
+Expected values are closed forms of the circuits: the resistive chopper's on-state current
+``(Vin - VCESAT)/(R + RON)``, the half-wave controlled rectifier's mean load voltage
+``Vm·(1 + cos α)/(2π)`` (ideal device) and its conduction interval ``[α, π]``. ngspice has no
+IGBT or thyristor primitive (its libraries model both as subcircuits of its own devices,
+whose answers depend on those devices' Shockley curves), so no test here compares with it.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from circuitnsds.cli.info import circuit_report
+from circuitnsds.errors import NetlistError
+from tests.conftest import NETLISTS, circuit_from
+
+VIN, LOAD, VCESAT, RON = 100.0, 10.0, 1.5, 0.05
+
+
+def chopper(model: str = f"VT=5 VCESAT={VCESAT} RON={RON}", source: str = f"DC {VIN}") -> str:
+    """A low-side IGBT switching a resistive load (gate 15 V for 5 µs of each 10 µs)."""
+    return (f"V1 in 0 {source}\nVG g 0 PULSE(0 15 0 1n 1n 5u 10u)\nRL in c {LOAD}\n"
+            f"Z1 c g 0 igbt\n.model igbt IGBT({model})")
+
+
+def test_igbt_chopper_on_state_is_vcesat_plus_ron_i():
+    waves = circuit_from(chopper()).transient(10e-9, 40e-6)
+    time, current, vce = waves["time"], waves["i(z1)"], waves["v(c)"]
+    on = (time % 10e-6 > 0.5e-6) & (time % 10e-6 < 4.5e-6)
+    off = (time % 10e-6 > 5.5e-6) & (time % 10e-6 < 9.5e-6)
+    expected = (VIN - VCESAT) / (LOAD + RON)
+    np.testing.assert_allclose(current[on], expected, rtol=1e-9)
+    np.testing.assert_allclose(vce[on], VCESAT + RON * expected, rtol=1e-9)
+    np.testing.assert_allclose(vce[off], VIN, rtol=1e-9)
+    assert np.all(np.abs(current[off]) < 1e-9)
+
+
+def test_igbt_current_cannot_reverse_without_its_antiparallel_diode():
+    # the load's supply reverses (a 10 V, 50 kHz sine) while the gate holds the IGBT on
+    body = chopper(source="SIN(0 10 50k)").replace("PULSE(0 15 0 1n 1n 5u 10u)", "DC 15")
+    waves = circuit_from(body).transient(10e-9, 40e-6)
+    current, supply = waves["i(z1)"], waves["v(in)"]
+    assert current.min() > -1e-9  # reverse bias: only the 1e-12 S leakage
+    forward = supply > VCESAT + 0.1
+    np.testing.assert_allclose(current[forward], (supply[forward] - VCESAT) / (LOAD + RON), rtol=1e-9)
+    # with a co-pack diode VFD=0.8, RFD=20m the reverse current flows through it
+    copack = circuit_from(body.replace("RON=0.05", "RON=0.05 VFD=0.8 RFD=20m")).transient(10e-9, 40e-6)
+    reverse = copack["v(in)"] < -0.9
+    expected = (copack["v(in)"][reverse] + 0.8) / (LOAD + 0.02)
+    np.testing.assert_allclose(copack["i(z1.dfree)"][reverse], -expected, rtol=1e-9)
+    assert copack["i(z1)"][reverse].min() > -1e-9
+
+
+def scr_rectifier(alpha: float, period: str = "20m", model: str = "IGT=10m") -> str:
+    """A 100 V, 50 Hz half-wave controlled rectifier into 10 Ω, fired at ``alpha`` [rad]
+    by a 5 V, 100 µs gate pulse through 100 Ω (43 mA) every ``period``."""
+    fire = alpha / (2 * math.pi * 50)
+    return (f"V1 in 0 SIN(0 100 50)\nRL in a 10\nZ1 a g 0 scr\nVG gd 0 PULSE(0 5 {fire!r} 1n 1n 100u "
+            f"{period})\nRG gd g 100\n.model scr SCR({model})")
+
+
+@pytest.mark.parametrize("degrees", [30, 60, 90, 135])
+def test_thyristor_half_wave_mean_is_vm_1_plus_cos_alpha_over_2pi(degrees):
+    alpha = math.radians(degrees)
+    waves = circuit_from(scr_rectifier(alpha)).transient(1e-6, 40e-3)
+    time, load = waves["time"], waves["v(in)"] - waves["v(a)"]
+    second = time >= 20e-3
+    mean = np.trapezoid(load[second], time[second]) / 20e-3
+    # the firing instant is a grid point of the gate pulse; the step is 1 µs of 20 ms
+    assert mean == pytest.approx(100 * (1 + math.cos(alpha)) / (2 * math.pi), rel=2e-4)
+
+
+def test_thyristor_latches_after_its_gate_pulse_and_turns_off_at_current_zero():
+    alpha = math.radians(60)
+    # one gate pulse only (period 1 s): the second positive half-cycle must stay blocked
+    waves = circuit_from(scr_rectifier(alpha, period="1")).transient(1e-6, 40e-3)
+    time, current = waves["time"], waves["i(z1)"]
+    phase = (2 * math.pi * 50 * time)
+    first = (phase > alpha + 0.01) & (phase < math.pi - 0.01)
+    np.testing.assert_allclose(current[first], 10 * np.sin(phase[first]), rtol=1e-9)
+    assert np.all(waves["i(z1.gate)"][first & (time > 3.4833e-3 + 2e-6)] == 0)  # latched, no gate
+    after = (time > 10.01e-3) & (time < 40e-3)
+    assert np.all(np.abs(current[after]) < 1e-9)  # off at the current zero and never re-fired
+    # off at the zero crossing: the last conducting step is within one step of t = 10 ms
+    conducting = time[current > 1e-6]
+    assert conducting.max() == pytest.approx(10e-3, abs=1.01e-6)
+
+
+def test_thyristor_on_state_drop_and_holding_current():
+    # VON + RON·i while conducting; IH = 5 mA turns it off when the anode current falls to 5 mA
+    waves = circuit_from(scr_rectifier(math.radians(30), model="IGT=10m IH=5m VON=1 RON=0.1")
+                         ).transient(1e-6, 20e-3)
+    time, current, vak = waves["time"], waves["i(z1)"], waves["v(a)"]
+    conducting = current > 1e-6
+    np.testing.assert_allclose(vak[conducting], 1 + 0.1 * current[conducting], rtol=1e-9)
+    phase_off = math.pi - math.asin((1 + 5e-3 * 10.1) / 100)  # 100 sin θ = 1 + 5 mA·(10 + 0.1)
+    assert time[conducting].max() == pytest.approx(phase_off / (2 * math.pi * 50), abs=1.01e-6)
+
+
+def test_info_names_igbts_and_thyristors():
+    text, ok = circuit_report(circuit_from(chopper("VT=5 VCESAT=1.5 VFD=0.8") + "\n.tran 1u 2u"))
+    assert ok
+    assert "IGBTs (1): z1" in text
+    assert "IGBT (collector c, gate g, emitter 0)" in text
+    assert "antiparallel diode z1.dfree" in text and "tail current is not modelled" in text
+    text, ok = circuit_report(circuit_from(scr_rectifier(1.0) + "\n.tran 1u 2u"))
+    assert ok
+    assert "thyristors (SCR) (1): z1" in text
+    assert "thyristor (anode a, gate g, cathode 0)" in text
+    assert "closes above 0.01 A, opens below 1e-09 A" in text
+
+
+@pytest.mark.parametrize(
+    ("body", "pattern"),
+    [
+        ("Z1 c g 0 m\n.model m IGBT(VCESAT=1)", r"VT is required"),
+        ("Z1 c g 0 m\n.model m IGBT(RON=1)", r"VT and VCESAT are required"),
+        ("Z1 a g 0 m\n.model m SCR(VON=1)", r"IGT is required"),
+        ("Z1 a g 0 m\n.model m SCR(IGT=1m IH=5m)", r"above the holding current"),
+        ("Z1 c g 0 m\n.model m IGBT(VT=5 VCESAT=1 BOGUS=2)", r"unknown parameter 'bogus'"),
+        ("Z1 c g 0 m\n.model m IGBT(VT=5 VCESAT=-1)", r"VCESAT=-1 must be non-negative"),
+        ("Z1 c g 0 nomodel", r"z1: IGBT or SCR model 'nomodel' is not defined"),
+        ("Z1 d g s m\n.model m NMF(VTO=-2)", r"not an IGBT or SCR model.*MESFETs"),
+        ("Z1 c g 0 m extra\n.model m IGBT(VT=5 VCESAT=1)", r"unexpected 'extra'"),
+    ],
+)
+def test_power_device_errors_name_the_line(body, pattern):
+    with pytest.raises(NetlistError, match=pattern) as caught:
+        circuit_from(body)
+    assert ":2:" in str(caught.value) or ":3:" in str(caught.value)
+
+
+def test_shipped_netlists_run_to_their_closed_forms():
+    import circuitnsds
+
+    chopper_waves = circuitnsds.read_netlist(NETLISTS / "igbt_chopper.cir").transient()
+    assert chopper_waves["i(z1)"].max() == pytest.approx((48 - 1.7) / (4 + 0.02), rel=1e-9)
+    rectifier = circuitnsds.read_netlist(NETLISTS / "thyristor_rectifier.cir").transient()
+    time, load = rectifier["time"], rectifier["v(out)"]
+    last = time >= time[-1] - 20e-3
+    mean = np.trapezoid(load[last], time[last]) / 20e-3
+    assert mean == pytest.approx(325 * (1 + math.cos(math.radians(45))) / (2 * math.pi), rel=5e-4)
