@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 
+import circuitnsds
 from circuitnsds.cli.info import circuit_report
 from circuitnsds.errors import NetlistError
 from tests.conftest import NETLISTS, circuit_from
@@ -136,10 +137,34 @@ def test_power_device_errors_name_the_line(body, pattern):
 def test_shipped_netlists_run_to_their_closed_forms():
     import circuitnsds
 
-    chopper_waves = circuitnsds.read_netlist(NETLISTS / "igbt_chopper.cir").transient()
+    chopper_waves = circuitnsds.read_netlist(NETLISTS / "power" / "igbt_chopper.cir").transient()
     assert chopper_waves["i(z1)"].max() == pytest.approx((48 - 1.7) / (4 + 0.02), rel=1e-9)
-    rectifier = circuitnsds.read_netlist(NETLISTS / "thyristor_rectifier.cir").transient()
+    rectifier = circuitnsds.read_netlist(NETLISTS / "power" / "thyristor_rectifier.cir").transient()
     time, load = rectifier["time"], rectifier["v(out)"]
     last = time >= time[-1] - 20e-3
     mean = np.trapezoid(load[last], time[last]) / 20e-3
     assert mean == pytest.approx(325 * (1 + math.cos(math.radians(45))) / (2 * math.pi), rel=5e-4)
+
+
+def test_compare_refuses_a_z_line_that_ngspice_would_read_as_a_mesfet():
+    from circuitnsds.compare.translate import translate_netlist
+
+    with pytest.raises(NetlistError, match=r"z1: ngspice 39 has no IGBT or thyristor device"):
+        translate_netlist(f"t\n{chopper()}\n.tran 1u 2u\n.end\n")
+
+
+def test_igbt_loss_row_is_its_on_state_line_and_thermal_reaches_its_switch(tmp_path):
+    from circuitnsds.output.measure import losses, mean
+    from tests.test_thermal_losses import SWITCH_XML
+
+    waves = circuit_from(chopper()).transient(10e-9, 40e-6)
+    table = losses(waves, circuit_from(chopper()), outputs=("rl",))
+    rows = {row.element: row for row in table.rows}
+    assert "z1.on" not in rows  # its power is in z1's row
+    current = waves["i(z1)"]
+    expected = mean(waves.time, VCESAT * current + RON * current**2, 0, 40e-6)
+    assert rows["z1"].power == pytest.approx(expected, rel=1e-6)
+    (tmp_path / "igbt.xml").write_text(SWITCH_XML)
+    (tmp_path / "c.cir").write_text(f"t\n{chopper()[:-1]} thermal=\"igbt.xml\")\n.tran 10n 40u\n.end\n")
+    circuit = circuitnsds.read_netlist(tmp_path / "c.cir")
+    assert circuit.element("z1").model.thermal == str(tmp_path / "igbt.xml")

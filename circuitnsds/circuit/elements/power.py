@@ -21,6 +21,10 @@ piecewise-linear diode (a complementarity pair) that gives the on-state characte
   zero. A switch fired while reverse biased carries nothing (the diode blocks) and opens
   when the gate current stops. The memory is the switch's state, which the step loop
   keeps between the thresholds as it keeps any switch's hysteresis.
+
+The device's voltage (``terminals``: collector/anode to emitter/cathode) is what losses and
+measures take; the on-state diode ``z1.on`` is part of it (``absorbed_parts``), so the loss
+table has one row ``z1`` whose power is ``v·i = (V0 + r·i)·i`` while it conducts.
 """
 
 from __future__ import annotations
@@ -47,6 +51,16 @@ class Igbt(Switch):
     def gate(self) -> str:
         return self.nodes[2]
 
+    @property
+    def terminals(self) -> tuple[str, str]:
+        """``(collector, emitter)``: the device's voltage is ``v(c) - v(e)`` (losses, measures)."""
+        return self.nodes[0], self.nodes[3]
+
+    @property
+    def absorbed_parts(self) -> tuple[str, ...]:
+        """The part whose power is the device's own (``v(c, e)·i`` includes the on-state diode's)."""
+        return (f"{self.name}.on",)
+
 
 @dataclass(frozen=True)
 class Thyristor(Switch):
@@ -66,6 +80,16 @@ class Thyristor(Switch):
     @property
     def gate(self) -> str:
         return self.nodes[2]
+
+    @property
+    def terminals(self) -> tuple[str, str]:
+        """``(anode, cathode)``: the device's voltage is ``v(a) - v(k)`` (losses, measures)."""
+        return self.nodes[0], self.cathode
+
+    @property
+    def absorbed_parts(self) -> tuple[str, ...]:
+        """The part whose power is the device's own (``v(a, k)·i`` includes the on-state diode's)."""
+        return (f"{self.name}.on",)
 
     def control_row(self, builder: MLCSBuilder, branch: int) -> tuple[list[tuple[int, float]], None]:
         """``i_g + i_a``: the gate branch (a 0 V branch from the gate to the gate junction,
