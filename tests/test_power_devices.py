@@ -135,7 +135,6 @@ def test_power_device_errors_name_the_line(body, pattern):
 
 
 def test_shipped_netlists_run_to_their_closed_forms():
-    import circuitnsds
 
     chopper_waves = circuitnsds.read_netlist(NETLISTS / "power" / "igbt_chopper.cir").transient()
     assert chopper_waves["i(z1)"].max() == pytest.approx((48 - 1.7) / (4 + 0.02), rel=1e-9)
