@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import circuitnsds
 from circuitnsds.cli.info import circuit_report
@@ -167,3 +169,16 @@ def test_igbt_loss_row_is_its_on_state_line_and_thermal_reaches_its_switch(tmp_p
     (tmp_path / "c.cir").write_text(f"t\n{chopper()[:-1]} thermal=\"igbt.xml\")\n.tran 10n 40u\n.end\n")
     circuit = circuitnsds.read_netlist(tmp_path / "c.cir")
     assert circuit.element("z1").model.thermal == str(tmp_path / "igbt.xml")
+
+
+@settings(max_examples=25, deadline=None)
+@given(vcesat=st.floats(0.0, 3.0), ron=st.floats(0.0, 1.0), supply=st.floats(-500.0, 500.0),
+       load=st.floats(1.0, 100.0))
+def test_igbt_conducts_its_on_state_line_forward_and_nothing_reverse(vcesat, ron, supply, load):
+    body = (f"V1 in 0 {supply!r}\nVG g 0 15\nRL in c {load!r}\nZ1 c g 0 igbt\n"
+            f".model igbt IGBT(VT=5 VCESAT={vcesat!r} RON={ron!r})")
+    current = circuit_from(body).transient(1e-6, 2e-6)["i(z1)"][-1]
+    if supply > vcesat:
+        assert current == pytest.approx((supply - vcesat) / (load + ron), rel=1e-9, abs=1e-9)
+    else:  # blocked: at most the leakage of the two 1e-12 S off-resistances
+        assert abs(current) <= abs(supply) * 1e-12 + 1e-12
