@@ -3,7 +3,8 @@ with the on-state diode ``V0 + r·i`` (see circuitnsds/circuit/elements/power.py
 
 Expected values are closed forms of the circuits: the resistive chopper's on-state current
 ``(Vin - VCESAT)/(R + RON)``, the half-wave controlled rectifier's mean load voltage
-``Vm·(1 + cos α)/(2π)`` (ideal device) and its conduction interval ``[α, π]``. ngspice has no
+``Vm·(1 + cos α)/(2π)`` (ideal device) and its conduction interval ``[α, π]``, and with
+an R-L load the current's closed form up to its extinction angle β past π. ngspice has no
 IGBT or thyristor primitive (its libraries model both as subcircuits of its own devices,
 whose answers depend on those devices' Shockley curves), so no test here compares with it.
 """
@@ -182,3 +183,31 @@ def test_igbt_conducts_its_on_state_line_forward_and_nothing_reverse(vcesat, ron
         assert current == pytest.approx((supply - vcesat) / (load + ron), rel=1e-9, abs=1e-9)
     else:  # blocked: at most the leakage of the two 1e-12 S off-resistances
         assert abs(current) <= abs(supply) * 1e-12 + 1e-12
+
+
+def test_thyristor_with_an_inductive_load_conducts_past_the_voltage_zero_until_its_current_zero():
+    # i(θ) = Vm/Z·(sin(θ − φ) − sin(α − φ)·e^(−(θ − α)/tan φ)) from the firing angle α to the
+    # extinction angle β where it is zero again (past π: the inductor drives it on)
+    from scipy.optimize import brentq
+
+    vm, resistance, inductance, omega = 100.0, 10.0, 20e-3, 2 * math.pi * 50
+    impedance, phi = math.hypot(resistance, omega * inductance), math.atan2(omega * inductance, resistance)
+    alpha = math.radians(60)
+
+    def current(theta):
+        return vm / impedance * (math.sin(theta - phi)
+                                 - math.sin(alpha - phi) * math.exp(-(theta - alpha) / math.tan(phi)))
+
+    beta = brentq(current, math.pi, 2 * math.pi - 1e-9)  # 211.7°
+    body = scr_rectifier(alpha).replace("RL in a 10", f"RL in m {resistance}\nLL m a {inductance}")
+    waves = circuit_from(body).transient(1e-6, 40e-3)
+    time, anode = waves["time"], waves["i(z1)"]
+    second = time >= 20e-3
+    assert time[(anode > 1e-6) & second].max() == pytest.approx(20e-3 + beta / omega, abs=1.01e-6)
+    load = waves["v(in)"] - waves["v(a)"]
+    mean = np.trapezoid(load[second], time[second]) / 20e-3
+    assert mean == pytest.approx(vm * (math.cos(alpha) - math.cos(beta)) / (2 * math.pi), rel=2e-4)
+    theta = omega * time[second] % (2 * math.pi)
+    inside = (theta > alpha + 0.01) & (theta < beta - 0.01)
+    expected = np.array([current(x) for x in theta[inside]])
+    np.testing.assert_allclose(anode[second][inside], expected, atol=5e-4 * vm / impedance)
