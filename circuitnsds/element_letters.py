@@ -78,7 +78,7 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
     "t": ElementLetter("transmission lines", 0, supported=False),
     "u": ElementLetter("RC lines", 0, supported=False),
     "y": ElementLetter("transmission lines", 0, supported=False),
-    "z": ElementLetter("MESFETs", 0, supported=False),
+    "z": ElementLetter("IGBTs and thyristors (PSpice's Z line)", 3),
     "n": ElementLetter("OSDI devices", 0, supported=False),
 }
 """Every element letter SPICE knows, lower case -> what it is (``supported=False``: refused)."""

@@ -33,7 +33,7 @@ _KINDS = {
     "Resistor": "resistors", "Capacitor": "capacitors", "Inductor": "inductors",
     "MutualInductance": "coupled inductors", "VoltageSource": "voltage sources",
     "CurrentSource": "current sources", "Diode": "diodes", "Switch": "switches",
-    "Mosfet": "MOSFETs (switches)",
+    "Mosfet": "MOSFETs (switches)", "Igbt": "IGBTs", "Thyristor": "thyristors (SCR)",
     "VoltageControlledVoltageSource": "controlled sources (E)",
     "CurrentControlledCurrentSource": "controlled sources (F)",
     "VoltageControlledCurrentSource": "controlled sources (G)",
@@ -67,7 +67,9 @@ def _model_detail(element) -> str | None:
         return f"model {model.name}: {detail}; read as {model.origin}"
     if hasattr(model, "threshold"):
         unit = "A" if model.current_controlled else "V"
-        if getattr(element, "control", None):
+        if type(element).__name__ == "Thyristor":
+            control = f"i({element.name}.gate) + i({element.name}) (gate plus anode current)"
+        elif getattr(element, "control", None):
             control = f"current of {element.control}"
         else:
             control = "v({}) - v({})".format(*element.control_nodes())
@@ -84,6 +86,17 @@ def _model_detail(element) -> str | None:
                       f"source {element.nodes[1]}, gate {element.gate}) as a {detail}; "
                       f"Ron = {element.on_resistance_rule}"
                       + (f"; with {', '.join(element.parts)}" if element.parts else ""))
+        kind = type(element).__name__
+        if kind == "Igbt":
+            detail = (f"IGBT (collector {element.nodes[0]}, gate {element.gate}, emitter "
+                      f"{element.nodes[3]}): {detail}, in series with the on-state diode "
+                      f"{element.name}.on" + (" and the antiparallel diode "
+                      f"{element.name}.dfree" if len(element.parts) > 1 else "")
+                      + "; the turn-off tail current is not modelled")
+        elif kind == "Thyristor":
+            detail = (f"thyristor (anode {element.nodes[0]}, gate {element.gate}, cathode "
+                      f"{element.cathode}): {detail} (fires above IGT, holds down to IH), in series with the "
+                      f"on-state diode {element.name}.on; gate junction {element.name}.gk")
         return detail
     return None
 

@@ -18,6 +18,8 @@ in it are for circuitnsds only or get in the way of a batch comparison:
 * ``.control ... .endc`` blocks, ``.save`` (the comparison chooses what to save),
   other analyses (``.op .ac .dc ...``) and output commands (``.print .plot .four
   .meas ...``) are removed;
+* a ``Z`` line (circuitnsds's IGBT or thyristor) is refused: ngspice reads ``Z`` as a
+  MESFET and has no IGBT or thyristor device;
 * ``.tran`` TSTEP and TSTOP are replaced when the comparison overrides them;
 * a diode whose current is compared gets a 0 V source in series (an ammeter:
   ``D1 a k m`` becomes ``D1 a cnsds_d1_k m`` and ``v_cnsds_d1 cnsds_d1_k k 0``),
@@ -246,6 +248,11 @@ def _translate_statement(statement: Statement, context: _Context) -> list[str]:
     if not keyword.startswith(".") and not keyword[:1].isalpha():
         translation.notes.append(f"{where}: {keyword} removed (not an element)")
         return []
+    if keyword[:1] == "z":  # circuitnsds's IGBT/SCR line; ngspice reads Z as a MESFET
+        raise NetlistError(f"{keyword}: ngspice 39 has no IGBT or thyristor device (its Z line is "
+                           "a MESFET), so this netlist cannot be compared", where=statement.location,
+                           hint="compare a copy in which the device is written in ngspice's "
+                           "terms (e.g. an S switch in series with a diode)")
     if keyword[:1] == "d" and keyword in translation.ammeters:
         translation.notes.append(f"{where}: {keyword}: a 0 V ammeter ({AMMETER_PREFIX}{keyword}) "
                                  "added in series, whose current is the diode's")

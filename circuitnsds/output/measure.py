@@ -150,12 +150,13 @@ ripple = peak_to_peak
 
 
 def element_voltage(waves: Waveforms, element) -> np.ndarray:
-    """``v(n1) - v(n2)`` [V] across an element's first two terminals (ground is 0 V).
+    """``v(n1) - v(n2)`` [V] across an element's first two terminals (ground is 0 V); for a
+    device built of parts (an IGBT, a thyristor) across its ``terminals``.
 
     ``element`` is an :class:`~circuitnsds.circuit.elements.Element` (``circuit.element("r1")``)
     or a pair of node names.
     """
-    nodes = getattr(element, "nodes", element)
+    nodes = getattr(element, "terminals", None) or getattr(element, "nodes", element)
     values = []
     for node in nodes[:2]:
         if node in ("0", "gnd"):
@@ -543,7 +544,8 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
     Every element's average absorbed power ``mean(v·i)`` over the window (SPICE's passive
     sign convention, as :func:`power`): sources with a net delivery are ``input`` rows,
     elements named in ``outputs`` (the load resistors) ``output`` rows, the other resistors,
-    switches (``Ron·i²`` closed, ``v²/Roff`` open), diodes (``Vfwd·i + Ron·i²``) and
+    switches (``Ron·i²`` closed, ``v²/Roff`` open), diodes (``Vfwd·i + Ron·i²``), IGBTs and
+    thyristors (one row each, their on-state diode included: ``(V0 + r·i)·i``) and
     controlled sources ``loss`` rows (a current source, which has no ``i(name)`` signal, by its
     function sampled on the grid, with the ``.tran`` line's TSTEP/TSTOP for omitted fields);
     inductors, capacitors and couplings give one ``stored`` row, ``ΔE/(t1 − t0)``. A periodic
@@ -574,7 +576,12 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
     parts = devices(float(start), float(stop)) if devices is not None else {}
     rows: list[LossRow] = []
     stored = 0.0
+    # parts whose power is in their device's row (an IGBT's on-state diode)
+    absorbed_parts = {part for element in circuit.elements
+                      for part in getattr(element, "absorbed_parts", ())}
     for element in circuit.elements:
+        if element.name in absorbed_parts:
+            continue
         # the element kinds by their attributes (output/ does not import circuit/)
         if hasattr(element, "inductance"):
             current = np.interp([start, stop], time, waves[f"i({element.name})"])

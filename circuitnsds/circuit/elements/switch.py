@@ -97,13 +97,7 @@ class Switch(Element):
         closed_row = [(plus, 1.0), (minus, -1.0), (k, -self.model.on_resistance)]
         for column, value in open_row:
             builder.add("A", k, column, value)
-        if self.control is None:
-            cplus, cminus = (builder.node(n) for n in self.control_nodes())
-            control = [(cplus, 1.0), (cminus, -1.0)]
-            control_nodes = (cplus, cminus)
-        else:
-            control = [(builder.branch(f"i({self.control})"), 1.0)]
-            control_nodes = None
+        control, control_nodes = self.control_row(builder, k)
         on_threshold, off_threshold = self.model.thresholds()
         builder.switch(
             dict(
@@ -116,6 +110,16 @@ class Switch(Element):
             control_nodes,
         )
         builder.output(f"i({self.name})", [(k, 1.0)])
+
+    def control_row(self, builder: MLCSBuilder, branch: int) -> tuple[list[tuple[int, float]],
+                                                                       tuple[int, int] | None]:
+        """``(control, control_nodes)``: the control as ``(unknown, coefficient)`` terms (the
+        switch's own current is the unknown ``branch``), and the indexes ``(nc+, nc-)`` of a
+        voltage control (``None`` for a current control)."""
+        if self.control is not None:
+            return [(builder.branch(f"i({self.control})"), 1.0)], None
+        cplus, cminus = (builder.node(n) for n in self.control_nodes())
+        return [(cplus, 1.0), (cminus, -1.0)], (cplus, cminus)
 
     def control_nodes(self) -> tuple[str, str]:
         """``(nc+, nc-)``: the control of an ``S`` switch is ``v(nc+) - v(nc-)`` [V]."""

@@ -84,6 +84,7 @@ CARD_READERS: dict[str, CardReader] = {
     "s": _SWITCH, "w": _SWITCH,
     "m": CardReader("mosfets", "mosfet", ("models", "options", "off_resistance")),
     "a": CardReader("xspice", "analog_block", ("models",)),
+    "z": CardReader("power_devices", "power_device", ("models", "off_resistance")),
 }
 """Element letter -> its card reader."""
 

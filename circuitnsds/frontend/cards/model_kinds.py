@@ -10,6 +10,9 @@ that uses none of them.
 MOS_KINDS = {"vdmos": "VDMOS power MOSFET", "nmos": "n-channel MOSFET", "pmos": "p-channel MOSFET"}
 """MOSFET model types (``.model NAME VDMOS|NMOS|PMOS``) -> what they are."""
 
+POWER_KINDS = {"igbt": "IGBT", "scr": "thyristor (SCR)"}
+"""Power-device model types (``.model NAME IGBT|SCR``, used by ``Z`` lines) -> what they are."""
+
 ANALOG_BLOCKS = {
     "gain": {"in_offset": 0.0, "gain": 1.0, "out_offset": 0.0},
     "summer": {"in_offset": (), "in_gain": (), "out_gain": 1.0, "out_offset": 0.0},

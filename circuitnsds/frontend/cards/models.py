@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
 from circuitnsds.circuit.elements.diode_fit import MAX_BRANCHES, ShockleyDiode
-from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS
+from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS, POWER_KINDS
 from circuitnsds.frontend.cards.reader import StatementReader
 
 # Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
@@ -35,7 +35,7 @@ DEFAULT_RESISTOR_LENGTH = 10e-6
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
                "vswitch": "voltage-controlled switch", "iswitch": "current-controlled switch",
-               "r": "resistor", "res": "resistor", **MOS_KINDS}
+               "r": "resistor", "res": "resistor", **MOS_KINDS, **POWER_KINDS}
 
 
 @dataclass(frozen=True)
@@ -124,6 +124,10 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         from circuitnsds.frontend.cards.mosfets import read_mos_model
 
         return name, read_mos_model(name, kind, reader)
+    if kind in POWER_KINDS:
+        from circuitnsds.frontend.cards.power_devices import read_power_model
+
+        return name, read_power_model(name, kind, reader)
     if kind not in MODEL_KINDS:
         return name, kind
     params: dict[str, float] = {}
@@ -134,8 +138,8 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         if key == "thermal":
             if kind not in {"d", "sw", "csw"}:
                 raise reader.error(f".model {name} {kind.upper()}: thermal= names a device's "
-                                   "datasheet losses", hint="D, SW, CSW, VDMOS, NMOS and PMOS "
-                                   "models take thermal=\"file.xml\"")
+                                   "datasheet losses", hint="D, SW, CSW, IGBT, VDMOS, NMOS and "
+                                   "PMOS models take thermal=\"file.xml\"")
             thermal = thermal_path(reader, text)
             continue
         if key in TEXT_PARAMETERS:
