@@ -6,13 +6,14 @@ form that a sampled search misses, and a whole run against the closed form of an
 RC-triggered switch."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.linalg import expm
 
 import circuitnsds
-from circuitnsds.analyses.operating_point import uic_state
+from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.engine.exact.exppoly import ExpPoly, response
 from circuitnsds.engine.exact.roots import first_root
 from circuitnsds.engine.exact.run import run_exact
@@ -69,6 +70,8 @@ def test_first_root_none_when_the_function_stays_positive():
     assert first_root(g, 1.0, tol=1e-14, resolution=1e-16) is None
 
 
+BUCK = str(Path(__file__).parent.parent / "netlists" / "buck_converter.cir")
+
 RC_SWITCH = """rc triggered switch
 V1 in 0 10
 R1 in c 1k
@@ -97,3 +100,27 @@ def test_an_rc_triggered_switch_closes_at_its_closed_form_instant():
     closed = times > event.time
     vout = run.y[closed, mlcs.unknowns.index("v(out)")]
     assert np.allclose(vout, 5 * 1 / (1 + 1e3) + 0 * vout, rtol=1e-6)  # 5 V · Ron/(Ron+R2), Roff aside
+
+
+def _exact_on_grid(netlist: str, stop: float, step: float):
+    circuit = circuitnsds.read_netlist(netlist)
+    mlcs = circuit.mlcs()
+    state = operating_point(circuit, mlcs)
+    active = np.zeros(mlcs.m, bool) if state.active is None else np.asarray(state.active, bool)
+    times = np.arange(round(stop / step) + 1) * step
+    return circuit, mlcs, run_exact(mlcs, times, state.y, active, tuple(state.switches))
+
+
+def test_the_buck_switches_at_instants_the_time_cannot_resolve_from_the_last_one():
+    # The gate's 10 ns edge crosses VT = 2.5 V at k·10 µs + 5 ns (close) and k·10 µs + 5.005 µs
+    # (open). At 490.005 µs the crossing lies closer to the segment's start than one ulp of
+    # the time: the loop used to find it there again and again without advancing.
+    circuit, mlcs, run = _exact_on_grid(BUCK, 0.6e-3, 0.1e-6)
+    closes = np.array([e.time for e in run.events if e.name == "s1" and e.kind == "close"])
+    opens = np.array([e.time for e in run.events if e.name == "s1" and e.kind == "open"])
+    periods = np.arange(60) * 10e-6
+    # within 4e-9 of the 5 ns from the edge's start (measured 1e-9: v(gate) comes through a
+    # system whose conductances span RON = 10 mΩ to ROFF = 1 GΩ)
+    assert np.max(np.abs(closes - (periods + 5e-9))) < 2e-17
+    assert np.max(np.abs(opens - (periods + 5.005e-6))) < 2e-17
+    assert sum(e.name == "d1" and e.kind == "on" for e in run.events) == 60

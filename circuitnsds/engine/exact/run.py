@@ -11,6 +11,7 @@ round-off of the closed forms and of the located instants.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,10 @@ from circuitnsds.system.mlcs import MLCS
 
 MAX_MODE_CHANGES = 64
 """Mode changes at one instant at most before the run stops as chattering."""
+
+TIME_ULPS = 4.0
+"""Ulps of the absolute time within which an instant is known (see
+:meth:`ExactSystem.event_functions`)."""
 
 RELATIVE_TOL = 1e-12
 """Relative round-off of an event function: it counts as negative below ``-tol`` (see
@@ -83,13 +88,20 @@ class ExactSystem:
         return self._modes[key]
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
-                        sources: ExpPoly, x_size: np.ndarray) -> list[tuple[str, int, ExpPoly, float]]:
+                        sources: ExpPoly, x_size: np.ndarray,
+                        instant: float = 0.0) -> list[tuple[str, int, ExpPoly, float]]:
         """``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
         (a conducting pair's current, a blocking pair's ``w``, a switch control's distance from
         the threshold it would cross); ``tol`` is the round-off of ``g`` propagated from ``x``
         and the sources (:data:`RELATIVE_TOL` times the magnitudes that make up ``g(0)``);
         ``x_size`` [state units]: the magnitudes that were summed to compute ``x``, whose
-        round-off ``x`` carries (a located instant's state comes from a sum of large terms)."""
+        round-off ``x`` carries (a located instant's state comes from a sum of large terms).
+
+        ``instant`` [s]: the absolute time of ``τ = 0``. It is a double, so the instant itself
+        is known only to :data:`TIME_ULPS` ulps of it: ``tol`` also holds ``|g'(0)|`` times that
+        (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
+        the instant; without this term the crossing is found at a ``τ`` with
+        ``instant + τ == instant`` and the loop never advances)."""
         n = self.n
         act = mode.active_index
         rows = np.zeros((self.m + len(closed), n + act.size))
@@ -114,12 +126,14 @@ class ExactSystem:
         phi0 = np.abs(mode.forcing(sources)(0.0))
         scale = (np.abs(rows @ mode.P) @ np.maximum(np.abs(x), x_size)
                  + np.abs(rows @ mode.Q) @ phi0 + np.abs(constants))
+        blur = TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
         functions = []
         for k in range(rows.shape[0]):
             g = (values.row(np.eye(rows.shape[0])[k])
                  + ExpPoly.constant(np.array([constants[k]]))).merged()
             kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
-            functions.append((kind, index, g, RELATIVE_TOL * float(scale[k]) + 1e-300))
+            slope = abs(float(g.derivative()(0.0)[0]))
+            functions.append((kind, index, g, RELATIVE_TOL * float(scale[k]) + slope * blur + 1e-300))
         return functions
 
 
@@ -129,11 +143,11 @@ def _tolerance(g: ExpPoly) -> float:
 
 
 def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, sources: ExpPoly,
-                x_size: np.ndarray) -> list[tuple[str, int]]:
+                x_size: np.ndarray, instant: float) -> list[tuple[str, int]]:
     """The functions that are negative at ``τ = 0``, or zero and decreasing (to the second
     derivative): the mode cannot hold just after the instant."""
     bad = []
-    for kind, index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
+    for kind, index, g, tol in system.event_functions(mode, closed, x, sources, x_size, instant):
         value = float(g(0.0)[0])
         if value < -tol:
             bad.append((kind, index))
@@ -151,7 +165,7 @@ def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, 
 
 
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
-                sources: ExpPoly, x_size: np.ndarray) -> tuple[np.ndarray, tuple[bool, ...]]:
+                sources: ExpPoly, x_size: np.ndarray, instant: float) -> tuple[np.ndarray, tuple[bool, ...]]:
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
     enumerated."""
@@ -163,7 +177,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         if key in seen:
             break
         seen.add(key)
-        bad = _violations(system, system.mode(active, closed), closed, x, sources, x_size)
+        bad = _violations(system, system.mode(active, closed), closed, x, sources, x_size, instant)
         if not bad:
             return active, closed
         states = list(closed)
@@ -179,7 +193,8 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         trial = active.copy()
         for j, flip in zip(candidates, flips):
             trial[j] ^= flip
-        if not _violations(system, system.mode(trial, closed), closed, x, sources, x_size):
+        if not _violations(system, system.mode(trial, closed), closed, x, sources,
+                           x_size, instant):
             return trial, closed
     raise Chattering("no mode holds after this instant")
 
@@ -203,10 +218,11 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     x_size = np.abs(system.coordinates.V1.T) @ np.abs(y0)
     events: list[ExactEvent] = []
     segments = 0
+    stalled = 0
     while t < stop:
         end = pieces.next_corner(t)
         sources = pieces.piece(t, end)
-        new_active, new_closed = choose_mode(system, active, closed, x, sources, x_size)
+        new_active, new_closed = choose_mode(system, active, closed, x, sources, x_size, t)
         for j in np.flatnonzero(new_active != active):
             events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
         for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
@@ -216,7 +232,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         z = mode.solution(x, sources)
         horizon = end - t
         tau = horizon
-        for _kind, _index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
+        for _kind, _index, g, tol in system.event_functions(mode, closed, x, sources, x_size, t):
             root = first_root(g, tau, tol, resolution=1e-13 * max(horizon, 1e-300))
             if root is not None and root < tau:
                 tau = root
@@ -234,5 +250,11 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             row = last
         x = mode.state(z(tau)[:n])
         x_size = np.abs(mode.V1t) @ z.magnitudes(tau)[:n]
-        t = stop_at if tau < horizon else end
+        new_t = stop_at if tau < horizon else end
+        # segments that do not advance the time (an event at the instant itself) are
+        # legitimate a few at a time; more is a loop that would never end
+        stalled = stalled + 1 if new_t <= t else 0
+        if stalled > MAX_MODE_CHANGES:
+            raise Chattering(f"the exact integrator does not advance from t = {t!r} s")
+        t = new_t
     return ExactRun(np.asarray(times, dtype=float), Y, L, events, segments)
