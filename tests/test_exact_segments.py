@@ -124,3 +124,18 @@ def test_the_buck_switches_at_instants_the_time_cannot_resolve_from_the_last_one
     assert np.max(np.abs(closes - (periods + 5e-9))) < 2e-17
     assert np.max(np.abs(opens - (periods + 5.005e-6))) < 2e-17
     assert sum(e.name == "d1" and e.kind == "on" for e in run.events) == 60
+
+
+def test_theta_converges_to_the_exact_buck_at_first_order():
+    # implicit Euler's error is O(h): a tenth of the step, a tenth of the difference from the
+    # exact run (measured 0.0135 V, 0.00136 V, 0.000136 V at 100, 10, 1 ns)
+    circuit, mlcs, run = _exact_on_grid(BUCK, 0.3e-3, 0.1e-6)
+    differences = []
+    for step in (1e-7, 1e-8):
+        theta = circuit.transient(step=step, stop=0.3e-3)
+        for signal in ("v(out)", "i(l1)"):
+            reference = np.interp(run.times, theta.time, theta[signal])
+            differences.append(np.max(np.abs(run.y[:, mlcs.unknowns.index(signal)] - reference)))
+    coarse, fine = np.array(differences[:2]), np.array(differences[2:])
+    assert np.all(coarse < 0.02)
+    assert np.all((coarse / fine > 8) & (coarse / fine < 12))
