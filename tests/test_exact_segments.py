@@ -139,3 +139,73 @@ def test_theta_converges_to_the_exact_buck_at_first_order():
     coarse, fine = np.array(differences[:2]), np.array(differences[2:])
     assert np.all(coarse < 0.02)
     assert np.all((coarse / fine > 8) & (coarse / fine < 12))
+
+
+DISCHARGE = """inductor discharging into 5 V through an ideal diode, 1 kohm across it
+L1 0 a 1m IC=2
+D1 a out dideal
+Vo out 0 5
+R1 a 0 1k
+.model dideal D
+.tran 1u 1m uic
+.end
+"""
+
+
+def test_a_discharging_inductor_turns_its_diode_off_at_the_closed_form_instant():
+    # conducting: v(a) = 5 V, so L di/dt = -5 V (linear) and R1 takes 5 mA; the diode's
+    # current i - 5 mA reaches 0 at t_off = L (I0 - V/R) / V (the DCM turn-off of a converter)
+    circuit = circuitnsds.read_netlist(DISCHARGE)
+    mlcs = circuit.mlcs()
+    state = uic_state(circuit, mlcs)
+    times = np.arange(1001) * 1e-6
+    run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
+    assert [(e.name, e.kind) for e in run.events] == [("d1", "on"), ("d1", "off")]
+    t_off = 1e-3 * (2 - 5 / 1e3) / 5
+    assert run.events[1].time == pytest.approx(t_off, rel=1e-9)
+    # then L1 discharges into R1 (and the blocking diode's 1 TΩ from 5 V: 5 pA) alone:
+    # i = 5 mA e^{-(t - t_off) R/L}
+    after = times > t_off
+    current = run.y[after, mlcs.unknowns.index("i(l1)")]
+    assert np.allclose(current, 5e-3 * np.exp(-(times[after] - t_off) * 1e3 / 1e-3), rtol=1e-9, atol=1e-11)
+
+
+BRIDGE = """ideal bridge charging a 4 V battery through 10 ohm from 10 V 50 Hz
+V1 acp acn SIN(0 10 50)
+Rg1 acp 0 1k
+Rg2 acn 0 1k
+D1 acp out dideal
+D2 acn out dideal
+D3 0 acp dideal
+D4 0 acn dideal
+Rl out b 10
+Vb b 0 4
+.model dideal D
+.options gmin=1e-20
+.tran 20u 40m
+.end
+"""
+
+
+def test_a_full_wave_bridge_switches_at_its_closed_form_instants():
+    # D4 (D3) conducts while v1 > 0 (< 0): from the zero crossings; D1 (D2) while v1 > 4 V
+    # (< -4 V): from asin(0.4)/ω to (π - asin(0.4))/ω of each half period. At t = 0 every
+    # diode is at its threshold at once (the mode choice used to take the sine's value 0 at
+    # the instant as the size of its round-off, kept all four off and never advanced).
+    circuit = circuitnsds.read_netlist(BRIDGE)
+    mlcs = circuit.mlcs()
+    state = operating_point(circuit, mlcs)
+    times = np.arange(2001) * 20e-6
+    run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
+    omega, half = 2 * math.pi * 50, 0.01
+    onset = math.asin(0.4) / omega
+    expected = []
+    for k in range(4):
+        first, second = ("d1", "d4") if k % 2 == 0 else ("d2", "d3")
+        start = k * half
+        expected += [(start, second, "on"), (start + onset, first, "on"),
+                     (start + half - onset, first, "off"), (start + half, second, "off")]
+    expected = sorted(e for e in expected if e[0] < 0.04)
+    got = sorted((e.time, e.name, e.kind) for e in run.events)
+    assert [(name, kind) for _, name, kind in got] == [(name, kind) for _, name, kind in expected]
+    assert np.max(np.abs(np.array([t for t, *_ in got]) - [t for t, *_ in expected])) < 1e-16

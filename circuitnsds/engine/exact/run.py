@@ -123,7 +123,7 @@ class ExactSystem:
         rows *= signs[:, None]
         z = mode.solution(x, sources)
         values = z.map(rows)
-        phi0 = np.abs(mode.forcing(sources)(0.0))
+        phi0 = mode.forcing(sources).magnitudes(0.0)
         scale = (np.abs(rows @ mode.P) @ np.maximum(np.abs(x), x_size)
                  + np.abs(rows @ mode.Q) @ phi0 + np.abs(constants))
         blur = TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
