@@ -70,6 +70,7 @@ class ExactSystem:
         self.n, self.m = mlcs.n, mlcs.m
         self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
         self._modes: dict[tuple, ModeDynamics] = {}
+        self._rows: dict[int, tuple] = {}
         self.controls = [self._row(s.control) for s in mlcs.switches]
 
     def _row(self, row) -> np.ndarray:
@@ -89,8 +90,9 @@ class ExactSystem:
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
                         sources: ExpPoly, x_size: np.ndarray,
-                        instant: float = 0.0) -> list[tuple[str, int, ExpPoly, float]]:
-        """``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
+                        instant: float = 0.0) -> tuple[ExpPoly, list[tuple[str, int, ExpPoly, float]]]:
+        """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and
+        ``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
         (a conducting pair's current, a blocking pair's ``w``, a switch control's distance from
         the threshold it would cross); ``tol`` is the round-off of ``g`` propagated from ``x``
         and the sources (:data:`RELATIVE_TOL` times the magnitudes that make up ``g(0)``);
@@ -102,6 +104,40 @@ class ExactSystem:
         (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
         the instant; without this term the crossing is found at a ``τ`` with
         ``instant + τ == instant`` and the loop never advances)."""
+        rows, constants, rows_P, rows_Q = self._event_rows(mode, closed)
+        z = mode.solution(x, sources)
+        values = z.map(rows)
+        phi0 = mode.forcing(sources).magnitudes(0.0)
+        scale = rows_P @ np.maximum(np.abs(x), x_size) + rows_Q @ phi0 + np.abs(constants)
+        # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
+        at_zero = np.where(values.powers == 0, values.exponents, 0) + (values.powers == 1)
+        slopes = np.abs((at_zero @ values.coefficients).real)
+        tolerances = RELATIVE_TOL * scale + slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300)) + 1e-300
+        # the constants join the term τ^0 e^{0τ} (one is added when the solution has none)
+        plain = np.flatnonzero((values.powers == 0) & (values.exponents == 0))
+        if plain.size:
+            coefficients = values.coefficients.copy()
+            coefficients[plain[0]] += constants
+            powers, exponents = values.powers, values.exponents
+        else:
+            coefficients = np.vstack([values.coefficients, constants[None, :].astype(complex)])
+            powers = np.append(values.powers, 0)
+            exponents = np.append(values.exponents, 0j)
+        functions = []
+        for k in range(rows.shape[0]):
+            column = coefficients[:, k]
+            keep = column != 0
+            g = ExpPoly(column[keep, None], powers[keep], exponents[keep])
+            kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
+            functions.append((kind, index, g, float(tolerances[k])))
+        return z, functions
+
+    def _event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
+        """``(rows, constants, |rows P|, |rows Q|)``: ``g = rows · z + constants`` for every
+        pair and switch of the mode (:meth:`event_functions`), cached with the mode."""
+        cached = self._rows.get(id(mode))
+        if cached is not None:
+            return cached
         n = self.n
         act = mode.active_index
         rows = np.zeros((self.m + len(closed), n + act.size))
@@ -121,20 +157,9 @@ class ExactSystem:
             else:
                 signs[r], constants[r] = -1.0, switch.on_threshold
         rows *= signs[:, None]
-        z = mode.solution(x, sources)
-        values = z.map(rows)
-        phi0 = mode.forcing(sources).magnitudes(0.0)
-        scale = (np.abs(rows @ mode.P) @ np.maximum(np.abs(x), x_size)
-                 + np.abs(rows @ mode.Q) @ phi0 + np.abs(constants))
-        blur = TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
-        functions = []
-        for k in range(rows.shape[0]):
-            g = (values.row(np.eye(rows.shape[0])[k])
-                 + ExpPoly.constant(np.array([constants[k]]))).merged()
-            kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
-            slope = abs(float(g.derivative()(0.0)[0]))
-            functions.append((kind, index, g, RELATIVE_TOL * float(scale[k]) + slope * blur + 1e-300))
-        return functions
+        cached = (rows, constants, np.abs(rows @ mode.P), np.abs(rows @ mode.Q))
+        self._rows[id(mode)] = cached
+        return cached
 
 
 def _tolerance(g: ExpPoly) -> float:
@@ -142,12 +167,11 @@ def _tolerance(g: ExpPoly) -> float:
     return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
 
 
-def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, sources: ExpPoly,
-                x_size: np.ndarray, instant: float) -> list[tuple[str, int]]:
-    """The functions that are negative at ``τ = 0``, or zero and decreasing (to the second
-    derivative): the mode cannot hold just after the instant."""
+def _violations(functions: list[tuple[str, int, ExpPoly, float]]) -> list[tuple[str, int]]:
+    """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
+    second derivative): the mode cannot hold just after the instant."""
     bad = []
-    for kind, index, g, tol in system.event_functions(mode, closed, x, sources, x_size, instant):
+    for kind, index, g, tol in functions:
         value = float(g(0.0)[0])
         if value < -tol:
             bad.append((kind, index))
@@ -165,10 +189,11 @@ def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, 
 
 
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
-                sources: ExpPoly, x_size: np.ndarray, instant: float) -> tuple[np.ndarray, tuple[bool, ...]]:
+                sources: ExpPoly, x_size: np.ndarray, instant: float):
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
-    enumerated."""
+    enumerated. Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
+    and its event functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -177,9 +202,11 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         if key in seen:
             break
         seen.add(key)
-        bad = _violations(system, system.mode(active, closed), closed, x, sources, x_size, instant)
+        z, functions = system.event_functions(system.mode(active, closed), closed, x, sources,
+                                              x_size, instant)
+        bad = _violations(functions)
         if not bad:
-            return active, closed
+            return active, closed, z, functions
         states = list(closed)
         for kind, index in bad:
             if kind == "pair":
@@ -193,9 +220,10 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         trial = active.copy()
         for j, flip in zip(candidates, flips):
             trial[j] ^= flip
-        if not _violations(system, system.mode(trial, closed), closed, x, sources,
-                           x_size, instant):
-            return trial, closed
+        z, functions = system.event_functions(system.mode(trial, closed), closed, x, sources,
+                                              x_size, instant)
+        if not _violations(functions):
+            return trial, closed, z, functions
     raise Chattering("no mode holds after this instant")
 
 
@@ -222,17 +250,16 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     while t < stop:
         end = pieces.next_corner(t)
         sources = pieces.piece(t, end)
-        new_active, new_closed = choose_mode(system, active, closed, x, sources, x_size, t)
+        new_active, new_closed, z, functions = choose_mode(system, active, closed, x, sources, x_size, t)
         for j in np.flatnonzero(new_active != active):
             events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
         for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
             events.append(ExactEvent(t, mlcs.switches[k].name, "close" if new_closed[k] else "open"))
         active, closed = new_active, new_closed
         mode = system.mode(active, closed)
-        z = mode.solution(x, sources)
         horizon = end - t
         tau = horizon
-        for _kind, _index, g, tol in system.event_functions(mode, closed, x, sources, x_size, t):
+        for _kind, _index, g, tol in functions:
             root = first_root(g, tau, tol, resolution=1e-13 * max(horizon, 1e-300))
             if root is not None and root < tau:
                 tau = root
