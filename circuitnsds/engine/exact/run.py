@@ -107,7 +107,7 @@ class ExactSystem:
         rows, constants, rows_P, rows_Q = self._event_rows(mode, closed)
         z = mode.solution(x, sources)
         values = z.map(rows)
-        phi0 = mode.forcing(sources).magnitudes(0.0)
+        phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.maximum(np.abs(x), x_size) + rows_Q @ phi0 + np.abs(constants)
         # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
         at_zero = np.where(values.powers == 0, values.exponents, 0) + (values.powers == 1)
