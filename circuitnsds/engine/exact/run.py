@@ -18,7 +18,7 @@ import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
-from circuitnsds.engine.exact.roots import first_root
+from circuitnsds.engine.exact.roots import first_root, lower_bounds
 from circuitnsds.engine.exact.sources import SourcePieces
 from circuitnsds.system.mlcs import MLCS
 
@@ -57,6 +57,23 @@ class ExactRun:
     segments: int = 0
 
 
+@dataclass
+class EventFunctions:
+    """A mode's event functions on one segment: ``table`` holds one per column (the same
+    terms for all), ``g >= 0`` while the mode holds; ``tolerances`` their round-off."""
+
+    table: ExpPoly
+    tolerances: np.ndarray
+    labels: list[tuple[str, int]]
+    """``("pair", j)`` or ``("switch", k)`` per column."""
+
+    def function(self, k: int) -> ExpPoly:
+        """Column ``k`` as a scalar ExpPoly, its zero terms dropped."""
+        column = self.table.coefficients[:, k]
+        keep = column != 0
+        return ExpPoly(column[keep, None], self.table.powers[keep], self.table.exponents[keep])
+
+
 class ExactSystem:
     """An MLCS prepared for exact integration: dense blocks, state coordinates, mode cache."""
 
@@ -90,12 +107,13 @@ class ExactSystem:
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
                         sources: ExpPoly, x_size: np.ndarray,
-                        instant: float = 0.0) -> tuple[ExpPoly, list[tuple[str, int, ExpPoly, float]]]:
-        """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and
-        ``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
-        (a conducting pair's current, a blocking pair's ``w``, a switch control's distance from
-        the threshold it would cross); ``tol`` is the round-off of ``g`` propagated from ``x``
-        and the sources (:data:`RELATIVE_TOL` times the magnitudes that make up ``g(0)``);
+                        instant: float = 0.0) -> tuple[ExpPoly, EventFunctions]:
+        """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and the
+        event function ``g`` with its round-off ``tol`` of every pair and switch: ``g >= 0``
+        while the mode holds (a conducting pair's current, a blocking pair's ``w``, a switch
+        control's distance from the threshold it would cross); ``tol`` is the round-off of
+        ``g`` propagated from ``x`` and the sources (:data:`RELATIVE_TOL` times the magnitudes
+        that make up ``g(0)``);
         ``x_size`` [state units]: the magnitudes that were summed to compute ``x``, whose
         round-off ``x`` carries (a located instant's state comes from a sum of large terms).
 
@@ -123,14 +141,8 @@ class ExactSystem:
             coefficients = np.vstack([values.coefficients, constants[None, :].astype(complex)])
             powers = np.append(values.powers, 0)
             exponents = np.append(values.exponents, 0j)
-        functions = []
-        for k in range(rows.shape[0]):
-            column = coefficients[:, k]
-            keep = column != 0
-            g = ExpPoly(column[keep, None], powers[keep], exponents[keep])
-            kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
-            functions.append((kind, index, g, float(tolerances[k])))
-        return z, functions
+        labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
+        return z, EventFunctions(ExpPoly(coefficients, powers, exponents), tolerances, labels)
 
     def _event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
         """``(rows, constants, |rows P|, |rows Q|)``: ``g = rows · z + constants`` for every
@@ -167,17 +179,17 @@ def _tolerance(g: ExpPoly) -> float:
     return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
 
 
-def _violations(functions: list[tuple[str, int, ExpPoly, float]]) -> list[tuple[str, int]]:
+def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
     second derivative): the mode cannot hold just after the instant."""
     bad = []
-    for kind, index, g, tol in functions:
-        value = float(g(0.0)[0])
+    values = functions.table(0.0)
+    for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if value < -tol:
             bad.append((kind, index))
             continue
         if value <= tol:
-            d1 = g.derivative()
+            d1 = functions.function(k).derivative()
             slope = float(d1(0.0)[0])
             if slope < -_tolerance(d1):
                 bad.append((kind, index))
@@ -259,8 +271,11 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         mode = system.mode(active, closed)
         horizon = end - t
         tau = horizon
-        for _kind, _index, g, tol in functions:
-            root = first_root(g, tau, tol, resolution=1e-13 * max(horizon, 1e-300))
+        # every function at once over the whole piece; the search only where that fails
+        doubtful = np.flatnonzero(lower_bounds(functions.table, 0.0, horizon) <= -functions.tolerances)
+        for k in doubtful:
+            root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
+                              resolution=1e-13 * max(horizon, 1e-300))
             if root is not None and root < tau:
                 tau = root
         segments += 1
