@@ -10,12 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.linalg import expm
 
 import circuitnsds
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.engine.exact.exppoly import ExpPoly, response
-from circuitnsds.engine.exact.roots import first_root
+from circuitnsds.engine.exact.roots import first_root, lower_bounds
 from circuitnsds.engine.exact.run import run_exact
 
 
@@ -209,3 +211,29 @@ def test_a_full_wave_bridge_switches_at_its_closed_form_instants():
     got = sorted((e.time, e.name, e.kind) for e in run.events)
     assert [(name, kind) for _, name, kind in got] == [(name, kind) for _, name, kind in expected]
     assert np.max(np.abs(np.array([t for t, *_ in got]) - [t for t, *_ in expected])) < 1e-16
+
+
+_term = st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3),
+                  st.integers(0, 2), st.floats(-2e3, 5e2), st.sampled_from([0.0, 0.0, 300.0, 5e3]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_term, min_size=1, max_size=5), st.floats(0, 2e-3), st.floats(1e-6, 2e-3))
+def test_the_table_bound_is_below_every_column_and_merging_keeps_the_function(terms, a, width):
+    # two columns sharing the terms (as a segment's event functions do), conjugate pairs for
+    # the oscillating terms so each column is real; some terms repeated to be merged
+    rows, powers, exponents = [], [], []
+    for re0, im0, re1, im1, p, decay, omega in terms + terms[:1]:
+        for sign in ((1, -1) if omega else (1,)):
+            rows.append([complex(re0, sign * im0 if omega else 0), complex(re1, sign * im1 if omega else 0)])
+            powers.append(p)
+            exponents.append(complex(decay, sign * omega))
+    g = ExpPoly(np.array(rows, complex), np.array(powers), np.array(exponents, complex))
+    b = a + width
+    samples = np.linspace(a, b, 401)
+    values = np.array([g(t) for t in samples])
+    merged = g.merged()
+    size = np.max(np.abs(g.coefficients))
+    assert np.allclose([merged(t) for t in samples], values, rtol=1e-12, atol=1e-11 * size)
+    bounds = lower_bounds(g, a, b)
+    assert np.all(bounds <= values.min(axis=0) + 1e-9 * (1 + np.abs(values).max()))

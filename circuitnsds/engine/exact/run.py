@@ -271,8 +271,10 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         mode = system.mode(active, closed)
         horizon = end - t
         tau = horizon
-        # every function at once over the whole piece; the search only where that fails
-        doubtful = np.flatnonzero(lower_bounds(functions.table, 0.0, horizon) <= -functions.tolerances)
+        # every function at once over the whole piece; the search only where that fails (a
+        # bound that is not a number, 0·∞ from a term another column does not have, fails)
+        cleared = lower_bounds(functions.table, 0.0, horizon) > -functions.tolerances
+        doubtful = np.flatnonzero(~cleared)
         for k in doubtful:
             root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
                               resolution=1e-13 * max(horizon, 1e-300))
