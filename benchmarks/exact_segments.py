@@ -2,7 +2,7 @@
 bundled netlist over its ``.tran`` (or the stop given), from its operating point, output on
 the ``.tran`` grid; segments (pieces between events and source corners), events, seconds,
 µs per segment, best of ``--repeat`` runs in one process. ``--profile`` adds cProfile's
-headline (top functions by own time) for the first case.
+headline (top functions by own time) for the first case run.
 
 Usage: ``PYTHONPATH=$PWD python benchmarks/exact_segments.py [--repeat 3] [--profile] [--only X.cir ...]``
 (with ``PYTHONPATH`` at another tree it measures that tree's exact core, e.g. before a change).
@@ -49,7 +49,8 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", help="netlists to run (default: all)")
     args = parser.parse_args()
     print(f"{'netlist':<26} {'stop':>8} {'segments':>9} {'events':>7} {'s':>7} {'µs/segment':>11}")
-    for index, (name, stop) in enumerate(CASES):
+    profiled = not args.profile
+    for name, stop in CASES:
         if args.only and name not in args.only:
             continue
         run, stop = prepared(name, stop)
@@ -60,7 +61,8 @@ def main() -> None:
             best = min(best, time.perf_counter() - start)
         print(f"{name:<26} {stop:>8.3g} {result.segments:>9} {len(result.events):>7} {best:>7.3f} "
               f"{1e6 * best / result.segments:>11.0f}")
-        if args.profile and index == 0:
+        if not profiled:
+            profiled = True
             profile = cProfile.Profile()
             profile.runcall(run)
             pstats.Stats(profile).sort_stats("tottime").print_stats(8)
