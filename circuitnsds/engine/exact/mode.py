@@ -83,8 +83,6 @@ class ModeDynamics:
         else:
             self.eigenvalues = np.zeros(0, complex)
             self.W = self.W_inv = np.zeros((0, 0))
-            self.W_inv = np.zeros((0, r))
-            self.W = np.zeros((r, 0))
         self.S = S
         self.e_active = e[act]
         self.active_index = act
