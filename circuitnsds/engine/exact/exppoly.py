@@ -57,16 +57,22 @@ class ExpPoly:
     def merged(self) -> ExpPoly:
         """The same function with the terms of equal power and exponent summed (and terms that
         sum to zero dropped): cancelling terms would otherwise weaken every bound on ``f``."""
-        if not len(self.powers):
-            return self
-        keys = np.stack([self.powers.astype(float), self.exponents.real, self.exponents.imag], axis=1)
-        unique, inverse = np.unique(keys, axis=0, return_inverse=True)
-        inverse = np.ravel(inverse)
-        summed = np.zeros((len(unique), self.size), complex)
-        np.add.at(summed, inverse, self.coefficients)
+        first: dict[tuple[int, complex], int] = {}
+        target = np.empty(len(self.powers), int)
+        for j, key in enumerate(zip(self.powers.tolist(), self.exponents.tolist())):
+            target[j] = first.setdefault(key, len(first))
+        if len(first) == len(self.powers):
+            summed, powers, exponents = self.coefficients, self.powers, self.exponents
+        else:
+            summed = np.zeros((len(first), self.size), complex)
+            np.add.at(summed, target, self.coefficients)
+            keys = list(first)
+            powers = np.array([k[0] for k in keys], int)
+            exponents = np.array([k[1] for k in keys], complex)
         keep = np.any(summed != 0, axis=1)
-        return ExpPoly(summed[keep], unique[keep, 0].astype(int),
-                       (unique[keep, 1] + 1j * unique[keep, 2]))
+        if keep.all():
+            return self if summed is self.coefficients else ExpPoly(summed, powers, exponents)
+        return ExpPoly(summed[keep], powers[keep], exponents[keep])
 
     def __call__(self, tau: float) -> np.ndarray:
         weights = tau ** self.powers * np.exp(self.exponents * tau)
@@ -110,46 +116,42 @@ def response(eigenvalues: np.ndarray, start: np.ndarray, forcing: ExpPoly) -> Ex
     """The solution ``u(τ)`` of the decoupled system ``u_k' = λ_k u_k + b_k(τ)``, ``u(0) = start``,
     for a forcing ``b`` that is an exponential polynomial (in the modal coordinates).
 
-    Uses ``∫_0^τ e^{λ(τ-s)} s^p e^{μs} ds``, in closed form for ``p <= 2``: with ``δ = μ - λ``,
-    a sum of ``τ^q e^{μτ}`` terms and one ``e^{λτ}`` term; when ``δ = 0`` (resonance: a mode
-    with the forcing's own exponent) the integral is ``τ^{p+1} e^{λτ}/(p+1)``.
+    Uses ``∫_0^τ e^{λ(τ-s)} s^p e^{μs} ds``; with ``δ = μ - λ ≠ 0`` it is
+    ``Σ_{q<=p} (-1)^{p-q} p!/q! δ^{-(p-q+1)} τ^q e^{μτ}  -  (-1)^p p! δ^{-(p+1)} e^{λτ}``
+    (``p = 0``: ``(e^{μτ} - e^{λτ})/δ``); when ``δ = 0`` (resonance: a mode with the
+    forcing's own exponent) it is ``τ^{p+1} e^{λτ}/(p+1)``. The ``e^{λ_k τ}`` parts of every
+    forcing term join the free response's term of mode ``k``: one term per mode.
     """
     n = len(eigenvalues)
-    coefficients = [np.diag(start.astype(complex))]
-    powers = [np.zeros(n, int)]
-    exponents = [eigenvalues.astype(complex)]
-    for c, p, mu in zip(forcing.coefficients, forcing.powers, forcing.exponents):
-        delta = mu - eigenvalues
-        # a mode counts as resonant when δ is round-off of the exponents' size
-        resonant = np.abs(delta) <= 1e-12 * np.maximum(np.abs(mu), np.abs(eigenvalues)) + 1e-300
-        safe = np.where(resonant, 1.0, delta)
-        # ∫0^τ e^{λ(τ-s)} s^p e^{μs} ds = Σ_{q<=p} a_q τ^q e^{μτ} + a_e e^{λτ}  (δ ≠ 0)
-        # p = 0: (e^{μτ} - e^{λτ})/δ
-        # p = 1: τ e^{μτ}/δ - (e^{μτ} - e^{λτ})/δ²
-        # p = 2: τ² e^{μτ}/δ - 2τ e^{μτ}/δ² + 2(e^{μτ} - e^{λτ})/δ³
-        if p == 0:
-            mu_terms = {0: 1 / safe}
-            tail = -1 / safe
-        elif p == 1:
-            mu_terms = {1: 1 / safe, 0: -1 / safe**2}
-            tail = 1 / safe**2
-        elif p == 2:
-            mu_terms = {2: 1 / safe, 1: -2 / safe**2, 0: 2 / safe**3}
-            tail = -2 / safe**3
-        else:
-            raise ValueError(f"forcing power {p} > 2 is not supported")
-        live = ~resonant
-        for q, factor in mu_terms.items():
-            coefficients.append(np.diag(np.where(live, c * factor, 0)))
-            powers.append(np.full(n, q))
-            exponents.append(np.full(n, mu))
-        coefficients.append(np.diag(np.where(live, c * tail, 0)))
-        powers.append(np.zeros(n, int))
-        exponents.append(eigenvalues.astype(complex))
-        if resonant.any():
-            coefficients.append(np.diag(np.where(resonant, c / (p + 1), 0)))
-            powers.append(np.full(n, p + 1))
-            exponents.append(eigenvalues.astype(complex))
-    stacked = np.vstack(coefficients)
+    eigenvalues = eigenvalues.astype(complex)
+    c, p, mu = forcing.coefficients, forcing.powers, forcing.exponents
+    if p.size and p.max() > 20:
+        raise ValueError(f"forcing power {p.max()} > 20 is not supported")
+    delta = mu[:, None] - eigenvalues[None, :]                              # (terms, modes)
+    # a mode counts as resonant when δ is round-off of the exponents' size
+    resonant = np.abs(delta) <= 1e-12 * np.maximum(np.abs(mu)[:, None], np.abs(eigenvalues)) + 1e-300
+    live = np.where(resonant, 0, c)
+    inverse = 1 / np.where(resonant, 1.0, delta)
+    factorials = np.array([math.factorial(int(k)) for k in range(int(p.max(initial=0)) + 1)], float)
+    sign = np.where(p % 2 == 0, 1.0, -1.0)
+    tails = (sign * factorials[p])[:, None] * live * inverse ** (p + 1)[:, None]
+    free = start.astype(complex) - np.sum(tails, axis=0)
+    diagonal = np.zeros((n, n), complex)
+    diagonal[np.arange(n), np.arange(n)] = free
+    stacked, all_powers, all_exponents = [diagonal], [np.zeros(n, int)], [eigenvalues]
+    for q in range(int(p.max(initial=-1)) + 1):
+        terms = np.flatnonzero(p >= q)
+        pq = p[terms] - q
+        factor = np.where(pq % 2 == 0, 1.0, -1.0) * factorials[p[terms]] / factorials[q]
+        stacked.append(factor[:, None] * live[terms] * inverse[terms] ** (pq + 1)[:, None])
+        all_powers.append(np.full(terms.size, q))
+        all_exponents.append(mu[terms])
+    for j, k in zip(*np.nonzero(resonant)):
+        block = np.zeros((1, n), complex)
+        block[0, k] = c[j, k] / (p[j] + 1)
+        stacked.append(block)
+        all_powers.append(np.array([p[j] + 1]))
+        all_exponents.append(eigenvalues[k:k + 1])
+    stacked = np.vstack(stacked)
     keep = np.any(stacked != 0, axis=1)
-    return ExpPoly(stacked[keep], np.concatenate(powers)[keep], np.concatenate(exponents)[keep])
+    return ExpPoly(stacked[keep], np.concatenate(all_powers)[keep], np.concatenate(all_exponents)[keep])

@@ -87,25 +87,40 @@ class ModeDynamics:
         self.e_active = e[act]
         self.active_index = act
         self.V1t = coordinates.V1.T
+        # the maps of solution(), per mode: sources and e_a into the modal forcing and into z
+        self._modal_from_sources = self.W_inv @ self.H[:, :n] @ S
+        self._modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
+        self._z_from_modal = self.P @ self.W
+        self._z_from_sources = self.Q[:, :n] @ S
+        self._z_constant = self.Q[:, n:] @ self.e_active
 
-    def forcing(self, sources: ExpPoly) -> ExpPoly:
-        """``φ(τ) = [S f(τ); e_a]`` for the sources' piece ``f``."""
-        upper = sources.map(self.S)
-        padded = ExpPoly(np.hstack([upper.coefficients, np.zeros((upper.coefficients.shape[0],
-                                                                  self.active_index.size))]),
-                         upper.powers, upper.exponents)
-        constant = np.concatenate([np.zeros(self.n), self.e_active])
-        return padded + ExpPoly.constant(constant)
+    def forcing_size(self, sources: ExpPoly) -> np.ndarray:
+        """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes
+        summed to make ``φ(0)``, whose round-off it carries."""
+        at_zero = sources.coefficients[sources.powers == 0]
+        return np.concatenate([np.abs(at_zero @ self.S.T).sum(axis=0), np.abs(self.e_active)])
 
     def solution(self, x0: np.ndarray, sources: ExpPoly) -> ExpPoly:
-        """``z(τ) = [y(τ); λ_a(τ)]`` from the state ``x0`` at ``τ = 0``."""
-        phi = self.forcing(sources)
+        """``z(τ) = [y(τ); λ_a(τ)]`` from the state ``x0`` at ``τ = 0`` for the sources' piece
+        ``f`` (one merged ExpPoly of every source: a term of power 0 and exponent 0 at most)."""
+        coefficients, powers, exponents = sources.coefficients, sources.powers, sources.exponents
+        plain = np.flatnonzero((powers == 0) & (exponents == 0))
+        if not plain.size:
+            coefficients = np.vstack([coefficients, np.zeros((1, coefficients.shape[1]))])
+            powers, exponents = np.append(powers, 0), np.append(exponents, 0j)
+            plain = np.array([len(powers) - 1])
+        modal_forcing = coefficients @ self._modal_from_sources.T
+        direct = coefficients @ self._z_from_sources.T
+        modal_forcing[plain[0]] += self._modal_constant
+        direct[plain[0]] += self._z_constant
         if self.eigenvalues.size:
-            modal = response(self.eigenvalues, self.W_inv @ x0, phi.map(self.W_inv @ self.H))
-            state = modal.map(self.W)
+            modal = response(self.eigenvalues, self.W_inv @ x0, ExpPoly(modal_forcing, powers, exponents))
+            z = ExpPoly(np.vstack([modal.coefficients @ self._z_from_modal.T, direct]),
+                        np.concatenate([modal.powers, powers]),
+                        np.concatenate([modal.exponents, exponents]))
         else:
-            state = ExpPoly.zero(0)
-        return (state.map(self.P) + phi.map(self.Q)).merged()
+            z = ExpPoly(direct, powers, exponents)
+        return z.merged()
 
     def state(self, y: np.ndarray) -> np.ndarray:
         """``x = V1ᵀ y``."""

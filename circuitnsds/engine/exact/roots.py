@@ -31,25 +31,33 @@ MAX_DEPTH = 200
 """Halvings of one interval at most (far below the resolution of a double)."""
 
 
-def _lower_bound(g: ExpPoly, a: float, b: float) -> float:
-    """A lower bound of ``g`` on ``[a, b]`` (module docstring)."""
+def lower_bounds(g: ExpPoly, a: float, b: float) -> np.ndarray:
+    """A lower bound on ``[a, b]`` of each component of ``g`` (module docstring): one call
+    bounds every event function of a segment, the columns of one table."""
     width = b - a
     slow = np.abs(g.exponents) * width <= 1.0
-    magnitude = np.abs(g.coefficients[:, 0])
-    growth = np.exp(np.maximum(g.exponents.real * a, g.exponents.real * b))
+    magnitude = np.abs(g.coefficients)
     p = g.powers
-    fast_bound = float(np.sum((magnitude * b ** p * growth)[~slow]))
-    if not slow.any():
-        return -fast_bound
-    ps, nu = p[slow], np.abs(g.exponents[slow])
-    second = magnitude[slow] * growth[slow] * (
-        nu**2 * b**ps + 2 * ps * nu * b ** np.maximum(ps - 1, 0)
-        + ps * (ps - 1) * b ** np.maximum(ps - 2, 0))
-    sub = ExpPoly(g.coefficients[slow], ps, g.exponents[slow])
-    g0 = float(sub(a)[0])
-    g1 = float(sub.derivative()(a)[0])
-    bend = float(np.sum(second))
-    return min(g0, g0 + g1 * width - bend * width**2 / 2) - fast_bound
+    growth = np.exp(np.maximum(g.exponents.real * a, g.exponents.real * b))
+    fast_bound = (b ** p[~slow] * growth[~slow]) @ magnitude[~slow]
+    ps, nu = p[slow], g.exponents[slow]
+    size = np.abs(nu)
+    second = growth[slow] * (size**2 * b**ps + 2 * ps * size * b ** np.maximum(ps - 1, 0)
+                             + ps * (ps - 1) * b ** np.maximum(ps - 2, 0))
+    bend = second @ magnitude[slow]
+    # value and slope of the slow part at a: d/dτ τ^p e^{ντ} = (p τ^{p-1} + ν τ^p) e^{ντ}
+    at_a = np.exp(nu * a)
+    power = a ** ps
+    lowered = np.where(ps > 0, ps * a ** np.maximum(ps - 1, 0), 0.0)
+    coefficients = g.coefficients[slow]
+    g0 = ((power * at_a) @ coefficients).real
+    g1 = (((lowered + nu * power) * at_a) @ coefficients).real
+    return np.minimum(g0, g0 + g1 * width - bend * width**2 / 2) - fast_bound
+
+
+def _lower_bound(g: ExpPoly, a: float, b: float) -> float:
+    """A lower bound of the scalar ``g`` on ``[a, b]``."""
+    return float(lower_bounds(g, a, b)[0])
 
 
 def first_root(g: ExpPoly, horizon: float, tol: float, resolution: float) -> float | None:

@@ -11,18 +11,23 @@ round-off of the closed forms and of the located instants.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
-from circuitnsds.engine.exact.roots import first_root
+from circuitnsds.engine.exact.roots import first_root, lower_bounds
 from circuitnsds.engine.exact.sources import SourcePieces
 from circuitnsds.system.mlcs import MLCS
 
 MAX_MODE_CHANGES = 64
 """Mode changes at one instant at most before the run stops as chattering."""
+
+TIME_ULPS = 4.0
+"""Ulps of the absolute time within which an instant is known (see
+:meth:`ExactSystem.event_functions`)."""
 
 RELATIVE_TOL = 1e-12
 """Relative round-off of an event function: it counts as negative below ``-tol`` (see
@@ -52,6 +57,23 @@ class ExactRun:
     segments: int = 0
 
 
+@dataclass
+class EventFunctions:
+    """A mode's event functions on one segment: ``table`` holds one per column (the same
+    terms for all), ``g >= 0`` while the mode holds; ``tolerances`` their round-off."""
+
+    table: ExpPoly
+    tolerances: np.ndarray
+    labels: list[tuple[str, int]]
+    """``("pair", j)`` or ``("switch", k)`` per column."""
+
+    def function(self, k: int) -> ExpPoly:
+        """Column ``k`` as a scalar ExpPoly, its zero terms dropped."""
+        column = self.table.coefficients[:, k]
+        keep = column != 0
+        return ExpPoly(column[keep, None], self.table.powers[keep], self.table.exponents[keep])
+
+
 class ExactSystem:
     """An MLCS prepared for exact integration: dense blocks, state coordinates, mode cache."""
 
@@ -65,6 +87,7 @@ class ExactSystem:
         self.n, self.m = mlcs.n, mlcs.m
         self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
         self._modes: dict[tuple, ModeDynamics] = {}
+        self._rows: dict[int, tuple] = {}
         self.controls = [self._row(s.control) for s in mlcs.switches]
 
     def _row(self, row) -> np.ndarray:
@@ -83,13 +106,50 @@ class ExactSystem:
         return self._modes[key]
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
-                        sources: ExpPoly, x_size: np.ndarray) -> list[tuple[str, int, ExpPoly, float]]:
-        """``(kind, index, g, tol)`` for every pair and switch: ``g >= 0`` while the mode holds
-        (a conducting pair's current, a blocking pair's ``w``, a switch control's distance from
-        the threshold it would cross); ``tol`` is the round-off of ``g`` propagated from ``x``
-        and the sources (:data:`RELATIVE_TOL` times the magnitudes that make up ``g(0)``);
+                        sources: ExpPoly, x_size: np.ndarray,
+                        instant: float = 0.0) -> tuple[ExpPoly, EventFunctions]:
+        """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and the
+        event function ``g`` with its round-off ``tol`` of every pair and switch: ``g >= 0``
+        while the mode holds (a conducting pair's current, a blocking pair's ``w``, a switch
+        control's distance from the threshold it would cross); ``tol`` is the round-off of
+        ``g`` propagated from ``x`` and the sources (:data:`RELATIVE_TOL` times the magnitudes
+        that make up ``g(0)``);
         ``x_size`` [state units]: the magnitudes that were summed to compute ``x``, whose
-        round-off ``x`` carries (a located instant's state comes from a sum of large terms)."""
+        round-off ``x`` carries (a located instant's state comes from a sum of large terms).
+
+        ``instant`` [s]: the absolute time of ``τ = 0``. It is a double, so the instant itself
+        is known only to :data:`TIME_ULPS` ulps of it: ``tol`` also holds ``|g'(0)|`` times that
+        (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
+        the instant; without this term the crossing is found at a ``τ`` with
+        ``instant + τ == instant`` and the loop never advances)."""
+        rows, constants, rows_P, rows_Q = self._event_rows(mode, closed)
+        z = mode.solution(x, sources)
+        values = z.map(rows)
+        phi0 = mode.forcing_size(sources)
+        scale = rows_P @ np.maximum(np.abs(x), x_size) + rows_Q @ phi0 + np.abs(constants)
+        # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
+        at_zero = np.where(values.powers == 0, values.exponents, 0) + (values.powers == 1)
+        slopes = np.abs((at_zero @ values.coefficients).real)
+        tolerances = RELATIVE_TOL * scale + slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300)) + 1e-300
+        # the constants join the term τ^0 e^{0τ} (one is added when the solution has none)
+        plain = np.flatnonzero((values.powers == 0) & (values.exponents == 0))
+        if plain.size:
+            coefficients = values.coefficients.copy()
+            coefficients[plain[0]] += constants
+            powers, exponents = values.powers, values.exponents
+        else:
+            coefficients = np.vstack([values.coefficients, constants[None, :].astype(complex)])
+            powers = np.append(values.powers, 0)
+            exponents = np.append(values.exponents, 0j)
+        labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
+        return z, EventFunctions(ExpPoly(coefficients, powers, exponents), tolerances, labels)
+
+    def _event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
+        """``(rows, constants, |rows P|, |rows Q|)``: ``g = rows · z + constants`` for every
+        pair and switch of the mode (:meth:`event_functions`), cached with the mode."""
+        cached = self._rows.get(id(mode))
+        if cached is not None:
+            return cached
         n = self.n
         act = mode.active_index
         rows = np.zeros((self.m + len(closed), n + act.size))
@@ -109,18 +169,9 @@ class ExactSystem:
             else:
                 signs[r], constants[r] = -1.0, switch.on_threshold
         rows *= signs[:, None]
-        z = mode.solution(x, sources)
-        values = z.map(rows)
-        phi0 = np.abs(mode.forcing(sources)(0.0))
-        scale = (np.abs(rows @ mode.P) @ np.maximum(np.abs(x), x_size)
-                 + np.abs(rows @ mode.Q) @ phi0 + np.abs(constants))
-        functions = []
-        for k in range(rows.shape[0]):
-            g = (values.row(np.eye(rows.shape[0])[k])
-                 + ExpPoly.constant(np.array([constants[k]]))).merged()
-            kind, index = ("pair", k) if k < self.m else ("switch", k - self.m)
-            functions.append((kind, index, g, RELATIVE_TOL * float(scale[k]) + 1e-300))
-        return functions
+        cached = (rows, constants, np.abs(rows @ mode.P), np.abs(rows @ mode.Q))
+        self._rows[id(mode)] = cached
+        return cached
 
 
 def _tolerance(g: ExpPoly) -> float:
@@ -128,18 +179,17 @@ def _tolerance(g: ExpPoly) -> float:
     return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
 
 
-def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, sources: ExpPoly,
-                x_size: np.ndarray) -> list[tuple[str, int]]:
-    """The functions that are negative at ``τ = 0``, or zero and decreasing (to the second
-    derivative): the mode cannot hold just after the instant."""
+def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
+    """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
+    second derivative): the mode cannot hold just after the instant."""
     bad = []
-    for kind, index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
-        value = float(g(0.0)[0])
+    values = functions.table(0.0)
+    for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if value < -tol:
             bad.append((kind, index))
             continue
         if value <= tol:
-            d1 = g.derivative()
+            d1 = functions.function(k).derivative()
             slope = float(d1(0.0)[0])
             if slope < -_tolerance(d1):
                 bad.append((kind, index))
@@ -151,10 +201,11 @@ def _violations(system: ExactSystem, mode: ModeDynamics, closed, x: np.ndarray, 
 
 
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
-                sources: ExpPoly, x_size: np.ndarray) -> tuple[np.ndarray, tuple[bool, ...]]:
+                sources: ExpPoly, x_size: np.ndarray, instant: float):
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
-    enumerated."""
+    enumerated. Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
+    and its event functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -163,9 +214,11 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         if key in seen:
             break
         seen.add(key)
-        bad = _violations(system, system.mode(active, closed), closed, x, sources, x_size)
+        z, functions = system.event_functions(system.mode(active, closed), closed, x, sources,
+                                              x_size, instant)
+        bad = _violations(functions)
         if not bad:
-            return active, closed
+            return active, closed, z, functions
         states = list(closed)
         for kind, index in bad:
             if kind == "pair":
@@ -179,8 +232,10 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         trial = active.copy()
         for j, flip in zip(candidates, flips):
             trial[j] ^= flip
-        if not _violations(system, system.mode(trial, closed), closed, x, sources, x_size):
-            return trial, closed
+        z, functions = system.event_functions(system.mode(trial, closed), closed, x, sources,
+                                              x_size, instant)
+        if not _violations(functions):
+            return trial, closed, z, functions
     raise Chattering("no mode holds after this instant")
 
 
@@ -203,21 +258,26 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     x_size = np.abs(system.coordinates.V1.T) @ np.abs(y0)
     events: list[ExactEvent] = []
     segments = 0
+    stalled = 0
     while t < stop:
         end = pieces.next_corner(t)
         sources = pieces.piece(t, end)
-        new_active, new_closed = choose_mode(system, active, closed, x, sources, x_size)
+        new_active, new_closed, z, functions = choose_mode(system, active, closed, x, sources, x_size, t)
         for j in np.flatnonzero(new_active != active):
             events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
         for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
             events.append(ExactEvent(t, mlcs.switches[k].name, "close" if new_closed[k] else "open"))
         active, closed = new_active, new_closed
         mode = system.mode(active, closed)
-        z = mode.solution(x, sources)
         horizon = end - t
         tau = horizon
-        for _kind, _index, g, tol in system.event_functions(mode, closed, x, sources, x_size):
-            root = first_root(g, tau, tol, resolution=1e-13 * max(horizon, 1e-300))
+        # every function at once over the whole piece; the search only where that fails (a
+        # bound that is not a number, 0·∞ from a term another column does not have, fails)
+        cleared = lower_bounds(functions.table, 0.0, horizon) > -functions.tolerances
+        doubtful = np.flatnonzero(~cleared)
+        for k in doubtful:
+            root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
+                              resolution=1e-13 * max(horizon, 1e-300))
             if root is not None and root < tau:
                 tau = root
         segments += 1
@@ -234,5 +294,11 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             row = last
         x = mode.state(z(tau)[:n])
         x_size = np.abs(mode.V1t) @ z.magnitudes(tau)[:n]
-        t = stop_at if tau < horizon else end
+        new_t = stop_at if tau < horizon else end
+        # segments that do not advance the time (an event at the instant itself) are
+        # legitimate a few at a time; more is a loop that would never end
+        stalled = stalled + 1 if new_t <= t else 0
+        if stalled > MAX_MODE_CHANGES:
+            raise Chattering(f"the exact integrator does not advance from t = {t!r} s")
+        t = new_t
     return ExactRun(np.asarray(times, dtype=float), Y, L, events, segments)

@@ -35,7 +35,8 @@ class SourcePieces:
         return best
 
     def piece(self, t0: float, end: float) -> ExpPoly:
-        """Every source's value on ``(t0, end]`` (``end`` the next corner), a vector ExpPoly."""
+        """Every source's value on ``(t0, end]`` (``end`` the next corner), a vector ExpPoly
+        with its terms of equal power and exponent merged."""
         parts = [_piece(stimulus, t0, end) for stimulus in self.stimuli]
         k = len(parts)
         total = ExpPoly.zero(k)
@@ -43,7 +44,7 @@ class SourcePieces:
             placed = np.zeros((part.coefficients.shape[0], k), complex)
             placed[:, index] = part.coefficients[:, 0]
             total = total + ExpPoly(placed, part.powers, part.exponents)
-        return total
+        return total.merged()
 
 
 def _affine(stimulus: Stimulus, t0: float, end: float) -> ExpPoly:
