@@ -115,3 +115,20 @@ def test_a_streamed_run_that_leaves_a_fit_warns_naming_the_diode():
     found = [str(w.message) for w in caught if issubclass(w.category, CircuitWarning)]
     assert any("diode dz1 (.model zspice)" in m and "breakdown" in m and "--signals" in m
                for m in found), found
+
+
+def test_a_refitted_rerun_warns_of_the_time_scales_once():
+    """A run refitted and run again warns of a ringing the step misses once, for the run it
+    returns (the merge of issue 36 into issue 34's reruns said it after each of the two runs):
+    beside the 5 A clipper, L1-C1 rings at 1/(2π√(LC)) = 159 kHz, 0.63 steps of 10 µs a period."""
+    from circuitnsds.errors import CircuitWarning
+
+    netlist = ZENER_CLIPPER_5A.replace(".tran", "R2 in a 0.1\nL1 a b 1u\nC1 b 0 1u\n.tran")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        circuitnsds.read_netlist(netlist).transient()
+    said = [str(w.message) for w in caught]
+    assert any("refitted" in m for m in said), said  # (the rerun happened)
+    ringing = [w for w in caught
+               if issubclass(w.category, CircuitWarning) and "rings at 159 kHz" in str(w.message)]
+    assert len(ringing) == 1, said
