@@ -76,7 +76,7 @@ class Sin:
     def value(self, t: float) -> float:
         phase = math.radians(self.phase_deg)
         if self.cycles:
-            t = min(t, self.delay + self.cycles / self.frequency)
+            t = min(t, self.delay + self.cycles / abs(self.frequency))
         if t <= self.delay:
             return self.offset + self.amplitude * math.sin(phase)
         tau = t - self.delay
@@ -92,7 +92,7 @@ class Sin:
         """:meth:`value` at every instant of ``times`` [s]."""
         times = np.asarray(times, dtype=float)
         if self.cycles:
-            times = np.minimum(times, self.delay + self.cycles / self.frequency)
+            times = np.minimum(times, self.delay + self.cycles / abs(self.frequency))
         phase = math.radians(self.phase_deg)
         tau = np.maximum(times - self.delay, 0.0)
         wave = self.offset + self.amplitude * np.exp(-tau * self.damping) * np.sin(
@@ -101,8 +101,8 @@ class Sin:
 
     def breakpoints(self, stop: float) -> list[float]:
         points = [self.delay] if 0 < self.delay < stop else []
-        if self.cycles and 0 < self.delay + self.cycles / self.frequency < stop:
-            points.append(self.delay + self.cycles / self.frequency)
+        if self.cycles and 0 < self.delay + self.cycles / abs(self.frequency) < stop:
+            points.append(self.delay + self.cycles / abs(self.frequency))
         return points
 
 
