@@ -342,8 +342,9 @@ def _check_memory(circuit: Circuit, stepper: Stepper, grid: np.ndarray,
                   signals: Sequence[str] | None = None) -> None:
     """Refuse, before starting, a run whose results cannot fit in memory (a 1,000-node ladder
     over 5e6 steps needs 37 GiB): the estimate of the arrays every grid point fills, against
-    :data:`MEMORY_SHARE` of the memory available. A run keeping only ``signals`` needs
-    those, the time and the residual per point, and its parts (:class:`SignalRecorder`)."""
+    :data:`~circuitnsds.analyses.memory.MEMORY_SHARE` of the memory available. A run keeping
+    only ``signals`` needs those, the time and the residual per point, and its parts
+    (:class:`SignalRecorder`)."""
     from circuitnsds.units import format_si
 
     if signals is None:

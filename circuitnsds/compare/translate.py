@@ -17,7 +17,9 @@ in it are for circuitnsds only or get in the way of a batch comparison:
   coefficients without editing it;
 * ``.control ... .endc`` blocks, ``.save`` (the comparison chooses what to save),
   other analyses (``.op .ac .dc ...``) and output commands (``.print .plot .four
-  .meas ...``) are removed;
+  ...``) are removed; a script's ``tran`` and ``meas``, which circuitnsds's reader takes
+  as ``.tran`` and ``.meas``, reach ngspice as those dot commands, and ``.meas`` lines
+  stay when the comparison compares measurements (``measures=True``);
 * a ``Z`` line (circuitnsds's IGBT or thyristor) is refused: ngspice reads ``Z`` as a
   MESFET and has no IGBT or thyristor device;
 * ``.tran`` TSTEP and TSTOP are replaced when the comparison overrides them;
