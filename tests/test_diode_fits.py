@@ -132,3 +132,17 @@ def test_a_refitted_rerun_warns_of_the_time_scales_once():
     ringing = [w for w in caught
                if issubclass(w.category, CircuitWarning) and "rings at 159 kHz" in str(w.message)]
     assert len(ringing) == 1, said
+
+
+def test_the_command_line_says_a_note_of_a_refitted_run_once(tmp_path, capsys):
+    """The checks before a run are made again before its refitted rerun: the command line
+    printed every one of them twice (here the note on a PULSE written with PW = 0)."""
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "clipper.cir"
+    netlist.write_text(ZENER_CLIPPER_5A.replace(".tran", "V2 p 0 PULSE(0 1 0 100u 100u 0 400u)\n"
+                                                "R2 p 0 1k\n.tran"))
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "refitted where its diodes work" in err  # (the rerun happened)
+    assert err.count("v2: PULSE with PW = 0 is read as PW = TSTOP") == 1, err
