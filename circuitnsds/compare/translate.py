@@ -177,7 +177,12 @@ def translate_netlist(
     for statement in netlist.statements:
         body.extend(_translate_statement(statement, context))
     if netlist.control_blocks:
-        translation.notes.append(f"{len(netlist.control_blocks)} .control block(s) removed")
+        passed = {"tran", "meas", "measure"} if measures else {"tran"}  # (the others are removed)
+        taken = list(dict.fromkeys(word for block in netlist.control_blocks for word in block.taken
+                                   if word in passed))
+        kept = (f" (its {', '.join(taken)} kept as {', '.join('.' + word for word in taken)})"
+                if taken else "")
+        translation.notes.append(f"{len(netlist.control_blocks)} .control block(s) removed{kept}")
     if netlist.included:
         translation.notes.append(f"{len(netlist.included)} included file(s) inlined")
     if not translation.has_tran:
