@@ -59,7 +59,8 @@ class Sin:
     Before ``TD`` the value is ``VO + VA·sin(PHASE)``. ``PHASE`` is in degrees,
     ``THETA`` in 1/s. Default ``FREQ`` (omitted or 0) is ``1/TSTOP``. LTspice's 7th
     argument ``NCYCLES`` ends the sine after that many periods: the value then holds
-    ``VO + VA·exp(-THETA·NCYCLES/FREQ)·sin(PHASE)``, its value at that instant.
+    ``VO + VA·exp(-THETA·NCYCLES/|FREQ|)·sin(PHASE)``, its value at that instant (a negative
+    ``FREQ`` is ngspice's sin(-ωt), of period 1/|FREQ|).
     """
 
     offset: float
