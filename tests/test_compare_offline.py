@@ -132,6 +132,22 @@ def test_control_blocks_saves_and_other_analyses_are_removed():
     assert any(".control" in note for note in translation.notes)
 
 
+def test_a_control_scripts_tran_and_meas_reach_ngspice_and_the_note_says_so():
+    # Qucs-S writes the analysis only in .control: the note said only "1 .control block(s)
+    # removed" after the merge of dialect32 (its own note said the tran and meas were kept)
+    import warnings
+
+    text = "t\nR1 a 0 1\nV1 a 0 1\n.control\ntran 10n 30m\nrun\nmeas tran top MAX v(a)\n.endc\n.end\n"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (the script's other lines are reported as warnings)
+        translation = translate_netlist(text, measures=True)
+    lines = translation.text.splitlines()
+    assert ".tran 10n 30m" in lines and ".meas tran top MAX v(a)" in lines
+    assert "1 .control block(s) removed (its tran, meas kept as .tran, .meas)" in translation.notes
+    saved = translate_netlist(text.replace("run\n", "save v(a)\n"))  # .save and .meas go
+    assert "1 .control block(s) removed (its tran kept as .tran)" in saved.notes, saved.notes
+
+
 def test_tran_override_keeps_tstart_tmax_uic_and_expressions():
     text = "t\nR1 a 0 1\nV1 a 0 1\n.tran {tstep} { 3 / freq } 1m 2u uic\n.end\n"
     assert ".tran 1e-06 0.002 1m 2u uic" in translate_netlist(text, step=1e-6, stop=2e-3).text

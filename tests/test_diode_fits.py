@@ -115,3 +115,34 @@ def test_a_streamed_run_that_leaves_a_fit_warns_naming_the_diode():
     found = [str(w.message) for w in caught if issubclass(w.category, CircuitWarning)]
     assert any("diode dz1 (.model zspice)" in m and "breakdown" in m and "--signals" in m
                for m in found), found
+
+
+def test_a_refitted_rerun_warns_of_the_time_scales_once():
+    """A run refitted and run again warns of a ringing the step misses once, for the run it
+    returns (the merge of issue 36 into issue 34's reruns said it after each of the two runs):
+    beside the 5 A clipper, L1-C1 rings at 1/(2π√(LC)) = 159 kHz, 0.63 steps of 10 µs a period."""
+    from circuitnsds.errors import CircuitWarning
+
+    netlist = ZENER_CLIPPER_5A.replace(".tran", "R2 in a 0.1\nL1 a b 1u\nC1 b 0 1u\n.tran")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        circuitnsds.read_netlist(netlist).transient()
+    said = [str(w.message) for w in caught]
+    assert any("refitted" in m for m in said), said  # (the rerun happened)
+    ringing = [w for w in caught
+               if issubclass(w.category, CircuitWarning) and "rings at 159 kHz" in str(w.message)]
+    assert len(ringing) == 1, said
+
+
+def test_the_command_line_says_a_note_of_a_refitted_run_once(tmp_path, capsys):
+    """The checks before a run are made again before its refitted rerun: the command line
+    printed every one of them twice (here the note on a PULSE written with PW = 0)."""
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "clipper.cir"
+    netlist.write_text(ZENER_CLIPPER_5A.replace(".tran", "V2 p 0 PULSE(0 1 0 100u 100u 0 400u)\n"
+                                                "R2 p 0 1k\n.tran"))
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "refitted where its diodes work" in err  # (the rerun happened)
+    assert err.count("v2: PULSE with PW = 0 is read as PW = TSTOP") == 1, err

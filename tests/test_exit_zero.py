@@ -455,6 +455,25 @@ def test_a_sin_of_negative_frequency_runs_as_sin_of_minus_omega_t():
     np.testing.assert_allclose(waves["v(a)"], -np.sin(2 * np.pi * 1e3 * waves.time), atol=1e-12)
 
 
+def test_a_sin_of_negative_frequency_ends_after_its_ncycles_periods_of_1_over_f():
+    # LTspice's NCYCLES of SIN(0 5 -50 0 0 0 0.25) ends the sine a quarter period (5 ms) in,
+    # holding -5·sin(π/2) = -5 V; it ended at -0.25/50 s, before it began: 0 V throughout
+    waves = circuit_from("V1 a 0 SIN(0 5 -50 0 0 0 0.25)\nR1 a 0 1\n.tran 100u 10m").transient()
+    expected = -5 * np.sin(2 * np.pi * 50 * np.minimum(waves.time, 5e-3))
+    np.testing.assert_allclose(waves["v(a)"], expected, atol=1e-9)
+
+
+def test_the_period_of_a_sin_of_negative_frequency_is_1_over_its_magnitude():
+    # the periodic steady state of SIN(0 5 -50) through R-C (ωRC = π/10): it was refused,
+    # "the period must be positive, got -0.02 s"; its fundamental is -5/√(1+(ωRC)²) sin(ωt - atan ωRC)
+    result = circuit_from("V1 a 0 SIN(0 5 -50)\nR1 a b 1k\nC1 b 0 1u\n.tran 10u 20m").pss()
+    waves = result.waveforms
+    omega = 2 * np.pi * 50
+    wrc = omega * 1e3 * 1e-6
+    expected = -5 / np.hypot(1, wrc) * np.sin(omega * waves.time - np.arctan(wrc))
+    np.testing.assert_allclose(waves["v(b)"], expected, atol=3e-3)  # implicit Euler: 2.2 mV at 10 µs
+
+
 def test_theta_half_does_not_ring_after_a_source_corner_across_a_fast_rc():
     # a PWL source dropping from 1 V to 0 in zero time across 1 Ω into 1 µF (τ = 1 µs) at
     # h = 10 µs: i(r1) alternated -91, +61, -40 mA after the drop (true: -1 A decaying in 1 µs)

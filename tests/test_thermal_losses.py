@@ -359,6 +359,8 @@ def test_the_networks_are_driven_per_switching_period_not_per_mains_period():
                            "R1 r 0 1\nR2 c 0 1\nVdc d 0 DC 3\nR3 d 0 1\n.tran 1u 20m")
     assert switching_period(circuit) == (50e-6, 2e-6)
     assert switching_period(circuit_from("V1 a 0 DC 1\nR1 a 0 1\n.tran 1u 1m")) == (None, 0.0)
+    # a SIN of negative frequency runs as sin(-ωt), period 1/|f| (it was left out: no period)
+    assert switching_period(circuit_from("V1 a 0 SIN(0 1 -20k)\nR1 a 0 1\n.tran 1u 1m")) == (50e-6, 0.0)
 
 
 def test_a_diodes_file_on_a_switch_is_an_error_naming_both(buck):

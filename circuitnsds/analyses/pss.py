@@ -155,7 +155,7 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
             periods.append((function.period, name))
             start = max(start, function.delay)
         elif isinstance(function, Sin) and function.frequency and not function.damping:
-            periods.append((1.0 / function.frequency, name))
+            periods.append((1.0 / abs(function.frequency), name))  # sin(-ωt) as ngspice
             start = max(start, function.delay)
         elif isinstance(function, Pwl) and len(set(function.values)) == 1:
             continue  # a constant written as PWL

@@ -21,6 +21,7 @@ from circuitnsds.checks.rules import check_initial_conditions
 from circuitnsds.checks.source_notes import note_zero_pulse_widths
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import CurrentSource, Diode
+from circuitnsds.circuit.elements.diode_notes import FitRangeObserver
 from circuitnsds.circuit.observers import RunObserver, observers_of
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, stepper_class
@@ -79,7 +80,9 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     if refitted is circuit:
         _report(observers)
         return first
-    _report([observer for observer in observers if observer is not fits])  # said once
+    # said once: the first run's other notes; the peaks and time scales of the run returned
+    _report([observer for observer in observers
+             if not isinstance(observer, FitRangeObserver | FastModeWatch)])
     again = [fit_observer(observers_of(refitted))]
     waves = _run_transient(refitted, spec, signals=signals, observers=again, **settings)
     _report(again)
@@ -120,7 +123,8 @@ def _run_transient(
     (:func:`~circuitnsds.circuit.observers.observers_of`: a fitted diode's peak currents, a
     MOSFET at a weak gate drive) see every step and note after a run that finished;
     ``observers``: those to run instead, whose notes the caller makes (:func:`run_transient`
-    reads the diodes' peaks before it says them)."""
+    reads the diodes' peaks before it says them); the run appends its time-scale watch
+    (:class:`~circuitnsds.analyses.fast_modes.FastModeWatch`) to them, or to its own."""
     step, stop, start, uic = spec.step, spec.stop, spec.start, spec.uic
     theta = spec.theta if spec.theta is not None else circuit.options.get("theta", 1.0)
     explicit_step = not spec.refine_step
@@ -181,24 +185,26 @@ def _run_transient(
     state = uic_state(circuit, mlcs) if uic else operating_point(circuit, mlcs, tol)
     owned = observers is None  # the run's own observers note; given ones are the caller's
     observers = observers_of(circuit) if owned else observers
-    fast_modes = FastModeWatch(circuit, mlcs, theta, jumps=uic or breakpoints.size > 1)  # (+ TSTART)
-    watched = [*observers, fast_modes]  # every run's time scales are checked (issue 36 item 8)
+    # every run's time scales are checked (issue 36 item 8; TSTART is a jump too); a caller's
+    # list gets the watch, so that a refitted rerun's caller says it once, of the run returned
+    observers.append(FastModeWatch(circuit, mlcs, theta, jumps=uic or breakpoints.size > 1))
     if signals is not None and report_step is None:  # (decimated runs keep every signal)
         kept = SignalRecorder(circuit, mlcs, grid, [name.strip().lower() for name in signals],
                               start, stop, sink)
         try:
-            drive(stepper, grid, state, Observed(kept, mlcs, watched),
+            drive(stepper, grid, state, Observed(kept, mlcs, observers),
                   part_steps=kept.part_steps(), progress=progress)
         except (SimulationError, KeyboardInterrupt) as exc:
             if isinstance(exc, SimulationError):
                 _explain(exc, circuit, mlcs, grid, theta)
             exc.partial = kept.result()
             raise
-        _report([*observers, fast_modes] if owned else [fast_modes])
+        if owned:
+            _report(observers)
         return kept.result()
     recorder = TrajectoryRecorder()
     try:
-        drive(stepper, grid, state, Observed(recorder, mlcs, watched), progress=progress)
+        drive(stepper, grid, state, Observed(recorder, mlcs, observers), progress=progress)
     except (SimulationError, KeyboardInterrupt) as exc:  # the waveforms so far, for the caller
         if isinstance(exc, SimulationError):
             _explain(exc, circuit, mlcs, grid, theta)
@@ -221,7 +227,8 @@ def _run_transient(
     waves = trajectory_waveforms(circuit, mlcs, trajectory, start, stop, flows=flows)
     first = trajectory.time.size - waves.time.size
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
-    _report([*observers, fast_modes] if owned else [fast_modes])
+    if owned:
+        _report(observers)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -335,8 +342,9 @@ def _check_memory(circuit: Circuit, stepper: Stepper, grid: np.ndarray,
                   signals: Sequence[str] | None = None) -> None:
     """Refuse, before starting, a run whose results cannot fit in memory (a 1,000-node ladder
     over 5e6 steps needs 37 GiB): the estimate of the arrays every grid point fills, against
-    :data:`MEMORY_SHARE` of the memory available. A run keeping only ``signals`` needs
-    those, the time and the residual per point, and its parts (:class:`SignalRecorder`)."""
+    :data:`~circuitnsds.analyses.memory.MEMORY_SHARE` of the memory available. A run keeping
+    only ``signals`` needs those, the time and the residual per point, and its parts
+    (:class:`SignalRecorder`)."""
     from circuitnsds.units import format_si
 
     if signals is None:

@@ -285,13 +285,18 @@ def main(argv: list[str] | None = None) -> int:
 def _print_warnings(caught: list[warnings.WarningMessage]) -> None:
     """circuitnsds's own warnings and notes, one line each; a warning of a library (numpy's
     overflow in some intermediate) once per message with its count and origin, not as one of
-    ours (a 1000-diode chain printed 178 lines of numpy overflow as circuitnsds warnings)."""
+    ours (a 1000-diode chain printed 178 lines of numpy overflow as circuitnsds warnings).
+    Each of ours once: a run refitted and run again makes its checks twice."""
     foreign: dict[tuple[str, str], list] = {}
+    said: set[tuple[str, str]] = set()
     for warning in caught:
+        key = (warning.category.__name__, str(warning.message))
         if not issubclass(warning.category, (NetlistWarning, RunNote)):
-            key = (warning.category.__name__, str(warning.message))
             foreign.setdefault(key, [0, f"{Path(warning.filename).name}:{warning.lineno}"])[0] += 1
             continue
+        if key in said:
+            continue
+        said.add(key)
         kind = "note" if issubclass(warning.category, RunNote) else "warning"
         print(f"circuitnsds: {kind}: {for_terminal(str(warning.message))}", file=sys.stderr)
     for (category, message), (count, origin) in foreign.items():

@@ -17,7 +17,9 @@ in it are for circuitnsds only or get in the way of a batch comparison:
   coefficients without editing it;
 * ``.control ... .endc`` blocks, ``.save`` (the comparison chooses what to save),
   other analyses (``.op .ac .dc ...``) and output commands (``.print .plot .four
-  .meas ...``) are removed;
+  ...``) are removed; a script's ``tran`` and ``meas``, which circuitnsds's reader takes
+  as ``.tran`` and ``.meas``, reach ngspice as those dot commands, and ``.meas`` lines
+  stay when the comparison compares measurements (``measures=True``);
 * a ``Z`` line (circuitnsds's IGBT or thyristor) is refused: ngspice reads ``Z`` as a
   MESFET and has no IGBT or thyristor device;
 * ``.tran`` TSTEP and TSTOP are replaced when the comparison overrides them;
@@ -175,7 +177,12 @@ def translate_netlist(
     for statement in netlist.statements:
         body.extend(_translate_statement(statement, context))
     if netlist.control_blocks:
-        translation.notes.append(f"{len(netlist.control_blocks)} .control block(s) removed")
+        passed = {"tran", "meas", "measure"} if measures else {"tran"}  # (the others are removed)
+        taken = list(dict.fromkeys(word for block in netlist.control_blocks for word in block.taken
+                                   if word in passed))
+        kept = (f" (its {', '.join(taken)} kept as {', '.join('.' + word for word in taken)})"
+                if taken else "")
+        translation.notes.append(f"{len(netlist.control_blocks)} .control block(s) removed{kept}")
     if netlist.included:
         translation.notes.append(f"{len(netlist.included)} included file(s) inlined")
     if not translation.has_tran:

@@ -59,7 +59,8 @@ class Sin:
     Before ``TD`` the value is ``VO + VA·sin(PHASE)``. ``PHASE`` is in degrees,
     ``THETA`` in 1/s. Default ``FREQ`` (omitted or 0) is ``1/TSTOP``. LTspice's 7th
     argument ``NCYCLES`` ends the sine after that many periods: the value then holds
-    ``VO + VA·exp(-THETA·NCYCLES/FREQ)·sin(PHASE)``, its value at that instant.
+    ``VO + VA·exp(-THETA·NCYCLES/|FREQ|)·sin(PHASE)``, its value at that instant (a negative
+    ``FREQ`` is ngspice's sin(-ωt), of period 1/|FREQ|).
     """
 
     offset: float
@@ -76,7 +77,7 @@ class Sin:
     def value(self, t: float) -> float:
         phase = math.radians(self.phase_deg)
         if self.cycles:
-            t = min(t, self.delay + self.cycles / self.frequency)
+            t = min(t, self.delay + self.cycles / abs(self.frequency))
         if t <= self.delay:
             return self.offset + self.amplitude * math.sin(phase)
         tau = t - self.delay
@@ -92,7 +93,7 @@ class Sin:
         """:meth:`value` at every instant of ``times`` [s]."""
         times = np.asarray(times, dtype=float)
         if self.cycles:
-            times = np.minimum(times, self.delay + self.cycles / self.frequency)
+            times = np.minimum(times, self.delay + self.cycles / abs(self.frequency))
         phase = math.radians(self.phase_deg)
         tau = np.maximum(times - self.delay, 0.0)
         wave = self.offset + self.amplitude * np.exp(-tau * self.damping) * np.sin(
@@ -101,8 +102,8 @@ class Sin:
 
     def breakpoints(self, stop: float) -> list[float]:
         points = [self.delay] if 0 < self.delay < stop else []
-        if self.cycles and 0 < self.delay + self.cycles / self.frequency < stop:
-            points.append(self.delay + self.cycles / self.frequency)
+        if self.cycles and 0 < self.delay + self.cycles / abs(self.frequency) < stop:
+            points.append(self.delay + self.cycles / abs(self.frequency))
         return points
 
 

@@ -176,7 +176,7 @@ def switching_period(circuit) -> tuple[float | None, float]:
         period = getattr(function, "period", None)
         if not period and getattr(function, "frequency", None) and not getattr(
                 function, "damping", 0.0) and getattr(function, "amplitude", 0.0):
-            period = 1.0 / function.frequency
+            period = 1.0 / abs(function.frequency)  # sin(-ωt): ngspice runs it
         if period and period > 0 and (best is None or period < best[0]):
             best = (float(period), float(getattr(function, "delay", 0.0) or 0.0))
     return best if best is not None else (None, 0.0)

@@ -29,7 +29,6 @@ _ANY = frozenset({"rser", "rpar", "lser", "cpar"})
 _WHAT = {"v": "a voltage source", "i": "a current source", "l": "an inductor", "c": "a capacitor"}
 
 _SERIES = ("rser", "lser")
-_LETTER = {"rser": "r", "rpar": "r", "lser": "l", "cpar": "c"}
 
 
 def has_parasitics(statement: Statement, letter: str) -> bool:

@@ -31,12 +31,6 @@ class _Continuous(ValueError):
     """``time`` appears outside a comparison with a constant."""
 
 
-def is_time_value(token: str) -> bool:
-    """Whether an element's value token is an unevaluated expression (the netlist layer keeps
-    only expressions of ``time`` so, see :func:`circuitnsds.netlist.behavioural.time_valued_tokens`)."""
-    return token.startswith("{")
-
-
 def time_valued_element(reader: StatementReader, letter: str) -> Element:
     """The element of ``R|V|I name n1 n2 {expr of time}`` (see the module docstring).
 
