@@ -71,7 +71,7 @@ def _sine(s: Sin, t0: float) -> ExpPoly:
     """``VO + VA e^{-θ(t-TD)} sin(2πf(t-TD) + φ)`` after ``TD`` (and before the end of
     ``NCYCLES``); the constant ``VO + VA sin φ`` before, the value at the end after."""
     phase = math.radians(s.phase_deg)
-    finish = s.delay + s.cycles / s.frequency if s.cycles else math.inf
+    finish = s.delay + s.cycles / abs(s.frequency) if s.cycles else math.inf  # (a negative FREQ: sin(-ωt))
     if t0 < s.delay - 1e-15 * max(1.0, abs(s.delay)) or t0 >= finish:
         return ExpPoly.constant(np.array([s.value(t0 + 1e-300 if t0 < s.delay else t0)]))
     nu = complex(-s.damping, 2 * math.pi * s.frequency)
