@@ -80,3 +80,17 @@ def test_a_current_source_is_an_input_row():
     assert rows["i1"].kind == "input"
     assert rows["i1"].power == pytest.approx(delivered, rel=1e-9)
     assert abs(table.relative) < 0.01  # what R1, Rl and C1 take
+
+
+def test_a_device_without_a_datasheet_has_no_switching_figure(tmp_path):
+    # an ideal switch commutates without loss: its turn-on/turn-off are unknown, not 0 W (the
+    # table showed "0 W" in both columns of a buck's switch, a figure nobody measured)
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    table = losses(circuit.transient(), circuit, outputs=("rload",))
+    switch = next(row for row in table.rows if row.element == "s1")
+    assert switch.conduction == pytest.approx(switch.power) and switch.power > 0
+    assert switch.turn_on is None and switch.turn_off is None and switch.recovery is None
+    assert "left blank: no datasheet" in table.format()
+    table.to_csv(tmp_path / "l.csv")
+    row = next(line for line in (tmp_path / "l.csv").read_text().splitlines() if line.startswith("s1,"))
+    assert row.split(",")[4:] == ["", "", ""]

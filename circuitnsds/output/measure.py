@@ -488,6 +488,9 @@ class LossTable:
         blank = "".join(f" {'':>12}" for _ in LOSS_COLUMNS)
         lines.append(f"  {'unaccounted':<16} {'':<8} {format_si(self.unaccounted, 'W'):>12}{blank} "
                      f"{share(self.unaccounted)}  (impulses, numerical dissipation)")
+        if any(row.kind == "loss" and row.turn_on is None for row in self.rows):
+            lines.append("  turn-on, turn-off, recovery left blank: no datasheet (thermal= on the device's "
+                         "model, docs/losses.md); the ideal devices commutate without loss")
         extra = self.datasheet_extra
         if extra:
             lines.append(f"  datasheet losses beyond the circuit's own: {format_si(extra, 'W')} "
@@ -615,7 +618,7 @@ def losses(waves: Waveforms, circuit, t0=None, t1=None, *, period=None,
             part = parts[element.name]
             rows.append(LossRow(element.name, "loss", part["total"],
                                 *(part[column] for column in LOSS_COLUMNS), electrical=absorbed))
-        else:
-            rows.append(LossRow(element.name, "loss", absorbed, absorbed, 0.0, 0.0, 0.0))
+        else:  # no datasheet: its switching energy is unknown, not 0 (an ideal switch takes none)
+            rows.append(LossRow(element.name, "loss", absorbed, absorbed))
     rows.append(LossRow("L, C, K", "stored", stored / (stop - start)))
     return LossTable(rows, float(start), float(stop), has_outputs=bool(wanted))
