@@ -37,6 +37,7 @@ import numpy as np
 
 from circuitnsds.arrays import sorted_unique
 from circuitnsds.errors import CircuitError
+from circuitnsds.system.smooth import SmoothRelation
 from circuitnsds.system.stimuli import Stimulus, breakpoint_bound, threshold_crossings
 from circuitnsds.system.triplets import Triplets
 
@@ -122,6 +123,9 @@ class MLCS:
     current or impulse is the signed sum over its pairs. Default: all +1."""
     stimulus_owners: list[str] = field(default_factory=list)
     """The element (source) name of each column of ``S`` ("" when unnamed)."""
+    smooth: list[SmoothRelation] = field(default_factory=list)
+    """Smooth nonlinear relations (:mod:`circuitnsds.system.smooth`); empty for a circuit of
+    ideal devices, which the affine steppers integrate."""
 
     def __post_init__(self) -> None:
         if self.pair_signs is None:
@@ -264,6 +268,7 @@ class MLCSBuilder:
         self._outputs: list[tuple[str, list[tuple[int, float]], list[tuple[int, float]]]] = []
         self._switches: list[tuple[dict, tuple[int, int] | None]] = []
         self._source_columns: dict[tuple[int, int], int] = {}
+        self._smooth: list[SmoothRelation] = []
 
     def node(self, name: str) -> int:
         """Row/column of a node's voltage (``-1`` for ground)."""
@@ -290,6 +295,10 @@ class MLCSBuilder:
         it is found at :meth:`build` from ``control_nodes`` if a voltage source sits across them
         (an element switched by its own time function gives the stimulus's column itself)."""
         self._switches.append((relation, control_nodes))
+
+    def smooth(self, relation: SmoothRelation) -> None:
+        """Add a smooth nonlinear relation (:mod:`circuitnsds.system.smooth`)."""
+        self._smooth.append(relation)
 
     def pair(self, name: str, device: str, offset: float, sign: float = 1.0) -> int:
         """Allocate a complementarity pair of ``device`` with constant term ``e = offset`` [V];
@@ -363,4 +372,5 @@ class MLCSBuilder:
             Y_out=Triplets.from_stamps(y_out, (len(outputs), n)),
             L_out=Triplets.from_stamps(l_out, (len(outputs), m)), nodes=list(self.nodes),
             switches=switches, stimulus_owners=list(self.stimulus_owners),
+            smooth=list(self._smooth),
         )
