@@ -91,3 +91,24 @@ def test_level3_nmos_without_vto_turns_on_when_ngspice_does():
         drain = np.asarray(waves["v(d)"])
         instants.append(float(waves.time[np.argmax(drain < 20 - 2e-3 * 10)]))
     assert instants[0] == pytest.approx(instants[1], rel=0.02)
+
+
+def test_llc_with_a_vendor_vdmos_shows_the_zero_voltage_switching_ngspice_shows():
+    """Issue 34: netlists/mosfet/llc_spa11n60c3.cir, a 400 V half bridge below resonance with
+    Infineon's SPA11N60C3 VDMOS. At each turn-on after the first period the drain-source
+    voltage is within 5 % of the input (20 V) of ngspice's, which switches at zero voltage
+    (measured: -0.7 V in both, the body diode conducting). With Coss read as the zero-bias
+    Cjo + Cgdmin (0.71 nF) circuitnsds turned on at about 200 V. ngspice needs gear
+    integration here (trapezoidal stops with 'timestep too small' at 25 us)."""
+    from tests.test_mosfet_operating_values import LLC, turn_on_voltages
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        comparison = compare(LLC, signals=["v(in)", "v(sw)", "v(out)"], ngspice_options="method=gear")
+    assert comparison.run.ok, comparison.run.ngspice.message
+    ours = turn_on_voltages(comparison.circuitnsds, 10)
+    theirs = turn_on_voltages(comparison.run.ngspice.waveforms, 10)
+    for mine, reference in zip(ours, theirs):
+        assert np.all(np.abs(reference) < 0.05 * 400)          # ngspice: zero-voltage switching
+        assert np.all(np.abs(mine - reference) < 0.05 * 400), (mine, reference)
+    assert comparison.metrics["v(out)"].nrms < 0.01             # measured 0.2 %
