@@ -120,9 +120,12 @@ def test_on_resistance_is_taken_at_the_gate_drive_the_circuit_applies():
                for n in notes), notes
 
 
-def test_mosdrive_still_fixes_the_gate_drive():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+def test_mosdrive_still_fixes_the_gate_drive_and_the_note_says_what_the_circuit_applied():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         waves = circuit_from(".options mosdrive=10\n" + LOGIC_LEVEL).transient()
     ron = 1 / (1.0 * (10 - 1.5))
     assert float(waves["v(d)"][-1]) == pytest.approx(12 * ron / (10 + ron), rel=1e-6)
+    notes = [str(w.message) for w in caught]
+    assert any("m1: Ron 0.1176 Ω at |Vgs| = 10 V (.options mosdrive); the run applied |Vgs| up to "
+               "5 V, where it is 0.2857 Ω" in n for n in notes), notes

@@ -24,6 +24,7 @@ import numpy as np
 
 from circuitnsds.analyses.advice import advise
 from circuitnsds.analyses.memory import refuse_beyond_memory
+from circuitnsds.analyses.mosfet_refits import at_supply
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
@@ -190,7 +191,10 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, **settings) -> PSSResult:
     :meth:`Circuit.pss`. Diodes fitted to SPICE models are fitted where the periodic steady
     state works, as in a transient (:func:`~circuitnsds.analyses.transient.run_transient`):
     a settled period whose peak currents leave a fit's range is found again, once, with the
-    models refitted to them; what still leaves it is a warning naming the diode."""
+    models refitted to them; what still leaves it is a warning naming the diode. MOSFETs take
+    their output capacitance over the circuit's supply
+    (:func:`~circuitnsds.analyses.mosfet_refits.at_supply`), as a transient's first run does."""
+    circuit = at_supply(circuit)
     result = _run_pss(circuit, spec, **settings)
     if not fitted_diodes(circuit):
         return result

@@ -45,7 +45,7 @@ class GateDriveObserver:
 
     def report(self) -> None:
         note_weak_gate_drives(self.circuit, self.mosfets, self.drives)
-        note_mosfet_values(self.circuit, self.mosfets)
+        note_mosfet_values(self.circuit, self.mosfets, self.levels)
 
 
 def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
@@ -130,14 +130,20 @@ MOSFETS_NAMED = 4
 """MOSFETs the run's summary note names one by one (the rest are counted)."""
 
 
-def note_mosfet_values(circuit: Circuit, mosfets: list[Mosfet]) -> None:
+def note_mosfet_values(circuit: Circuit, mosfets: list[Mosfet],
+                       levels: dict[str, list[float]] | None = None) -> None:
     """One :class:`RunNote` saying, for the run's MOSFETs, the on-resistance and the output
-    capacitance it used and where their gate drive and switched voltage came from."""
+    capacitance it used and where their gate drive and switched voltage came from; with the
+    run's ``levels`` (:func:`mosfet_levels`), the drive it applied when that is another."""
     said = []
     for element in mosfets[:MOSFETS_NAMED]:
         text = f"{element.name}: Ron {element.model.on_resistance:.4g} Ω"
         if element.channel is not None:
             text += f" at |Vgs| = {element.gate_drive:.4g} V ({element.drive_origin})"
+            applied = (levels or {}).get(element.name, (0.0, 0.0))[0]
+            if applied > 0 and abs(applied - element.gate_drive) > 1e-3 * element.gate_drive:
+                text += (f"; the run applied |Vgs| up to {applied:.4g} V, where it is "
+                         f"{element.channel.resistance(applied):.4g} Ω")
         if element.output is not None:
             value = element.output.equivalent(element.switched_voltage)
             text += (f", Coss {value * 1e12:.4g} pF charge-equivalent over "

@@ -4,13 +4,11 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
 
 * an ideal drain–source switch controlled by ``v(g, s)`` against ``Vto``;
 * its on-resistance ``Ron = Rd + Rs + Rch`` where ``Rch`` is the channel's small-``Vds``
-  resistance at the gate drive ``|Vgs| = .options mosdrive`` (default
-  :data:`DEFAULT_GATE_DRIVE`), from the same equations ngspice uses:
-  VDMOS ``Rch = (1 + θ·Vgs) / (Kp·mtriode·Vov)`` with the overdrive ``Vov = Vgs − Vto``
-  smoothed by ``ksubthres`` as ngspice smooths it; level 1–3 ``Rch = 1/(β·(Vgs − Vto))``,
-  ``β = Kp·W/(L − 2·LD)`` (``L``, ``W`` from the instance, else from the model as PSpice
-  allows, else ngspice's 100 µm). LTspice's ``Ron`` (a datasheet annotation that neither
-  LTspice nor ngspice simulates) is not used;
+  resistance at the gate drive ``|Vgs|`` (:class:`~circuitnsds.circuit.elements.mosfet_laws.
+  ChannelLaw`, ngspice's equations): ``.options mosdrive`` when given, else
+  :data:`DEFAULT_GATE_DRIVE` until a first run shows the drive the circuit applies
+  (:mod:`circuitnsds.analyses.mosfet_refits`). LTspice's ``Ron`` (a datasheet annotation that
+  neither LTspice nor ngspice simulates) is not used;
 * its off-resistance: VDMOS ``Rds`` when given, else the circuit's ``1/gmin``;
 * an ideal body diode (VDMOS: source → drain for n-channel, in series with ``Rb``, with
   ``BV`` as a Zener breakdown when given; level 1–3: the bulk–drain and bulk–source
@@ -18,18 +16,18 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
   (:func:`circuitnsds.circuit.elements.diode.fitted_model`, refitted where the circuit works);
 * level 1–3: ``VTO`` and ``KP`` derived from the process as ngspice derives them when the
   model leaves them out (:mod:`~circuitnsds.frontend.cards.mos_parameters`);
-* linear capacitances when the model gives them, the gate–drain one split into its two
-  grounded halves, each at the value it has when its node moves: ngspice's Cgd(Vgd) is
-  Cgdmax while the channel conducts (``Vgd > 0``) and falls toward Cgdmin as the drain
-  rises above the gate. The gate moves (crossing ``Vto``) while the channel conducts, the
-  drain while it blocks, so the input capacitance is ``Ciss = Cgs + Cgdmax`` (gate–source)
-  and the output capacitance ``Coss = Cjo + Cgdmin`` (drain–source; ``Cjo`` is the body
-  junction's zero-bias capacitance, its largest); level 1–3: ``CGSO·W + CGDO·W`` and
-  ``CGDO·W``, ``CBD``, ``CBS``. A capacitance between gate and drain would feed the drain's jump at
-  each switching back into the gate (the Miller effect): a real device then sits in its
-  linear region while the gate charges (the Miller plateau), which an ideal switch does
-  not have, so the switch would chatter. ``Rg`` is in series with the gate when a gate
-  capacitance is present (without one it carries no current and is left out).
+* linear capacitances when the model gives them: the input capacitance
+  ``Ciss = Cgs + Cgdmax`` gate–source (ngspice's Cgd(Vgd) is Cgdmax while the channel
+  conducts, and the gate crosses ``Vto`` while it does; level 1–3 ``CGSO·W + CGDO·W``) and
+  the output capacitance ``{name}.coss`` drain–source, the charge-equivalent of ngspice's
+  Coss(v) (body junction and Cgd with the gate at the source;
+  :class:`~circuitnsds.circuit.elements.mosfet_laws.OutputCapacitance`) over the voltage the
+  drain swings, at zero bias here until the analysis places it. A capacitance between gate
+  and drain would feed the drain's jump at each switching back into the gate (the Miller
+  effect): a real device then sits in its linear region while the gate charges (the Miller
+  plateau), which an ideal switch does not have, so the switch would chatter. ``Rg`` is in
+  series with the gate when a gate capacitance is present (without one it carries no
+  current and is left out).
 """
 
 from __future__ import annotations
@@ -53,8 +51,9 @@ from circuitnsds.frontend.cards.mos_parameters import threshold, transconductanc
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 
 DEFAULT_GATE_DRIVE = 10.0
-"""``|Vgs|`` [V] at which the on-resistance is computed: the usual datasheet ``Rds(on)``
-condition of standard-level power MOSFETs (``.options mosdrive`` changes it)."""
+"""``|Vgs|`` [V] at which the on-resistance is computed before a run shows the drive the
+circuit applies: the usual datasheet ``Rds(on)`` condition of standard-level power MOSFETs
+(``.options mosdrive`` fixes the drive)."""
 TEXT_PARAMETERS = {"mfg", "type"}
 """Parameters whose value is text (the manufacturer, in vendor libraries)."""
 FLAGS = {"nchan", "pchan", "vdmosn", "vdmosp"}
