@@ -129,3 +129,13 @@ def test_mosdrive_still_fixes_the_gate_drive_and_the_note_says_what_the_circuit_
     notes = [str(w.message) for w in caught]
     assert any("m1: Ron 0.1176 Ω at |Vgs| = 10 V (.options mosdrive); the run applied |Vgs| up to "
                "5 V, where it is 0.2857 Ω" in n for n in notes), notes
+
+
+def test_pss_takes_the_on_resistance_at_the_gate_drive_of_its_settled_period():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = circuit_from(LOGIC_LEVEL).pss(step=100e-9)
+    waves = result.waveforms
+    on = (waves.time > 10e-6) & (waves.time < 40e-6)                # the gate at 5 V
+    ron = 1 / (1.0 * (5 - 1.5))
+    assert np.asarray(waves["v(d)"])[on] == pytest.approx(12 * ron / (10 + ron), rel=1e-6)

@@ -129,3 +129,14 @@ def refit_mosfets(circuit: Circuit, levels: dict[str, list[float]]) -> Circuit:
                                   f"circuit works, and the run made again: {'; '.join(said)}"),
                           stacklevel=3)
     return _with(circuit, changed)
+
+
+def refit_mosfets_to(circuit: Circuit, waves) -> Circuit:
+    """:func:`refit_mosfets` at the levels the waveforms ``waves`` of a run show (an analysis
+    that keeps no observer, pss); ``circuit`` itself when no MOSFET moves."""
+    devices = mosfets(circuit)
+    if not devices:
+        return circuit
+    from circuitnsds.circuit.elements.mosfet_notes import waveform_mosfet_levels
+
+    return refit_mosfets(circuit, waveform_mosfet_levels(devices, waves))

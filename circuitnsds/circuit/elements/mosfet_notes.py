@@ -106,6 +106,25 @@ def mosfet_levels(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
     return levels
 
 
+def waveform_mosfet_levels(mosfets: list[Mosfet], waves) -> dict[str, list[float]]:
+    """:func:`mosfet_levels` read from the waveforms ``waves`` (node voltages ``v(name)``),
+    the channel taken as conducting where its control ``polarity·(v(g) − v(s))`` exceeds its
+    threshold; MOSFETs whose nodes ``waves`` does not hold are left out."""
+    levels: dict[str, list[float]] = {}
+    for element in mosfets:
+        try:
+            drain, source, gate = (np.asarray(waves[f"v({n})"]) if n != "0" else 0.0
+                                   for n in element.nodes[:3])
+        except KeyError:  # a run that kept only some signals
+            continue
+        control = np.broadcast_to(element.polarity * (gate - source), np.shape(waves.time))
+        blocking = np.broadcast_to(element.polarity * (drain - source), control.shape)
+        closed = control > element.model.threshold
+        levels[element.name] = [float(control[closed].max()) if closed.any() else 0.0,
+                                max(0.0, float(blocking[~closed].max())) if not closed.all() else 0.0]
+    return levels
+
+
 def note_weak_gate_drives(circuit: Circuit, mosfets: list[Mosfet],
                           drives: dict[str, list[float]]) -> None:
     """A :class:`RunNote` for each of ``mosfets`` that spends more than :data:`WEAK_DRIVE_SHARE`
