@@ -114,3 +114,23 @@ def test_llc_with_a_vendor_vdmos_shows_the_zero_voltage_switching_ngspice_shows(
         assert np.all(np.abs(reference) < 0.05 * 400)          # ngspice: zero-voltage switching
         assert np.all(np.abs(mine - reference) < 0.05 * 400), (mine, reference)
     assert comparison.metrics["v(out)"].nrms < 0.01             # measured 0.2 %
+
+
+@pytest.mark.parametrize(("card", "name", "volts"), [
+    (IRF530, "irf530", 100.0),
+    (".model SPA11N60C3 VDMOS(Rg=.86 Vto=4.08 Mtriode=.8 Rd=275m Rs=60m Rb=22m Kp=40 A=2.2 "
+     "Cgdmax=2.7n Cgdmin=10p Cgs=1.5n Cjo=.7n Is=20p ksubthres=.1)", "spa11n60c3", 400.0),
+])
+def test_output_capacitance_holds_the_charge_ngspice_moves_over_the_switched_voltage(card, name, volts):
+    """Issue 34: the drain ramped 0 -> V in 1 us with the gate at the source: ngspice's drain
+    charge (its current integrated) over V is m1.coss at V (measured within 0.1 %)."""
+    text = (f"coss\n{card}\nVd d 0 PWL(0 0 1u {volts:g})\nVg g 0 0\nM1 d g 0 {name}\n"
+            ".tran 1n 1u\n.end\n")
+    result = run_ngspice(text, ["i(vd)"], 1e-6)
+    assert result.ok, result.message
+    charge = np.trapezoid(-np.asarray(result.waveforms["i(vd)"]), result.waveforms.time)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuit_from(text.split("\n", 1)[1].removesuffix(".end\n"))
+    ours = circuit.element("m1").output.equivalent(volts)
+    assert ours == pytest.approx(charge / volts, rel=0.01)
