@@ -116,15 +116,18 @@ def test_llc_with_a_vendor_vdmos_shows_the_zero_voltage_switching_ngspice_shows(
     assert comparison.metrics["v(out)"].nrms < 0.01             # measured 0.2 %
 
 
-@pytest.mark.parametrize(("card", "name", "volts"), [
+@pytest.mark.parametrize(("card", "instance", "volts"), [
     (IRF530, "irf530", 100.0),
     (".model SPA11N60C3 VDMOS(Rg=.86 Vto=4.08 Mtriode=.8 Rd=275m Rs=60m Rb=22m Kp=40 A=2.2 "
      "Cgdmax=2.7n Cgdmin=10p Cgs=1.5n Cjo=.7n Is=20p ksubthres=.1)", "spa11n60c3", 400.0),
+    (".model NL NMOS(LEVEL=1 VTO=2 KP=2e-5 CBD=1n PB=0.7 MJ=0.4 CGDO=1e-9)", "0 NL W=0.1 L=2u", 50.0),
 ])
-def test_output_capacitance_holds_the_charge_ngspice_moves_over_the_switched_voltage(card, name, volts):
+def test_output_capacitance_holds_the_charge_ngspice_moves_over_the_switched_voltage(card, instance,
+                                                                                      volts):
     """Issue 34: the drain ramped 0 -> V in 1 us with the gate at the source: ngspice's drain
-    charge (its current integrated) over V is m1.coss at V (measured within 0.1 %)."""
-    text = (f"coss\n{card}\nVd d 0 PWL(0 0 1u {volts:g})\nVg g 0 0\nM1 d g 0 {name}\n"
+    charge (its current integrated) over V is m1.coss at V (measured within 0.1 %: VDMOS body
+    junction and Cgd(Vgd), level-1 CBD with PB, MJ and the CGDO overlap)."""
+    text = (f"coss\n{card}\nVd d 0 PWL(0 0 1u {volts:g})\nVg g 0 0\nM1 d g 0 {instance}\n"
             ".tran 1n 1u\n.end\n")
     result = run_ngspice(text, ["i(vd)"], 1e-6)
     assert result.ok, result.message
