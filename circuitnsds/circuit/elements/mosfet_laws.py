@@ -35,13 +35,14 @@ class ChannelLaw:
 
     * VDMOS: ``Rch = (1 + θ·Vgs)/(Kp·mtriode·Vov)``, ``Vov = ksubthres·ln(1 + e^((Vgs − Vto
       − subshift)/ksubthres))``;
-    * level 1–3: ``Rch = 1/(β·(Vgs − Vto))``, ``β = Kp·W/(L − 2·LD)``.
+    * level 1–3: ``Rch = (1 + θ·(Vgs − Vto))/(β·(Vgs − Vto))``, ``β = Kp·W/(L − 2·LD)``,
+      ``θ`` level 3's mobility modulation ``THETA`` (0 for levels 1 and 2).
 
     Attributes:
         device: ``vdmos`` or ``level`` (1–3).
         threshold: ``|Vto|`` [V], the drive at which the channel opens.
         gain: ``Kp·mtriode`` (VDMOS) or ``β`` (level 1–3) [A/V²].
-        theta: VDMOS mobility reduction ``θ`` [1/V].
+        theta: mobility reduction ``θ`` [1/V] (VDMOS: of ``Vgs``; level 3: of the overdrive).
         slope: VDMOS ``ksubthres`` [V]; shift: ``subshift`` [V].
         drain, source: ``Rd``, ``Rs`` [Ω].
         count: the instance multiplier ``m``.
@@ -65,7 +66,9 @@ class ChannelLaw:
             argument = (overdrive - self.shift) / self.slope
             smoothed = self.slope * (argument if argument > 30 else math.log1p(math.exp(argument)))
             return (1.0 + self.theta * drive) / (self.gain * smoothed)
-        return math.inf if overdrive <= 0 else 1.0 / (self.gain * overdrive)
+        if overdrive <= 0:
+            return math.inf
+        return (1.0 + self.theta * overdrive) / (self.gain * overdrive)
 
     def resistance(self, drive: float) -> float:
         """``Ron`` [Ω] of the instance at ``|Vgs| = drive`` [V]."""

@@ -72,11 +72,11 @@ VDMOS_IGNORED = {
 }
 LEVEL1_USED = {"level", "vto", "vt0", "kp", "u0", "uo", "tox", "ld", "rd", "rs", "is", "cbd", "cbs",
                "cgso", "cgdo", "l", "w", "nsub", "phi", "gamma", "tpg", "nss", "xj", "delta", "wd",
-               "tnom", "pb", "mj"}
+               "tnom", "pb", "mj", "theta"}
 LEVEL1_IGNORED = {
     "lambda", "cgbo", "rsh", "cj", "cjsw", "mjsw", "js", "fc",
     "kf", "af", "uexp", "ucrit", "vmax", "neff", "nfs", "eta",
-    "theta", "kappa", "xqc", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
+    "kappa", "xqc", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
 }
 DEFAULT_LENGTH = 100e-6
 """ngspice's default channel length and width ``DEFL``/``DEFW`` [m]."""
@@ -156,8 +156,9 @@ def read_mos_model(name: str, kind: str, reader: StatementReader) -> MosfetModel
                                "(threshold VTO, on-resistance from KP)")
         if level != 1:
             reader.warn(f".model {name}: level {level} read with the level-1 on-resistance "
-                        "(KP, W, L); its threshold is ngspice's at Vbs = 0 (level 3: with the "
-                        "short- and narrow-channel effects, without ETA's drain feedback)")
+                        "(KP, W, L; level 3 also THETA's mobility reduction); its threshold is "
+                        "ngspice's at Vbs = 0 (level 3: with the short- and narrow-channel "
+                        "effects, without ETA's drain feedback)")
     return MosfetModel(name, kind, polarity, params, text, reader.location)
 
 
@@ -266,9 +267,12 @@ def _channel_law(model: MosfetModel, instance: dict[str, float], vto: float,
     if length <= 0:
         raise reader.error(f"{reader.name}: the effective channel length L - 2·LD is not positive")
     beta = kp * instance["w"] / length
-    law = ChannelLaw("level", threshold, beta, count=instance["m"], **resistors)
-    return law, (f"Rch = 1/(Kp·W/(L−2·LD)·(Vgs − Vto)) (Kp={kp:g}, W/L={instance['w'] / length:g}, "
-                 f"Vto={vto:.4g})")
+    theta = model.get("theta", 0.0) if int(model.get("level", 1)) == 3 else 0.0
+    law = ChannelLaw("level", threshold, beta, theta=theta, count=instance["m"], **resistors)
+    mobility = "(1 + θ·(Vgs − Vto))" if theta else "1"
+    given = f", THETA={theta:g}" if theta else ""
+    return law, (f"Rch = {mobility}/(Kp·W/(L−2·LD)·(Vgs − Vto)) (Kp={kp:g}, "
+                 f"W/L={instance['w'] / length:g}, Vto={vto:.4g}{given})")
 
 
 def _output_capacitance(model: MosfetModel, instance: dict[str, float],
