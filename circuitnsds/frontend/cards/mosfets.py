@@ -283,11 +283,10 @@ def _output_capacitance(model: MosfetModel, instance: dict[str, float],
     the bulk–drain junction ``CBD`` (``PB``, ``MJ``)."""
     count = instance["m"]
     if model.kind == "vdmos":
-        cgdmax = model.get("cgdmax", 0.0)
         return OutputCapacitance(junction=model.get("cjo", 0.0), potential=model.get("vj", 0.8),
-                                 grading=model.get("m", 0.5),
-                                 gate_drain_min=min(model.get("cgdmin", 0.0), cgdmax) if cgdmax else 0.0,
-                                 gate_drain_max=cgdmax, slope=model.get("a", 1.0), count=count)
+                                 grading=model.get("m", 0.5), gate_drain_min=model.get("cgdmin", 0.0),
+                                 gate_drain_max=model.get("cgdmax", 0.0), slope=model.get("a", 1.0),
+                                 count=count)
     overlap = model.get("cgdo", 0.0) * instance["w"]
     junction = model.get("cbd", 0.0) if bulk_at_source else 0.0
     return OutputCapacitance(junction=junction, potential=model.get("pb", 0.8),
