@@ -10,6 +10,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from circuitnsds.analyses.mosfet_refits import at_supply
 from circuitnsds.analyses.operating_point import operating_point
 from circuitnsds.analyses.pss import run_pss
 from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
@@ -93,6 +94,7 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         raise CircuitError(f"source(s) {', '.join(varying)} vary in time: the circuit has no fixed "
                            "operating point", where=circuit.file,
                            hint="use around='pss' (small-signal around the periodic steady state)")
+    circuit = at_supply(circuit)  # MOSFETs' output capacitances over the supply, as pss has them
     if around == "pss":
         if pss is None:  # (the pss analysis itself, not Circuit.pss: no analysis goes up a layer)
             pss = run_pss(circuit, circuit.analyses.get("pss"))

@@ -24,6 +24,7 @@ import numpy as np
 
 from circuitnsds.analyses.advice import advise
 from circuitnsds.analyses.memory import refuse_beyond_memory
+from circuitnsds.analyses.mosfet_refits import at_supply, refit_mosfets_to
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.analyses.refits import fitted_diodes, refit_diodes, refits_allowed, report_fits
@@ -190,18 +191,21 @@ def run_pss(circuit: Circuit, spec: PssSpec | None, **settings) -> PSSResult:
     :meth:`Circuit.pss`. Diodes fitted to SPICE models are fitted where the periodic steady
     state works, as in a transient (:func:`~circuitnsds.analyses.transient.run_transient`):
     a settled period whose peak currents leave a fit's range is found again, once, with the
-    models refitted to them; what still leaves it is a warning naming the diode."""
+    models refitted to them; what still leaves it is a warning naming the diode. MOSFETs take
+    their output capacitance over the circuit's supply, then their on-resistance and output
+    capacitance at the gate drive and blocking voltage of the settled period, found again once
+    when those move them (:mod:`~circuitnsds.analyses.mosfet_refits`), as a transient does."""
+    circuit = at_supply(circuit)
     result = _run_pss(circuit, spec, **settings)
-    if not fitted_diodes(circuit):
-        return result
-    peaks = waveform_diode_peaks(fitted_diodes(circuit), result.waveforms)
-    if refits_allowed(circuit):
-        refitted = refit_diodes(circuit, peaks)
-        if refitted is not circuit:
-            circuit = refitted
-            result = _run_pss(circuit, spec, **settings)
-            peaks = waveform_diode_peaks(fitted_diodes(circuit), result.waveforms)
-    report_fits(circuit, peaks)
+    refitted = circuit
+    if fitted_diodes(circuit) and refits_allowed(circuit):
+        refitted = refit_diodes(circuit, waveform_diode_peaks(fitted_diodes(circuit), result.waveforms))
+    refitted = refit_mosfets_to(refitted, result.waveforms)
+    if refitted is not circuit:
+        circuit = refitted
+        result = _run_pss(circuit, spec, **settings)
+    if fitted_diodes(circuit):
+        report_fits(circuit, waveform_diode_peaks(fitted_diodes(circuit), result.waveforms))
     return result
 
 

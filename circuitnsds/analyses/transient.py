@@ -12,6 +12,13 @@ import numpy as np
 from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
 from circuitnsds.analyses.fast_modes import FastModeWatch
 from circuitnsds.analyses.memory import refuse_beyond_memory
+from circuitnsds.analyses.mosfet_refits import (
+    at_supply,
+    is_mosfet_observer,
+    mosfet_observer,
+    mosfets,
+    refit_mosfets,
+)
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import SEGMENT_BYTES, Observed, SignalRecorder, TrajectoryRecorder
 from circuitnsds.analyses.refits import fit_observer, refit_diodes, refits_allowed
@@ -63,7 +70,10 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     (:func:`~circuitnsds.circuit.elements.diode.refit_to`), the model is refitted to those
     peaks and the transient is run again, once (:func:`~circuitnsds.analyses.refits.refit_diodes`;
     not with a ``sink``, which has its rows already: a warning names the diodes then).
-    ``.options pwlfit=I`` fixes every fit's range below ``I`` [A] instead.
+    ``.options pwlfit=I`` fixes every fit's range below ``I`` [A] instead. MOSFETs take their
+    output capacitance over the circuit's supply, and are re-evaluated at the gate drive and
+    the blocking voltage a first run shows, with the same one rerun
+    (:mod:`~circuitnsds.analyses.mosfet_refits`).
 
     ``sink`` (with ``signals``): an object with ``append(time, columns, residual)`` (and
     optionally ``expect(rows)``), e.g. :class:`~circuitnsds.output.csvfile.CsvStream`,
@@ -71,19 +81,23 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     the waveforms returned then hold no rows (their ``stats`` count them: ``rows``)."""
     if sink is not None and signals is None:
         raise ValueError("a sink needs the signals it is to get")
-    if sink is not None or not refits_allowed(circuit):
+    circuit = at_supply(circuit)
+    if sink is not None or not (refits_allowed(circuit) or mosfets(circuit)):
         return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
     observers = observers_of(circuit)
     first = _run_transient(circuit, spec, signals=signals, observers=observers, **settings)
-    fits = fit_observer(observers)
-    refitted = refit_diodes(circuit, fits.peaks)
+    fits, watch = fit_observer(observers), mosfet_observer(observers)
+    refitted = refit_diodes(circuit, fits.peaks) if fits is not None and refits_allowed(circuit) else circuit
+    if watch is not None:
+        refitted = refit_mosfets(refitted, watch.levels)
     if refitted is circuit:
         _report(observers)
         return first
-    # said once: the first run's other notes; the peaks and time scales of the run returned
+    # said once: the first run's other notes; the peaks, drives and time scales of the run returned
     _report([observer for observer in observers
-             if not isinstance(observer, FitRangeObserver | FastModeWatch)])
-    again = [fit_observer(observers_of(refitted))]
+             if not (isinstance(observer, FitRangeObserver | FastModeWatch) or is_mosfet_observer(observer))])
+    again = [observer for observer in observers_of(refitted)
+             if isinstance(observer, FitRangeObserver) or is_mosfet_observer(observer)]
     waves = _run_transient(refitted, spec, signals=signals, observers=again, **settings)
     _report(again)
     return waves

@@ -85,6 +85,8 @@ def _model_detail(element) -> str | None:
             detail = (f"{channel}-channel {element.device.upper()} (drain {element.nodes[0]}, "
                       f"source {element.nodes[1]}, gate {element.gate}) as a {detail}; "
                       f"Ron = {element.on_resistance_rule}"
+                      + (f"; {element.output_rule} (a run re-evaluates Ron and Coss where the "
+                         "circuit works)" if element.output_rule else "")
                       + (f"; with {', '.join(element.parts)}" if element.parts else ""))
         kind = type(element).__name__
         if kind == "Igbt":
@@ -142,6 +144,9 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
     The MLCS is built (and described) whenever the structural checks pass, even if
     the operating point is undefined.
     """
+    from circuitnsds.analyses.mosfet_refits import at_supply
+
+    circuit = at_supply(circuit)  # MOSFETs' output capacitances as a run starts them
     lines = [f"title:     {circuit.title}", f"file:      {circuit.file}"]
     lines.append(f"nodes:     {len(circuit.nodes)} + ground 0: {_listed(circuit.nodes)}")
     kinds: dict[str, list] = {}

@@ -1,6 +1,10 @@
-"""The MOSFET's run-time note: a MOSFET that conducts mostly at a weak gate drive, where its
-channel is not the switch of on-resistance Ron its model was read as
-(:class:`GateDriveObserver`, declared by :class:`~circuitnsds.circuit.elements.mosfet.Mosfet`)."""
+"""The MOSFET's run-time observer (:class:`GateDriveObserver`, declared by
+:class:`~circuitnsds.circuit.elements.mosfet.Mosfet`): it notes a MOSFET that conducts mostly
+at a weak gate drive, where its channel is not the switch of on-resistance Ron its model was
+read as, and measures what the analysis re-evaluates a MOSFET at
+(:func:`circuitnsds.analyses.refits.refit_mosfets`): the highest gate drive ``|Vgs|`` [V]
+while the channel conducts (the drive the circuit applies) and the highest blocking voltage
+[V] while it is open (the voltage its output capacitance switches), in :attr:`levels`."""
 
 from __future__ import annotations
 
@@ -31,12 +35,17 @@ class GateDriveObserver:
     def __init__(self, circuit: Circuit, mosfets: list[Mosfet]):
         self.circuit, self.mosfets = circuit, mosfets
         self.drives: dict[str, list[float]] = {}
+        self.levels: dict[str, list[float]] = {}
+        """MOSFET name -> ``[highest |Vgs| while conducting, highest blocking voltage while
+        open]`` [V] over the run (``0.0``: never in that state)."""
 
     def observe(self, mlcs: MLCS, trajectory, first: int) -> None:
         mosfet_drives(self.mosfets, mlcs, trajectory, self.drives)
+        mosfet_levels(self.mosfets, mlcs, trajectory, self.levels)
 
     def report(self) -> None:
         note_weak_gate_drives(self.circuit, self.mosfets, self.drives)
+        note_mosfet_values(self.circuit, self.mosfets, self.levels)
 
 
 def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
@@ -67,6 +76,55 @@ def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
     return drives
 
 
+def mosfet_levels(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
+                  levels: dict[str, list[float]]) -> dict[str, list[float]]:
+    """MOSFET name -> ``[highest |Vgs| while conducting, highest blocking voltage while
+    open]`` [V] of each of ``mosfets`` over the rows of ``trajectory``, merged into ``levels``
+    (of earlier parts of the same run), which is updated and returned. The blocking voltage
+    is ``polarity·(v(d) − v(s))``; a row counts with the state the step into it ran in."""
+    named = {e.name: e for e in mosfets}
+    if not named or trajectory.time.size < 2:
+        return levels
+    column = {name: k for k, name in enumerate(mlcs.nodes)}
+
+    def voltage(node: str) -> np.ndarray | float:
+        return trajectory.y[1:, column[node]] if node in column else 0.0
+
+    for j, switch in enumerate(mlcs.switches):
+        element = named.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        control = sum(value * trajectory.y[1:, k] for k, value in switch.control)
+        blocking = element.polarity * (voltage(element.nodes[0]) - voltage(element.nodes[1]))
+        blocking = np.broadcast_to(blocking, closed.shape)
+        highest = levels.setdefault(switch.name, [0.0, 0.0])
+        if closed.any():
+            highest[0] = max(highest[0], float(np.max(control[closed])))
+        if not closed.all():
+            highest[1] = max(highest[1], float(np.max(blocking[~closed])))
+    return levels
+
+
+def waveform_mosfet_levels(mosfets: list[Mosfet], waves) -> dict[str, list[float]]:
+    """:func:`mosfet_levels` read from the waveforms ``waves`` (node voltages ``v(name)``),
+    the channel taken as conducting where its control ``polarity·(v(g) − v(s))`` exceeds its
+    threshold; MOSFETs whose nodes ``waves`` does not hold are left out."""
+    levels: dict[str, list[float]] = {}
+    for element in mosfets:
+        try:
+            drain, source, gate = (np.asarray(waves[f"v({n})"]) if n != "0" else 0.0
+                                   for n in element.nodes[:3])
+        except KeyError:  # a run that kept only some signals
+            continue
+        control = np.broadcast_to(element.polarity * (gate - source), np.shape(waves.time))
+        blocking = np.broadcast_to(element.polarity * (drain - source), control.shape)
+        closed = control > element.model.threshold
+        levels[element.name] = [float(control[closed].max()) if closed.any() else 0.0,
+                                max(0.0, float(blocking[~closed].max())) if not closed.all() else 0.0]
+    return levels
+
+
 def note_weak_gate_drives(circuit: Circuit, mosfets: list[Mosfet],
                           drives: dict[str, list[float]]) -> None:
     """A :class:`RunNote` for each of ``mosfets`` that spends more than :data:`WEAK_DRIVE_SHARE`
@@ -85,3 +143,34 @@ def note_weak_gate_drives(circuit: Circuit, mosfets: list[Mosfet],
                 f"{element.gate_drive:g} V: there its channel resistance is several times Ron and "
                 "the MOSFET is not a switch; set .options mosdrive to the gate drive it works "
                 "at, or drive its gate to that level"), stacklevel=STACKLEVEL)
+
+
+MOSFETS_NAMED = 4
+"""MOSFETs the run's summary note names one by one (the rest are counted)."""
+
+
+def note_mosfet_values(circuit: Circuit, mosfets: list[Mosfet],
+                       levels: dict[str, list[float]] | None = None) -> None:
+    """One :class:`RunNote` saying, for the run's MOSFETs, the on-resistance and the output
+    capacitance it used and where their gate drive and switched voltage came from; with the
+    run's ``levels`` (:func:`mosfet_levels`), the drive it applied when that is another."""
+    said = []
+    for element in mosfets[:MOSFETS_NAMED]:
+        text = f"{element.name}: Ron {element.model.on_resistance:.4g} Ω"
+        if element.channel is not None:
+            text += f" at |Vgs| = {element.gate_drive:.4g} V ({element.drive_origin})"
+            applied = (levels or {}).get(element.name, (0.0, 0.0))[0]
+            if applied > 0 and abs(applied - element.gate_drive) > 1e-3 * element.gate_drive:
+                text += (f"; the run applied |Vgs| up to {applied:.4g} V, where it is "
+                         f"{element.channel.resistance(applied):.4g} Ω")
+        if element.output is not None:
+            value = element.output.equivalent(element.switched_voltage)
+            text += (f", Coss {value * 1e12:.4g} pF charge-equivalent over "
+                     f"0..{element.switched_voltage:.4g} V ({element.voltage_origin})")
+        said.append(text)
+    if not said:
+        return
+    rest = len(mosfets) - MOSFETS_NAMED
+    more = f"; and {rest} more (circuitnsds info)" if rest > 0 else ""
+    warnings.warn(RunNote(f"{circuit.file}: MOSFETs read as switches with {'; '.join(said)}{more}"),
+                  stacklevel=STACKLEVEL)

@@ -34,7 +34,7 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                           "('theta'); ngspice's 'trap' and 'gear' are ignored",
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
-                            "(default 10)",
+                            "(default: the drive the circuit applies, found by a first run)",
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
                 "fitted by parallel PWL branches (5 decades below it), or 'auto' (the default): "
                 "where a run's currents are",

@@ -4,13 +4,11 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
 
 * an ideal drain–source switch controlled by ``v(g, s)`` against ``Vto``;
 * its on-resistance ``Ron = Rd + Rs + Rch`` where ``Rch`` is the channel's small-``Vds``
-  resistance at the gate drive ``|Vgs| = .options mosdrive`` (default
-  :data:`DEFAULT_GATE_DRIVE`), from the same equations ngspice uses:
-  VDMOS ``Rch = (1 + θ·Vgs) / (Kp·mtriode·Vov)`` with the overdrive ``Vov = Vgs − Vto``
-  smoothed by ``ksubthres`` as ngspice smooths it; level 1–3 ``Rch = 1/(β·(Vgs − Vto))``,
-  ``β = Kp·W/(L − 2·LD)`` (``L``, ``W`` from the instance, else from the model as PSpice
-  allows, else ngspice's 100 µm). LTspice's ``Ron`` (a datasheet annotation that neither
-  LTspice nor ngspice simulates) is not used;
+  resistance at the gate drive ``|Vgs|`` (:class:`~circuitnsds.circuit.elements.mosfet_laws.
+  ChannelLaw`, ngspice's equations): ``.options mosdrive`` when given, else
+  :data:`DEFAULT_GATE_DRIVE` until a first run shows the drive the circuit applies
+  (:mod:`circuitnsds.analyses.mosfet_refits`). LTspice's ``Ron`` (a datasheet annotation that
+  neither LTspice nor ngspice simulates) is not used;
 * its off-resistance: VDMOS ``Rds`` when given, else the circuit's ``1/gmin``;
 * an ideal body diode (VDMOS: source → drain for n-channel, in series with ``Rb``, with
   ``BV`` as a Zener breakdown when given; level 1–3: the bulk–drain and bulk–source
@@ -18,23 +16,22 @@ A MOSFET becomes (see :mod:`circuitnsds.circuit.elements.mosfet`):
   (:func:`circuitnsds.circuit.elements.diode.fitted_model`, refitted where the circuit works);
 * level 1–3: ``VTO`` and ``KP`` derived from the process as ngspice derives them when the
   model leaves them out (:mod:`~circuitnsds.frontend.cards.mos_parameters`);
-* linear capacitances when the model gives them, the gate–drain one split into its two
-  grounded halves, each at the value it has when its node moves: ngspice's Cgd(Vgd) is
-  Cgdmax while the channel conducts (``Vgd > 0``) and falls toward Cgdmin as the drain
-  rises above the gate. The gate moves (crossing ``Vto``) while the channel conducts, the
-  drain while it blocks, so the input capacitance is ``Ciss = Cgs + Cgdmax`` (gate–source)
-  and the output capacitance ``Coss = Cjo + Cgdmin`` (drain–source; ``Cjo`` is the body
-  junction's zero-bias capacitance, its largest); level 1–3: ``CGSO·W + CGDO·W`` and
-  ``CGDO·W``, ``CBD``, ``CBS``. A capacitance between gate and drain would feed the drain's jump at
-  each switching back into the gate (the Miller effect): a real device then sits in its
-  linear region while the gate charges (the Miller plateau), which an ideal switch does
-  not have, so the switch would chatter. ``Rg`` is in series with the gate when a gate
-  capacitance is present (without one it carries no current and is left out).
+* linear capacitances when the model gives them: the input capacitance
+  ``Ciss = Cgs + Cgdmax`` gate–source (ngspice's Cgd(Vgd) is Cgdmax while the channel
+  conducts, and the gate crosses ``Vto`` while it does; level 1–3 ``CGSO·W + CGDO·W``) and
+  the output capacitance ``{name}.coss`` drain–source, the charge-equivalent of ngspice's
+  Coss(v) (body junction and Cgd with the gate at the source;
+  :class:`~circuitnsds.circuit.elements.mosfet_laws.OutputCapacitance`) over the voltage the
+  drain swings, at zero bias here until the analysis places it. A capacitance between gate
+  and drain would feed the drain's jump at each switching back into the gate (the Miller
+  effect): a real device then sits in its linear region while the gate charges (the Miller
+  plateau), which an ideal switch does not have, so the switch would chatter. ``Rg`` is in
+  series with the gate when a gate capacitance is present (without one it carries no
+  current and is left out).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 from circuitnsds.circuit.elements import (
@@ -48,24 +45,26 @@ from circuitnsds.circuit.elements import (
 from circuitnsds.circuit.elements.diode import fitted_model
 from circuitnsds.circuit.elements.diode_fit import ShockleyDiode
 from circuitnsds.circuit.elements.mosfet import Mosfet
+from circuitnsds.circuit.elements.mosfet_laws import ChannelLaw, OutputCapacitance
 from circuitnsds.errors import SourceLocation
 from circuitnsds.frontend.cards.mos_parameters import threshold, transconductance
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 
 DEFAULT_GATE_DRIVE = 10.0
-"""``|Vgs|`` [V] at which the on-resistance is computed: the usual datasheet ``Rds(on)``
-condition of standard-level power MOSFETs (``.options mosdrive`` changes it)."""
+"""``|Vgs|`` [V] at which the on-resistance is computed before a run shows the drive the
+circuit applies: the usual datasheet ``Rds(on)`` condition of standard-level power MOSFETs
+(``.options mosdrive`` fixes the drive)."""
 TEXT_PARAMETERS = {"mfg", "type"}
 """Parameters whose value is text (the manufacturer, in vendor libraries)."""
 FLAGS = {"nchan", "pchan", "vdmosn", "vdmosp"}
 
 VDMOS_USED = {"vto", "vth0", "kp", "theta", "mtriode", "ksubthres", "subshift", "rd", "rs", "rg",
-              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgdmin", "cgs"}
+              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgdmin", "cgs", "vj", "m", "a"}
 VDMOS_IGNORED = {
     # smooth-model details that do not change a switch's states or its on-resistance
     "phi", "lambda", "tnom", "kf", "af", "rq", "vq", "tcvth", "vtotc", "mu", "bex", "texp0",
     "texp1", "trd1", "trd2", "trg1", "trg2", "trs1", "trs2", "trb1", "trb2", "tksubthres1",
-    "tksubthres2", "ibv", "nbv", "tt", "eg", "xti", "vj", "m", "fc", "a", "rthjc",
+    "tksubthres2", "ibv", "nbv", "tt", "eg", "xti", "fc", "rthjc",
     "rthca", "cthj", "vgs_max", "vgd_max", "vds_max", "vgsr_max", "vgdr_max", "pd_max", "id_max",
     "idr_max", "te_max", "rth_ext", "derating",
     # LTspice datasheet annotations (not simulated by LTspice or ngspice)
@@ -73,11 +72,11 @@ VDMOS_IGNORED = {
 }
 LEVEL1_USED = {"level", "vto", "vt0", "kp", "u0", "uo", "tox", "ld", "rd", "rs", "is", "cbd", "cbs",
                "cgso", "cgdo", "l", "w", "nsub", "phi", "gamma", "tpg", "nss", "xj", "delta", "wd",
-               "tnom"}
+               "tnom", "pb", "mj", "theta"}
 LEVEL1_IGNORED = {
-    "lambda", "pb", "cgbo", "rsh", "cj", "mj", "cjsw", "mjsw", "js", "fc",
+    "lambda", "cgbo", "rsh", "cj", "cjsw", "mjsw", "js", "fc",
     "kf", "af", "uexp", "ucrit", "vmax", "neff", "nfs", "eta",
-    "theta", "kappa", "xqc", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
+    "kappa", "xqc", "nlev", "gdsnoi", "ron", "qg", "vds", "mfg",
 }
 DEFAULT_LENGTH = 100e-6
 """ngspice's default channel length and width ``DEFL``/``DEFW`` [m]."""
@@ -157,8 +156,9 @@ def read_mos_model(name: str, kind: str, reader: StatementReader) -> MosfetModel
                                "(threshold VTO, on-resistance from KP)")
         if level != 1:
             reader.warn(f".model {name}: level {level} read with the level-1 on-resistance "
-                        "(KP, W, L); its threshold is ngspice's at Vbs = 0 (level 3: with the "
-                        "short- and narrow-channel effects, without ETA's drain feedback)")
+                        "(KP, W, L; level 3 also THETA's mobility reduction); its threshold is "
+                        "ngspice's at Vbs = 0 (level 3: with the short- and narrow-channel "
+                        "effects, without ETA's drain feedback)")
     return MosfetModel(name, kind, polarity, params, text, reader.location)
 
 
@@ -206,20 +206,23 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
     if min(instance.values()) <= 0:
         raise reader.error(f"{name}: m, l and w must be positive")
     drive = options.get("mosdrive", DEFAULT_GATE_DRIVE)
+    drive_origin = ".options mosdrive" if "mosdrive" in options else "the default"
     try:
         vto, vto_rule = model.threshold_of(instance)
     except ValueError as exc:
         raise reader.error(f"{name}: model {model.name}: {exc}",
                            hint="check NSUB's unit (cm^-3) or give VTO") from None
-    channel, rule = _channel_resistance(model, instance, drive, reader, vto)
-    series = model.get("rd", 0.0) + model.get("rs", 0.0)
+    overdrive = drive - model.polarity * vto
+    if overdrive <= 0:
+        raise reader.error(f"{name}: the gate drive |Vgs| = {drive:g} V does not reach "
+                           f"the threshold of model {model.name} (Vto = {vto:.4g} V)",
+                           hint="set the drive at which Ron is computed: .options mosdrive=VALUE")
+    channel, equation = _channel_law(model, instance, vto, reader)
     count = instance["m"]
-    on_resistance = (series + channel) / count
-    rule = (f"Rd + Rs + Rch = {model.get('rd', 0.0):g} + {model.get('rs', 0.0):g} + {channel:.4g} Ω"
-            + (f", / m={count:g}" if count != 1 else "") + f"; {rule}; Vto={vto:.4g} V: {vto_rule}")
+    rule = f"{equation}; Vto={vto:.4g} V: {vto_rule}"
     off = model.get("rds", off_resistance) if model.kind == "vdmos" else off_resistance
     switch_model = SwitchModel(model.name, threshold=model.polarity * vto,
-                               on_resistance=on_resistance, off_resistance=off / count,
+                               on_resistance=channel.resistance(drive), off_resistance=off / count,
                                location=model.location, thermal=model.text.get("thermal"))
     location = reader.location
     parts: list[Element] = []
@@ -234,45 +237,60 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
         parts.append(Capacitor(f"{name}.ciss", (inner_gate, source), location,
                                capacitance=(gate_caps.get("cgs", 0.0) + miller) * count))
     parts += _body_diodes(model, name, drain, source, bulk, count, off_resistance, location)
-    if model.kind == "vdmos":  # the drain moves while the channel blocks: Cgd is at Cgdmin
-        output = model.params.get("cgdmin", 0.0) + model.params.get("cjo", 0.0)
-    else:
-        output = miller
-    if output > 0:
+    output = _output_capacitance(model, instance, bulk == source)
+    voltage, voltage_origin = 0.0, "at zero bias until a run or the circuit's supply gives the voltage"
+    if output.present:
         parts.append(Capacitor(f"{name}.coss", (drain, source), location,
-                               capacitance=output * count))
+                               capacitance=output.equivalent(voltage)))
     switch = Mosfet(name, (drain, source, inner_gate), location, model=switch_model,
-                    polarity=model.polarity, device=model.kind, on_resistance_rule=rule,
-                    gate_drive=drive, parts=tuple(p.name for p in parts))
+                    polarity=model.polarity, device=model.kind, channel_rule=rule,
+                    gate_drive=drive, drive_origin=drive_origin, channel=channel,
+                    output=output if output.present else None, switched_voltage=voltage,
+                    voltage_origin=voltage_origin, parts=tuple(p.name for p in parts))
     return [switch, *parts]
 
 
-def _channel_resistance(model: MosfetModel, instance: dict[str, float], drive: float,
-                        reader: StatementReader, vto: float) -> tuple[float, str]:
-    """``(Rch [Ω], the rule in words)`` at ``|Vgs| = drive`` for the threshold ``vto`` [V]."""
-    overdrive = drive - model.polarity * vto
-    if overdrive <= 0:
-        raise reader.error(f"{reader.name}: the gate drive |Vgs| = {drive:g} V does not reach "
-                           f"the threshold of model {model.name} (Vto = {vto:.4g} V)",
-                           hint="set the drive at which Ron is computed: .options mosdrive=VALUE")
+def _channel_law(model: MosfetModel, instance: dict[str, float], vto: float,
+                 reader: StatementReader) -> tuple[ChannelLaw, str]:
+    """The on-resistance as a function of the gate drive and its equation in words, for the
+    threshold ``vto`` [V]."""
+    resistors = {"drain": model.get("rd", 0.0), "source": model.get("rs", 0.0)}
+    threshold = model.polarity * vto
     if model.kind == "vdmos":
         kp = model.get("kp", 25.0 + 10.0 * model.polarity)
-        slope = model.get("ksubthres", 0.1)
-        shift = model.get("subshift", 0.0)
-        argument = (overdrive - shift) / slope
-        smoothed = slope * (argument if argument > 30 else math.log1p(math.exp(argument)))
-        theta, triode = model.get("theta", 0.0), model.get("mtriode", 1.0)
-        resistance = (1.0 + theta * drive) / (kp * triode * smoothed)
-        return resistance, (f"Rch = (1 + θ·Vgs)/(Kp·mtriode·(Vgs − Vto)) at |Vgs| = {drive:g} V "
-                            f"(Kp={kp:g}, Vto={vto:g})")
+        law = ChannelLaw("vdmos", threshold, kp * model.get("mtriode", 1.0),
+                         theta=model.get("theta", 0.0), slope=model.get("ksubthres", 0.1),
+                         shift=model.get("subshift", 0.0), count=instance["m"], **resistors)
+        return law, f"Rch = (1 + θ·Vgs)/(Kp·mtriode·(Vgs − Vto)) (Kp={kp:g}, Vto={vto:g})"
     kp, _ = transconductance(model.params)
     length = instance["l"] - 2.0 * model.get("ld", 0.0)
     if length <= 0:
         raise reader.error(f"{reader.name}: the effective channel length L - 2·LD is not positive")
     beta = kp * instance["w"] / length
-    return 1.0 / (beta * overdrive), (f"Rch = 1/(Kp·W/(L−2·LD)·(Vgs − Vto)) at |Vgs| = {drive:g} V "
-                                      f"(Kp={kp:g}, W/L={instance['w'] / length:g}, "
-                                      f"Vto={vto:.4g})")
+    theta = model.get("theta", 0.0) if int(model.get("level", 1)) == 3 else 0.0
+    law = ChannelLaw("level", threshold, beta, theta=theta, count=instance["m"], **resistors)
+    mobility = "(1 + θ·(Vgs − Vto))" if theta else "1"
+    given = f", THETA={theta:g}" if theta else ""
+    return law, (f"Rch = {mobility}/(Kp·W/(L−2·LD)·(Vgs − Vto)) (Kp={kp:g}, "
+                 f"W/L={instance['w'] / length:g}, Vto={vto:.4g}{given})")
+
+
+def _output_capacitance(model: MosfetModel, instance: dict[str, float],
+                        bulk_at_source: bool) -> OutputCapacitance:
+    """The drain–source capacitance law of a blocking device (its charge-equivalent value is
+    ``{name}.coss``): VDMOS the body junction (``CJO``, ``VJ``, ``M``) and ``Cgd(Vgd)``
+    (``CGDMIN``, ``CGDMAX``, ``A``); level 1–3 ``CGDO·W`` and, with the bulk at the source,
+    the bulk–drain junction ``CBD`` (``PB``, ``MJ``)."""
+    count = instance["m"]
+    if model.kind == "vdmos":
+        return OutputCapacitance(junction=model.get("cjo", 0.0), potential=model.get("vj", 0.8),
+                                 grading=model.get("m", 0.5), gate_drain_min=model.get("cgdmin", 0.0),
+                                 gate_drain_max=model.get("cgdmax", 0.0), slope=model.get("a", 1.0),
+                                 count=count)
+    overlap = model.get("cgdo", 0.0) * instance["w"]
+    junction = model.get("cbd", 0.0) if bulk_at_source else 0.0
+    return OutputCapacitance(junction=junction, potential=model.get("pb", 0.8),
+                             grading=model.get("mj", 0.5), overlap=overlap, count=count)
 
 
 def _gate_capacitances(model: MosfetModel, instance: dict[str, float]) -> dict[str, float]:
@@ -312,7 +330,7 @@ def _body_diodes(model: MosfetModel, name: str, drain: str, source: str, bulk: s
     if bulk != source:
         junction("dbs", source)
     for suffix, other in (("cbd", drain), ("cbs", source)):
-        if model.params.get(suffix, 0.0) > 0 and (bulk != other):
+        if model.params.get(suffix, 0.0) > 0 and bulk not in (other, source):
             parts.append(Capacitor(f"{name}.{suffix}", (bulk, other), location,
                                    capacitance=model.params[suffix] * count))
     return parts
