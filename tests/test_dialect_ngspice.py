@@ -247,3 +247,31 @@ def test_when_ngspice_fails_with_compares_ammeters_it_runs_the_netlist_as_writte
     assert any("ran again on the netlist as written" in note and "Timestep too small" in note
                for note in comparison.notes)
     assert comparison.run.metrics["i(d1)"].nrms < 0.03  # ngspice's @d1[id], N = 0.05 against the ideal diode
+
+
+@pytest.mark.parametrize(("body", "stop", "signals", "bound"), [
+    # a capacitively coupled stage: b and c are held only by C1 and C2 (0.22 % is the two
+    # integrators' difference on the pulse's edges: trapezoidal against implicit Euler)
+    ("V1 in 0 PULSE(0 1 1m 1u 1u 2m 4m)\nR1 in a 1k\nC1 a b 1u\nR2 b c 1k\nC2 c 0 1u\n", "5m",
+     ["v(b)", "v(c)"], 0.005),
+    # a transformer's floating secondary: ngspice's GMIN on both nodes splits it about ground
+    ("V1 p 0 SIN(0 10 1k)\nR1 p q 1\nL1 q 0 1m\nL2 s1 s2 1m\nK1 L1 L2 0.99\nR2 s1 s2 100\n", "3m",
+     ["v(s1)", "v(s2)"], 0.005),
+])
+def test_nodes_without_dc_path_get_gmin_and_agree_with_ngspice(body, stop, signals, bound):
+    # before: "node(s) ... have no DC path to ground", "no path to ground (node 0) through any element"
+    text = f"gmin\n{body}.tran 10u {stop}\n.end\n"
+    with pytest.warns(NetlistWarning, match=r"have no DC path to ground .* added gmin = 1e-12 S"):
+        circuitnsds.read_netlist(text)
+    comparison = quiet_compare(text, signals=signals)
+    for signal in signals:
+        assert agreement(comparison, signal) < bound, signal
+
+
+def test_ngspice_integrate1_runs_with_its_ic_held_node_and_integrator_as_ngspice_runs_it():
+    # ngspice's examples/various/integrate1.cir: 1 A into R1 + C1 with .ic v(2) = 0 and an XSPICE
+    # int whose output ngspice holds at out_ic at the operating point; before: "node(s) 1, 2 have
+    # no DC path to ground", then "nothing in the circuit determines v(out)"
+    comparison = quiet_compare(NETLISTS / "external" / "ng_integrate1.cir", signals=["v(2)", "v(out)"])
+    assert agreement(comparison, "v(2)") < 1e-3
+    assert agreement(comparison, "v(out)") < 0.01  # implicit Euler's h·t/2 on t²/2, h = 10 ms

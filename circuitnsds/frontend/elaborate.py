@@ -21,6 +21,7 @@ from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
+from circuitnsds.frontend.dc_paths import add_gmin_paths
 from circuitnsds.graphs import connected_components
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.netlist import Netlist, Statement
@@ -102,6 +103,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
 
         xspice_digital.check_digital_nodes(circuit.elements, circuit.models)
     _check_initial_conditions(circuit)
+    add_gmin_paths(circuit)
     if not netlist.ended:
         last = netlist.statements[-1].location.line if netlist.statements else 1
         warn_at(SourceLocation(netlist.file, last),
