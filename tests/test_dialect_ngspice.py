@@ -275,3 +275,24 @@ def test_ngspice_integrate1_runs_with_its_ic_held_node_and_integrator_as_ngspice
     comparison = quiet_compare(NETLISTS / "external" / "ng_integrate1.cir", signals=["v(2)", "v(out)"])
     assert agreement(comparison, "v(2)") < 1e-3
     assert agreement(comparison, "v(out)") < 0.01  # implicit Euler's h·t/2 on t²/2, h = 10 ms
+
+
+def test_meas_of_expressions_params_and_measured_levels_agree_with_ngspice():
+    # ngspice's simple-meas-tran.sp: FIND par('v(2)*v(1)') and PARAM='fval + 7' of a .param;
+    # before: no signal "par('v(2)*v(1)')", undefined parameter 'fval'. (Its script's WHEN
+    # v(2)=ymax, of an earlier measurement, is fatal to ngspice 39 as a dot command: "Undefined
+    # parameter [ymax]"; test_meas.py checks it against the closed form.)
+    text = ("meas\nvac1 1 0 DC 0 sin(0 1 1k 0 0)\nR1 1 0 100k\nvac2 2 0 DC 0 sin(0 1.2 0.9k 0 0)\n"
+            "R2 2 0 100k\n.tran 10u 5m\n.param fval=5\n.measure tran yadd param='fval + 7'\n"
+            ".measure tran vtest find par('v(2)*v(1)') AT=2.3m\n"
+            ".measure tran pavg avg par('v(1)*v(1)/100k') from=1m to=4m\n"
+            ".measure tran ymax MAX v(2) from=2m to=3m\n.end\n")
+    comparison = quiet_compare(text)
+    measured = comparison.run.measurements
+    assert measured["yadd"] == (12, 12)
+    # the mean power of 1 V peak in 100 kΩ over three periods is 5 µW; ngspice's 5.0145 µW is its
+    # trapezoids on its own coarser points
+    assert measured["pavg"][0] == pytest.approx(5e-6, rel=1e-4)
+    for name, tolerance in (("vtest", 2e-3), ("pavg", 5e-3), ("ymax", 5e-4)):
+        ours, theirs = measured[name]
+        assert ours == pytest.approx(theirs, rel=tolerance), name

@@ -25,8 +25,9 @@ definition) and its ``text`` ends with ``[in x1.x2]``, so messages are precise.
 
 from __future__ import annotations
 
+import re
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.element_letters import element_letter, letter_of
@@ -334,7 +335,10 @@ class _Flattener:
         else:
             tokens = list(context.scope.substitute(statement))
         if context.definition is None:
-            return Statement(tuple(tokens), statement.location, statement.text)
+            text = statement.text
+            if keyword in (".meas", ".measure"):
+                text = meas_with_parameters(text, context.scope.lookup)
+            return Statement(tuple(tokens), statement.location, text)
         if keyword == ".model" and len(tokens) > 1:
             tokens[1] = context.model(tokens[1])
         elif keyword == ".ic":
@@ -477,6 +481,31 @@ class _Flattener:
             values[parameter] = context.scope.evaluate(expression, statement,
                                                        f"{name}: parameter {parameter}")
         return values
+
+
+_MEAS_EXPRESSION = re.compile(r"(\bpar(?:am)?\s*(?:=\s*|\(\s*))('[^']*'|\{[^}]*\})", re.IGNORECASE)
+_NAME = re.compile(r"\b[vi]\s*\([^()]*\)|(?<![\w.])([a-z_]\w*)\b(?!\s*\()", re.IGNORECASE)
+"""A probe (kept as written) or a name that is not a function's."""
+
+
+def meas_with_parameters(text: str, lookup: Callable[[str], float | None]) -> str:
+    """A ``.meas`` line with the ``.param`` names inside its ``PARAM='expr'`` and ``par('expr')``
+    expressions replaced by their values, as ngspice's numparam does when it reads the line
+    (``.param fval=5`` then ``.meas tran yadd param='fval + 7'`` is 12); names that are not
+    parameters (earlier measurements, functions, ``v(...)``) are left to the measurement."""
+    def values(match: re.Match) -> str:
+        def value(name: re.Match) -> str:
+            if name[1] is None:  # v(...), i(...): a signal, its node names are not parameters
+                return name[0]
+            try:
+                found = lookup(name[1].lower())
+            except NetlistError:
+                found = None
+            return repr(found) if found is not None else name[0]
+
+        return match[1] + _NAME.sub(value, match[2])
+
+    return _MEAS_EXPRESSION.sub(values, text)
 
 
 def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
