@@ -167,7 +167,7 @@ def test_limited_xspice_integrator_stops_at_its_limits_without_windup():
         ("temper*v(a)", "temper", "simulator variable"),
         ("v(a) ? 2 : 0", "v(a)", "not one comparison"),
         ("v(a) == 1", "(v(a)==1.0)", "equality is not a switching threshold"),
-        ("v(a) > 1 && v(b) < 2 ? 1 : 0", "((v(a)>1.0)&&(v(b)<2.0))", "not one comparison"),
+        ("(v(a) == 1 && v(b) < 2) ? 1 : 0", "(v(a)==1.0)", "not one comparison"),
         ("2*(v(a) > 1 || v(b) < 2)", "((v(a)>1.0)||(v(b)<2.0))", "logical operation"),
         ("if(v(a) > 1, v(a)*v(b), 0)", "(v(a)*v(b))", "product of two unknowns"),
         ("u(v(a)) * v(b)", "(u(v(a))*v(b))", "product of two unknowns"),
@@ -406,3 +406,28 @@ def test_a_current_of_c_times_ddt_of_a_node_voltage_is_that_capacitor():
     capacitor = circuit_from(base.format("C1 out 0 1u")).transient()
     behavioural = circuit_from(base.format("B1 out 0 I = {1u*ddt(v(out)) + 0*v(in)}")).transient()
     assert behavioural["v(out)"] == pytest.approx(capacitor["v(out)"], abs=1e-12)
+
+
+@pytest.mark.parametrize(("condition", "truth"), [
+    ("v(a) > 0 && v(b) > 0", lambda a, b: (a > 0) & (b > 0)),
+    ("v(a) > 0 || v(b) > 0", lambda a, b: (a > 0) | (b > 0)),
+    ("!(v(a) > 0) && v(b) < 0", lambda a, b: (a <= 0) & (b < 0)),
+])
+def test_conditions_of_and_or_not_are_chains_of_comparators(condition, truth):
+    # ngspice's memristor.sp writes (f1(v) > 0) && (v(x) < Roff) ? ... (before: "a condition
+    # that is not one comparison")
+    result = circuit_from("V1 a 0 SIN(0 1 1k)\nV2 b 0 SIN(0 1 1.3k)\n"
+                          f"B1 o 0 V={{({condition}) ? 2 : -1}}\nR1 o 0 1k\n.tran 1u 3m").transient()
+    a, b, o = result["v(a)"], result["v(b)"], result["v(o)"]
+    clear = (np.abs(a) > 0.01) & (np.abs(b) > 0.01)  # away from the thresholds' instants
+    assert np.array_equal(o[clear], np.where(truth(a, b), 2.0, -1.0)[clear])
+
+
+def test_a_func_inside_a_behavioural_expression_is_its_body_with_the_arguments_in_place():
+    # ngspice's memristor.sp: .func f1(y)={beta*y+0.5*(alpha-beta)*(abs(y+Vt)-abs(y-Vt))} in a
+    # B source (before: "unknown function f1()")
+    result = circuit_from(".param beta=3 vt=0.5\n.func f1(y)={beta*y + 0.5*(1-beta)*(abs(y+vt)-abs(y-vt))}\n"
+                          "V1 a 0 SIN(0 2 1k)\nB1 o 0 V={f1(v(a)) + 1}\nR1 o 0 1k\n.tran 1u 1m").transient()
+    y = result["v(a)"]
+    expected = 3 * y + 0.5 * (1 - 3) * (np.abs(y + 0.5) - np.abs(y - 0.5)) + 1
+    assert result["v(o)"] == pytest.approx(expected, abs=1e-9)

@@ -82,8 +82,8 @@ def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, .
             from circuitnsds.netlist.behavioural import time_valued_tokens
 
             return time_valued_tokens(statement.text, node=context.node, lookup=context.scope.lookup)
-        return flat_tokens(letter, statement.text, node=context.node,
-                           element=context.element, lookup=context.scope.lookup)
+        return flat_tokens(letter, statement.text, node=context.node, element=context.element,
+                           lookup=context.scope.lookup, function=context.scope.function)
     except ExpressionError as exc:
         where = f" (in instance {context.path})" if context.path else ""
         raise NetlistError(f"{statement.keyword}: {exc}{where}", where=statement.location,

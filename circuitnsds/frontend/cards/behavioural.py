@@ -17,7 +17,8 @@ ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`
 
 Anything else is refused with a message naming the term: a product or quotient of two
 unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, ``==``/``!=``,
-``&&``/``||``/``!``, conditions that are not one comparison, ``sgn``/``floor``/...,
+``&&``/``||``/``!`` outside a condition (in one, they chain comparators), conditions that are
+not comparisons, ``sgn``/``floor``/...,
 and ``time`` (write the time function as an independent source and use its ``v()``).
 
 ``ddt(x)`` of an affine ``x``, added to the value times a constant, is a capacitor-like term
@@ -180,7 +181,15 @@ class Classifier:
 
     def select(self, condition: Node, on: Node, off: Node) -> Linear:
         """``on`` where ``condition`` holds, else ``off``: a new comparator auxiliary, or the
-        branch itself when the condition is constant."""
+        branch itself when the condition is constant. A condition of ``&&``, ``||`` and ``!``
+        of comparisons is a chain of comparators: ``p && q ? a : b`` is ``p ? (q ? a : b) : b``,
+        ``p || q ? a : b`` is ``p ? a : (q ? a : b)``, ``!p ? a : b`` is ``p ? b : a``."""
+        if condition[0] == "and":
+            return self.select(condition[1], ("if", condition[2], on, off), off)
+        if condition[0] == "or":
+            return self.select(condition[1], on, ("if", condition[2], on, off))
+        if condition[0] == "not":
+            return self.select(condition[1], off, on)
         difference = self.condition(condition)
         if difference.is_constant:
             return self.value(on if difference.constant > 0 else off)

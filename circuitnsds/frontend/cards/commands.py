@@ -25,9 +25,11 @@ IGNORED_COMMANDS = {
     ".width": "output formatting does not apply",
     ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
     ".nodeset": "the ideal operating point needs no hints",
+    ".csparam": "it hands a parameter to the .control script, which circuitnsds does not run "
+                "but for its analyses and measurements; .param values reach the circuit",
 }
 
-UNSUPPORTED_COMMANDS = {".csparam", ".if", ".else", ".elseif", ".endif"}
+UNSUPPORTED_COMMANDS = {".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "method": "the integration method, a stepper of circuitnsds.engine.stepper.STEPPERS "
@@ -147,9 +149,10 @@ def command(circuit: Circuit, statement: Statement) -> None:
     elif keyword in IGNORED_COMMANDS:
         reader.warn(f"{keyword} ignored ({IGNORED_COMMANDS[keyword]}): {statement.text}")
     elif keyword in UNSUPPORTED_COMMANDS:
-        raise reader.error(f"{keyword} is not supported",
-                           hint="write the netlist without it (parameters with .param, "
-                           "subcircuits with .subckt are supported)")
+        raise reader.error(f"{keyword}: ngspice's conditional netlist (.if/.elseif/.else/.endif) "
+                           "is not supported",
+                           hint="keep only the lines of the branch you want, or write the choice "
+                           "into the values: .param sel=1 and R1 a b {sel > 0 ? 1k : 2k}")
     else:
         raise reader.error(f"unknown command {keyword}",
                            hint="supported: .tran, .pss, .ac, .ic, .model, .options, .param, .subckt, "
