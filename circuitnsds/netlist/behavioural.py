@@ -163,7 +163,8 @@ def _expression(text: str, statement_text: str) -> str:
             raise ExpressionError(f"{text[0]} is not closed in {statement_text!r}")
         if text[end + 1:].strip():
             raise ExpressionError(f"unexpected {text[end + 1:].split()[0]!r} after the expression "
-                                  f"(instance parameters of behavioural sources are not supported)")
+                                  f"(instance parameters of behavioural sources are not supported: "
+                                  f"leave them out, and write a factor into the expression)")
         return text[1:end]
     return text
 

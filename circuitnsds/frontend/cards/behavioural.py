@@ -37,12 +37,12 @@ from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
 
 NONLINEAR = "nonlinear (a smooth nonlinear device: issue 33)"
 """What a smooth nonlinear term is called in refusals (the next issue brings such devices)."""
-REPRESENTABLE = ("the ideal engine represents affine combinations of v(node), v(node1, node2), "
-                 "i(vsource) and constants, min(), max(), abs(), uramp(), limit(x, lo, hi) of "
-                 "them (exact complementarity pairs), comparisons a > b, a < b (1 or 0), "
-                 "c ? a : b, if(c, a, b), u(x) whose condition compares two of them (a "
-                 "comparator: an event-located switch), TABLE of one affine argument, and "
-                 "ddt() of an affine value added to the value (a capacitor-like term)")
+REPRESENTABLE = ("write the value with what the ideal engine represents: affine combinations "
+                 "of v(node), v(node1, node2), i(vsource) and constants, min(), max(), abs(), "
+                 "uramp(), limit(x, lo, hi) of them (exact complementarity pairs), comparisons "
+                 "a > b, a < b (1 or 0), c ? a : b, if(c, a, b), u(x) whose condition compares "
+                 "two of them (a comparator: an event-located switch), TABLE of one affine "
+                 "argument, and ddt() of an affine value added to the value (a capacitor-like term)")
 SWITCHING = {"u2": "u2()", "sgn": "sgn()", "ternary_fcn": "ternary_fcn()", "floor": "floor()",
              "ceil": "ceil()", "nint": "nint()", "int": "int()"}
 """Functions whose value jumps in ways not written as one comparison: refused."""
