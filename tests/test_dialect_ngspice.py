@@ -321,3 +321,18 @@ def test_logical_conditions_and_funcs_in_behavioural_sources_agree_with_ngspice(
     assert agreement(comparison, "v(o)") < 0.03
     o = comparison.run.metrics["v(o)"]
     assert abs(o.mean_other - o.mean_ref) < 1e-3
+
+
+def test_xyce_tran_noop_is_read_as_uic_with_a_warning_where_ngspice_refuses_it():
+    # Xyce's 4049OSC/4049osc.cir: .tran .05U 500U NOOP (no operating point); before: "'noop' is not
+    # a number". ngspice 39 refuses the line; its meaning is UIC's, which both read alike
+    text = "noop\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1u ic=0.5\n.tran 10u 3m {}\n.end\n"
+    with pytest.warns(NetlistWarning, match=r"\.tran NOOP \(Xyce's: no operating point\) read as UIC"):
+        noop = circuitnsds.read_netlist(text.format("NOOP")).transient()
+    uic = circuitnsds.read_netlist(text.format("UIC")).transient()
+    assert noop["v(b)"] == pytest.approx(uic["v(b)"])
+    assert noop["v(b)"][0] == pytest.approx(0.5)
+    from circuitnsds.compare.ngspice import run_ngspice
+
+    assert run_ngspice(text.format("NOOP"), ["v(b)"], 3e-3).status == "rejected"
+    assert agreement(quiet_compare(text.format("UIC")), "v(b)") < 0.01

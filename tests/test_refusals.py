@@ -79,3 +79,11 @@ def test_each_remaining_refusal_names_the_construct_and_what_to_write(lines, nam
     message = str(error.value)
     assert re.search(names, message, re.IGNORECASE), message
     assert error.value.hint and INSTRUCTION.search(error.value.hint.split("; in:")[0]), message
+
+
+def test_xyce_generic_switch_is_refused_with_the_switch_to_write():
+    # Xyce's GSWITCH/gswitch.cir: before, "undefined parameter 'time' in 'if(time>2u,1,0)'"
+    with pytest.raises(NetlistError, match=r"sw1: Xyce's generic switch \(CONTROL=\{expression\}\)") as error:
+        circuitnsds.read_netlist("g\nV1 1 0 1\nSW1 1 2 SW OFF CONTROL={if(time>2u,1,0)}\nR2 2 0 1\n"
+                                 ".MODEL SW SWITCH (ON=1 OFF=0 RON=1 ROFF=1E6)\n.tran 1u 4u\n.end\n")
+    assert "SW1 n+ n- ctl 0 MODEL" in error.value.hint

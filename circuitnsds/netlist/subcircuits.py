@@ -330,6 +330,14 @@ class _Flattener:
             text = statement.text if context.definition is None else \
                 f"{statement.text}   [in {context.path}]"
             return Statement((context.prefixed(flat[0]), *flat[1:]), statement.location, text)
+        if not statement.is_command and element_letter(keyword) in {"s", "w"} and any(
+                token.startswith("control") for token in statement.tokens[3:]):
+            raise NetlistError(
+                f"{keyword}: Xyce's generic switch (CONTROL={{expression}}) is not supported (ngspice "
+                "refuses it too)", where=statement.location,
+                hint=f"write a voltage-controlled switch, {keyword.upper()} n+ n- ctl 0 MODEL with "
+                ".model MODEL SW(VT=0.5), and drive node ctl with the control: Bctl ctl 0 "
+                "V={expression of v() and i()}, or a V source (PULSE, PWL) for a function of time")
         if (statement.is_command and keyword not in SUBSTITUTED_COMMANDS) or behavioural:
             tokens = list(statement.tokens)
         else:

@@ -188,6 +188,11 @@ def _tran(reader: StatementReader) -> TransientSpec:
         if token == "uic":
             uic = True
             reader.position += 1
+        elif token == "noop":  # Xyce's "no operating point": UIC's meaning
+            reader.warn(".tran NOOP (Xyce's: no operating point) read as UIC; ngspice refuses it, "
+                        "write UIC for both")
+            uic = True
+            reader.position += 1
         else:
             numbers.append(reader.value(".tran time"))
     if not 1 <= len(numbers) <= 4:
