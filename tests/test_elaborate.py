@@ -163,6 +163,9 @@ def test_errors_name_the_line(body, pattern):
         ("D1 a 0 m off\n.model m D", r"'off' ignored"),
         # ngspice's memristor.sp: .csparam hands a value to its .control script (before: refused)
         (".csparam stime=10n", r"\.csparam ignored \(it hands a parameter to the \.control script"),
+        # ngspice's meas_expression.cir: a script's meas of its let vectors (before: the run stopped)
+        (".control\nlet onevec = 1\nmeas tran t2 TRIG v(a) VAL=onevec-0.5 RISE=1 TARG v(a) VAL=0.5 RISE=2\n"
+         ".endc", r"<text>:5: the \.control script's meas is not run: .*val=onevec-0\.5: not a number"),
     ],
 )
 def test_warnings_are_never_silent(body, pattern):

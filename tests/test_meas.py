@@ -207,3 +207,10 @@ def test_param_names_and_measured_levels_in_meas_are_the_values_ngspice_gives_th
     assert results["vhalf"] == pytest.approx(vmax / 2)
     # a WHEN level naming an earlier measurement is its value (before: no signal 'vhalf')
     assert results["thalf"] == pytest.approx(-1e-3 * math.log(1 - vmax / 2), rel=1e-4)
+
+
+def test_a_when_level_written_as_an_expression_of_signals_is_that_expression(rc):
+    # ngspice's meas_expression.cir, in its script: WHEN v(1)= 0.9*v(2) (before: no signal '0.9*v(in)')
+    written = meas("w WHEN v(out)=0.5*v(in)+0.25", rc).value
+    assert written == pytest.approx(meas("w WHEN v(out)=par('0.5*v(in)+0.25')", rc).value)
+    assert written == pytest.approx(1e-3 * math.log(4), rel=1e-4)  # 1 - exp(-t/τ) = 0.75

@@ -84,10 +84,15 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                        if not s.is_command and element_letter(s.keyword) == "v"}
     couplings: list[Statement] = []
     context = CardContext(circuit.models, voltage_sources, circuit.options, off_resistance)
+    script_lines = {(block.location.file, line) for block in netlist.control_blocks
+                    for line in block.taken_lines}
     for statement in statements:
         if statement.keyword == ".model" or statement.keyword in commands.OPTION_KEYWORDS:
             continue
-        if statement.is_command:
+        if statement.is_command and statement.keyword in {".meas", ".measure"} and (
+                (statement.location.file, statement.location.line) in script_lines):
+            _script_measurement(circuit, statement)
+        elif statement.is_command:
             commands.command(circuit, statement)
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
@@ -113,6 +118,18 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
         warn_at(SourceLocation(netlist.file, 1), "the first line is the title and is not read, as in "
                 f"SPICE: {netlist.title!r}; put a title line above it")
     return circuit
+
+
+def _script_measurement(circuit: Circuit, statement: Statement) -> None:
+    """A ``meas`` of a ``.control`` script, read as ``.meas``; one that names the script's own
+    vectors (``VAL=onevec-0.5`` after ``let onevec = 1``), which circuitnsds does not execute,
+    is left out with a warning instead of stopping the run."""
+    try:
+        commands.command(circuit, statement)
+    except NetlistError as error:
+        warn_at(statement.location, f"the .control script's meas is not run: {error.message} (a "
+                "script's let vectors are not executed); write it as a .meas line of numbers and "
+                "signals to run it")
 
 
 TITLE_LIKE_COMMANDS = frozenset({

@@ -265,6 +265,8 @@ def _condition(tokens: list[str], fail) -> Crossing:
         level: float | str = parse_value(level_text)
     except ValueError:
         level = level_text
+        if re.search(r"[*/+]|(?<!^)-", level) and not level.startswith("par("):
+            level = f"par('{level}')"  # an expression of signals (ngspice's script meas reads it)
     options = _options(tokens[3:], fail)
     _only(options, {"rise", "fall", "cross", "td", "from", "to"}, "when", fail)
     try:
