@@ -166,6 +166,8 @@ def test_errors_name_the_line(body, pattern):
         # ngspice's meas_expression.cir: a script's meas of its let vectors (before: the run stopped)
         (".control\nlet onevec = 1\nmeas tran t2 TRIG v(a) VAL=onevec-0.5 RISE=1 TARG v(a) VAL=0.5 RISE=2\n"
          ".endc", r"<text>:5: the \.control script's meas is not run: .*val=onevec-0\.5: not a number"),
+        (".control\nlet vint = 0.9*v(a)\nmeas tran y2 FIND v(a) WHEN v(a)= vint\n.endc",
+         r"<text>:5: the \.control script's meas is not run: it compares with 'vint', a vector of"),
     ],
 )
 def test_warnings_are_never_silent(body, pattern):

@@ -11,6 +11,8 @@ element names may be hierarchical (``x1.d3`` is a diode).
 
 from __future__ import annotations
 
+import re
+
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
@@ -124,12 +126,25 @@ def _script_measurement(circuit: Circuit, statement: Statement) -> None:
     """A ``meas`` of a ``.control`` script, read as ``.meas``; one that names the script's own
     vectors (``VAL=onevec-0.5`` after ``let onevec = 1``), which circuitnsds does not execute,
     is left out with a warning instead of stopping the run."""
+    before = len(circuit.measurements)
     try:
         commands.command(circuit, statement)
     except NetlistError as error:
         warn_at(statement.location, f"the .control script's meas is not run: {error.message} (a "
                 "script's let vectors are not executed); write it as a .meas line of numbers and "
                 "signals to run it")
+        return
+    measured = {spec.name for spec in circuit.measurements[:before]}
+    for spec in circuit.measurements[before:]:
+        levels = [getattr(c, "level", None) for c in (spec.when, spec.trig, spec.targ) if c]
+        vectors = [level for level in levels if isinstance(level, str)
+                   and re.fullmatch(r"[a-z_]\w*", level) and level not in measured]
+        if vectors:
+            del circuit.measurements[before:]
+            warn_at(statement.location, f"the .control script's meas is not run: it compares with "
+                    f"{', '.join(repr(v) for v in vectors)}, a vector of the script (its let "
+                    "commands are not executed); write the level as a number or a signal to run it")
+            return
 
 
 TITLE_LIKE_COMMANDS = frozenset({
