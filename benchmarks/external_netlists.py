@@ -75,7 +75,7 @@ BATCH_32 = [  # issue 32: (netlist, compare's arguments: the main signal where o
 
 
 BATCH_32B = [  # issue 32, the further batch (netlists/external/SOURCES.md), as written
-    ("external/ng_vdmos_dcdc.sp", {"stop": 1e-3, "signals": ["v(out)", "v(err)"]}),
+    ("external/ng_vdmos_dcdc.sp", {"stop": 1e-3, "signals": ["v(out)", "i(l1)"]}),
     ("external/ng_ddt-test1.cir", {"signals": ["v(2)"]}),
     ("external/ng_ddt-test2.cir", {}),
     ("external/ng_meas_expression.cir", {}),
