@@ -99,3 +99,12 @@ def test_an_xspice_integrator_holds_its_out_ic_at_the_operating_point_as_ngspice
     assert result["v(out)"][0] == pytest.approx(0.25)
     # out = out_ic + t²/2, implicit Euler's error h·t/2 at most
     assert result["v(out)"] == pytest.approx(0.25 + result["time"] ** 2 / 2, abs=0.01)
+
+
+def test_an_island_no_element_joins_to_the_circuit_is_still_refused():
+    # ngspice 39 runs "V1 a b 1, R1 a b 1" on its own at v(a) = 2 V, v(b) = 1 V: its operating-point
+    # search decides, not the circuit
+    circuit = quiet("V0 c 0 1\nR3 c 0 1\nV1 a b 1\nR1 a b 1\n", ".tran 1u 10u")
+    assert leaks(circuit) == {}
+    with pytest.raises(CircuitError, match=r"node\(s\) a, b have no path to ground"):
+        circuit.transient()

@@ -168,7 +168,7 @@ EXTERNAL = Path(__file__).resolve().parent.parent / "netlists" / "external"
     ("ng_ddt-test2.cir", r"b3: cannot represent the term \(ddt\(v\(1\)\)>0.0\).*issue 33"),
     ("ng_meas_expression.cir", None),
     ("ng_pwm-sin.cir", r"apwm: code model d_pwm"),
-    ("ng_v-i-sources-am-ffm.cir", r"\.if: ngspice's conditional netlist"),
+    ("ng_v-i-sources-am-ffm.cir", r"v1: AM sources are not supported"),
     ("ng_schmitt.cir", r"q1: bipolar transistors .*issue 33"),
     ("ng_inv_vdmos.sp", None),
     ("xy_gswitch.cir", r"sw1: Xyce's generic switch"),

@@ -136,14 +136,14 @@ def _check_cutsets(circuit, elements, operating_point):
 def _check_gmin_leaks(leaks, elements):
     """The reader gives GMIN to each node of every group that capacitors and current sources cut
     off from ground (at the operating point), unless a current source (here I, G or F, all of
-    them nonzero) crosses into the group."""
+    them nonzero) crosses into the group or nothing does (an island)."""
     free = _graph(elements, lambda kind: kind not in CURRENT | {"C"})
     used = {n for _, a, b in elements for n in (a, b)}
     free.add_nodes_from(used)
     expected = []
     for group in nx.connected_components(free):
         crossing = [kind for kind, a, b in elements if (a in group) != (b in group)]
-        if "0" not in group and not CURRENT & set(crossing):
+        if "0" not in group and crossing and not CURRENT & set(crossing):
             expected += group & used
     assert leaks == sorted(expected)
 

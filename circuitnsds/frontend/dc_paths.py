@@ -20,7 +20,10 @@ When GMIN would decide the answer rather than resolve an indeterminacy, nothing 
 the circuit checks refuse it as before: a current source (or a controlled one) that crosses
 into the group injects a current that only GMIN could carry, setting the group at
 ``I / gmin`` volts (1 mA: a gigavolt), which is no one's operating point. An independent current
-source that is 0 at ``t = 0`` injects nothing there, so it does not count.
+source that is 0 at ``t = 0`` injects nothing there, so it does not count. Nor does a group that
+no element joins to the rest at all (an island, most often a misspelt node): nothing ties it to
+the circuit, and ngspice's own answer for it depends on its operating-point search (an island
+``V1 a b 1`` with ``R1 a b 1`` came out at 2 V and 1 V, not ±0.5 V).
 """
 
 from __future__ import annotations
@@ -56,12 +59,13 @@ def add_gmin_paths(circuit: Circuit) -> None:
             continue
         crossing = [e for e in circuit.elements if len(e.nodes) >= 2
                     and (e.nodes[0] in group) != (e.nodes[1] in group)]
-        if any(_injects(element) for element in crossing):
+        isolating = _isolating(circuit, group, crossing)
+        if not isolating or any(_injects(element) for element in crossing):
             continue
         nodes = [node for node in circuit.nodes if node in group]
         for node in nodes:
             circuit.add(GminLeak(name=f"gmin({node})", nodes=(node, GROUND), conductance=gmin))
-        _warn(circuit, nodes, _isolating(circuit, group, crossing), gmin, uic)
+        _warn(circuit, nodes, isolating, gmin, uic)
 
 
 def _injects(element: Element) -> bool:

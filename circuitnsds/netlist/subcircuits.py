@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 
 from circuitnsds.element_letters import element_letter, letter_of
 from circuitnsds.errors import NetlistError, NetlistWarning
+from circuitnsds.netlist.conditionals import resolve_conditionals
 from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
@@ -530,6 +531,9 @@ def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
         random: the generator of the Monte Carlo functions (``agauss`` ...); without one,
             a netlist using them is an error.
 
+    ``.if``/``.elseif``/``.else``/``.endif`` blocks are resolved first
+    (:mod:`circuitnsds.netlist.conditionals`).
+
     Returns:
         a new :class:`Netlist` with the same title, file and ``ended`` flag, whose
         statements contain no ``.param``, ``.subckt``, ``.ends``, ``.global`` or ``X``
@@ -540,7 +544,7 @@ def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
             parameters, unknown or recursive subcircuits, port-count mismatches.
     """
     overrides = {name.lower(): float(value) for name, value in (params or {}).items()}
-    structure = _structure(netlist.statements)
+    structure = _structure(resolve_conditionals(netlist.statements, overrides, random))
     scope = Scope(random=random)
     for statement in structure.functions:
         scope.define_function(func_definition(statement), statement.location)

@@ -29,7 +29,6 @@ IGNORED_COMMANDS = {
                 "but for its analyses and measurements; .param values reach the circuit",
 }
 
-UNSUPPORTED_COMMANDS = {".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "method": "the integration method, a stepper of circuitnsds.engine.stepper.STEPPERS "
@@ -148,11 +147,6 @@ def command(circuit: Circuit, statement: Statement) -> None:
         circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""
     elif keyword in IGNORED_COMMANDS:
         reader.warn(f"{keyword} ignored ({IGNORED_COMMANDS[keyword]}): {statement.text}")
-    elif keyword in UNSUPPORTED_COMMANDS:
-        raise reader.error(f"{keyword}: ngspice's conditional netlist (.if/.elseif/.else/.endif) "
-                           "is not supported",
-                           hint="keep only the lines of the branch you want, or write the choice "
-                           "into the values: .param sel=1 and R1 a b {sel > 0 ? 1k : 2k}")
     else:
         raise reader.error(f"unknown command {keyword}",
                            hint="supported: .tran, .pss, .ac, .ic, .model, .options, .param, .subckt, "
