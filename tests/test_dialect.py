@@ -173,7 +173,7 @@ EXTERNAL = Path(__file__).resolve().parent.parent / "netlists" / "external"
     ("ng_inv_vdmos.sp", None),
     ("xy_gswitch.cir", r"sw1: Xyce's generic switch"),
     ("xy_iswitch_hyst1.cir", r"s1: Xyce's generic switch"),
-    ("xy_vswitch_hyst1.cir", r"\.model sw SW: unknown parameter 'vhon'"),
+    ("xy_vswitch_hyst1.cir", r"\.model sw VSWITCH: VHON, VHOFF \(Xyce's hysteresis"),
     ("xy_vswitch_a1.cir", None),
     ("xy_ind_path_to_ground.cir", None),
     ("xy_path_to_ground_core.cir", r"kc: 'nlcore' after the coupling coefficient is a core model"),
