@@ -8,7 +8,9 @@ Then the issue-32 batch (netlists/external/SOURCES.md), each run as written: whe
 runs it, whether circuitnsds does, the worst error over the signals (compare's ``error``, as
 above; negligible signals left out), or the error we give.
 
-    python benchmarks/external_netlists.py [--batch32 [netlist ...]]
+    python benchmarks/external_netlists.py [--batch32 | --batch32b [netlist ...]]
+
+(``--batch32b``: the further batch of issue 32.)
 """
 
 from __future__ import annotations
@@ -72,6 +74,27 @@ BATCH_32 = [  # issue 32: (netlist, compare's arguments: the main signal where o
 ]
 
 
+BATCH_32B = [  # issue 32, the further batch (netlists/external/SOURCES.md), as written
+    ("external/ng_vdmos_dcdc.sp", {"stop": 1e-3, "signals": ["v(out)", "i(l1)"]}),
+    ("external/ng_ddt-test1.cir", {"signals": ["v(2)"]}),
+    ("external/ng_ddt-test2.cir", {}),
+    ("external/ng_meas_expression.cir", {}),
+    ("external/ng_pwm-sin.cir", {}),
+    ("external/ng_v-i-sources-am-ffm.cir", {}),
+    ("external/ng_schmitt.cir", {}),
+    ("external/ng_inv_vdmos.sp", {"signals": ["v(3)"]}),
+    ("external/xy_gswitch.cir", {}),
+    ("external/xy_iswitch_hyst1.cir", {}),
+    ("external/xy_vswitch_hyst1.cir", {}),
+    ("external/xy_vswitch_a1.cir", {"signals": ["v(1)"]}),
+    ("external/xy_ind_path_to_ground.cir", {}),
+    ("external/xy_path_to_ground_core.cir", {}),
+    ("external/xy_power_b_trap.cir", {}),
+    ("external/xy_vdmos_irf130.cir", {}),
+    ("external/xy_4049osc.cir", {}),
+]
+
+
 def ngspice_runs(path: Path) -> str:
     """``yes`` (ngspice 39 wrote data rows and reported no failure) or ngspice's first error
     line, from ``ngspice -b`` on the file as written, in its own folder."""
@@ -90,12 +113,12 @@ def ngspice_runs(path: Path) -> str:
     return f"no: {' / '.join(bad[:2])[:70] or 'no analysis run'}"
 
 
-def batch32(names: list[str]) -> None:
-    """The issue-32 table; ``names``: only these rows (each in a fresh process keeps one
-    ngspice library that a run corrupted from spoiling the next rows)."""
+def batch32(names: list[str], batch: list = BATCH_32) -> None:
+    """The issue-32 table of ``batch``; ``names``: only these rows (each in a fresh process
+    keeps one ngspice library that a run corrupted from spoiling the next rows)."""
     print(f"{'netlist':<50}{'ngspice runs?':<28}{'we run?':<9}{'worst error (signal) or our error'}",
           flush=True)
-    for name, arguments in BATCH_32:
+    for name, arguments in batch:
         if names and name not in names:
             continue
         path = ROOT / name
@@ -131,4 +154,9 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    batch32(sys.argv[2:]) if sys.argv[1:2] == ["--batch32"] else main()
+    if sys.argv[1:2] == ["--batch32"]:
+        batch32(sys.argv[2:])
+    elif sys.argv[1:2] == ["--batch32b"]:
+        batch32(sys.argv[2:], BATCH_32B)
+    else:
+        main()

@@ -259,3 +259,15 @@ def test_outputs_over_the_netlist_its_includes_or_each_other_are_refused_before_
         assert message in capsys.readouterr().err
     assert netlist.read_text() == text and (tmp_path / "models.lib").read_text() == ".model dideal D\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["models.lib", "top.cir"]
+
+
+def test_a_meas_level_naming_a_measurement_is_kept_from_ngspice_with_a_note():
+    # ngspice's simple-meas-tran.sp, in its script: meas tran tmax WHEN v(2)=YMAX; as the dot
+    # command compare gives ngspice, its numparam stops the whole run ("Undefined parameter [ymax]")
+    text = ("m\nV1 a 0 SIN(0 1 1k)\nR1 a 0 1k\n.tran 10u 2m\n.meas tran ymax MAX v(a)\n"
+            ".meas tran tmax WHEN v(a)=ymax\n.meas tran thalf WHEN v(a)=0.5\n.end\n")
+    translation = translate_netlist(text, measures=True)
+    assert ".meas tran ymax MAX v(a)" in translation.text
+    assert ".meas tran thalf WHEN v(a)=0.5" in translation.text
+    assert "tmax" not in translation.text
+    assert any("<text>:6: .meas removed for ngspice: its level 'ymax'" in note for note in translation.notes)

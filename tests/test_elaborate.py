@@ -124,7 +124,7 @@ def test_vendor_model_text_values_are_read():
         ("R1 a 0 1k foo=2", r"parameter 'foo' is not supported"),
         ("D1 a 0 nomodel\nR1 a 0 1", r"<text>:2: d1: diode model 'nomodel' is not defined"),
         ("D1 a 0 q\nR1 a 0 1\n.model q NPN(bf=100)", r"not a diode"),
-        (".csparam x=1", r"\.csparam is not supported"),
+        (".if (1 > 0)", r"\.if is never closed by \.endif"),
         ("B1 a 0 v={time}", r"<text>:2: b1: cannot represent the term time"),
         ("M1 d g s s nmos", r"<text>:2: m1: model .nmos. is not defined"),
         ("E1 a 0 value={v(b)*v(a)}\nR1 a 0 1", r"e1: cannot represent the term \(v\(b\)\*v\(a\)\)"),
@@ -161,6 +161,13 @@ def test_errors_name_the_line(body, pattern):
         (".model u D(rrev=1)", r"Rrev ignored"),
         (".control\nrun\nplot v(a)\n.endc", r"\.control script: plot \(line 5\) not executed"),
         ("D1 a 0 m off\n.model m D", r"'off' ignored"),
+        # ngspice's memristor.sp: .csparam hands a value to its .control script (before: refused)
+        (".csparam stime=10n", r"\.csparam ignored \(it hands a parameter to the \.control script"),
+        # ngspice's meas_expression.cir: a script's meas of its let vectors (before: the run stopped)
+        (".control\nlet onevec = 1\nmeas tran t2 TRIG v(a) VAL=onevec-0.5 RISE=1 TARG v(a) VAL=0.5 RISE=2\n"
+         ".endc", r"<text>:5: the \.control script's meas is not run: .*val=onevec-0\.5: not a number"),
+        (".control\nlet vint = 0.9*v(a)\nmeas tran y2 FIND v(a) WHEN v(a)= vint\n.endc",
+         r"<text>:5: the \.control script's meas is not run: it compares with 'vint', a vector of"),
     ],
 )
 def test_warnings_are_never_silent(body, pattern):

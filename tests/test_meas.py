@@ -176,3 +176,41 @@ def test_any_meas_line_parses_or_says_what_to_write(words):
         assert exc.hint  # every refusal says what to write
     else:
         assert spec is None or spec.name
+
+
+def test_par_expression_of_signals_is_measured_as_its_values_on_the_grid(rc):
+    # ngspice's par('expr') in place of OUT (simple-meas-tran.sp: FIND par('v(2)*v(1)') AT=2.3m);
+    # before: no signal "par('v(in)*v(out)')". v(in) = 1 for t < 1 s, so the product is v(out).
+    found = meas("p FIND par('v(in)*v(out)') AT=1m", rc).value
+    assert found == pytest.approx(1 - math.exp(-1), rel=1e-4)
+    # the power in R1, v(in,out)²/R, integrated over 5 τ: C/2 (1 - e^-10) for the RC charge
+    energy = meas("e INTEG par('v(in, out)**2 / 1k') from=0 to=5m", rc).value
+    assert energy == pytest.approx(0.5e-6 * (1 - math.exp(-10)), rel=1e-3)
+    # in a WHEN condition too: the product crosses 0.5 where v(out) does
+    assert meas("w WHEN par('v(in)*v(out)')=0.5", rc).value == pytest.approx(1e-3 * math.log(2), rel=1e-4)
+
+
+def test_a_par_expression_that_is_not_one_is_refused_at_its_line():
+    with pytest.raises(NetlistError, match=r"par\('v\(out\) \*'\)"):
+        parse_meas(".meas tran p FIND par('v(out) *') AT=1m")
+
+
+def test_param_names_and_measured_levels_in_meas_are_the_values_ngspice_gives_them():
+    from circuitnsds.output.meas import run_measurements
+
+    circuit = circuit_from(RC + "\n.param fval=5 offset=0.25\n.meas tran yadd param='fval + 7'\n"
+                           ".meas tran vmax MAX v(out)\n.meas tran vhalf param='vmax/2 - offset + 0.25'\n"
+                           ".meas tran thalf WHEN v(out)=vhalf\n")
+    results = {r.name: r.value for r in run_measurements(circuit.measurements, circuit.transient())}
+    assert results["yadd"] == 12  # before: undefined parameter 'fval'
+    vmax = 1 - math.exp(-5)
+    assert results["vhalf"] == pytest.approx(vmax / 2)
+    # a WHEN level naming an earlier measurement is its value (before: no signal 'vhalf')
+    assert results["thalf"] == pytest.approx(-1e-3 * math.log(1 - vmax / 2), rel=1e-4)
+
+
+def test_a_when_level_written_as_an_expression_of_signals_is_that_expression(rc):
+    # ngspice's meas_expression.cir, in its script: WHEN v(1)= 0.9*v(2) (before: no signal '0.9*v(in)')
+    written = meas("w WHEN v(out)=0.5*v(in)+0.25", rc).value
+    assert written == pytest.approx(meas("w WHEN v(out)=par('0.5*v(in)+0.25')", rc).value)
+    assert written == pytest.approx(1e-3 * math.log(4), rel=1e-4)  # 1 - exp(-t/τ) = 0.75

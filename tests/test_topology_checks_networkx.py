@@ -5,6 +5,7 @@ checks did before they stopped using networkx (issue 19)."""
 
 import re
 import warnings
+from dataclasses import replace
 
 import networkx as nx
 from hypothesis import given, settings
@@ -12,6 +13,7 @@ from hypothesis import strategies as st
 
 import circuitnsds
 from circuitnsds.checks import rules, topology
+from circuitnsds.circuit.elements.passive import GminLeak
 from circuitnsds.errors import CircuitError
 
 NODES = ["0", "a", "b", "c", "d", "e"]
@@ -50,7 +52,10 @@ def _circuit(elements):
               ".model szero SW(RON=0 ROFF=1MEG VT=0.5)", ".tran 1u 10u", ".end"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return circuitnsds.read_netlist("\n".join(lines) + "\n")
+        circuit = circuitnsds.read_netlist("\n".join(lines) + "\n")
+    leaks = sorted(e.nodes[0] for e in circuit.elements if isinstance(e, GminLeak))
+    # the checks are of the netlist's own elements: the reader's GMIN leaks set apart
+    return replace(circuit, elements=[e for e in circuit.elements if not isinstance(e, GminLeak)]), leaks
 
 
 def _graph(elements, keep):
@@ -128,6 +133,21 @@ def _check_cutsets(circuit, elements, operating_point):
         assert _listed_nodes(str(error)) == expected
 
 
+def _check_gmin_leaks(leaks, elements):
+    """The reader gives GMIN to each node of every group that capacitors and current sources cut
+    off from ground (at the operating point), unless a current source (here I, G or F, all of
+    them nonzero) crosses into the group or nothing does (an island)."""
+    free = _graph(elements, lambda kind: kind not in CURRENT | {"C"})
+    used = {n for _, a, b in elements for n in (a, b)}
+    free.add_nodes_from(used)
+    expected = []
+    for group in nx.connected_components(free):
+        crossing = [kind for kind, a, b in elements if (a in group) != (b in group)]
+        if "0" not in group and crossing and not CURRENT & set(crossing):
+            expected += group & used
+    assert leaks == sorted(expected)
+
+
 def _check_loops(circuit, elements, operating_point):
     members = VOLTAGE | ({"L"} if operating_point else set())
     first = _first_loop(elements, members)
@@ -174,7 +194,8 @@ def _check_switch_warnings(circuit, elements):
 @settings(max_examples=120, deadline=None)
 @given(elements=ELEMENTS)
 def test_graph_checks_as_networkx(elements):
-    circuit = _circuit(elements)
+    circuit, leaks = _circuit(elements)
+    _check_gmin_leaks(leaks, elements)
     _check_floating(circuit, elements)
     for operating_point in (False, True):
         _check_cutsets(circuit, elements, operating_point)

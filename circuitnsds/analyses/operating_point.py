@@ -67,7 +67,8 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     stepping and LTspice and PLECS start from zero.
     """
     check_source_loops(circuit.elements, operating_point=True)
-    check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
+    check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True,
+                          held=list(circuit.initial_voltages))
     _warn_unused_element_ics(circuit)
     integrate.source_values(mlcs, np.zeros(1))  # a source that is not finite at t = 0, named
     states = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
@@ -146,6 +147,9 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
         coupling = sp.vstack([mlcs.B.tocsr(), sp.csr_matrix((k, mlcs.m))], format="csr")
         output = sp.hstack([mlcs.C.tocsr(), sp.csr_matrix((mlcs.m, k))], format="csr")
         pairs = mlcs.D.tocsr()
+    integrators = _integrator_rows(circuit, mlcs)
+    if integrators:
+        matrix, coupling = _hold_integrators(matrix, coupling, source, integrators)
     try:
         return solve_mlcp(-matrix, -coupling, output, pairs, -source, mlcs.e, tol=tol)
     except LCPError as exc:
@@ -187,6 +191,35 @@ def _solve_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
             hint="check that .ic values do not contradict the sources driving those nodes, "
             "then the diode orientations and source values; or add UIC to .tran",
         ) from None
+
+
+def _integrator_rows(circuit: Circuit, mlcs: MLCS) -> list[tuple[int, int, int, float]]:
+    """``(row, plus, minus, out_ic)`` of each XSPICE integrator: its state row and the node
+    rows of its output (``-1`` for ground)."""
+    if not any(is_loaded_instance(e, BEHAVIOURAL, "Integrator") for e in circuit.elements):
+        return []
+    return [(mlcs.unknowns.index(f"i({e.name})"), _index(circuit, e.nodes[0]),
+             _index(circuit, e.nodes[1]), e.initial_output) for e in circuit.elements
+            if is_loaded_instance(e, BEHAVIOURAL, "Integrator")]
+
+
+def _hold_integrators(matrix, coupling, source: np.ndarray,
+                      integrators: list[tuple[int, int, int, float]]):
+    """The DC system with each integrator's state row replaced by ``v(n+) - v(n-) = out_ic``:
+    at the operating point ngspice's ``int`` returns its ``out_ic`` (its state row, ``0 =
+    input`` with the derivative dropped, would leave the output undetermined). ``source`` is
+    changed in place; the matrices are returned (dense or sparse, as given)."""
+    dense = isinstance(matrix, np.ndarray)
+    matrix = matrix.copy() if dense else matrix.tolil()
+    coupling = coupling.copy() if dense else coupling.tolil()
+    for row, plus, minus, value in integrators:
+        matrix[row, :] = 0.0
+        coupling[row, :] = 0.0
+        for column, sign in ((plus, 1.0), (minus, -1.0)):
+            if column >= 0:
+                matrix[row, column] = sign
+        source[row] = -value
+    return (matrix, coupling) if dense else (matrix.tocsr(), coupling.tocsr())
 
 
 MAX_IC_TRIALS = 20

@@ -140,16 +140,30 @@ def check_source_loops(elements: Sequence[Element], operating_point: bool = Fals
 
 
 def check_current_cutsets(elements: Sequence[Element], nodes: Sequence[str],
-                          operating_point: bool = False) -> None:
+                          operating_point: bool = False, held: Sequence[str] = ()) -> None:
     """Every node must reach ground through elements that are not current sources.
 
-    At the operating point capacitors are open and do not count as a path.
+    At the operating point capacitors are open and do not count as a path, and the nodes
+    ``held`` (by ``.ic``: the operating point holds them at their values) count as grounded.
     """
-    cut = _unreachable(elements, nodes,
-                       {"current", "capacitor"} if operating_point else {"current"})
-    if not cut:
-        return
     if operating_point:
+        grounded = [_HeldNode(node) for node in held if node != GROUND]
+        groups = isolated_groups([*elements, *grounded], nodes,
+                                 lambda element: element.topology in {"current", "capacitor"})
+        cut = sorted(node for group, _ in groups for node in group)
+        if not cut:
+            return
+        feeding = [e for _, crossing in groups for e in crossing if e.topology == "current"]
+        if feeding:
+            raise CircuitError(
+                f"node(s) {', '.join(cut)} have no DC path to ground and "
+                f"{', '.join(e.describe() for e in feeding[:4])} drive(s) a current into them that "
+                "only capacitors could carry, so no DC operating point exists (a GMIN to "
+                "ground would put them at I/gmin volts)",
+                where="circuit",
+                hint="add UIC to .tran to start the capacitors from their ic= values (0 V "
+                "otherwise), give a node .ic, or add a resistor from the node to ground",
+            )
         raise CircuitError(
             f"node(s) {', '.join(cut)} have no DC path to ground (only capacitors or current "
             "sources connect them), so the operating point is undefined",
@@ -157,9 +171,21 @@ def check_current_cutsets(elements: Sequence[Element], nodes: Sequence[str],
             hint="add a large resistor from that node to ground, or add UIC to .tran "
             "to start from given initial conditions",
         )
+    cut = _unreachable(elements, nodes, {"current"})
+    if not cut:
+        return
     raise CircuitError(
         f"node(s) {', '.join(cut)} connect to the rest of the circuit only through current "
         "sources: Kirchhoff's current law cannot hold there",
         where="circuit",
         hint="add a resistor from that node to ground",
     )
+
+
+class _HeldNode:
+    """A node held by ``.ic`` at the operating point, seen by the graph as an edge to ground."""
+
+    topology = "conductive"
+
+    def __init__(self, node: str) -> None:
+        self.nodes = (node, GROUND)

@@ -125,8 +125,8 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
         ("DC operating point: no loop of voltage sources and inductors",
          lambda: topology.check_source_loops(circuit.elements, operating_point=True), not uic),
         ("DC operating point: every node has a DC path to ground",
-         lambda: topology.check_current_cutsets(circuit.elements, circuit.nodes,
-                                                operating_point=True), not uic),
+         lambda: topology.check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True,
+                                                held=list(circuit.initial_voltages)), not uic),
     ]
     results = []
     for what, check, needed in checks:

@@ -235,11 +235,34 @@ class _Context:
     translation: Translation
 
 
+def _measured_level(text: str) -> str | None:
+    """The WHEN/TRIG/TARG level of a ``.meas`` line that is a bare name (an earlier
+    measurement's, as a script writes ``WHEN v(2)=ymax``), or ``None``."""
+    from circuitnsds.frontend.cards.meas import parse_meas
+
+    try:
+        spec = parse_meas(text)
+    except NetlistError:
+        return None
+    for crossing in (spec.when, spec.trig, spec.targ) if spec is not None else ():
+        level = getattr(crossing, "level", None)
+        if isinstance(level, str) and re.fullmatch(r"[a-z_]\w*", level):
+            return level
+    return None
+
+
 def _translate_statement(statement: Statement, context: _Context) -> list[str]:
     """The ngspice line(s) for one statement circuitnsds read (none for a removed command)."""
     translation, keyword, text = context.translation, statement.keyword, _one_line(statement.text)
     where = str(statement.location)
     if keyword in {".meas", ".measure"} and translation.measures:
+        named = _measured_level(text)
+        if named:
+            translation.notes.append(
+                f"{where}: {keyword} removed for ngspice: its level {named!r} names an earlier "
+                "measurement, which ngspice 39 reads in a .control script but not as a dot command "
+                "(it stops the run: 'Undefined parameter')")
+            return []
         return [text]
     if keyword in DROPPED_COMMANDS:
         translation.notes.append(f"{where}: {keyword} removed")

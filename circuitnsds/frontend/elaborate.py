@@ -11,6 +11,8 @@ element names may be hierarchical (``x1.d3`` is a diode).
 
 from __future__ import annotations
 
+import re
+
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
@@ -21,6 +23,7 @@ from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
 from circuitnsds.frontend.cards.model_kinds import DIGITAL_PARTS
 from circuitnsds.frontend.cards.models import DiodeReading, read_model
 from circuitnsds.frontend.cards.reader import StatementReader, warn_at
+from circuitnsds.frontend.dc_paths import add_gmin_paths
 from circuitnsds.graphs import connected_components
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.netlist import Netlist, Statement
@@ -83,10 +86,15 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
                        if not s.is_command and element_letter(s.keyword) == "v"}
     couplings: list[Statement] = []
     context = CardContext(circuit.models, voltage_sources, circuit.options, off_resistance)
+    script_lines = {(block.location.file, line) for block in netlist.control_blocks
+                    for line in block.taken_lines}
     for statement in statements:
         if statement.keyword == ".model" or statement.keyword in commands.OPTION_KEYWORDS:
             continue
-        if statement.is_command:
+        if statement.is_command and statement.keyword in {".meas", ".measure"} and (
+                (statement.location.file, statement.location.line) in script_lines):
+            _script_measurement(circuit, statement)
+        elif statement.is_command:
             commands.command(circuit, statement)
         elif element_letter(statement.keyword) == "k":
             couplings.append(statement)
@@ -102,6 +110,7 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
 
         xspice_digital.check_digital_nodes(circuit.elements, circuit.models)
     _check_initial_conditions(circuit)
+    add_gmin_paths(circuit)
     if not netlist.ended:
         last = netlist.statements[-1].location.line if netlist.statements else 1
         warn_at(SourceLocation(netlist.file, last),
@@ -111,6 +120,31 @@ def elaborate(netlist: Netlist, options: dict[str, float | str] | None = None) -
         warn_at(SourceLocation(netlist.file, 1), "the first line is the title and is not read, as in "
                 f"SPICE: {netlist.title!r}; put a title line above it")
     return circuit
+
+
+def _script_measurement(circuit: Circuit, statement: Statement) -> None:
+    """A ``meas`` of a ``.control`` script, read as ``.meas``; one that names the script's own
+    vectors (``VAL=onevec-0.5`` after ``let onevec = 1``), which circuitnsds does not execute,
+    is left out with a warning instead of stopping the run."""
+    before = len(circuit.measurements)
+    try:
+        commands.command(circuit, statement)
+    except NetlistError as error:
+        warn_at(statement.location, f"the .control script's meas is not run: {error.message} (a "
+                "script's let vectors are not executed); write it as a .meas line of numbers and "
+                "signals to run it")
+        return
+    measured = {spec.name for spec in circuit.measurements[:before]}
+    for spec in circuit.measurements[before:]:
+        levels = [getattr(c, "level", None) for c in (spec.when, spec.trig, spec.targ) if c]
+        vectors = [level for level in levels if isinstance(level, str)
+                   and re.fullmatch(r"[a-z_]\w*", level) and level not in measured]
+        if vectors:
+            del circuit.measurements[before:]
+            warn_at(statement.location, f"the .control script's meas is not run: it compares with "
+                    f"{', '.join(repr(v) for v in vectors)}, a vector of the script (its let "
+                    "commands are not executed); write the level as a number or a signal to run it")
+            return
 
 
 TITLE_LIKE_COMMANDS = frozenset({

@@ -68,18 +68,33 @@ def parse(text: str) -> Node:
 
 def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,
               element: Callable[[str], str] = lambda e: e,
-              lookup: Callable[[str], float | None] = lambda name: None) -> Node:
+              lookup: Callable[[str], float | None] = lambda name: None,
+              function: Callable[[str], object | None] = lambda name: None) -> Node:
     """A copy of ``tree`` with probe nodes and elements renamed and parameters replaced by
-    their values (``lookup`` returns ``None`` for a name that is not a parameter).
+    their values (``lookup`` returns ``None`` for a name that is not a parameter), and each
+    call of a ``.func`` (``function`` returns its :class:`~circuitnsds.netlist.expressions.UserFunction`,
+    or ``None``) replaced by its body with the arguments in place of its parameters, as
+    ngspice's numparam expands it.
 
     Raises:
         ExpressionError: a name that is neither a parameter, a constant nor a simulator
             variable (:data:`RESERVED_NAMES`).
     """
-    def walk(item: Node) -> Node:
+    def walk(item: Node, arguments: dict[str, Node] | None = None, depth: int = 0) -> Node:
         kind = item[0]
         if kind == "num":
             return item
+        if kind == "name" and arguments and item[1] in arguments:
+            return arguments[item[1]]
+        if kind == "call" and function(item[1]) is not None:
+            user = function(item[1])
+            if len(item[2]) != len(user.parameters):
+                raise ExpressionError(f"{user.name}() takes {len(user.parameters)} argument(s), "
+                                      f"got {len(item[2])}")
+            if depth > MAX_INLINE_DEPTH:
+                raise ExpressionError(f".func {user.name}() calls itself (or nests too deeply)")
+            given = {p: walk(a, arguments, depth) for p, a in zip(user.parameters, item[2])}
+            return walk(parse(user.body), given, depth + 1)
         if kind == "v":
             return ("v", node(item[1]), None if item[2] is None else node(item[2]))
         if kind == "i":
@@ -95,12 +110,16 @@ def transform(tree: Node, *, node: Callable[[str], str] = lambda n: n,
                 raise ExpressionError(f"undefined parameter {name!r}")
             return ("num", float(value))
         if kind == "call":
-            return ("call", item[1], tuple(walk(a) for a in item[2]))
+            return ("call", item[1], tuple(walk(a, arguments, depth) for a in item[2]))
         if kind == "op":
-            return ("op", item[1], walk(item[2]), walk(item[3]))
-        return (kind, *(walk(a) for a in item[1:]))
+            return ("op", item[1], walk(item[2], arguments, depth), walk(item[3], arguments, depth))
+        return (kind, *(walk(a, arguments, depth) for a in item[1:]))
 
     return walk(tree)
+
+
+MAX_INLINE_DEPTH = 50
+"""Deepest nesting of ``.func`` calls expanded inside a behavioural expression."""
 
 
 def to_text(tree: Node) -> str:
@@ -144,7 +163,8 @@ def _expression(text: str, statement_text: str) -> str:
             raise ExpressionError(f"{text[0]} is not closed in {statement_text!r}")
         if text[end + 1:].strip():
             raise ExpressionError(f"unexpected {text[end + 1:].split()[0]!r} after the expression "
-                                  f"(instance parameters of behavioural sources are not supported)")
+                                  f"(instance parameters of behavioural sources are not supported: "
+                                  f"leave them out, and write a factor into the expression)")
         return text[1:end]
     return text
 
@@ -220,9 +240,12 @@ def time_valued_tokens(text: str, *, node: Callable[[str], str] = lambda n: n,
 
 def flat_tokens(letter: str, text: str, *, node: Callable[[str], str] = lambda n: n,
                 element: Callable[[str], str] = lambda e: e,
-                lookup: Callable[[str], float | None] = lambda name: None) -> tuple[str, ...] | None:
+                lookup: Callable[[str], float | None] = lambda name: None,
+                function: Callable[[str], object | None] = lambda name: None,
+                ) -> tuple[str, ...] | None:
     """The tokens the elaborator reads for a behavioural line, its names renamed (``node``,
-    ``element``) and its parameters replaced by their values (``lookup``):
+    ``element``), its parameters replaced by their values (``lookup``) and its ``.func`` calls
+    by their bodies (``function``):
 
     * ``B n+ n- V=expr`` / ``I=expr`` -> ``(name, n+, n-, "v"|"i", "=", "{expr}")``;
     * ``E|G n+ n- VALUE=expr`` (also ``VOL=`` for E, ``CUR=`` for G) ->
@@ -246,13 +269,14 @@ def flat_tokens(letter: str, text: str, *, node: Callable[[str], str] = lambda n
     assignment = _ASSIGNMENT.fullmatch(rest.strip())
     if assignment is not None and assignment[1] in _BEHAVIOURAL_KEYS.get(letter, ()):
         tree = transform(parse(_expression(assignment[2], text)), node=node, element=element,
-                         lookup=lookup)
+                         lookup=lookup, function=function)
         key = assignment[1] if letter == "b" else "value"
         return (name, *nodes, key, "=", "{" + to_text(tree) + "}")
     table = _TABLE.fullmatch(rest.strip()) if letter in "eg" else None
     if table is None:
         return None
-    tree = transform(parse(_expression(table[1], text)), node=node, element=element, lookup=lookup)
+    tree = transform(parse(_expression(table[1], text)), node=node, element=element, lookup=lookup,
+                     function=function)
     values = []
     for item in re.split(r"[\s(),]+", table[2]):
         if item:

@@ -84,12 +84,14 @@ class ControlBlock:
         commands: the first word of each line of the script that is not executed.
         lines: the line number of each of ``commands``.
         taken: the first word of each line read as a statement.
+        taken_lines: the line number of each of ``taken``.
     """
 
     location: SourceLocation
     commands: list[str] = field(default_factory=list)
     lines: list[int] = field(default_factory=list)
     taken: list[str] = field(default_factory=list)
+    taken_lines: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -306,6 +308,7 @@ def parse_netlist(text: str, file: str = "<text>", has_title: bool = True) -> Ne
             elif keyword in CONTROL_STATEMENTS:
                 text = CONTROL_STATEMENTS[keyword] + line.text[len(keyword):]
                 netlist.control_blocks[-1].taken.append(keyword)
+                netlist.control_blocks[-1].taken_lines.append(line.number)
                 netlist.statements.append(_statement(text, location))
             elif keyword != CONTROL_RUN:
                 netlist.control_blocks[-1].commands.append(keyword)

@@ -25,12 +25,14 @@ definition) and its ``text`` ends with ``[in x1.x2]``, so messages are precise.
 
 from __future__ import annotations
 
+import re
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 
 from circuitnsds.element_letters import element_letter, letter_of
 from circuitnsds.errors import NetlistError, NetlistWarning
+from circuitnsds.netlist.conditionals import resolve_conditionals
 from circuitnsds.netlist.expressions import ExpressionError, Random
 from circuitnsds.netlist.params import (
     AssignmentSyntaxError,
@@ -81,8 +83,8 @@ def _behavioural_tokens(statement: Statement, context: _Context) -> tuple[str, .
             from circuitnsds.netlist.behavioural import time_valued_tokens
 
             return time_valued_tokens(statement.text, node=context.node, lookup=context.scope.lookup)
-        return flat_tokens(letter, statement.text, node=context.node,
-                           element=context.element, lookup=context.scope.lookup)
+        return flat_tokens(letter, statement.text, node=context.node, element=context.element,
+                           lookup=context.scope.lookup, function=context.scope.function)
     except ExpressionError as exc:
         where = f" (in instance {context.path})" if context.path else ""
         raise NetlistError(f"{statement.keyword}: {exc}{where}", where=statement.location,
@@ -329,12 +331,23 @@ class _Flattener:
             text = statement.text if context.definition is None else \
                 f"{statement.text}   [in {context.path}]"
             return Statement((context.prefixed(flat[0]), *flat[1:]), statement.location, text)
+        if not statement.is_command and element_letter(keyword) in {"s", "w"} and any(
+                token.startswith("control") for token in statement.tokens[3:]):
+            raise NetlistError(
+                f"{keyword}: Xyce's generic switch (CONTROL={{expression}}) is not supported (ngspice "
+                "refuses it too)", where=statement.location,
+                hint=f"write a voltage-controlled switch, {keyword.upper()} n+ n- ctl 0 MODEL with "
+                ".model MODEL SW(VT=0.5), and drive node ctl with the control: Bctl ctl 0 "
+                "V={expression of v() and i()}, or a V source (PULSE, PWL) for a function of time")
         if (statement.is_command and keyword not in SUBSTITUTED_COMMANDS) or behavioural:
             tokens = list(statement.tokens)
         else:
             tokens = list(context.scope.substitute(statement))
         if context.definition is None:
-            return Statement(tuple(tokens), statement.location, statement.text)
+            text = statement.text
+            if keyword in (".meas", ".measure"):
+                text = meas_with_parameters(text, context.scope.lookup)
+            return Statement(tuple(tokens), statement.location, text)
         if keyword == ".model" and len(tokens) > 1:
             tokens[1] = context.model(tokens[1])
         elif keyword == ".ic":
@@ -479,6 +492,31 @@ class _Flattener:
         return values
 
 
+_MEAS_EXPRESSION = re.compile(r"(\bpar(?:am)?\s*(?:=\s*|\(\s*))('[^']*'|\{[^}]*\})", re.IGNORECASE)
+_NAME = re.compile(r"\b[vi]\s*\([^()]*\)|(?<![\w.])([a-z_]\w*)\b(?!\s*\()", re.IGNORECASE)
+"""A probe (kept as written) or a name that is not a function's."""
+
+
+def meas_with_parameters(text: str, lookup: Callable[[str], float | None]) -> str:
+    """A ``.meas`` line with the ``.param`` names inside its ``PARAM='expr'`` and ``par('expr')``
+    expressions replaced by their values, as ngspice's numparam does when it reads the line
+    (``.param fval=5`` then ``.meas tran yadd param='fval + 7'`` is 12); names that are not
+    parameters (earlier measurements, functions, ``v(...)``) are left to the measurement."""
+    def values(match: re.Match) -> str:
+        def value(name: re.Match) -> str:
+            if name[1] is None:  # v(...), i(...): a signal, its node names are not parameters
+                return name[0]
+            try:
+                found = lookup(name[1].lower())
+            except NetlistError:
+                found = None
+            return repr(found) if found is not None else name[0]
+
+        return match[1] + _NAME.sub(value, match[2])
+
+    return _MEAS_EXPRESSION.sub(values, text)
+
+
 def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
             random: Random | None = None) -> Netlist:
     """Evaluate parameters and expand subcircuits (includes must be expanded already).
@@ -493,6 +531,9 @@ def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
         random: the generator of the Monte Carlo functions (``agauss`` ...); without one,
             a netlist using them is an error.
 
+    ``.if``/``.elseif``/``.else``/``.endif`` blocks are resolved first
+    (:mod:`circuitnsds.netlist.conditionals`).
+
     Returns:
         a new :class:`Netlist` with the same title, file and ``ended`` flag, whose
         statements contain no ``.param``, ``.subckt``, ``.ends``, ``.global`` or ``X``
@@ -503,7 +544,7 @@ def flatten(netlist: Netlist, params: Mapping[str, float] | None = None,
             parameters, unknown or recursive subcircuits, port-count mismatches.
     """
     overrides = {name.lower(): float(value) for name, value in (params or {}).items()}
-    structure = _structure(netlist.statements)
+    structure = _structure(resolve_conditionals(netlist.statements, overrides, random))
     scope = Scope(random=random)
     for statement in structure.functions:
         scope.define_function(func_definition(statement), statement.location)

@@ -19,6 +19,9 @@ Supported (ngspice manual, "MEASUREMENTS"; semantics of ngspice 39's ``com_measu
 * ``.meas tran NAME TRIG OUT VAL=v [TD RISE FALL CROSS] TARG OUT VAL=v [...]`` (or
   ``TRIG AT=t``): the time from the trigger crossing to the target crossing.
 * ``.meas tran NAME PARAM='expr'``: an expression of the measurements before it, by name.
+* In place of any ``OUT``: ``par('expr')``, an expression of the run's signals (``v(a)*i(r1)``)
+  evaluated at every grid point, as ngspice's vector expression; a WHEN (TRIG, TARG) level
+  may name an earlier measurement (``WHEN v(2)=ymax``): its value.
 
 The lines are read into specifications by :mod:`circuitnsds.frontend.cards.meas`.
 ``OUT`` is ``v(node)``, ``v(a,b)`` or ``i(element)`` (any circuitnsds signal). Results print as
@@ -29,7 +32,8 @@ the first nine harmonics of each output over the last period, as ngspice's Fouri
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections import ChainMap
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -114,6 +118,11 @@ def _slope_at(waves: Waveforms, signal: str, instant: float) -> float:
 def run_measurement(spec, waves: Waveforms) -> MeasureResult:
     """Execute one measurement on ``waves``; a condition that never holds gives NaN and
     ngspice's message (``out of interval``)."""
+    derived = getattr(spec, "derived", None)
+    if derived:  # par('expr') signals: computed on the run's grid, added beside its own
+        computed = {token: function(lambda name: series(waves, name)[1] if name != "time"
+                                    else waves.time) for token, function in derived.items()}
+        waves = replace(waves, signals=ChainMap(computed, waves.signals))
     try:
         return _run(spec, waves)
     except MeasurementError as exc:
@@ -196,10 +205,10 @@ def run_measurements(specs: list, waves: Waveforms) -> list[MeasureResult]:
     before it (a failed one, or an unknown name, fails it as in ngspice)."""
     results: list[MeasureResult] = []
     for spec in specs:
-        if spec.kind != "param":
-            results.append(run_measurement(spec, waves))
-            continue
         known = {r.name: r.value for r in results if not math.isnan(r.value)}
+        if spec.kind != "param":
+            results.append(run_measurement(_levels_measured(spec, known, waves), waves))
+            continue
         try:
             value = float(spec.formula(known))
         except ValueError as exc:  # an expression error: a name not measured, a division by 0
@@ -207,6 +216,19 @@ def run_measurements(specs: list, waves: Waveforms) -> list[MeasureResult]:
             continue
         results.append(MeasureResult(spec.name, value, _line(spec.name, value)))
     return results
+
+
+def _levels_measured(spec, known: dict[str, float], waves: Waveforms):
+    """``spec`` with each WHEN/TRIG/TARG level that names an earlier measurement (``WHEN
+    v(2)=ymax``) replaced by that measurement's value, as ngspice replaces a vector of its
+    script; a level naming a signal stays a signal."""
+    changed = {}
+    for part in ("when", "trig", "targ"):
+        crossing = getattr(spec, part, None)
+        level = getattr(crossing, "level", None)
+        if isinstance(level, str) and level in known and level not in waves:
+            changed[part] = replace(crossing, level=known[level])
+    return replace(spec, **changed) if changed else spec
 
 
 FOURIER_HARMONICS = 9

@@ -41,16 +41,27 @@ class Affine:
         currents: ``(voltage source, coefficient)``: branch currents [A].
         auxiliaries: ``(k, coefficient)``: the element's auxiliary unknown ``k``.
         constant: the constant term.
+        rates: ``ddt()`` terms, ``(("v", node) or ("i", source), coefficient)``: the time
+            derivative of a node voltage [V/s] or branch current [A/s] times the coefficient
+            (ngspice's ``ddt(v(x))``; a capacitor-like term, exact: it goes in ``E``). Only the
+            element's own output may hold them, never a ``min``/``max`` or comparator's value.
     """
 
     voltages: tuple[tuple[str, float], ...] = ()
     currents: tuple[tuple[str, float], ...] = ()
     auxiliaries: tuple[tuple[int, float], ...] = ()
     constant: float = 0.0
+    rates: tuple[tuple[tuple[str, str], float], ...] = ()
 
     @property
     def is_constant(self) -> bool:
-        return not (self.voltages or self.currents or self.auxiliaries)
+        return not (self.voltages or self.currents or self.auxiliaries or self.rates)
+
+    def rate_columns(self, builder: MLCSBuilder) -> list[tuple[int, float]]:
+        """``(column of y, coefficient)`` of the ``ddt()`` terms."""
+        terms = [(builder.node(name) if kind == "v" else builder.branch(f"i({name})"), c)
+                 for (kind, name), c in self.rates]
+        return [(column, c) for column, c in terms if column != builder.GROUND]
 
     def columns(self, builder: MLCSBuilder, auxiliary: list[int]) -> list[tuple[int, float]]:
         """``(column of y, coefficient)`` of the non-constant terms."""
@@ -196,11 +207,15 @@ class BehaviouralSource(Element):
             builder.add("A", k, plus, 1.0)
             builder.add("A", k, minus, -1.0)
             stamp_affine_row(builder, k, self.value, auxiliary, -1.0)
+            for column, c in self.value.rate_columns(builder):  # c·x' = v(n+) - v(n-) - value
+                builder.add("E", k, column, c)
             builder.output(f"i({self.name})", [(k, 1.0)])
             return
         # the current as an unknown of its own, so that i(name) includes the constant term
         k = builder.branch(f"i({self.name})")
         stamp_affine_row(builder, k, self.value, auxiliary, 1.0)
+        for column, c in self.value.rate_columns(builder):  # -c·x' = value - i
+            builder.add("E", k, column, -c)
         builder.add("A", k, k, -1.0)
         builder.add("A", plus, k, -1.0)
         builder.add("A", minus, k, 1.0)

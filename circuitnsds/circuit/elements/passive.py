@@ -38,6 +38,32 @@ class Resistor(Element):
 
 
 @dataclass(frozen=True)
+class GminLeak(Element):
+    """A conductance ``conductance`` [S] from ``nodes[0]`` to ``nodes[1]`` (ground) that the netlist
+    does not have: what SPICE's GMIN gives a node without a DC path to ground (a node held only by
+    capacitors, a transformer's floating secondary). Added by the netlist reader with a warning,
+    never silently (:mod:`circuitnsds.frontend.dc_paths`); it has no output signal of its own,
+    since it is not the user's element."""
+
+    conductance: float = 1e-12
+
+    def value_errors(self) -> list[tuple[str, str | None]]:
+        errors = super().value_errors()
+        if not self.conductance > 0:
+            errors.append((f"gmin must be positive, got {self.conductance:g} S", None))
+        return errors
+
+    def conductances(self, step: float) -> list[tuple[str, float]]:
+        # named as an off-resistance: tiny on purpose, like a diode's Roff (the conditioning
+        # check leaves the smallest Roff out of the values it blames)
+        return [(f"Roff = {1.0 / self.conductance:.3g} Ω (gmin to ground)", self.conductance)]
+
+    def stamp(self, builder: MLCSBuilder) -> None:
+        a, b = (builder.node(n) for n in self.nodes)
+        builder.add_conductance("A", a, b, -self.conductance)
+
+
+@dataclass(frozen=True)
 class Capacitor(Element):
     """Linear capacitor, ``capacitance`` in farads; ``initial_voltage`` [V] from ``ic=`` (used with UIC)."""
 

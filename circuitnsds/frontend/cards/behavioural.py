@@ -17,8 +17,12 @@ ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`
 
 Anything else is refused with a message naming the term: a product or quotient of two
 unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, ``==``/``!=``,
-``&&``/``||``/``!``, conditions that are not one comparison, ``sgn``/``floor``/...,
+``&&``/``||``/``!`` outside a condition (in one, they chain comparators), conditions that are
+not comparisons, ``sgn``/``floor``/...,
 and ``time`` (write the time function as an independent source and use its ``v()``).
+
+``ddt(x)`` of an affine ``x``, added to the value times a constant, is a capacitor-like term
+(:attr:`Affine.rates`, stamped in ``E``); ``ddt()`` anywhere else is refused as nonlinear.
 """
 
 from __future__ import annotations
@@ -33,11 +37,12 @@ from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
 
 NONLINEAR = "nonlinear (a smooth nonlinear device: issue 33)"
 """What a smooth nonlinear term is called in refusals (the next issue brings such devices)."""
-REPRESENTABLE = ("the ideal engine represents affine combinations of v(node), v(node1, node2), "
-                 "i(vsource) and constants, min(), max(), abs(), uramp(), limit(x, lo, hi) of "
-                 "them (exact complementarity pairs), comparisons a > b, a < b (1 or 0), "
-                 "c ? a : b, if(c, a, b), u(x) whose condition compares two of them (a "
-                 "comparator: an event-located switch), and TABLE of one affine argument")
+REPRESENTABLE = ("write the value with what the ideal engine represents: affine combinations "
+                 "of v(node), v(node1, node2), i(vsource) and constants, min(), max(), abs(), "
+                 "uramp(), limit(x, lo, hi) of them (exact complementarity pairs), comparisons "
+                 "a > b, a < b (1 or 0), c ? a : b, if(c, a, b), u(x) whose condition compares "
+                 "two of them (a comparator: an event-located switch), TABLE of one affine "
+                 "argument, and ddt() of an affine value added to the value (a capacitor-like term)")
 SWITCHING = {"u2": "u2()", "sgn": "sgn()", "ternary_fcn": "ternary_fcn()", "floor": "floor()",
              "ceil": "ceil()", "nint": "nint()", "int": "int()"}
 """Functions whose value jumps in ways not written as one comparison: refused."""
@@ -84,12 +89,17 @@ class Linear:
         return Linear({k: c for k, c in terms.items() if c != 0.0},
                       self.constant + sign * other.constant)
 
+    @property
+    def has_rates(self) -> bool:
+        return any(k[0] == "d" for k in self.terms)
+
     def affine(self) -> Affine:
         return Affine(
             voltages=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "v"),
             currents=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "i"),
             auxiliaries=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "x"),
             constant=self.constant,
+            rates=tuple((k[1], c) for k, c in self.terms.items() if k[0] == "d"),
         )
 
 
@@ -171,11 +181,23 @@ class Classifier:
 
     def select(self, condition: Node, on: Node, off: Node) -> Linear:
         """``on`` where ``condition`` holds, else ``off``: a new comparator auxiliary, or the
-        branch itself when the condition is constant."""
+        branch itself when the condition is constant. A condition of ``&&``, ``||`` and ``!``
+        of comparisons is a chain of comparators: ``p && q ? a : b`` is ``p ? (q ? a : b) : b``,
+        ``p || q ? a : b`` is ``p ? a : (q ? a : b)``, ``!p ? a : b`` is ``p ? b : a``."""
+        if condition[0] == "and":
+            return self.select(condition[1], ("if", condition[2], on, off), off)
+        if condition[0] == "or":
+            return self.select(condition[1], on, ("if", condition[2], on, off))
+        if condition[0] == "not":
+            return self.select(condition[1], off, on)
         difference = self.condition(condition)
         if difference.is_constant:
             return self.value(on if difference.constant > 0 else off)
         chosen, other = self.value(on), self.value(off)
+        if difference.has_rates or chosen.has_rates or other.has_rates:
+            raise Unrepresentable(to_text(condition), f"a comparison or choice involving ddt() "
+                                  f"is {NONLINEAR}; ddt() may only be added to the value, times a "
+                                  "constant")
         count = sum(isinstance(a, Select) for a in self.auxiliaries)
         self.auxiliaries.append(Select(difference.affine(), chosen.affine(), other.affine(),
                                        name=f"{self.name}.cmp{count}"))
@@ -190,6 +212,8 @@ class Classifier:
         if name == "u" and len(tree[2]) == 1:
             return self.select(("op", ">", tree[2][0], ("num", 0.0)), ("num", 1.0), ("num", 0.0))
         args = [self.value(a) for a in tree[2]]
+        if name == "ddt" and len(args) == 1:
+            return self.rate(text, args[0])
         if name in {"min", "max"} and len(args) >= 2:
             result = args[0]
             for other in args[1:]:
@@ -210,8 +234,23 @@ class Classifier:
             raise Unrepresentable(text, f"{name}() of an unknown is {NONLINEAR}")
         raise Unrepresentable(text, f"unknown function {name}()")
 
+    @staticmethod
+    def rate(text: str, argument: Linear) -> Linear:
+        """``ddt(argument)`` of an affine argument of node voltages and source currents: the
+        same combination of their time derivatives (the constant drops), exact for the ideal
+        engine; of anything else a smooth nonlinear term (issue 33)."""
+        if any(key[0] in {"x", "d"} for key in argument.terms):
+            raise Unrepresentable(text, "ddt() of a min/max, comparator or ddt() value is "
+                                  f"{NONLINEAR}; ddt() of an affine combination of v() and i() "
+                                  "is supported")
+        return Linear({("d", key): c for key, c in argument.terms.items()})
+
     def minmax(self, kind: str, a: Linear, b: Linear) -> Linear:
         """``max(a, b)`` or ``min(a, b)``: a constant when both are, else a new auxiliary."""
+        for value in (a, b):
+            if value.has_rates:
+                raise Unrepresentable(f"{kind}(...)", f"a {kind}() of a ddt() term is {NONLINEAR}; "
+                                      "ddt() may only be added to the value, times a constant")
         if a.is_constant and b.is_constant:
             return Linear(constant=(max if kind == "max" else min)(a.constant, b.constant))
         self.auxiliaries.append(MinMax(kind, a.affine(), b.affine()))
@@ -317,4 +356,6 @@ def _controls(value: Linear, auxiliaries: list[MinMax | Select]) -> tuple[list[s
     for affine in parts:
         nodes.update((n, None) for n, _ in affine.voltages)
         sources.update((s, None) for s, _ in affine.currents)
+        nodes.update((name, None) for (kind, name), _ in affine.rates if kind == "v")
+        sources.update((name, None) for (kind, name), _ in affine.rates if kind == "i")
     return list(nodes), list(sources)

@@ -25,9 +25,10 @@ IGNORED_COMMANDS = {
     ".width": "output formatting does not apply",
     ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
     ".nodeset": "the ideal operating point needs no hints",
+    ".csparam": "it hands a parameter to the .control script, which circuitnsds does not run "
+                "but for its analyses and measurements; .param values reach the circuit",
 }
 
-UNSUPPORTED_COMMANDS = {".csparam", ".if", ".else", ".elseif", ".endif"}
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "method": "the integration method, a stepper of circuitnsds.engine.stepper.STEPPERS "
@@ -146,10 +147,6 @@ def command(circuit: Circuit, statement: Statement) -> None:
         circuit.title = statement.text.split(None, 1)[1] if " " in statement.text else ""
     elif keyword in IGNORED_COMMANDS:
         reader.warn(f"{keyword} ignored ({IGNORED_COMMANDS[keyword]}): {statement.text}")
-    elif keyword in UNSUPPORTED_COMMANDS:
-        raise reader.error(f"{keyword} is not supported",
-                           hint="write the netlist without it (parameters with .param, "
-                           "subcircuits with .subckt are supported)")
     else:
         raise reader.error(f"unknown command {keyword}",
                            hint="supported: .tran, .pss, .ac, .ic, .model, .options, .param, .subckt, "
@@ -183,6 +180,11 @@ def _tran(reader: StatementReader) -> TransientSpec:
     while not reader.done():
         token = reader.peek()
         if token == "uic":
+            uic = True
+            reader.position += 1
+        elif token == "noop":  # Xyce's "no operating point": UIC's meaning
+            reader.warn(".tran NOOP (Xyce's: no operating point) read as UIC; ngspice refuses it, "
+                        "write UIC for both")
             uic = True
             reader.position += 1
         else:

@@ -138,7 +138,9 @@ def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
         elif token in {"ic", "temp", "dtemp", "pj", "lm", "lp", "wm", "wp"}:
             reader.warn(f"{name}: {token}= ignored by the ideal diode")
         else:
-            raise reader.error(f"{name}: instance parameter {token!r} is not supported")
+            raise reader.error(f"{name}: instance parameter {token!r} is not supported",
+                               hint="a diode line takes area= (or m=), and ic=, temp=, dtemp=, pj=, "
+                               "lm=, lp=, wm=, wp= (ignored); write Dname anode cathode MODEL [area]")
     if area <= 0:
         raise reader.error(f"{name}: area must be positive, got {area:g}")
     return Diode(name, nodes, reader.location, model=model, area=area)

@@ -12,6 +12,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 
+import numpy as np
+
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.values import parse_value
 
@@ -51,6 +53,9 @@ class MeasureSpec:
         when: the WHEN (or AT) condition; trig/targ: those of TRIG ... TARG.
         text: the statement; location: its file:line.
         formula: of ``param``: the value from the earlier measurements' values by name.
+        derived: the ``par('expr')`` signals it names (ngspice's expression of the run's
+            vectors), each computed from the run's signals: ``derived[token](fetch)`` with
+            ``fetch(name)`` a signal's values returns the expression's values on the grid.
     """
 
     name: str
@@ -65,6 +70,7 @@ class MeasureSpec:
     text: str = ""
     location: SourceLocation | None = None
     formula: Callable[[Mapping[str, float]], float] | None = None
+    derived: Mapping[str, Callable[[Callable[[str], np.ndarray]], np.ndarray]] | None = None
 
 
 def _param(name: str, text: str, location: SourceLocation | None, fail) -> MeasureSpec:
@@ -86,24 +92,92 @@ def _param(name: str, text: str, location: SourceLocation | None, fail) -> Measu
 
 
 _SIGNAL = r"[a-z]+\([^()]*\)"
-_TOKEN = re.compile(rf"{_SIGNAL}|'[^']*'|\{{[^}}]*\}}|[^\s=]+|=", re.IGNORECASE)
+_PAR = r"par\(\s*'[^']*'\s*\)"
+_TOKEN = re.compile(rf"{_PAR}|{_SIGNAL}|'[^']*'|\{{[^}}]*\}}|[^\s=]+|=", re.IGNORECASE)
+_PROBE = re.compile(r"\b([vi])\s*\(\s*([^\s(),]+)\s*(?:,\s*([^\s(),]+)\s*)?\)")
+
+
+def _expression_signal(token: str, fail) -> Callable[[Callable[[str], np.ndarray]], np.ndarray]:
+    """``par('expr')`` in a signal's place: ngspice's expression of the run's vectors
+    (``v(a)*i(r1)``, ``v(a,b)/2``, functions and parameters as in ``.param``), evaluated at
+    every point of the run's grid. Returns the function of a signal fetcher that computes it."""
+    from circuitnsds.netlist.expressions import ExpressionError, evaluate, parse
+
+    expression = re.fullmatch(r"par\(\s*'([^']*)'\s*\)", token)[1].lower()
+    probes: list[str] = []
+
+    def placeholder(match: re.Match) -> str:
+        kind, first, second = match.groups()
+        name = f"{kind}({first},{second})" if second else f"{kind}({first})"
+        if name not in probes:
+            probes.append(name)
+        return f"cnsds_probe_{probes.index(name)}"
+
+    text = _PROBE.sub(placeholder, expression)
+    try:
+        parse(text)
+    except ExpressionError as exc:
+        raise fail(f"{token}: {exc}") from None
+
+    def values(fetch: Callable[[str], np.ndarray]) -> np.ndarray:
+        columns = [np.asarray(fetch(name), dtype=float) for name in probes]
+        size = len(columns[0]) if columns else len(fetch("time"))
+        result = np.empty(size)
+        for k in range(size):
+            names = {f"cnsds_probe_{j}": float(column[k]) for j, column in enumerate(columns)}
+            try:
+                result[k] = evaluate(text, names)
+            except ExpressionError:  # a division by zero at one point: no value there
+                result[k] = np.nan
+        return result
+
+    return values
+
+
+def _with_expression_signals(spec: MeasureSpec, fail) -> MeasureSpec:
+    """``spec`` with ``derived`` set for each ``par('expr')`` it names (as OUT, in WHEN, TRIG
+    or TARG)."""
+    from dataclasses import replace
+
+    names = [spec.signal] + [part for crossing in (spec.when, spec.trig, spec.targ) if crossing
+                             for part in (crossing.signal, crossing.level)]
+    tokens = [name for name in names if isinstance(name, str) and name.startswith("par(")]
+    if not tokens:
+        return spec
+    return replace(spec, derived={token: _expression_signal(token, fail) for token in tokens})
 
 
 def parse_meas(text: str, location: SourceLocation | None = None) -> MeasureSpec | None:
     """Parse a ``.meas``/``.measure`` line; ``None`` (with nothing to do) for analyses other
-    than ``tran``, which the caller reports.
+    than ``tran``, which the caller reports. A signal may be ``par('expr')``, an expression of
+    the run's signals (ngspice's).
 
     Raises:
         NetlistError: a syntax circuitnsds does not read (with what to write instead).
     """
+    spec = _parse_meas(text, location)
+    if spec is None:
+        return None
+    first = text.split(None, 1)[0].lower() if text.strip() else ".meas"
+    return _with_expression_signals(spec, partial(_failure, first, text, location))
+
+
+def _failure(first: str, text: str, location: SourceLocation | None, message: str) -> NetlistError:
+    return NetlistError(f"{first}: {message}", where=location, text=text, hint=MEAS_FORMS)
+
+
+MEAS_FORMS = ("write .meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG OUT [FROM=t TO=t], .meas tran NAME "
+              "WHEN OUT=VAL [RISE=n], .meas tran NAME FIND OUT AT=t, or .meas tran NAME TRIG ... "
+              "TARG ...")
+"""The forms a ``.meas`` line takes, for the hint of a refused one."""
+
+
+def _parse_meas(text: str, location: SourceLocation | None) -> MeasureSpec | None:
+    """:func:`parse_meas` but for the ``par('expr')`` signals."""
     tokens = [token.lower().replace(" ", "") if token.startswith(("v(", "i(", "V(", "I("))
               else token.lower() for token in _TOKEN.findall(text)]
 
-    def fail(message: str) -> NetlistError:
-        return NetlistError(f"{tokens[0] if tokens else '.meas'}: {message}", where=location,
-                            text=text, hint="write .meas tran NAME AVG|RMS|MIN|MAX|PP|INTEG OUT "
-                            "[FROM=t TO=t], .meas tran NAME WHEN OUT=VAL [RISE=n], .meas tran NAME "
-                            "FIND OUT AT=t, or .meas tran NAME TRIG ... TARG ...")
+    fail = partial(_failure, tokens[0] if tokens else ".meas", text, location)
 
     if len(tokens) < 4:
         raise fail("too few fields")
@@ -191,6 +265,8 @@ def _condition(tokens: list[str], fail) -> Crossing:
         level: float | str = parse_value(level_text)
     except ValueError:
         level = level_text
+        if re.search(r"[*/+]|(?<!^)-", level) and not level.startswith("par("):
+            level = f"par('{level}')"  # an expression of signals (ngspice's script meas reads it)
     options = _options(tokens[3:], fail)
     _only(options, {"rise", "fall", "cross", "td", "from", "to"}, "when", fail)
     try:

@@ -277,6 +277,14 @@ def _pspice_switch(name: str, kind: str, params: dict[str, float],
     sw_kind, letter, defaults = PSPICE_SWITCHES[kind]
     on = params.pop(f"{letter}on", defaults[f"{letter}on"])
     off = params.pop(f"{letter}off", defaults[f"{letter}off"])
+    xyce = [key for key in (f"{letter}hon", f"{letter}hoff") if key in params]
+    if xyce:
+        raise reader.error(f".model {name} {kind.upper()}: {', '.join(k.upper() for k in xyce)} (Xyce's "
+                           "hysteresis of its switch) is not supported (ngspice refuses it too)",
+                           hint=f"write a {sw_kind.upper()} model with the threshold "
+                           f"{letter.upper()}T and the hysteresis half-width {letter.upper()}H, e.g. "
+                           f".model {name} {sw_kind.upper()}({letter.upper()}T=0.5 "
+                           f"{letter.upper()}H=0.05 RON=1 ROFF=100)")
     for key in (f"{letter}t", f"{letter}h"):
         if key in params:
             raise reader.error(f".model {name} {kind.upper()}: {key.upper()} is not a PSpice {kind.upper()} "

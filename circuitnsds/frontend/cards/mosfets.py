@@ -191,7 +191,9 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
                            hint=f"add a line such as: .model {model_name} VDMOS(Vto=3 Kp=20 Rd=10m)")
     if model.kind == "vdmos" and len(node_tokens) == 4:
         raise reader.error(f"{name}: a VDMOS has three terminals (d g s); the thermal nodes "
-                           "of ngspice's self-heating model are not supported")
+                           "of ngspice's self-heating model are not supported",
+                           hint=f"write {name.upper()} drain gate source MODEL, without the thermal "
+                           "nodes tj and tc")
     instance = {"m": 1.0, "l": model.get("l", DEFAULT_LENGTH), "w": model.get("w", DEFAULT_LENGTH)}
     for key, text in reader.keyword_values():
         number = reader.number(key, text)

@@ -142,7 +142,8 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
                                          if str(kind).startswith(("d_", "adc", "dac")) else f"the {kind!s}")
         raise reader.error(f"{name}: code model {kind!s} ({what} model {model_name!r}) is not "
                            "supported by the ideal engine",
-                           hint="supported A models: " + ", ".join(CODE_MODELS))
+                           hint="write the block with the A models circuitnsds reads ("
+                           + ", ".join(CODE_MODELS) + ") or a B source of its function")
     if model.kind in DIGITAL_PARTS:
         return digital_part(reader, model, tokens[:-1])
     ports = Ports(reader, tokens[:-1])
