@@ -1,0 +1,204 @@
+"""The exact integrator as a stepper (issue 31): chosen by ``method=exact`` (or ``auto``), its
+rows at the grid's points exact against closed forms through the run path, its impulses the
+charge of each interval, its diode events listed, a run in parts the run in one part, and a
+sliding control handed to the θ-method."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.analyses.operating_point import operating_point
+from circuitnsds.analyses.recorders import TrajectoryRecorder
+from circuitnsds.engine.driver import drive
+from circuitnsds.engine.exact.stepper import ExactStepper
+from circuitnsds.engine.stepper import choose_stepper
+from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.errors import RunNote
+from circuitnsds.system.smooth import SmoothRelation
+from tests.conftest import NETLISTS
+
+RC_SWITCH = """rc triggered switch
+V1 in 0 10
+R1 in c 1k
+C1 c 0 1u
+S1 out 0 c 0 sw
+V2 a 0 5
+R2 a out 1k
+.model sw SW(VT=5 RON=1 ROFF=1e9)
+.tran 10u 2m uic
+.end
+"""
+
+DISCHARGE = """inductor discharging into 5 V through an ideal diode, 1 kohm across it
+L1 0 a 1m IC=2
+D1 a out dideal
+Vo out 0 5
+R1 a 0 1k
+.model dideal D
+.tran 1u 1m uic
+.end
+"""
+
+
+def _exact(netlist: str, **settings):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RunNote)
+        return circuitnsds.read_netlist(netlist).transient(method="exact", **settings)
+
+
+def test_an_rc_triggered_switch_closes_at_its_closed_form_instant_through_the_run():
+    circuit = circuitnsds.read_netlist(RC_SWITCH)
+    threshold = circuit.mlcs().switches[0].on_threshold  # VT and ngspice's round-off margin
+    waves = _exact(RC_SWITCH)
+    (event,) = waves.events
+    instant = -1e-3 * math.log(1 - threshold / 10)  # 10 V (1 - e^{-t/RC}) = threshold
+    assert event.element == "s1" and event.state
+    assert abs(event.time - instant) < 1e-8 * instant
+    t = waves.time
+    assert np.max(np.abs(waves["v(c)"] - 10 * (1 - np.exp(-t / 1e-3)))) < 1e-12
+
+
+def test_a_dcm_diode_turns_off_at_its_closed_form_instant_and_its_charge_is_the_integral():
+    waves = _exact(DISCHARGE)
+    assert [(e.element, e.state) for e in waves.events] == [("d1", True), ("d1", False)]
+    t_off = 1e-3 * (2 - 5 / 1e3) / 5  # L di/dt = -5 V until the diode's current i - 5 mA is 0
+    assert abs(waves.events[1].time - t_off) < 1e-9 * t_off
+    # the diode's impulses are its charge per interval: in all ∫ (1.995 A - 5000 A/s t) dt
+    charge = 1.995 * t_off - 2500 * t_off**2
+    assert abs(np.sum(waves.impulse("d1")) - charge) < 1e-12 * charge
+    # and interval by interval (a row before the turn-off: 1 µs of a straight line)
+    k = 100
+    t0, t1 = waves.time[k - 1], waves.time[k]
+    assert waves.impulse("d1")[k] == pytest.approx(1.995 * (t1 - t0) - 2500 * (t1**2 - t0**2), rel=1e-12)
+
+
+def test_the_buck_in_parts_is_the_buck_in_one_part_bit_for_bit():
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    mlcs = circuit.mlcs()
+    start = operating_point(circuit, mlcs)
+    grid = time_grid(0.1e-6, 0.1e-3, mlcs.breakpoints(0.1e-3))
+
+    whole = TrajectoryRecorder()
+    drive(ExactStepper(mlcs), grid, start, whole)
+    parts = _Concatenated()
+    drive(ExactStepper(mlcs), grid, start, parts, part_steps=37)
+    one = whole.trajectory
+    for name in ("y", "current", "impulse", "active", "switches"):
+        np.testing.assert_array_equal(parts.arrays[name], getattr(one, name))
+    assert parts.events == one.events
+    # the diode turns on as S1 opens (k·10 µs + 5.005 µs) and off as it closes (5 ns later)
+    assert sum(e.element == "d1" for e in one.events) == 19
+
+
+class _Concatenated:
+    """A recorder joining the parts' new rows."""
+
+    def __init__(self):
+        self.arrays: dict[str, np.ndarray] = {}
+        self.events: list = []
+
+    def record(self, trajectory, first):
+        for name in ("y", "current", "impulse", "active", "switches"):
+            rows = getattr(trajectory, name)[first:].copy()
+            self.arrays[name] = rows if name not in self.arrays else np.concatenate([self.arrays[name], rows])
+        self.events += [e for e in trajectory.events if e not in self.events]
+
+
+def test_theta_converges_at_first_order_to_the_exact_stepper():
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    exact = _exact(NETLISTS / "buck_converter.cir", step=0.1e-6, stop=0.3e-3)
+    differences = []
+    for step in (1e-7, 1e-8):
+        theta = circuit.transient(step=step, stop=0.3e-3)
+        differences.append([np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
+                            for name in ("v(out)", "i(l1)")])
+    coarse, fine = np.array(differences)
+    assert np.all(coarse < 0.02)
+    assert np.all((coarse / fine > 8) & (coarse / fine < 12))
+
+
+SLIDING = """comparator without hysteresis holding a capacitor at its 1 V threshold
+V1 in 0 2
+R1 in a 1k
+S1 a c 0 c sw
+C1 c 0 1u
+R2 c 0 10k
+.model sw SW(VT=-1 VH=0 RON=1 ROFF=1e9)
+.tran 10u 3m uic
+.end
+"""
+
+
+def test_a_comparator_sliding_on_its_threshold_fails_as_the_theta_method_does():
+    # S1 closes while v(c) < 1 V; at 1 V each state drives v(c) back across the threshold (a
+    # sliding mode, no finite sequence of events). The exact loop finds no mode that holds
+    # and hands the stretch to the θ-method, which stops with its chattering error naming
+    # the switch: an error, as with θ alone, not a run that never ends or a wrong answer.
+    with pytest.raises(circuitnsds.SimulationError, match=r"switch s1 chatters"):
+        circuitnsds.read_netlist(SLIDING).transient(method="exact")
+
+
+PEAK = """peak detector: an ideal diode charging a capacitor straight from a sine
+V1 in 0 SIN(0 5 1k)
+D1 in c dideal
+C1 c 0 1u
+R1 c 0 10k
+.model dideal D
+.tran 5u 2.5m
+.end
+"""
+
+
+def test_a_capacitor_held_to_a_source_by_a_diode_goes_to_theta_and_back():
+    # While D1 conducts, C1 sits across V1 (index 2: no state equations); the θ-method takes
+    # those stretches (16 grid steps, doubled while the exact loop fails at once: 0.08, 0.16,
+    # 0.32 ms). Once D1 blocks, the exact loop is back: C1 decays through R1 as v e^{-Δt/RC}.
+    with pytest.warns(RunNote, match=r"handed to the θ-method, the first at t = 0 s \(the mode's "
+                      r"algebraic equations are singular"):
+        waves = circuitnsds.read_netlist(PEAK).transient(method="exact")
+    assert waves.stats["handoffs"] >= 2 and 0 < waves.stats["theta_steps"] < waves.time.size / 2
+    t, vc = waves.time, np.asarray(waves["v(c)"])
+    theta = circuitnsds.read_netlist(PEAK).transient()
+    conducting = np.asarray(theta.impulse("d1")) > 0
+    # while it conducts, v(c) is the source's value at the point (θ's algebraic rows)
+    assert np.max(np.abs(vc[conducting] - 5 * np.sin(2e3 * math.pi * t[conducting]))) < 1e-9
+    blocking = (t > 0.7e-3) & (t < 1.1e-3) & ~conducting
+    first = int(np.flatnonzero(blocking)[0])
+    decay = vc[first] * np.exp(-(t[blocking] - t[first]) / 1e-2)
+    # (and the blocking diode's 1 TΩ: a few pA, 3e-9 V over these 0.4 ms)
+    assert np.max(np.abs(vc[blocking] - decay)) < 1e-8
+
+
+def test_auto_takes_exact_where_it_qualifies_and_says_why_theta_otherwise():
+    buck = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
+    chosen, why = choose_stepper("auto", buck.mlcs())
+    assert chosen is ExactStepper and "piecewise linear" in why
+    with pytest.warns(RunNote, match=r"exact event-driven method \(method=auto.*TSTEP sets the rows "
+                      r"reported, not the accuracy"):
+        auto = buck.transient(step=0.1e-6, stop=20e-6, method="auto")
+    exact = _exact(NETLISTS / "buck_converter.cir", step=0.1e-6, stop=20e-6)
+    np.testing.assert_array_equal(auto["v(out)"], exact["v(out)"])
+    with pytest.warns(RunNote, match=r"θ-method \(method=auto: the exact integrator cannot run it: "
+                      r"it has 2\d\d unknowns"):
+        circuitnsds.read_netlist(_ladder(210)).transient(method="auto")
+
+
+def _ladder(sections: int) -> str:
+    lines = ["RC ladder", "V1 n0 0 PULSE(0 1 0 1u 1u 1 2)"]
+    for k in range(1, sections + 1):
+        lines += [f"R{k} n{k - 1} n{k} 1k", f"C{k} n{k} 0 1n"]
+    return "\n".join([*lines, ".tran 1u 5u", ".end", ""])
+
+
+def test_exact_refuses_smooth_relations_naming_them():
+    mlcs = circuitnsds.read_netlist(RC_SWITCH).mlcs()
+    smooth = replace(mlcs, smooth=[SmoothRelation("q1", (0,), (0,), lambda y, t: None)])
+    assert ExactStepper.unsuited(mlcs) is None
+    assert ExactStepper.unsuited(smooth) == ("it has smooth nonlinear elements (q1), which are not "
+                                             "piecewise linear")
