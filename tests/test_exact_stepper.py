@@ -6,6 +6,7 @@ sliding control handed to the θ-method."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import replace
 
@@ -159,8 +160,8 @@ def test_a_capacitor_held_to_a_source_by_a_diode_goes_to_theta_and_back():
     # While D1 conducts, C1 sits across V1 (index 2: no state equations); the θ-method takes
     # those stretches (16 grid steps, doubled while the exact loop fails at once: 0.08, 0.16,
     # 0.32 ms). Once D1 blocks, the exact loop is back: C1 decays through R1 as v e^{-Δt/RC}.
-    with pytest.warns(RunNote, match=r"handed to the θ-method, the first at t = 0 s \(the mode's "
-                      r"algebraic equations are singular"):
+    with pytest.warns(RunNote, match=r"handed to the θ-method, the first at t = 0 s \(a mode without "
+                      r"state equations \(index 2: a capacitor held to a source"):
         waves = circuitnsds.read_netlist(PEAK).transient(method="exact")
     assert waves.stats["handoffs"] >= 2 and 0 < waves.stats["theta_steps"] < waves.time.size / 2
     t, vc = waves.time, np.asarray(waves["v(c)"])
@@ -202,3 +203,17 @@ def test_exact_refuses_smooth_relations_naming_them():
     assert ExactStepper.unsuited(mlcs) is None
     assert ExactStepper.unsuited(smooth) == ("it has smooth nonlinear elements (q1), which are not "
                                              "piecewise linear")
+
+
+def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys):
+    from tests.test_info import run_info
+
+    auto = (NETLISTS / "buck_converter.cir").read_text().replace(".end", ".options method=auto\n.end")
+    _, out, _ = run_info(tmp_path, capsys, auto)
+    assert ("method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
+            "(method=auto: the circuit is piecewise linear and its sources have closed forms)") in out
+    _, out, _ = run_info(tmp_path, capsys, path=NETLISTS / "buck_converter.cir")
+    assert "method:    the θ-method\n" in out
+    _, out, _ = run_info(tmp_path, capsys, _ladder(210).replace(".end", ".options method=auto\n.end"))
+    assert re.search(r"method:    the θ-method \(method=auto: the exact integrator cannot run it: it has "
+                     r"2\d\d unknowns and 0 pairs, more than the 200", out)

@@ -259,7 +259,7 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
 
 
 def _note_method(circuit: Circuit, stepper: Stepper) -> None:
-    """Say which stepper ran when the run did not name it: the exact
+    """Say which stepper ran unless it is the θ-method named or by default: the exact
     integrator (whose rows are exact at every ``TSTEP``: the step sets the rows reported, not
     the accuracy; and its hand-offs to θ), or θ chosen by ``auto`` (and why)."""
     why = getattr(stepper, "why", None)
@@ -274,8 +274,7 @@ def _note_method(circuit: Circuit, stepper: Stepper) -> None:
     if handoffs:
         first, cause = handoffs[0]
         text += (f"; {len(handoffs)} stretch(es) handed to the θ-method, the first at "
-                 f"t = {first:.6g} s ({cause}: a sliding or chattering control, or a jump of the "
-                 "state, which the θ-method's impulses capture)")
+                 f"t = {first:.6g} s ({cause})")
     warnings.warn(RunNote(text), stacklevel=3)
 
 

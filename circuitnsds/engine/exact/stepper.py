@@ -50,6 +50,12 @@ from circuitnsds.system.mlcs import MLCS
 HANDOFF_STEPS = 16
 """Grid steps the θ-method takes at a hand-off, at first (doubled at each hand-off that follows
 one at once)."""
+HANDOFF_CAUSES = {
+    Chattering: "no mode holds after that instant: a sliding or chattering control",
+    NotIndexOne: "a mode without state equations (index 2: a capacitor held to a source, an "
+                 "inductor's current cut), whose jumps the θ-method's impulses capture",
+}
+"""Why a stretch went to θ, in words, by the exception the exact loop stopped with."""
 MAX_UNKNOWNS = 200
 """Largest ``n + m`` the exact integrator takes: its modes are dense eigen-decompositions."""
 
@@ -123,7 +129,7 @@ class ExactStepper(Stepper):
                 failed_at_once = run.rows <= 1 and out.stats["handoffs"] > 0
                 self.handoff_steps = 2 * self.handoff_steps if failed_at_once else HANDOFF_STEPS
                 out.stats["handoffs"] += 1
-                self.handoffs.append((float(exc.time), str(exc)))
+                self.handoffs.append((float(exc.time), HANDOFF_CAUSES[type(exc)]))
                 row += run.rows - 1
                 self.theta_until = offset + row + self.handoff_steps
                 continue
