@@ -87,6 +87,21 @@ class LoopState:
 
 
 @dataclass
+class Segment:
+    """One segment of the loop: from ``t`` [s] for ``tau`` [s] in ``mode`` (switch states
+    ``closed``), the solution ``z(τ)`` and the event functions; ``ended_by``: the column of
+    the function whose root ends it, ``None`` when the sources' piece ends it."""
+
+    t: float
+    tau: float
+    mode: ModeDynamics
+    closed: tuple[bool, ...]
+    z: ExpPoly
+    functions: EventFunctions
+    ended_by: int | None
+
+
+@dataclass
 class ExactRun:
     """Output of :func:`run_exact`: rows on ``times``.
 
@@ -322,8 +337,10 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
     raise Chattering("no mode holds after this instant")
 
 
-def _crossed_within_tolerance(functions: EventFunctions, tau: float, horizon: float) -> float:
-    """The segment's end ``tau`` [s], or the first zero before it of a function that starts
+def _crossed_within_tolerance(functions: EventFunctions, tau: float, horizon: float,
+                              ended_by: int | None) -> tuple[float, int | None]:
+    """The segment's end ``tau`` [s] and the column ending it (``ended_by``, ``None``: the
+    piece's end), or the first zero before it of a function that starts
     clearly positive (above its tolerance) and ends negative without going below ``-tol``:
     its crossing is certain, and taking it at the next corner instead delays the event by
     ``tol / |g'|`` (a flyback's secondary diode, ``tol`` 0.4 V through ``Roff``, turned on
@@ -333,8 +350,8 @@ def _crossed_within_tolerance(functions: EventFunctions, tau: float, horizon: fl
     for k in crossed:
         root = first_root(functions.function(k), tau, 0.0, resolution=1e-13 * max(horizon, 1e-300))
         if root is not None and root < tau:
-            tau = root
-    return tau
+            tau, ended_by = root, int(k)
+    return tau, ended_by
 
 
 def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
@@ -352,14 +369,16 @@ def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
 
 def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
               closed0: tuple[bool, ...], *, resume: LoopState | None = None,
-              system: ExactSystem | None = None, stop: float | None = None) -> ExactRun:
+              system: ExactSystem | None = None, stop: float | None = None,
+              record: list[Segment] | None = None) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0]`` (0 unless resumed) to ``times[-1]``,
     writing a row at each of ``times``.
 
     ``resume``: the loop state to go on from (``y0`` is then row 0 only, and ``times[0]`` is
     at or after ``resume.t``); ``system``: the prepared system to reuse (its modes cached);
     ``stop`` [s]: the end of the whole run when this is a part of it (the sources' pieces
-    end at their corners or there, as in the whole run).
+    end at their corners or there, as in the whole run); ``record``: a list that gets each
+    segment computed (:class:`Segment`: what the period map's derivative needs).
 
     Raises:
         Chattering, NotIndexOne: with ``run`` (the rows written before) and ``time`` set.
@@ -410,13 +429,16 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             # bound that is not a number, 0·∞ from a term another column does not have, fails)
             cleared = lower_bounds(functions.table, 0.0, horizon) > -functions.tolerances
             doubtful = np.flatnonzero(~cleared)
+            ended_by = None
             for k in doubtful:
                 root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
                                   resolution=1e-13 * max(horizon, 1e-300))
                 if root is not None and root < tau:
-                    tau = root
-            tau = _crossed_within_tolerance(functions, tau, horizon)
+                    tau, ended_by = root, int(k)
+            tau, ended_by = _crossed_within_tolerance(functions, tau, horizon, ended_by)
             segments += 1
+            if record is not None:
+                record.append(Segment(t, tau, mode, closed, z, functions, ended_by))
             stop_at = t + tau
             last = row
             while last < len(times) and times[last] <= stop_at:
