@@ -4,6 +4,7 @@ saltation at every located event (a DCM diode's turn-off included)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import circuitnsds
 from circuitnsds.analyses.operating_point import operating_point, uic_state
@@ -62,3 +63,21 @@ def test_a_dcm_boosts_orbit_converges_quadratically_with_its_inductor_reset():
     multipliers = np.sort(np.abs(np.linalg.eigvals(orbit.monodromy)))
     assert multipliers[0] < 1e-9 and 0.9 < multipliers[1] < 1
     assert orbit.residuals[-1] < 1e-11 and orbit.residuals[-2] < 1e-5
+
+
+def test_pss_with_method_exact_is_the_exact_orbit_and_ac_around_it_is_refused():
+    text = (NETLISTS / "boost_converter.cir").read_text().replace(".end", ".options method=exact\n.end")
+    circuit = circuitnsds.read_netlist(text)
+    result = circuit.pss()
+    assert "on the exact period map" in result.summary()
+    assert abs(result.means["v(out)"] - 23.839697) < 1e-6
+    assert result.state_names == ["v(out)", "i(l1)"] and result.relative_residual < 1e-12
+    # the rows of the period are the exact stepper's from the orbit: periodic to round-off
+    v = np.asarray(result.waveforms["v(out)"])
+    assert abs(v[-1] - v[0]) < 1e-12 and 23.7 < v.min() < v.max() < 24.0
+    # the implicit-Euler shooting's multipliers at the netlist's step are close to the exact ones
+    theta = circuitnsds.read_netlist(NETLISTS / "boost_converter.cir").pss()
+    assert np.max(np.abs(np.abs(theta.multipliers) - np.abs(result.multipliers))) < 1e-3
+    with pytest.raises(circuitnsds.CircuitError, match=r"ac around a periodic steady state found on "
+                       r"the exact map"):
+        circuit.ac(input="vin", frequencies=[1e3])

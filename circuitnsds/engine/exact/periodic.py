@@ -88,7 +88,7 @@ def period_map(system: ExactSystem, t0: float, period: float, x: np.ndarray, act
 def _saltation(system: ExactSystem, before: Segment, after: Segment, n: int) -> np.ndarray:
     """``S = I + (f⁺ − f⁻) ∇gᵀ / (∇g · f⁻)`` at the event ending ``before``."""
     V1t = system.coordinates.V1.T
-    rows = system._event_rows(before.mode, before.closed)[0]
+    rows = system.event_rows(before.mode, before.closed)
     gradient = rows[before.ended_by] @ before.mode.P  # ∂g/∂x
     f_minus = V1t @ before.z.derivative()(before.tau)[:n]
     f_plus = V1t @ after.z.derivative()(0.0)[:n]

@@ -216,6 +216,11 @@ class ExactSystem:
         labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
         return z, EventFunctions(ExpPoly(coefficients, powers, exponents), tolerances, labels)
 
+    def event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
+        """The rows ``r`` with ``g = r · z + constant`` of every pair and switch of the mode,
+        in the columns of :meth:`event_functions` (the period map's saltation needs them)."""
+        return self._event_rows(mode, closed)[0]
+
     def _event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
         """``(rows, constants, |rows P|, |rows Q|, |rows P V1ᵀ|)``: ``g = rows · z + constants`` for every
         pair and switch of the mode (:meth:`event_functions`), cached with the mode."""
