@@ -12,11 +12,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.integrate import quad
 
 import circuitnsds
 from circuitnsds.analyses.operating_point import operating_point
 from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.engine.driver import drive
+from circuitnsds.engine.exact.charge import interval_integrals
+from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.stepper import ExactStepper
 from circuitnsds.engine.stepper import choose_stepper
 from circuitnsds.engine.timegrid import time_grid
@@ -245,3 +250,26 @@ def test_theta_converges_at_first_order_to_the_exact_flyback():
                             for name in ("v(clamp)", "v(out)", "i(lp)", "i(ls)")])
     coarse, fine = np.array(differences)
     assert np.all((coarse / fine > 1.8) & (coarse / fine < 2.3)), coarse / fine
+
+
+_charge_term = st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.integers(0, 2),
+                         st.sampled_from([0.0, -1e-9, -20.0, -3e3, -1e6]), st.sampled_from([0.0, 0.0, 5e3]))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(_charge_term, min_size=1, max_size=4), st.floats(0, 2e-3), st.floats(1e-9, 1e-3),
+       st.floats(0.1, 0.9))
+def test_the_interval_charges_are_the_integral_and_add_up(terms, a, width, split):
+    # the closed form against scipy's adaptive quadrature, and ∫_a^b = ∫_a^m + ∫_m^b (the
+    # charge of an interval cut by an event is the sum of its segments')
+    coefficients = np.array([[complex(re, im)] for re, im, *_ in terms])
+    powers = np.array([p for _, _, p, _, _ in terms])
+    exponents = np.array([complex(real, imag) for *_, real, imag in terms])
+    f = ExpPoly(coefficients, powers, exponents)
+    b, m = a + width, a + split * width
+    whole = interval_integrals(f, np.array([a]), np.array([b]))[0, 0]
+    reference, error = quad(lambda t: float(f(t)[0]), a, b, epsabs=1e-16, epsrel=1e-12, limit=100)
+    scale = float(np.sum(np.abs(coefficients))) * width * max(1.0, b) ** 2
+    assert abs(whole - reference) <= 1e-9 * scale + 10 * error
+    parts = interval_integrals(f, np.array([a, m]), np.array([m, b]))[:, 0]
+    assert abs(parts.sum() - whole) <= 1e-12 * scale

@@ -24,24 +24,32 @@ SERIES_TERMS = 24
 
 def _moments(nu: np.ndarray, w: np.ndarray, top: int) -> list[np.ndarray]:
     """``J_q(w)`` for ``q = 0..top``, shape ``(intervals, terms)`` each (``nu`` per term, ``w``
-    per interval)."""
+    per interval). ``ν = 0`` (constants and ramps, most terms) is ``w^{q+1}/(q+1)``; the series
+    is summed only where ``0 < |ν w| < 1``."""
     nw = w[:, None] * nu[None, :]
-    small = np.abs(nw) < 1.0
+    size = np.abs(nw)
+    plain = np.broadcast_to(nu[None, :] == 0, nw.shape)
+    small = (size < 1.0) & ~plain
     safe_nu = np.where(nu == 0, 1.0, nu)[None, :]
     grown = np.exp(nw)
+    where = np.nonzero(small)
+    few = nw[where]
+    widths = w[where[0]]
     moments: list[np.ndarray] = []
     for q in range(top + 1):
-        series = np.zeros(nw.shape, complex)
-        term = np.ones(nw.shape, complex)  # (νw)^k / k!
-        for k in range(SERIES_TERMS):
-            series += term / (q + k + 1)
-            term = term * nw / (k + 1)
-        series *= (w ** (q + 1))[:, None]
         if q == 0:
-            closed = np.expm1(nw) / safe_nu
+            value = np.expm1(nw) / safe_nu
         else:
-            closed = ((w ** q)[:, None] * grown - q * moments[q - 1]) / safe_nu
-        moments.append(np.where(small, series, closed))
+            value = ((w ** q)[:, None] * grown - q * moments[q - 1]) / safe_nu
+        value = np.where(plain, (w ** (q + 1) / (q + 1))[:, None], value)
+        if few.size:
+            series = np.zeros(few.shape, complex)
+            term = np.ones(few.shape, complex)  # (νw)^k / k!
+            for k in range(SERIES_TERMS):
+                series += term / (q + k + 1)
+                term = term * few / (k + 1)
+            value[where] = series * widths ** (q + 1)
+        moments.append(value)
     return moments
 
 
