@@ -273,3 +273,14 @@ def test_the_interval_charges_are_the_integral_and_add_up(terms, a, width, split
     assert abs(whole - reference) <= 1e-9 * scale + 10 * error
     parts = interval_integrals(f, np.array([a, m]), np.array([m, b]))[:, 0]
     assert abs(parts.sum() - whole) <= 1e-12 * scale
+
+
+def test_the_run_summary_counts_rows_segments_and_events(tmp_path, capsys):
+    from circuitnsds.cli.main import main
+
+    path = tmp_path / "discharge.cir"
+    path.write_text(DISCHARGE.replace(".end", ".options method=exact\n.end"))
+    assert main(["run", str(path), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "1000 rows from 2 exact segments (2 events located) in" in err
+    assert "TSTEP sets the rows reported, not the accuracy" in err
