@@ -284,3 +284,19 @@ def test_the_run_summary_counts_rows_segments_and_events(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "1000 rows from 2 exact segments (2 events located) in" in err
     assert "TSTEP sets the rows reported, not the accuracy" in err
+
+
+def test_a_run_with_hand_offs_to_theta_in_parts_is_the_run_in_one_part():
+    # the peak detector's θ stretches (16, 32, 64 steps, ...) cut by parts of 7 steps: the
+    # stretches share one θ stepping state, and the doubling is the stepper's, not a part's
+    circuit = circuitnsds.read_netlist(PEAK)
+    mlcs = circuit.mlcs()
+    start = operating_point(circuit, mlcs)
+    grid = time_grid(5e-6, 2.5e-3, mlcs.breakpoints(2.5e-3))
+    whole = TrajectoryRecorder()
+    drive(ExactStepper(mlcs), grid, start, whole)
+    assert whole.trajectory.stats["handoffs"] >= 2
+    parts = _Concatenated()
+    drive(ExactStepper(mlcs), grid, start, parts, part_steps=7)
+    for name in ("y", "current", "impulse", "active", "switches"):
+        np.testing.assert_array_equal(parts.arrays[name], getattr(whole.trajectory, name))

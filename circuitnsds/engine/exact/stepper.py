@@ -42,7 +42,7 @@ import numpy as np
 from circuitnsds.engine.events import SwitchEvent
 from circuitnsds.engine.exact.mode import NotIndexOne
 from circuitnsds.engine.exact.run import Chattering, ExactRun, ExactSystem, LoopState, run_exact
-from circuitnsds.engine.integrate import STEPPINGS, Trajectory, integrate, trajectory_bytes
+from circuitnsds.engine.integrate import STEPPINGS, Segments, Trajectory, integrate, trajectory_bytes
 from circuitnsds.engine.step_system import check_theta
 from circuitnsds.engine.stepper import StartState, Stepper
 from circuitnsds.system.mlcs import MLCS
@@ -77,6 +77,7 @@ class ExactStepper(Stepper):
         self.theta, self.tol, self.loop = check_theta(theta), tol, loop
         self.system: ExactSystem | None = None
         self.whole = np.zeros(0)
+        self.theta_segments: Segments | None = None
         self.state: LoopState | None = None
         self.theta_until: int | None = None  # the whole grid's index a hand-off runs to
         self.handoff_steps = HANDOFF_STEPS
@@ -95,6 +96,7 @@ class ExactStepper(Stepper):
 
     def begin(self, grid: np.ndarray, *, parts: bool) -> None:
         self.whole = grid
+        self.theta_segments = Segments(grid)  # the hand-offs' stepping state, as one θ run's
         self.system = ExactSystem(self.mlcs)
         self.state = None
         self.theta_until = None
@@ -126,7 +128,8 @@ class ExactStepper(Stepper):
             except (Chattering, NotIndexOne) as exc:
                 run = exc.run
                 out.take(run, row)
-                failed_at_once = run.rows <= 1 and out.stats["handoffs"] > 0
+                # (the stepper's own record, not the part's: a run in parts doubles alike)
+                failed_at_once = run.rows <= 1 and self.handoffs != []
                 self.handoff_steps = 2 * self.handoff_steps if failed_at_once else HANDOFF_STEPS
                 out.stats["handoffs"] += 1
                 self.handoffs.append((float(exc.time), HANDOFF_CAUSES[type(exc)]))
@@ -146,9 +149,12 @@ class ExactStepper(Stepper):
         """The θ-method from ``row`` to the hand-off's end (or the part's); the exact loop
         starts again from its state there. Returns the row reached."""
         last = min(self.theta_until - offset, out.grid.size - 1)
+        # (one stepping state for every stretch, placed at the stretch's steps of the whole
+        # grid: a stretch cut by a part's end is then the stretch in one call, bit for bit)
+        self.theta_segments.offset = offset + row
         part = integrate(self.mlcs, out.grid[row:last + 1], out.y[row], None, out.current[row],
                          out.active[row], out.switches[row], theta=self.theta, tol=self.tol,
-                         stepping=self.loop, continued=True)
+                         stepping=self.loop, continued=True, segments=self.theta_segments)
         out.take_theta(part, row)
         if last + offset >= self.theta_until:
             self.theta_until = None
