@@ -48,6 +48,8 @@ def _moments(nu: np.ndarray, w: np.ndarray, top: int) -> list[np.ndarray]:
             for k in range(SERIES_TERMS):
                 series += term / (q + k + 1)
                 term = term * few / (k + 1)
+                if k % 4 == 3 and not np.any(np.abs(term) > 1e-17):  # (|νw| small: a few terms)
+                    break
             value[where] = series * widths ** (q + 1)
         moments.append(value)
     return moments
