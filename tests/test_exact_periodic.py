@@ -81,3 +81,6 @@ def test_pss_with_method_exact_is_the_exact_orbit_and_ac_around_it_is_refused():
     with pytest.raises(circuitnsds.CircuitError, match=r"ac around a periodic steady state found on "
                        r"the exact map"):
         circuit.ac(input="vin", frequencies=[1e3])
+    # auto keeps the θ shooting (whose step maps ac needs)
+    auto = circuitnsds.read_netlist(text.replace("method=exact", "method=auto")).pss()
+    assert auto.means is None and auto.maps is not None

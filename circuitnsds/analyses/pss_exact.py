@@ -1,5 +1,5 @@
-"""The periodic steady state on the exact period map (``.options method=exact``, or ``auto``
-where the exact integrator qualifies): the orbit by Newton with the exact monodromy
+"""The periodic steady state on the exact period map (``.options method=exact``; ``auto`` and
+the default keep the θ shooting, whose step maps ``ac`` needs): the orbit by Newton with the exact monodromy
 (:func:`~circuitnsds.engine.exact.periodic.periodic_orbit`: saltation at every located
 event, no quantised instants, no implicit-Euler error), shown on the period's grid by the
 exact stepper.
@@ -29,7 +29,7 @@ from circuitnsds.system.mlcs import MLCS
 
 
 def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: np.ndarray,
-              active: np.ndarray | None, switches: np.ndarray | None, why: str | None):
+              active: np.ndarray | None, switches: np.ndarray | None):
     """The settled period from ``y`` (the state at ``grid[0]``, after any warm-up) on the
     exact map; ``grid``: the period's output points [s]. Returns a
     :class:`~circuitnsds.analyses.pss.PSSResult` with ``maps = None``.
@@ -70,6 +70,5 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
                        iterations=len(orbit.residuals) - 1, residual=orbit.residuals[-1],
                        relative_residual=orbit.residuals[-1] / scale, monodromy=monodromy,
                        multipliers=multipliers, history=[r / scale for r in orbit.residuals],
-                       maps=None, mlcs=mlcs, means=dict(zip(mlcs.unknowns, orbit.means.tolist())),
-                       method_note=why)
+                       maps=None, mlcs=mlcs, means=dict(zip(mlcs.unknowns, orbit.means.tolist())))
     return result
