@@ -126,6 +126,10 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
     else:
         from circuitnsds.engine.small_signal import periodic_response
 
+        if pss.maps is None:
+            raise CircuitError("ac around a periodic steady state found on the exact map (.options "
+                               "method=exact) is not built yet", where=circuit.file,
+                               hint="run the ac with .options method=theta (its step maps)")
         _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
         values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}

@@ -36,7 +36,7 @@ from circuitnsds.circuit.elements.diode_notes import waveform_diode_peaks
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.integrate import Trajectory, trajectory_bytes
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
-from circuitnsds.engine.stepper import StartState
+from circuitnsds.engine.stepper import StartState, stepper_class
 from circuitnsds.engine.theta_stepper import ThetaStepper
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
@@ -120,6 +120,9 @@ class PSSResult:
     history: list[float] = field(default_factory=list)
     maps: StepMaps | None = field(default=None, repr=False)
     mlcs: MLCS | None = field(default=None, repr=False)
+    means: dict[str, float] | None = None
+    """On the exact map (``.options method=exact``): each unknown's mean over the period, the
+    closed-form integral (``maps`` is then ``None``)."""
 
     @property
     def decay_rate(self) -> float:
@@ -132,7 +135,8 @@ class PSSResult:
             return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s; the "
                     "circuit has no state (no capacitor or inductor), so every period is the same")
         largest = float(np.abs(self.multipliers).max(initial=0.0))
-        return (f"periodic steady state: T = {self.period:.6g} s from t0 = {self.t0:.6g} s, "
+        exact = "" if self.means is None else " on the exact period map"
+        return (f"periodic steady state{exact}: T = {self.period:.6g} s from t0 = {self.t0:.6g} s, "
                 f"{self.iterations} Newton step(s), residual {self.relative_residual:.1e} "
                 f"(relative), largest Floquet multiplier |λ| = {largest:.6g}")
 
@@ -305,13 +309,33 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
             y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
             charge = None
             del run
-        shooter = _Shooter(circuit, mlcs, grid, period, tol)
-        result = shooter.solve(y, charge, active, switches, max_iterations)
+        if _exact_map(circuit, mlcs):
+            from circuitnsds.analyses.pss_exact import exact_pss
+
+            if charge is not None:  # (initial conditions y cannot express: one step of θ first)
+                y = _plain_transient(mlcs, grid[:2], StartState(y, charge, None, active, switches)).y[0]
+            result = exact_pss(circuit, mlcs, grid, period, y, active, switches)
+        else:
+            shooter = _Shooter(circuit, mlcs, grid, period, tol)
+            result = shooter.solve(y, charge, active, switches, max_iterations)
     except SimulationError as exc:
         advise(exc)
         raise
     result.transient_periods += periods_warmup
     return result
+
+
+def _exact_map(circuit: Circuit, mlcs: MLCS) -> bool:
+    """Whether ``.options method=exact`` puts the periodic steady state on the exact period
+    map (``auto`` and the default keep the θ shooting: ``ac`` needs its step maps, and its
+    fallback to transient periods is not built for the exact map yet)."""
+    if str(circuit.options.get("method", "")).strip().lower() != "exact":
+        return False
+    reason = stepper_class("exact").unsuited(mlcs)
+    if reason is not None:
+        raise CircuitError(f"the integration method 'exact' cannot run this circuit: {reason}",
+                           where=circuit.file, hint=".options method=theta")
+    return True
 
 
 def _plain_transient(mlcs: MLCS, grid: np.ndarray, start: StartState) -> Trajectory:

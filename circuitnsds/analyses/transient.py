@@ -31,7 +31,7 @@ from circuitnsds.circuit.elements import CurrentSource, Diode
 from circuitnsds.circuit.elements.diode_notes import FitRangeObserver
 from circuitnsds.circuit.observers import RunObserver, observers_of
 from circuitnsds.engine.driver import drive
-from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, stepper_class
+from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, choose_stepper
 from circuitnsds.engine.theta_stepper import STEPPINGS
 from circuitnsds.engine.timegrid import check_step_count, time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
@@ -215,6 +215,7 @@ def _run_transient(
             raise
         if owned:
             _report(observers)
+        _note_method(circuit, stepper)
         return kept.result()
     recorder = TrajectoryRecorder()
     try:
@@ -243,6 +244,7 @@ def _run_transient(
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if owned:
         _report(observers)
+    _note_method(circuit, stepper)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -255,7 +257,7 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
     name = method if method is not None else circuit.options.get("method", DEFAULT_STEPPER)
     hint = ".options method=NAME in the netlist, method= in Python"
     try:
-        chosen = stepper_class(name)
+        chosen, why = choose_stepper(name, mlcs)
     except ValueError as exc:
         raise CircuitError(str(exc), where=circuit.file, hint=hint) from None
     reason = chosen.unsuited(mlcs)
@@ -263,9 +265,31 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
         raise CircuitError(f"the integration method {chosen.name!r} cannot run this circuit: {reason}",
                            where=circuit.file, hint=hint)
     try:
-        return chosen(mlcs, **settings)
+        stepper = chosen(mlcs, **settings)
     except ValueError as exc:  # (settings the stepper refuses)
         raise CircuitError(str(exc), where=circuit.file, hint=hint) from None
+    stepper.why = why
+    return stepper
+
+
+def _note_method(circuit: Circuit, stepper: Stepper) -> None:
+    """Say which stepper ran unless it is the θ-method named or by default: the exact
+    integrator (whose rows are exact at every ``TSTEP``: the step sets the rows reported, not
+    the accuracy; and its hand-offs to θ), or θ chosen by ``auto`` (and why)."""
+    why = getattr(stepper, "why", None)
+    if stepper.name != "exact":
+        if why is not None:
+            warnings.warn(RunNote(f"{circuit.file}: integrated by the θ-method ({why})"), stacklevel=3)
+        return
+    text = (f"{circuit.file}: integrated by the exact event-driven method"
+            f"{f' ({why})' if why else ''}: the state is exact between located events, so .tran "
+            "TSTEP sets the rows reported, not the accuracy")
+    handoffs = getattr(stepper, "handoffs", [])
+    if handoffs:
+        first, cause = handoffs[0]
+        text += (f"; {len(handoffs)} stretch(es) handed to the θ-method, the first at "
+                 f"t = {first:.6g} s ({cause})")
+    warnings.warn(RunNote(text), stacklevel=3)
 
 
 def _explain(error: SimulationError, circuit: Circuit, mlcs, grid: np.ndarray, theta: float) -> None:

@@ -256,8 +256,9 @@ class Circuit:
                 problem. All compute the same scheme (results agree to rounding); the
                 last three are for checking and timing the paths.
             method: the integration method (a stepper registered in
-                :data:`circuitnsds.engine.stepper.STEPPERS`; default: ``.options method``,
-                else ``"theta"``, the θ-method, the only one today).
+                :data:`circuitnsds.engine.stepper.STEPPERS`: ``"theta"``, the θ-method, or
+                ``"exact"``, the event-driven exact integrator; ``"auto"``: exact where the
+                circuit qualifies; default: ``.options method``, else ``"theta"``).
             signals: keep only these signals (e.g. ``["v(out)"]``; default: every signal,
                 computed when first read). The run then goes in segments whose other
                 unknowns are dropped as it goes: memory is bounded by what is kept (a

@@ -138,6 +138,23 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
     return results
 
 
+def _method_line(circuit: Circuit, mlcs) -> str:
+    """Which stepper a run would use (``.options method``, else the default) and why."""
+    from circuitnsds.engine.stepper import DEFAULT_STEPPER, choose_stepper
+
+    name = circuit.options.get("method", DEFAULT_STEPPER)
+    try:
+        chosen, why = choose_stepper(name, mlcs)
+    except ValueError as exc:
+        return str(exc)
+    reason = chosen.unsuited(mlcs)
+    if reason is not None:
+        return f"{chosen.name}, which cannot run this circuit: {reason}"
+    words = {"theta": "the θ-method", "exact": "exact, event-driven (.tran TSTEP sets the rows "
+             "reported, not the accuracy)"}.get(chosen.name, chosen.name)
+    return words + (f" ({why})" if why else "")
+
+
 def circuit_report(circuit: Circuit) -> tuple[str, bool]:
     """The text of ``circuitnsds info`` and whether the circuit passed the checks a transient needs.
 
@@ -197,6 +214,7 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
                  + f"; {len(mlcs.stimuli)} source function(s)")
     lines.append(f"  unknowns: {_listed(mlcs.unknowns)}")
     lines.append(f"  pairs:    {_listed(mlcs.pairs) if mlcs.pairs else '(none)'}")
+    lines.append(f"method:    {_method_line(circuit, mlcs)}")
     stop = t.stop if t else None
     if stop is not None:
         try:

@@ -433,7 +433,11 @@ def _run(args: argparse.Namespace) -> int:
     thermal = None
     if args.thermal_devices:
         waves, thermal = _junctions(args, circuit, waves, steady=False)
-    return _finish(args, circuit, waves, f"{stats['steps']} steps in {stats['seconds']:.3g} s "
+    done = (f"{stats['steps']} steps" if "exact_segments" not in stats else
+            f"{stats['steps']} rows from {int(stats['exact_segments'])} exact segments "
+            f"({int(stats['events'])} events located)"
+            + (f" and {int(stats['theta_steps'])} θ steps" if stats.get("theta_steps") else ""))
+    return _finish(args, circuit, waves, f"{done} in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
                    f"max residual {residual:.1e}", stream, thermal)
 

@@ -131,10 +131,31 @@ class Stepper(ABC):
 
 STEPPERS: dict[str, str] = {
     "theta": "circuitnsds.engine.theta_stepper:ThetaStepper",
+    "exact": "circuitnsds.engine.exact.stepper:ExactStepper",
 }
 """The steppers by name: ``"module:Class"``, imported when chosen (one line per stepper)."""
 DEFAULT_STEPPER = "theta"
-"""The stepper a run uses unless ``.options method`` or ``method=`` names another."""
+"""The stepper a run uses unless ``.options method`` or ``method=`` names another (``"auto"``
+makes the exact integrator the default where the circuit qualifies)."""
+AUTO = "auto"
+"""The method name that chooses: ``exact`` where it can integrate the system, else ``theta``."""
+
+
+def choose_stepper(name: str, mlcs: MLCS) -> tuple[type[Stepper], str | None]:
+    """The stepper ``name`` means for ``mlcs`` and, for :data:`AUTO`, why it was chosen (words
+    for the reader; ``None`` for a stepper named).
+
+    Raises:
+        ValueError: no stepper has that name.
+    """
+    if str(name).strip().lower() != AUTO:
+        return stepper_class(name), None
+    exact = stepper_class("exact")
+    reason = exact.unsuited(mlcs)
+    if reason is None:
+        return exact, ("method=auto: the circuit is piecewise linear and its sources have closed "
+                       "forms")
+    return stepper_class("theta"), f"method=auto: the exact integrator cannot run it: {reason}"
 
 
 def stepper_class(name: str) -> type[Stepper]:
@@ -146,6 +167,6 @@ def stepper_class(name: str) -> type[Stepper]:
     key = str(name).strip().lower()
     if key not in STEPPERS:
         raise ValueError(f"unknown integration method {name!r}: the methods are "
-                         f"{', '.join(sorted(STEPPERS))}")
+                         f"{', '.join(sorted([*STEPPERS, AUTO]))}")
     module, _, attribute = STEPPERS[key].partition(":")
     return getattr(import_module(module), attribute)

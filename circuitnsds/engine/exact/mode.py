@@ -51,6 +51,28 @@ class StateCoordinates:
         return self.sigma.size
 
 
+def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: int):
+    """The eigenvalues of ``F`` and its eigenvectors (columns, in ``x``), from the QZ
+    decomposition of the pencil ``(A_bar, diag(E, 0))`` rather than from ``F`` itself.
+
+    ``F`` holds the inverse of the algebraic block, so a blocking diode's off-conductance
+    (1e-12 S) in series with an inductor puts a mode of -1e18 /s in it, and the eigenvalues
+    of ``F`` are then known to ``eps·‖F‖`` ≈ 200 /s: a flyback's primary ramped through
+    25.6 mΩ instead of its switch's 20 mΩ. The pencil keeps 1e-12 where ``F`` has 1e12, so
+    its slow eigenvalues are accurate; its ``r`` finite ones are the eigenvalues of ``F``
+    (an index-1 mode), the others infinite (``β = 0``)."""
+    from scipy.linalg import eig
+
+    E_bar = np.zeros_like(A_bar)
+    E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
+    (alpha, beta), vectors = eig(A_bar, E_bar, homogeneous_eigvals=True)
+    r = coordinates.rank
+    finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
+    W = coordinates.V1.T @ vectors[:n, finite]
+    W = W / np.linalg.norm(W, axis=0)
+    return alpha[finite] / beta[finite], W
+
+
 class ModeDynamics:
     """The reduced equations of one mode (module docstring)."""
 
@@ -76,7 +98,7 @@ class ModeDynamics:
         self.F = inv_sigma[:, None] * (R1 @ A_bar @ self.P)
         self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
         if r:
-            eigenvalues, W = np.linalg.eig(self.F)
+            eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
             if np.linalg.cond(W) > 1e10:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
             self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)

@@ -1,0 +1,74 @@
+"""The periodic steady state on the exact period map (``.options method=exact``; ``auto`` and
+the default keep the θ shooting, whose step maps ``ac`` needs): the orbit by Newton with the exact monodromy
+(:func:`~circuitnsds.engine.exact.periodic.periodic_orbit`: saltation at every located
+event, no quantised instants, no implicit-Euler error), shown on the period's grid by the
+exact stepper.
+
+The monodromy and multipliers are given in the state unknowns (:func:`state_unknowns`),
+like the θ shooting's; the means of the unknowns over the period are the closed-form
+integrals (``PSSResult.means``). There are no step maps: ``ac`` around it is refused.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from circuitnsds.analyses.recorders import TrajectoryRecorder
+from circuitnsds.analyses.signals import trajectory_waveforms
+from circuitnsds.circuit.circuit import Circuit
+from circuitnsds.engine.driver import drive
+from circuitnsds.engine.exact.mode import StateCoordinates
+from circuitnsds.engine.exact.periodic import periodic_orbit
+from circuitnsds.engine.exact.stepper import ExactStepper
+from circuitnsds.engine.step_maps import state_unknowns
+from circuitnsds.engine.stepper import StartState
+from circuitnsds.errors import CircuitWarning, SimulationError
+from circuitnsds.system.mlcs import MLCS
+
+
+def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: np.ndarray,
+              active: np.ndarray | None, switches: np.ndarray | None):
+    """The settled period from ``y`` (the state at ``grid[0]``, after any warm-up) on the
+    exact map; ``grid``: the period's output points [s]. Returns a
+    :class:`~circuitnsds.analyses.pss.PSSResult` with ``maps = None``.
+
+    Raises:
+        SimulationError: Newton on the exact map did not converge.
+    """
+    from circuitnsds.analyses.pss import PSSResult
+
+    active = np.zeros(mlcs.m, bool) if active is None else np.asarray(active, bool)
+    closed = tuple(bool(s) for s in (switches if switches is not None
+                                     else [s.initially_on for s in mlcs.switches]))
+    try:
+        orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed)
+    except ArithmeticError as exc:
+        raise SimulationError(str(exc), where=circuit.file, hint="run the pss with .options "
+                              "method=theta (the θ shooting falls back to transient periods)") from None
+    recorder = TrajectoryRecorder()
+    drive(ExactStepper(mlcs), grid, StartState(orbit.y, None, None, orbit.active,
+                                               np.array(orbit.closed, bool)), recorder)
+    run = recorder.trajectory
+    run.y[0], run.current[0] = run.y[-1], run.current[-1]  # (t0 and t0 + T: one instant)
+    waves = trajectory_waveforms(circuit, mlcs, run, run.time[0], run.time[-1], periodic=True)
+    waves.stats.update(analysis="pss", iterations=len(orbit.residuals) - 1)
+    state = state_unknowns(mlcs)
+    to_state = StateCoordinates.of(mlcs.E.toarray()).V1[state]  # x -> the state unknowns
+    monodromy = to_state @ orbit.monodromy @ np.linalg.pinv(to_state)
+    multipliers = np.linalg.eigvals(monodromy) if monodromy.size else np.zeros(0)
+    multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
+    if multipliers.size and np.abs(multipliers).max() > 1.0:
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution found is not stable (largest Floquet "
+            f"multiplier |λ| = {np.abs(multipliers).max():.6g} > 1): a transient would not settle "
+            "to it"), stacklevel=4)
+    scale = max(float(np.max(np.abs(orbit.x), initial=0.0)), 1e-300)
+    result = PSSResult(waveforms=waves, period=period, t0=float(grid[0]),
+                       state_names=[mlcs.unknowns[j] for j in state], state=orbit.y[state].copy(),
+                       iterations=len(orbit.residuals) - 1, residual=orbit.residuals[-1],
+                       relative_residual=orbit.residuals[-1] / scale, monodromy=monodromy,
+                       multipliers=multipliers, history=[r / scale for r in orbit.residuals],
+                       maps=None, mlcs=mlcs, means=dict(zip(mlcs.unknowns, orbit.means.tolist())))
+    return result

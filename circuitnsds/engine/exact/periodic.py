@@ -1,0 +1,125 @@
+"""The periodic orbit of the exact period map, by Newton with its exact derivative
+(DESIGN.md "Event-driven exact integration": the period map of the PSS is then exact too).
+
+One period from the state ``x`` (charges and fluxes, :class:`~.mode.StateCoordinates`) is the
+exact run over ``[t0, t0 + T]`` (:func:`~.run.run_exact`). Its derivative is the product over
+the run's segments of the segment's flow ``e^{F τ}`` (its mode's eigenbasis) and, at a
+segment ended by an event whose instant moves with the state (a diode's current or voltage
+reaching 0, a switch's control its threshold), the saltation matrix
+
+    S = I + (f⁺ − f⁻) ∇gᵀ / (∇g · f⁻),
+
+``f⁻``, ``f⁺`` the state's derivative just before and after the instant, ``∇g`` the event
+function's gradient in the state (``rows P``) [#saltation]_. A source's corner has a fixed
+instant: ``S = I``; so, in effect, has a diode's natural turn-off (its current reaches 0
+smoothly: ``f⁺ = f⁻``). Where the derivative jumps at a moving instant (a peak-current
+comparator opening the switch) ``S`` is what makes ``Φ`` the map's derivative: without it
+Newton stalls on the bundled peak-current buck. Newton on ``P(x) − x = 0`` solves
+``(I − Φ) δ = P(x) − x``; the means are the closed-form integrals over the segments.
+
+.. [#saltation] the saltation matrix of a piecewise-smooth flow (Aizerman & Gantmakher; Leine
+   & Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, §7.4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from circuitnsds.engine.exact.charge import interval_integrals
+from circuitnsds.engine.exact.exppoly import ExpPoly
+from circuitnsds.engine.exact.run import ExactSystem, LoopState, Segment, run_exact
+from circuitnsds.system.mlcs import MLCS
+
+TOLERANCE = 1e-12
+"""Newton stops when ``‖P(x) − x‖`` is below this fraction of ``‖x‖`` (and 1e-15)."""
+MAX_ITERATIONS = 30
+
+
+@dataclass
+class ExactOrbit:
+    """The periodic orbit: ``x`` at ``t0`` (state coordinates), ``y`` there, the monodromy
+    ``Φ`` (its Floquet multipliers), Newton's residual history, and each unknown's mean over
+    the period (the closed-form integral over the segments)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    monodromy: np.ndarray
+    residuals: list[float]
+    means: np.ndarray
+    active: np.ndarray
+    closed: tuple[bool, ...]
+
+
+def period_map(system: ExactSystem, t0: float, period: float, x: np.ndarray, active: np.ndarray,
+               closed: tuple[bool, ...]):
+    """``(x(t0 + T), Φ, means, segments, run)`` for the period from ``x`` at ``t0``."""
+    mlcs = system.mlcs
+    y0 = system.coordinates.V1 @ x
+    start = LoopState(t0, x, np.abs(y0), np.asarray(active, bool), tuple(closed))
+    segments: list[Segment] = []
+    times = np.array([t0, t0 + period])
+    run = run_exact(mlcs, times, y0, active, closed, resume=start, system=system,
+                    stop=t0 + period, record=segments)
+    # the row at t0 + T is the segment holding it; later segments (the loop's look-ahead) are
+    # not this period's
+    kept = [s for s in segments if s.t < t0 + period]
+    n = system.n
+    V1t = system.coordinates.V1.T
+    r = V1t.shape[0]
+    monodromy = np.eye(r)
+    total = np.zeros(n)
+    for index, segment in enumerate(kept):
+        tau = min(segment.tau, t0 + period - segment.t)
+        mode = segment.mode
+        if mode.eigenvalues.size:
+            flow = (mode.W * np.exp(mode.eigenvalues * tau)) @ mode.W_inv
+            monodromy = flow.real @ monodromy
+        unknowns = ExpPoly(segment.z.coefficients[:, :n], segment.z.powers, segment.z.exponents)
+        total += interval_integrals(unknowns, np.array([0.0]), np.array([tau]))[0]
+        if segment.ended_by is None or tau < segment.tau or index + 1 >= len(kept):
+            continue
+        monodromy = _saltation(system, segment, kept[index + 1], n) @ monodromy
+    x_end = V1t @ run.y[-1]
+    return x_end, monodromy, total / period, kept, run
+
+
+def _saltation(system: ExactSystem, before: Segment, after: Segment, n: int) -> np.ndarray:
+    """``S = I + (f⁺ − f⁻) ∇gᵀ / (∇g · f⁻)`` at the event ending ``before``."""
+    V1t = system.coordinates.V1.T
+    rows = system.event_rows(before.mode, before.closed)
+    gradient = rows[before.ended_by] @ before.mode.P  # ∂g/∂x
+    f_minus = V1t @ before.z.derivative()(before.tau)[:n]
+    f_plus = V1t @ after.z.derivative()(0.0)[:n]
+    rate = float(gradient @ f_minus)
+    if rate == 0.0:
+        return np.eye(V1t.shape[0])
+    return np.eye(V1t.shape[0]) + np.outer(f_plus - f_minus, gradient) / rate
+
+
+def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active: np.ndarray,
+                   closed: tuple[bool, ...], *, warm_periods: int = 0) -> ExactOrbit:
+    """Newton on the exact period map from ``y0`` at ``t0`` (after ``warm_periods`` periods of
+    the map itself).
+
+    Raises:
+        ArithmeticError: Newton did not converge in :data:`MAX_ITERATIONS`.
+    """
+    system = ExactSystem(mlcs)
+    x = system.coordinates.V1.T @ y0
+    active, closed = np.asarray(active, bool), tuple(closed)
+    for _ in range(warm_periods):
+        x, _, _, _, run = period_map(system, t0, period, x, active, closed)
+        active, closed = run.active[-1], tuple(bool(c) for c in run.closed[-1])
+    residuals = []
+    for _ in range(MAX_ITERATIONS):
+        x_end, monodromy, means, _, run = period_map(system, t0, period, x, active, closed)
+        residual = float(np.max(np.abs(x_end - x)))
+        residuals.append(residual)
+        if residual <= TOLERANCE * max(float(np.max(np.abs(x))), 1e-3):
+            return ExactOrbit(x, system.coordinates.V1 @ x, monodromy, residuals, means, active,
+                              closed)
+        x = x + np.linalg.solve(np.eye(x.size) - monodromy, x_end - x)
+        active, closed = run.active[-1], tuple(bool(c) for c in run.closed[-1])
+    raise ArithmeticError(f"Newton on the exact period map did not converge: residuals {residuals}")

@@ -1,0 +1,234 @@
+"""The exact integrator as a stepper (:mod:`circuitnsds.engine.stepper`): events located to
+round-off, the state between them in closed form (:func:`~.run.run_exact`), rows written
+at the grid's points.
+
+The grid does not steer the integration: the event loop runs from event to event (and
+source corner), and each grid point is the closed form evaluated there. ``.tran TSTEP``
+therefore sets the rows reported, not the accuracy. A run in parts keeps the loop's state
+(:class:`~.run.LoopState`, the start of the segment holding the part's last point) and
+computes that segment again in the next part: the arithmetic of one run.
+
+What a row holds (the contract's :class:`~circuitnsds.engine.integrate.Trajectory`):
+
+* ``y``, ``current``: the closed form at the point (at an event: the segment ending there);
+* ``impulse`` [C]: each pair's charge ``∫ λ dt`` over the interval ending at the point, from
+  the closed form (:mod:`.charge`), summed over the segments in it;
+* ``active``, ``switches``: the mode of the segment the point ends;
+* ``residual``: 0 (the signs of every pair are certified between events, as the θ-stepper's
+  mapped steps report 0);
+* ``tails``: a point whose interval holds an event has the unknowns just after the last event
+  in it and the time since (its capacitor currents are taken over that part);
+* ``events``: every event, diodes' (``on``/``off``: conducting or blocking) as well as
+  switches'.
+
+**Hand-off to θ.** Where the loop finds no mode that holds (:class:`~.run.Chattering`: a
+comparator without hysteresis sliding on its threshold, a latch that does not settle) or a
+mode it cannot reduce to state equations (:class:`~.mode.NotIndexOne`: a capacitor closed
+onto a source by a conducting diode, an inductor's current cut, whose jumps are impulses),
+the stretch from the last point written goes to the θ-method
+(:func:`~circuitnsds.engine.integrate.integrate`, Moreau's impulses included) for
+:data:`HANDOFF_STEPS` grid steps, doubled each time the exact loop fails again at once;
+then the exact loop starts again from the θ state. ``stats`` counts the hand-offs and
+their steps, and the analyses say so.
+"""
+
+from __future__ import annotations
+
+import time as wallclock
+from collections.abc import Callable
+
+import numpy as np
+
+from circuitnsds.engine.events import SwitchEvent
+from circuitnsds.engine.exact.mode import NotIndexOne
+from circuitnsds.engine.exact.run import Chattering, ExactRun, ExactSystem, LoopState, run_exact
+from circuitnsds.engine.integrate import STEPPINGS, Segments, Trajectory, integrate, trajectory_bytes
+from circuitnsds.engine.step_system import check_theta
+from circuitnsds.engine.stepper import StartState, Stepper
+from circuitnsds.system.mlcs import MLCS
+
+HANDOFF_STEPS = 16
+"""Grid steps the θ-method takes at a hand-off, at first (doubled at each hand-off that follows
+one at once)."""
+HANDOFF_CAUSES = {
+    Chattering: "no mode holds after that instant: a sliding or chattering control",
+    NotIndexOne: "a mode without state equations (index 2: a capacitor held to a source, an "
+                 "inductor's current cut), whose jumps the θ-method's impulses capture",
+}
+"""Why a stretch went to θ, in words, by the exception the exact loop stopped with."""
+MAX_UNKNOWNS = 200
+"""Largest ``n + m`` the exact integrator takes: its modes are dense eigen-decompositions."""
+
+
+class ExactStepper(Stepper):
+    """Event-driven exact integration (module docstring); ``theta``, ``tol`` and ``loop`` are
+    the θ-method's at a hand-off.
+
+    Raises:
+        ValueError: θ out of range or an unknown ``loop``.
+    """
+
+    name = "exact"
+
+    def __init__(self, mlcs: MLCS, *, theta: float = 1.0, tol: float = 1e-9, loop: str = "auto"):
+        super().__init__(mlcs)
+        if loop not in STEPPINGS:
+            raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {loop!r}")
+        self.theta, self.tol, self.loop = check_theta(theta), tol, loop
+        self.system: ExactSystem | None = None
+        self.whole = np.zeros(0)
+        self.theta_segments: Segments | None = None
+        self.state: LoopState | None = None
+        self.theta_until: int | None = None  # the whole grid's index a hand-off runs to
+        self.handoff_steps = HANDOFF_STEPS
+        self.handoffs: list[tuple[float, str]] = []
+        """``(time [s], why)`` of each hand-off to θ in the run so far."""
+
+    @classmethod
+    def unsuited(cls, mlcs: MLCS) -> str | None:
+        if mlcs.smooth:
+            names = ", ".join(sorted({relation.name for relation in mlcs.smooth}))
+            return f"it has smooth nonlinear elements ({names}), which are not piecewise linear"
+        if mlcs.n + mlcs.m > MAX_UNKNOWNS:
+            return (f"it has {mlcs.n} unknowns and {mlcs.m} pairs, more than the {MAX_UNKNOWNS} "
+                    "the exact integrator's dense modes take")
+        return None
+
+    def begin(self, grid: np.ndarray, *, parts: bool) -> None:
+        self.whole = grid
+        self.theta_segments = Segments(grid)  # the hand-offs' stepping state, as one θ run's
+        self.system = ExactSystem(self.mlcs)
+        self.state = None
+        self.theta_until = None
+        self.handoff_steps = HANDOFF_STEPS
+        self.handoffs = []
+
+    def trajectory_bytes(self, points: int) -> int:
+        return trajectory_bytes(self.mlcs, points)
+
+    def advance(self, grid: np.ndarray, start: StartState, *, continued: bool,
+                progress: Callable[[float, float], None] | None = None) -> Trajectory:
+        began = wallclock.perf_counter()
+        mlcs, count = self.mlcs, grid.size
+        out = _Rows(mlcs, grid, start)
+        if not continued or self.state is None:
+            self.state = self._loop_state(start.y, start.charge, out.active[0], out.switches[0],
+                                          float(grid[0]), announced=False)
+            self.theta_until = None
+        offset = int(np.searchsorted(self.whole, grid[0]))
+        row = 0
+        while row < count - 1:
+            if self.theta_until is not None:
+                row = self._theta_stretch(out, row, offset)
+                continue
+            try:
+                run = run_exact(mlcs, grid[row:], out.y[row], out.active[row],
+                                tuple(out.switches[row]), resume=self.state, system=self.system,
+                                stop=float(self.whole[-1]))
+            except (Chattering, NotIndexOne) as exc:
+                run = exc.run
+                out.take(run, row)
+                # (the stepper's own record, not the part's: a run in parts doubles alike)
+                failed_at_once = run.rows <= 1 and self.handoffs != []
+                self.handoff_steps = 2 * self.handoff_steps if failed_at_once else HANDOFF_STEPS
+                out.stats["handoffs"] += 1
+                self.handoffs.append((float(exc.time), HANDOFF_CAUSES[type(exc)]))
+                row += run.rows - 1
+                self.theta_until = offset + row + self.handoff_steps
+                continue
+            out.take(run, row)
+            self.state = run.state
+            row = count - 1
+            if progress is not None:
+                progress(float(grid[-1]), float(grid[-1]))
+        out.stats["steps"] = count - 1
+        out.stats["seconds"] = wallclock.perf_counter() - began
+        return out.trajectory()
+
+    def _theta_stretch(self, out: _Rows, row: int, offset: int) -> int:
+        """The θ-method from ``row`` to the hand-off's end (or the part's); the exact loop
+        starts again from its state there. Returns the row reached."""
+        last = min(self.theta_until - offset, out.grid.size - 1)
+        # (one stepping state for every stretch, placed at the stretch's steps of the whole
+        # grid: a stretch cut by a part's end is then the stretch in one call, bit for bit)
+        self.theta_segments.offset = offset + row
+        part = integrate(self.mlcs, out.grid[row:last + 1], out.y[row], None, out.current[row],
+                         out.active[row], out.switches[row], theta=self.theta, tol=self.tol,
+                         stepping=self.loop, continued=True, segments=self.theta_segments)
+        out.take_theta(part, row)
+        if last + offset >= self.theta_until:
+            self.theta_until = None
+            self.state = self._loop_state(out.y[last], None, out.active[last], out.switches[last],
+                                          float(out.grid[last]), announced=False)
+        return last
+
+    def _loop_state(self, y: np.ndarray, charge: np.ndarray | None, active: np.ndarray,
+                    switches: np.ndarray, t: float, *, announced: bool) -> LoopState:
+        """The loop's state at a point from its unknowns (or its charges ``E y``)."""
+        coordinates = self.system.coordinates
+        if charge is not None:
+            x = (coordinates.U1.T @ charge) / coordinates.sigma
+            size = np.abs(coordinates.V1) @ np.abs(x)
+        else:
+            x = coordinates.V1.T @ y
+            size = np.abs(y)
+        return LoopState(t, x, size, np.asarray(active, dtype=bool).copy(),
+                         tuple(bool(s) for s in switches), announced)
+
+
+class _Rows:
+    """The arrays of one part, filled from exact runs and θ stretches."""
+
+    def __init__(self, mlcs: MLCS, grid: np.ndarray, start: StartState):
+        count, n, m, k = grid.size, mlcs.n, mlcs.m, len(mlcs.switches)
+        self.mlcs, self.grid = mlcs, grid
+        self.y = np.zeros((count, n))
+        self.current = np.zeros((count, m))
+        self.impulse = np.zeros((count, m))
+        self.residual = np.zeros(count)
+        self.active = np.zeros((count, m), bool)
+        self.switches = np.zeros((count, k), bool)
+        self.y[0] = start.y
+        if start.current is not None:
+            self.current[0] = start.current
+        if start.active is not None:
+            self.active[0] = start.active
+        self.switches[0] = (start.switches if start.switches is not None
+                            else [s.initially_on for s in mlcs.switches])
+        self.events: list[SwitchEvent] = []
+        self.tails: dict[int, tuple[np.ndarray, float]] = {}
+        self.stats: dict[str, float] = {"exact_segments": 0, "events": 0, "handoffs": 0,
+                                        "theta_steps": 0}
+
+    def take(self, run: ExactRun, row: int) -> None:
+        """The rows ``1 .. run.rows - 1`` of an exact run started at ``row``."""
+        end = row + run.rows
+        for name in ("y", "currents", "charges", "active", "closed"):
+            source = getattr(run, name)[1:run.rows]
+            target = {"currents": self.current, "charges": self.impulse, "closed": self.switches,
+                      "y": self.y, "active": self.active}[name]
+            target[row + 1:end] = source
+        self.tails.update({row + k: tail for k, tail in run.tails.items() if k < run.rows})
+        for event in run.events:
+            self.events.append(SwitchEvent(event.time, event.name, event.kind in ("on", "close")))
+        self.stats["exact_segments"] += run.segments
+        self.stats["events"] += len(run.events)
+
+    def take_theta(self, part: Trajectory, row: int) -> None:
+        """The rows ``1..`` of a θ stretch started at ``row``."""
+        end = row + part.time.size
+        self.y[row + 1:end] = part.y[1:]
+        self.current[row + 1:end] = part.current[1:]
+        self.impulse[row + 1:end] = part.impulse[1:]
+        self.residual[row + 1:end] = part.residual[1:]
+        self.active[row + 1:end] = part.active[1:]
+        self.switches[row + 1:end] = part.switches[1:]
+        self.tails.update({row + k: tail for k, tail in part.tails.items() if k > 0})
+        self.events.extend(part.events)
+        self.stats["theta_steps"] += part.time.size - 1
+        self.stats["events"] += len(part.events)
+
+    def trajectory(self) -> Trajectory:
+        self.events.sort(key=lambda event: event.time)
+        return Trajectory(self.grid, self.y, self.current, self.impulse, self.residual, self.active,
+                          self.switches, self.stats, self.events, self.tails)

@@ -1,0 +1,86 @@
+"""The periodic orbit of the exact period map (issue 31): Newton with the exact monodromy,
+saltation at every located event (a DCM diode's turn-off included)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import circuitnsds
+from circuitnsds.analyses.operating_point import operating_point, uic_state
+from circuitnsds.engine.exact.periodic import period_map, periodic_orbit
+from circuitnsds.engine.exact.run import ExactSystem
+from tests.conftest import NETLISTS
+
+BENCHMARKS = NETLISTS.parent / "benchmarks" / "netlists"
+
+
+def _orbit(path):
+    circuit = circuitnsds.read_netlist(path)
+    mlcs = circuit.mlcs()
+    start = operating_point(circuit, mlcs)
+    active = np.zeros(mlcs.m, bool) if start.active is None else np.asarray(start.active, bool)
+    return mlcs, periodic_orbit(mlcs, 0.0, 10e-6, start.y, active, tuple(start.switches))
+
+
+def test_the_boosts_exact_orbit_has_the_mean_output_of_the_issue():
+    # issue 31: the exact orbit's mean v(out) is 23.839697 V (a peer: 5e-7 V off; implicit
+    # Euler's pss: 2.1e-3 V off); Newton from the operating point takes two steps
+    mlcs, orbit = _orbit(NETLISTS / "boost_converter.cir")
+    assert abs(orbit.means[mlcs.unknowns.index("v(out)")] - 23.839697) < 1e-6
+    assert len(orbit.residuals) <= 3 and orbit.residuals[-1] < 1e-12
+
+
+def test_the_monodromy_is_the_derivative_of_the_period_map_with_saltation():
+    # Peak-current mode (the bundled netlist, no slope compensation): S1 opens when i(L1)
+    # reaches 2.2 A, an instant that moves with the state, where the state's derivative
+    # jumps: the saltation there is what makes Φ the derivative of the period map (without
+    # it Newton stalls at a residual of 1.19). Checked against finite differences of the map.
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_peak_current.cir")
+    mlcs = circuit.mlcs()
+    start = uic_state(circuit, mlcs)
+    orbit = periodic_orbit(mlcs, 0.0, 10e-6, start.y, np.zeros(mlcs.m, bool), tuple(start.switches),
+                           warm_periods=20)
+    assert orbit.residuals[-1] < 1e-12
+    system = ExactSystem(mlcs)
+    base = period_map(system, 0.0, 10e-6, orbit.x, orbit.active, orbit.closed)[0]
+    differences = np.zeros_like(orbit.monodromy)
+    for j in range(orbit.x.size):
+        step = np.zeros(orbit.x.size)
+        step[j] = 1e-6 * max(1.0, abs(orbit.x[j]))
+        moved = period_map(system, 0.0, 10e-6, orbit.x + step, orbit.active, orbit.closed)[0]
+        differences[:, j] = (moved - base) / step[j]
+    assert np.max(np.abs(differences - orbit.monodromy)) < 1e-4 * np.max(np.abs(orbit.monodromy))
+    # above 50 % duty without slope compensation the period-1 orbit is unstable (the
+    # subharmonic instability of peak-current control): a multiplier outside the unit circle
+    assert np.max(np.abs(np.linalg.eigvals(orbit.monodromy))) > 1.5
+
+
+def test_a_dcm_boosts_orbit_converges_quadratically_with_its_inductor_reset():
+    # in DCM the inductor's current is 0 at the end of each period whatever the start: a
+    # Floquet multiplier 0
+    mlcs, orbit = _orbit(BENCHMARKS / "boost_dcm.cir")
+    multipliers = np.sort(np.abs(np.linalg.eigvals(orbit.monodromy)))
+    assert multipliers[0] < 1e-9 and 0.9 < multipliers[1] < 1
+    assert orbit.residuals[-1] < 1e-11 and orbit.residuals[-2] < 1e-5
+
+
+def test_pss_with_method_exact_is_the_exact_orbit_and_ac_around_it_is_refused():
+    text = (NETLISTS / "boost_converter.cir").read_text().replace(".end", ".options method=exact\n.end")
+    circuit = circuitnsds.read_netlist(text)
+    result = circuit.pss()
+    assert "on the exact period map" in result.summary()
+    assert abs(result.means["v(out)"] - 23.839697) < 1e-6
+    assert result.state_names == ["v(out)", "i(l1)"] and result.relative_residual < 1e-12
+    # the rows of the period are the exact stepper's from the orbit: periodic to round-off
+    v = np.asarray(result.waveforms["v(out)"])
+    assert abs(v[-1] - v[0]) < 1e-12 and 23.7 < v.min() < v.max() < 24.0
+    # the implicit-Euler shooting's multipliers at the netlist's step are close to the exact ones
+    theta = circuitnsds.read_netlist(NETLISTS / "boost_converter.cir").pss()
+    assert np.max(np.abs(np.abs(theta.multipliers) - np.abs(result.multipliers))) < 1e-3
+    with pytest.raises(circuitnsds.CircuitError, match=r"ac around a periodic steady state found on "
+                       r"the exact map"):
+        circuit.ac(input="vin", frequencies=[1e3])
+    # auto keeps the θ shooting (whose step maps ac needs)
+    auto = circuitnsds.read_netlist(text.replace("method=exact", "method=auto")).pss()
+    assert auto.means is None and auto.maps is not None
