@@ -131,10 +131,13 @@ class Stepper(ABC):
 
 STEPPERS: dict[str, str] = {
     "theta": "circuitnsds.engine.theta_stepper:ThetaStepper",
+    "newton": "circuitnsds.engine.newton_stepper:NewtonStepper",
 }
 """The steppers by name: ``"module:Class"``, imported when chosen (one line per stepper)."""
 DEFAULT_STEPPER = "theta"
 """The stepper a run uses unless ``.options method`` or ``method=`` names another."""
+SMOOTH_STEPPER = "newton"
+"""The stepper a run of a system with smooth relations uses unless one is named."""
 
 
 def stepper_class(name: str) -> type[Stepper]:
