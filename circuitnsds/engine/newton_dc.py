@@ -15,7 +15,13 @@ from __future__ import annotations
 import numpy as np
 
 from circuitnsds.engine.integrate import source_values
-from circuitnsds.engine.newton_step import NewtonFailure, NewtonResult, SmoothParts, newton_solve, update_tolerance
+from circuitnsds.engine.newton_step import (
+    NewtonFailure,
+    NewtonResult,
+    SmoothParts,
+    newton_solve,
+    update_tolerance,
+)
 from circuitnsds.system.mlcs import MLCS
 
 GMIN_START = 1e-2

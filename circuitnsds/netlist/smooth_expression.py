@@ -267,8 +267,8 @@ def smooth_expression(tree: Node, node_name: Callable[[str], str] = lambda n: n
         return evaluate
 
     def call(name: str, args: list[Evaluator]) -> Evaluator:
-        def arity(least: int, most: int | None = None) -> None:
-            most = least if most is None else most
+        def arity(least: int, most: int | None = -1) -> None:
+            most = least if most == -1 else most  # (None: no most)
             if len(args) < least or (most is not None and len(args) > most):
                 raise ExpressionError(f"{name}() takes {least if least == most else f'{least} or more'} "
                                       f"argument(s), got {len(args)}")

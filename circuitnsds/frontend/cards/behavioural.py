@@ -300,7 +300,7 @@ def behavioural_source(reader: StatementReader, letter: str,
 
 
 NOT_SMOOTH = ("undefined for these constant arguments", "not a finite number", "division by zero",
-              "unknown function", "argument(s)", "simulator variable", "unknown construct")
+              "unknown function", "argument(s)", "unknown construct")
 """Reasons of a refusal that a smooth expression would not lift either (they stay errors)."""
 
 
