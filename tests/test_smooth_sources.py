@@ -29,13 +29,15 @@ EXPRESSIONS = [
     ("tanh(v(a)-v(b))*1e3", lambda a, b, c, t: math.tanh(a - b) * 1e3),
     ("pow(v(a), v(b))", lambda a, b, c, t: a**b),
     ("v(a)/v(b) - v(a,b)", lambda a, b, c, t: a / b - (a - b)),
-    ("sin(v(a))*cos(i(v1)) + atan(v(a)*v(b))", lambda a, b, c, t: math.sin(a) * math.cos(c) + math.atan(a * b)),
+    ("sin(v(a))*cos(i(v1)) + atan(v(a)*v(b))",
+     lambda a, b, c, t: math.sin(a) * math.cos(c) + math.atan(a * b)),
     ("max(v(a), v(b))*v(a) + min(v(a), 2*v(b), 3)", lambda a, b, c, t: max(a, b) * a + min(a, 2 * b, 3)),
     ("abs(v(a)-1.3)*time", lambda a, b, c, t: abs(a - 1.3) * t),
     ("v(a) > v(b) ? v(a)^2 : -v(b)", lambda a, b, c, t: a**2 if a > b else -b),
     ("(v(a) > 1 && v(b) < 1.5) + 2*(v(a) < 0.7 || !(v(b) > 1))",
      lambda a, b, c, t: float(a > 1 and b < 1.5) + 2 * float(a < 0.7 or not b > 1)),
-    ("cosh(v(b))/sinh(v(a)) + log10(i(v1))", lambda a, b, c, t: math.cosh(b) / math.sinh(a) + math.log10(c)),
+    ("cosh(v(b))/sinh(v(a)) + log10(i(v1))",
+     lambda a, b, c, t: math.cosh(b) / math.sinh(a) + math.log10(c)),
 ]
 POINT = st.tuples(*(st.floats(min_value=0.5, max_value=2.0) for _ in range(3)),
                   st.floats(min_value=0.0, max_value=1e-3))
