@@ -100,6 +100,15 @@ class SmoothParts:
         self.inputs = [np.asarray(r.inputs, dtype=int) for r in self.relations]
         self.rows = [np.asarray(r.rows, dtype=int) for r in self.relations]
         self.charges = any(r.charges for r in self.relations)
+        # where each relation's values and derivatives go (ground rows and columns dropped)
+        self._scatter = []
+        for rows, columns in zip(self.rows, self.inputs):
+            keep_rows, keep_columns = np.flatnonzero(rows >= 0), np.flatnonzero(columns >= 0)
+            r, c = rows[keep_rows], columns[keep_columns]
+            flat = (r[:, None] * self.n + c[None, :]).ravel()
+            whole = keep_rows.size == rows.size and keep_columns.size == columns.size
+            unique = np.unique(flat).size == flat.size and np.unique(r).size == r.size
+            self._scatter.append((keep_rows, keep_columns, r, flat, whole, unique))
 
     def read(self, k: int, y: np.ndarray) -> np.ndarray:
         index = self.inputs[k]
@@ -121,18 +130,21 @@ class SmoothParts:
             f, df = np.asarray(f, dtype=float), np.asarray(df, dtype=float)
             if not (np.isfinite(f).all() and np.isfinite(df).all()):
                 return None
-            rows, columns = self.rows[k], self.inputs[k]
-            keep_rows, keep_columns = rows >= 0, columns >= 0
-            r, c = rows[keep_rows], columns[keep_columns]
+            keep_rows, keep_columns, r, flat, whole, unique = self._scatter[k]
             constant = f - df @ x
-            np.add.at(F, r, constant[keep_rows])
-            JF[np.ix_(r, c)] += df[np.ix_(keep_rows, keep_columns)]
+            block = df if whole else df[np.ix_(keep_rows, keep_columns)]
+            if unique:
+                F[r] += constant if whole else constant[keep_rows]
+                JF.flat[flat] += block.ravel()
+            else:
+                np.add.at(F, r, constant[keep_rows])
+                np.add.at(JF.ravel(), flat, block.ravel())
             if relation.charges:
                 q, dq = np.asarray(q, dtype=float), np.asarray(dq, dtype=float)
                 if not (np.isfinite(q).all() and np.isfinite(dq).all()):
                     return None
                 np.add.at(Q, r, (q - dq @ x)[keep_rows])
-                JQ[np.ix_(r, c)] += dq[np.ix_(keep_rows, keep_columns)]
+                np.add.at(JQ.ravel(), flat, dq[np.ix_(keep_rows, keep_columns)].ravel())
             values.append(f)
             points.append(x)
             derivatives.append(df)
@@ -168,6 +180,53 @@ class NewtonResult:
     active: np.ndarray
     iterations: int
     fallbacks: int
+
+
+SIGN_TOLERANCE = 1e-10
+"""Relative tolerance of the signs a guessed active set must give (``λ ≥ 0`` on the active
+pairs, ``w ≥ 0`` on the others) for :func:`_mode_solution` to accept it."""
+
+
+@dataclass
+class ModeSolution:
+    """What :func:`_mode_solution` gives: the fields of an MLCP result a Newton step reads."""
+
+    u: np.ndarray
+    z: np.ndarray
+    active: np.ndarray
+
+
+def _mode_solution(K: np.ndarray, r: np.ndarray, blocks, active: np.ndarray) -> ModeSolution | None:
+    """The linear MLCP's solution when the active set ``active`` is right (one dense solve of
+    its bordered system ``[[K, −B_α], [C_α, D_αα]]``), else ``None`` (the full solver
+    decides): the warm start of every Newton iteration."""
+    B, C, D, e = blocks
+    n = K.shape[0]
+    act = np.flatnonzero(active)
+    if act.size:
+        matrix = np.empty((n + act.size, n + act.size))
+        matrix[:n, :n] = K
+        matrix[:n, n:] = -B[:, act]
+        matrix[n:, :n] = C[act]
+        matrix[n:, n:] = D[np.ix_(act, act)]
+        rhs = np.concatenate([r, -e[act]])
+    else:
+        matrix, rhs = K, r
+    try:
+        solution = np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.isfinite(solution).all():
+        return None
+    y, z = solution[:n], np.zeros(e.size)
+    z[act] = solution[n:]
+    if e.size:
+        w = C @ y + D @ z + e
+        scale = 1.0 + float(np.abs(solution).max())
+        inactive = ~np.asarray(active, dtype=bool)
+        if (z[act] < -SIGN_TOLERANCE * scale).any() or (w[inactive] < -SIGN_TOLERANCE * scale).any():
+            return None
+    return ModeSolution(y, z, np.asarray(active, dtype=bool).copy())
 
 
 def update_tolerance(mlcs: MLCS) -> np.ndarray:
@@ -216,12 +275,14 @@ def newton_solve(parts: SmoothParts, base: np.ndarray, rhs: np.ndarray, weights:
         if dynamic:
             K = K + lin.JQ / h
             r = r - lin.Q / h
-        try:
-            solver = MLCPSolver(K, -B, C, D, tol=tol, cache_size=2)
-            result = solver.solve(-r, e, active if m else None)
-        except (LCPError, np.linalg.LinAlgError, ValueError) as exc:
-            raise NewtonFailure(f"the linearised step has no solution ({exc})", iteration) from None
-        fallbacks += int(not result.method.startswith("direct") or "->" in result.method)
+        result = _mode_solution(K, r, blocks, active)
+        if result is None:
+            try:
+                solver = MLCPSolver(K, -B, C, D, tol=tol, cache_size=2)
+                result = solver.solve(-r, e, active if m else None)
+            except (LCPError, np.linalg.LinAlgError, ValueError) as exc:
+                raise NewtonFailure(f"the linearised step has no solution ({exc})", iteration) from None
+            fallbacks += 1
         step = np.asarray(result.u, dtype=float) - y
         y_new = y + step
         new_lin = parts.evaluate(y_new, t, lin)
