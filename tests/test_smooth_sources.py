@@ -187,3 +187,26 @@ def test_nonlinear_sources_agree_with_ngspice(case):
         error = ours[signal] - resampled
         relative_rms = np.sqrt(np.mean(error**2)) / np.sqrt(np.mean(np.asarray(ours[signal]) ** 2))
         assert relative_rms < bound, (signal, relative_rms)
+
+
+def test_ac_linearises_smooth_sources_at_the_operating_point():
+    # out = vin²·vc: gain 2·vin·vc = 2 at vin = 0.5 V, vc = 2 V; a nonlinear conductance
+    # I = k·v² fed from 3 V through 1 kΩ sits where v² + v − 3 = 0 (v = (√13 − 1)/2), its
+    # small-signal conductance 2kv there, beside 1 µF: H = (1/1k)/(1/1k + 2kv + jωC)
+    circuit = circuit_from("vin in 0 dc 0.5 ac 1\nvc c 0 dc 2\nb1 out 0 v={v(in)*v(c)*v(in)}\n"
+                           "r1 out 0 1k\nvs s 0 dc 3\nrs s x 1k\ng1 x 0 cur={1e-3*v(x)*v(x)}\n"
+                           "c1 x 0 1u")
+    frequencies = np.array([1.0, 477.46, 1e5])
+    result = circuit.ac(input="vin", outputs=["v(out)"], frequencies=frequencies)
+    assert np.allclose(result.transfer["v(out)"], 2.0, rtol=1e-9)
+    result = circuit.ac(input="vs", outputs=["v(x)"], frequencies=frequencies)
+    v = (math.sqrt(13.0) - 1.0) / 2.0
+    exact = 1e-3 / (1e-3 + 2e-3 * v + 2j * np.pi * frequencies * 1e-6)
+    assert np.allclose(result.transfer["v(x)"], exact, rtol=1e-6)
+
+
+def test_pss_refuses_smooth_relations_by_name():
+    circuit = circuit_from("vs s 0 sin(0 1 1k)\nrs s x 1k\ng1 x 0 cur={1e-3*v(x)*v(x)}\nc1 x 0 1u\n"
+                           ".tran 10u 2m")
+    with pytest.raises(circuitnsds.CircuitError, match=r"pss cannot run through smooth .*\(g1\)"):
+        circuit.pss(period=1e-3)

@@ -303,3 +303,28 @@ def newton_solve(parts: SmoothParts, base: np.ndarray, rhs: np.ndarray, weights:
         previous_active = active
         y, lin = y_new, new_lin
     raise NewtonFailure(f"no convergence in {MAX_ITERATIONS} iterations", MAX_ITERATIONS)
+
+
+def linearised(mlcs: MLCS, y: np.ndarray, t: float = 0.0) -> MLCS:
+    """``mlcs`` with its smooth relations replaced by their linearisation at ``y`` (time
+    ``t`` [s]): ``A − J_F`` and ``E + J_Q``, no smooth relations left (the constant terms
+    ``F̂ − J_F x̂`` are dropped: what a small-signal analysis around ``y`` needs).
+
+    Raises:
+        ValueError: a relation cannot be evaluated at ``y``.
+    """
+    from dataclasses import replace
+
+    from circuitnsds.system.triplets import Triplets
+
+    lin = SmoothParts(mlcs).evaluate(np.asarray(y, dtype=float)[: mlcs.n], t)
+    if lin is None:
+        raise ValueError("a smooth relation cannot be evaluated at the point")
+
+    def plus(matrix: Triplets, dense: np.ndarray, sign: float) -> Triplets:
+        rows, cols = np.nonzero(dense)
+        stamps = list(zip(matrix.rows.tolist(), matrix.cols.tolist(), matrix.values.tolist()))
+        stamps += list(zip(rows.tolist(), cols.tolist(), (sign * dense[rows, cols]).tolist()))
+        return Triplets.from_stamps(stamps, matrix.shape)
+
+    return replace(mlcs, A=plus(mlcs.A, lin.JF, -1.0), E=plus(mlcs.E, lin.JQ, 1.0), smooth=[])
