@@ -210,3 +210,25 @@ def test_pss_refuses_smooth_relations_by_name():
                            ".tran 10u 2m")
     with pytest.raises(circuitnsds.CircuitError, match=r"pss cannot run through smooth .*\(g1\)"):
         circuit.pss(period=1e-3)
+
+
+def test_info_says_which_elements_are_smooth_and_which_ideal():
+    from circuitnsds.cli.info import circuit_report
+
+    circuit = circuit_from("vin in 0 pulse(0 5 0 1u 1u 0.5m 1m)\nr1 in x 1k\n"
+                           "g1 x 0 cur={1e-12*(exp(v(x)/0.025)-1)}\ns1 x y ctl 0 swm\n"
+                           "vctl ctl 0 pulse(0 1 0.25m 1n 1n 0.25m 1m)\nr2 y 0 2k\nd1 y 0 dm\n"
+                           ".model dm d(vfwd=0.7)\n.model swm sw(vt=0.5 ron=1 roff=1e9)\n.tran 2u 1m")
+    text, _ = circuit_report(circuit)
+    assert "smooth:   g1: smooth nonlinear element(s)" in text and "Newton stepper" in text
+    assert "ideal:    s1, d1: complementarity pairs and switches" in text
+
+
+def test_the_run_summary_gives_iterations_per_step_and_time_per_iteration():
+    from circuitnsds.cli.main import newton_summary
+
+    waves = _run(SQUARE_LAW)
+    summary = newton_summary(waves.stats)
+    per_step = waves.stats["newton_iterations"] / waves.stats["steps"]
+    assert f"Newton: {per_step:.2f} iterations per step" in summary and "µs per iteration" in summary
+    assert newton_summary(_run("V1 in 0 1\nR1 in x 1k\nC1 x 0 1u\n.tran 10u 1m").stats) == ""

@@ -101,6 +101,24 @@ def _model_detail(element) -> str | None:
     return None
 
 
+def smooth_lines(circuit: Circuit, mlcs) -> list[str]:
+    """Which elements are smooth nonlinear relations (the Newton stepper integrates the
+    circuit then) and which ideal; nothing for a circuit of ideal devices only."""
+    if not mlcs.smooth:
+        return []
+    names = {relation.name for relation in mlcs.smooth}
+    ideal = [e.name for e in circuit.elements
+             if e.name not in names and (e.junction is not None or getattr(e, "auxiliaries", ()))]
+    lines = [f"  smooth:   {_listed(sorted(names))}: smooth nonlinear element(s), linearised at "
+             "every Newton iteration; the transient is integrated by the Newton stepper "
+             "(method=newton: each step a nonlinear complementarity problem, its length by "
+             "truncation error; the run summary gives iterations per step and time per iteration)"]
+    if ideal:
+        lines.append(f"  ideal:    {_listed(ideal)}: complementarity pairs and switches, exact in "
+                     "every Newton iteration (no smoothing)")
+    return lines
+
+
 def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
     """The circuit checks: ``(what, failure message or None, needed for the transient)``.
 
@@ -191,6 +209,7 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
                  + (f"; {len(switches)} switches (exogenous modes)" if switches else "")
                  + f"; {len(mlcs.stimuli)} source function(s)")
     lines.append(f"  unknowns: {_listed(mlcs.unknowns)}")
+    lines += smooth_lines(circuit, mlcs)
     lines.append(f"  pairs:    {_listed(mlcs.pairs) if mlcs.pairs else '(none)'}")
     stop = t.stop if t else None
     if stop is not None:

@@ -94,6 +94,7 @@ class NewtonStepper(Stepper):
         self.breaks = np.zeros(0)
         self.span = 1.0
         self.memory: dict = {}
+        self._grid, self._grid_sources = np.zeros(0), np.zeros((0, len(mlcs.stimuli)))
         self.stats = dict.fromkeys(("steps", "newton_iterations", "rejected_newton", "rejected_lte",
                                     "mlcp_fallbacks", "events", "newton_seconds"), 0)
 
@@ -149,7 +150,7 @@ class NewtonStepper(Stepper):
         """One step from ``(y, charge)`` at ``t`` of length ``h``: the Newton result."""
         A = self._system(tuple(bool(s) for s in states))
         weights = np.where(self.differential, theta, 1.0)
-        f_next = source_values(self.mlcs, np.array([t + h]))[0]
+        f_next = self._sources(t + h)
         carry = charge / h
         if self.parts.charges:
             totals = self.parts.totals(y, t)
@@ -157,7 +158,7 @@ class NewtonStepper(Stepper):
                 raise NewtonFailure("a smooth relation cannot be evaluated at the step's start", 0)
             carry = carry + totals[1] / h
         if theta != 1.0:
-            f_now = source_values(self.mlcs, np.array([t]))[0]
+            f_now = self._sources(t)
             explicit = A @ y + self.S @ f_now
             totals = self.parts.totals(y, t)
             if totals is None:
@@ -166,8 +167,23 @@ class NewtonStepper(Stepper):
             carry = carry + (1.0 - weights) * explicit
         base = self.E / h - weights[:, None] * A
         rhs = carry + weights * (self.S @ f_next)
-        return newton_solve(self.parts, base, rhs, weights, h, t + h, y, guess, self.blocks,
-                            self.atol, self.tol)
+        started = wallclock.perf_counter()
+        try:
+            return newton_solve(self.parts, base, rhs, weights, h, t + h, y, guess, self.blocks,
+                                self.atol, self.tol)
+        finally:
+            self.stats["newton_seconds"] += wallclock.perf_counter() - started
+
+    def _sources(self, t: float) -> np.ndarray:
+        """Every source's value at ``t`` [s]: the part's grid values at a grid point (sampled
+        once per part), else each source's own value."""
+        at = np.searchsorted(self._grid, t)
+        if at < self._grid.size and self._grid[at] == t:
+            return self._grid_sources[at]
+        values = np.array([stimulus.value(t) for stimulus in self.mlcs.stimuli], dtype=float)
+        if not np.isfinite(values).all():
+            source_values(self.mlcs, np.array([t]))  # (raises the error naming the source)
+        return values
 
     def _lte_error(self, y_new: np.ndarray, y: np.ndarray, h: float, previous) -> float:
         """The truncation error of a step over its tolerance (≤ 1 accepted), from the last step
@@ -186,6 +202,7 @@ class NewtonStepper(Stepper):
         mlcs, N = self.mlcs, grid.size
         n, m, k = mlcs.n, mlcs.m, len(mlcs.switches)
         clock = wallclock.perf_counter()
+        self._grid, self._grid_sources = grid, source_values(mlcs, grid)
         Y = np.zeros((N, n))
         current, impulse = np.zeros((N, m)), np.zeros((N, m))
         active_rows = np.zeros((N, m), dtype=bool)
@@ -228,11 +245,9 @@ class NewtonStepper(Stepper):
                     switched = not np.array_equal(states, on)
                     theta = 1.0 if (restart or switched) else self.theta
                     failure_at = (t, t + h, states)
-                    started = wallclock.perf_counter()
                     try:
                         result = self._step(y, charge, t, h, theta, states, active)
                     except NewtonFailure as exc:
-                        self.stats["newton_seconds"] += wallclock.perf_counter() - started
                         self.stats["rejected_newton"] += 1
                         self.stats["newton_iterations"] += exc.iterations
                         h_try = h / 8.0
@@ -244,7 +259,6 @@ class NewtonStepper(Stepper):
                                 switch_states=states.copy(), cause=SimulationError.STEP_UNSOLVED
                             ) from None
                         continue
-                    self.stats["newton_seconds"] += wallclock.perf_counter() - started
                     self.stats["newton_iterations"] += result.iterations
                     self.stats["mlcp_fallbacks"] += result.fallbacks
                     y_new = result.y
