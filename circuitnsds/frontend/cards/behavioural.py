@@ -15,10 +15,12 @@ ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`
   branches are such values: a comparator (:class:`Select`), an ideal switch of the engine whose
   instant is located (it is in ``waves.events`` as ``name.cmpK``).
 
-Anything else is refused with a message naming the term: a product or quotient of two
-unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, ``==``/``!=``,
-``&&``/``||``/``!``, conditions that are not one comparison, ``sgn``/``floor``/...,
-and ``time`` (write the time function as an independent source and use its ``v()``).
+Any other expression of ``v()``, ``i()``, ``time`` and ``temper`` (a product or quotient of
+unknowns, a nonlinear function of one, ``&&``/``||``/``!``, ``==``) is a smooth nonlinear
+source (:class:`~circuitnsds.circuit.elements.behavioural_smooth.SmoothBehaviouralSource`,
+its derivatives from :mod:`circuitnsds.netlist.smooth_expression`), which the Newton stepper
+integrates. Refused, with the term named: an unknown function, a constant that is undefined,
+``hertz``, a ``TABLE`` of a nonaffine argument.
 """
 
 from __future__ import annotations
