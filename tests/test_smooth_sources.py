@@ -237,7 +237,6 @@ def test_the_run_summary_gives_iterations_per_step_and_time_per_iteration():
 def test_a_run_in_parts_is_the_run_in_one_part():
     # the stepper contract: the same arithmetic, bit for bit, whatever the parts (its step
     # length and truncation-error history carry over from one part to the next)
-    from circuitnsds.analyses.recorders import TrajectoryRecorder
     from circuitnsds.engine.driver import drive
     from circuitnsds.engine.newton_stepper import NewtonStepper
     from circuitnsds.engine.stepper import StartState
@@ -246,14 +245,16 @@ def test_a_run_in_parts_is_the_run_in_one_part():
     circuit = circuit_from(NGSPICE_CASES["exponential source beside a switch"][0])
     mlcs = circuit.mlcs()
     grid = time_grid(2e-6, 1.2e-3, mlcs.breakpoints(1.2e-3))
+    class Keep:
+        def __init__(self):
+            self.rows = []
+
+        def record(self, trajectory, first):
+            self.rows.append(trajectory.y[first:].copy())
+
     runs = []
     for part_steps in (None, 37):
-        kept = []
-
-        class Keep(TrajectoryRecorder):
-            def record(self, trajectory, first):
-                kept.append(trajectory.y[first:].copy())
-
-        drive(NewtonStepper(mlcs), grid, StartState(np.zeros(mlcs.n)), Keep(), part_steps=part_steps)
-        runs.append(np.vstack(kept))
+        keep = Keep()
+        drive(NewtonStepper(mlcs), grid, StartState(np.zeros(mlcs.n)), keep, part_steps=part_steps)
+        runs.append(np.vstack(keep.rows))
     assert np.array_equal(runs[0], runs[1])
