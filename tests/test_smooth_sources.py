@@ -7,6 +7,7 @@ the same netlists (marker ``ngspice``)."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -222,6 +223,8 @@ def test_info_says_which_elements_are_smooth_and_which_ideal():
     text, _ = circuit_report(circuit)
     assert "smooth:   g1: smooth nonlinear element(s)" in text and "Newton stepper" in text
     assert "ideal:    s1, d1: complementarity pairs and switches" in text
+    assert re.search(r"cost: +the first step \([\d.]+ [nµ]s\) from the starting point took [1-9]\d* Newton "
+                     r"iteration\(s\), \d+ µs each", text)
 
 
 def test_the_run_summary_gives_iterations_per_step_and_time_per_iteration():
