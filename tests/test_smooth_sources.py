@@ -295,3 +295,76 @@ def test_the_average_current_mode_pfc_agrees_with_ngspice(netlists):
         other = _period_means(theirs.waveforms.time, np.asarray(theirs.waveforms[signal]), period, stop)
         relative_rms = np.sqrt(np.mean((mine - other) ** 2)) / np.sqrt(np.mean(mine**2))
         assert relative_rms < 0.05, (signal, relative_rms)
+
+
+# --- the interface the smooth devices stamp (system/smooth.py): charges and limiting ------------
+
+def _one_node_system(relation_of, current: float = 0.0, conductance: float = 0.0):
+    """An MLCS of one node ``x`` fed by ``current`` [A] (a source) with ``conductance`` [S] to
+    ground and the smooth relation ``relation_of(x)``."""
+    from circuitnsds.system.mlcs import MLCSBuilder
+    from circuitnsds.system.stimuli import Dc
+
+    builder = MLCSBuilder(["x"])
+    x = builder.node("x")
+    if current:
+        builder.add("S", x, builder.stimulus(Dc(current), "i1"), 1.0)
+    if conductance:
+        builder.add("A", x, x, -conductance)
+    builder.smooth(relation_of(x))
+    return builder.build()
+
+
+def test_a_nonlinear_charge_charged_by_a_constant_current_follows_its_closed_form():
+    # q(v) = C0 v + a v³ charged by I: q(t) = I t, so v(t) is the real root of a v³ + C0 v − I t
+    from circuitnsds.engine.driver import drive
+    from circuitnsds.engine.newton_stepper import NewtonStepper
+    from circuitnsds.engine.stepper import StartState
+    from circuitnsds.system.smooth import SmoothRelation
+
+    c0, a, current = 1e-6, 2e-7, 1e-3
+
+    def evaluate(x, t):
+        v = x[0]
+        return (np.zeros(1), np.zeros((1, 1)), np.array([c0 * v + a * v**3]),
+                np.array([[c0 + 3 * a * v * v]]))
+
+    mlcs = _one_node_system(lambda x: SmoothRelation("cnl", (x,), (x,), evaluate, charges=True),
+                            current=current)
+    grid = np.linspace(0.0, 5e-3, 101)
+
+    class Keep:
+        def record(self, trajectory, first):
+            self.trajectory = trajectory
+
+    keep = Keep()
+    drive(NewtonStepper(mlcs, theta=0.5), grid, StartState(np.zeros(1)), keep)
+    exact = [np.real([r for r in np.roots([a, 0.0, c0, -current * t]) if abs(r.imag) < 1e-9][0])
+             for t in grid]
+    assert np.max(np.abs(keep.trajectory.y[:, 0] - exact)) < 1e-3 * max(exact)
+
+
+def test_junction_limiting_is_applied_and_reaches_the_same_point():
+    # a diode law fed by 5 mA through nothing else: v = Vt ln(1 + I/Is); the relation's limit
+    # (a pnjlim-like step: at most 2 Vt up per iteration beyond the last point) is used by the
+    # DC Newton, which then reaches the root without overflowing exp()
+    from circuitnsds.engine.newton_dc import smooth_operating_point
+    from circuitnsds.system.smooth import SmoothRelation
+
+    vt, saturation, current = 0.025, 1e-14, 5e-3
+    calls = []
+
+    def evaluate(x, t):
+        e = math.exp(x[0] / vt)
+        return (np.array([saturation * (e - 1.0)]), np.array([[saturation * e / vt]]),
+                np.zeros(1), np.zeros((1, 1)))
+
+    def limit(new, old):
+        calls.append((float(new[0]), float(old[0])))
+        return np.minimum(new, old + 2 * vt) if new[0] > 0.3 else new
+
+    mlcs = _one_node_system(lambda x: SmoothRelation("dj", (x,), (x,), evaluate, limit=limit),
+                            current=current, conductance=1e-12)
+    result = smooth_operating_point(mlcs, (), [])
+    assert calls and any(new > old + 2 * vt for new, old in calls)     # it did limit
+    assert result.y[0] == pytest.approx(vt * math.log1p(current / saturation), abs=1e-6)
