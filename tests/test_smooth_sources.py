@@ -368,3 +368,20 @@ def test_junction_limiting_is_applied_and_reaches_the_same_point():
     result = smooth_operating_point(mlcs, (), [])
     assert calls and any(new > old + 2 * vt for new, old in calls)     # it did limit
     assert result.y[0] == pytest.approx(vt * math.log1p(current / saturation), abs=1e-6)
+
+
+def test_a_run_kept_in_parts_counts_its_steps_once(monkeypatch):
+    import circuitnsds.analyses.recorders as recorders
+
+    body = NGSPICE_CASES["exponential source beside a switch"][0]
+    whole = _run(body)
+    monkeypatch.setattr(recorders.SignalRecorder, "part_steps", lambda self: 97)  # 16 parts
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from circuitnsds.analyses.transient import run_transient, transient_spec
+
+        circuit = circuit_from(body)
+        kept = run_transient(circuit, transient_spec(circuit), signals=["v(x)"])
+    assert np.array_equal(kept["v(x)"], whole["v(x)"])
+    for key in ("steps", "newton_iterations", "events"):
+        assert kept.stats[key] == whole.stats[key], key

@@ -231,6 +231,7 @@ class NewtonStepper(Stepper):
         mlcs, N = self.mlcs, grid.size
         n, m, k = mlcs.n, mlcs.m, len(mlcs.switches)
         clock = wallclock.perf_counter()
+        self.stats = dict.fromkeys(self.stats, 0)  # each part's own counts (recorders sum them)
         self._grid, self._grid_sources = grid, source_values(mlcs, grid)
         Y = np.zeros((N, n))
         current, impulse = np.zeros((N, m)), np.zeros((N, m))
