@@ -196,22 +196,36 @@ class ModeSolution:
     active: np.ndarray
 
 
-def _mode_solution(K: np.ndarray, r: np.ndarray, blocks, active: np.ndarray) -> ModeSolution | None:
+MODE_CACHE = 64
+"""How many active sets keep their bordered matrix's pair blocks (:func:`_mode_solution`)."""
+
+
+def _mode_solution(K: np.ndarray, r: np.ndarray, blocks, active: np.ndarray,
+                   cache: dict | None = None) -> ModeSolution | None:
     """The linear MLCP's solution when the active set ``active`` is right (one dense solve of
     its bordered system ``[[K, −B_α], [C_α, D_αα]]``), else ``None`` (the full solver
-    decides): the warm start of every Newton iteration."""
+    decides): the warm start of every Newton iteration. ``cache`` keeps each active set's
+    pair blocks (they do not change from one iteration or step to the next, ``K`` does)."""
     B, C, D, e = blocks
     n = K.shape[0]
-    act = np.flatnonzero(active)
-    if act.size:
-        matrix = np.empty((n + act.size, n + act.size))
-        matrix[:n, :n] = K
-        matrix[:n, n:] = -B[:, act]
-        matrix[n:, :n] = C[act]
-        matrix[n:, n:] = D[np.ix_(act, act)]
-        rhs = np.concatenate([r, -e[act]])
-    else:
-        matrix, rhs = K, r
+    active = np.asarray(active, dtype=bool)
+    key = active.tobytes()
+    entry = cache.get(key) if cache is not None else None
+    if entry is None:
+        act, inactive = np.flatnonzero(active), np.flatnonzero(~active)
+        template = np.zeros((n + act.size, n + act.size))
+        template[:n, n:] = -B[:, act]
+        template[n:, :n] = C[act]
+        template[n:, n:] = D[np.ix_(act, act)]
+        entry = (act, template, -e[act], C[inactive], D[np.ix_(inactive, act)], e[inactive])
+        if cache is not None:
+            if len(cache) >= MODE_CACHE:
+                cache.pop(next(iter(cache)))
+            cache[key] = entry
+    act, template, pair_rhs, C_in, D_in, e_in = entry
+    matrix = template.copy()
+    matrix[:n, :n] = K
+    rhs = np.concatenate([r, pair_rhs]) if act.size else r
     try:
         solution = np.linalg.solve(matrix, rhs)
     except np.linalg.LinAlgError:
@@ -221,12 +235,10 @@ def _mode_solution(K: np.ndarray, r: np.ndarray, blocks, active: np.ndarray) -> 
     y, z = solution[:n], np.zeros(e.size)
     z[act] = solution[n:]
     if e.size:
-        w = C @ y + D @ z + e
-        scale = 1.0 + float(np.abs(solution).max())
-        inactive = ~np.asarray(active, dtype=bool)
-        if (z[act] < -SIGN_TOLERANCE * scale).any() or (w[inactive] < -SIGN_TOLERANCE * scale).any():
+        scale = SIGN_TOLERANCE * (1.0 + float(np.abs(solution).max()))
+        if (solution[n:] < -scale).any() or (C_in @ y + D_in @ solution[n:] + e_in < -scale).any():
             return None
-    return ModeSolution(y, z, np.asarray(active, dtype=bool).copy())
+    return ModeSolution(y, z, active.copy())
 
 
 def update_tolerance(mlcs: MLCS) -> np.ndarray:
@@ -240,7 +252,7 @@ def update_tolerance(mlcs: MLCS) -> np.ndarray:
 def newton_solve(parts: SmoothParts, base: np.ndarray, rhs: np.ndarray, weights: np.ndarray,
                  h: float, t: float, y0: np.ndarray, guess: np.ndarray | None,
                  blocks: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], atol: np.ndarray,
-                 tol: float = 1e-9) -> NewtonResult:
+                 tol: float = 1e-9, cache: dict | None = None) -> NewtonResult:
     """Solve ``G(y, λ) = 0`` with complementarity (module docstring) from ``y0``.
 
     Args:
@@ -254,6 +266,7 @@ def newton_solve(parts: SmoothParts, base: np.ndarray, rhs: np.ndarray, weights:
         blocks: ``(B, C, D, e)`` of the pairs (dense).
         atol: the update's absolute tolerance per unknown.
         tol: the linear MLCP's residual tolerance.
+        cache: kept between calls: each active set's pair blocks.
 
     Raises:
         NewtonFailure: no convergence in :data:`MAX_ITERATIONS`, a linear MLCP without a
@@ -275,7 +288,7 @@ def newton_solve(parts: SmoothParts, base: np.ndarray, rhs: np.ndarray, weights:
         if dynamic:
             K = K + lin.JQ / h
             r = r - lin.Q / h
-        result = _mode_solution(K, r, blocks, active)
+        result = _mode_solution(K, r, blocks, active, cache)
         if result is None:
             try:
                 solver = MLCPSolver(K, -B, C, D, tol=tol, cache_size=2)

@@ -91,6 +91,7 @@ class NewtonStepper(Stepper):
         self.states = np.flatnonzero(states)
         self.atol = update_tolerance(mlcs)
         self._matrices: dict[tuple[bool, ...], np.ndarray] = {}
+        self._modes: dict = {}  # each active set's pair blocks (newton_step._mode_solution)
         self.breaks = np.zeros(0)
         self.span = 1.0
         self.memory: dict = {}
@@ -170,7 +171,7 @@ class NewtonStepper(Stepper):
         started = wallclock.perf_counter()
         try:
             return newton_solve(self.parts, base, rhs, weights, h, t + h, y, guess, self.blocks,
-                                self.atol, self.tol)
+                                self.atol, self.tol, self._modes)
         finally:
             self.stats["newton_seconds"] += wallclock.perf_counter() - started
 
