@@ -101,7 +101,7 @@ def test_a_new_stepper_cut_in_parts_gives_its_run_in_one_part(refined_registered
 def test_an_unknown_method_is_an_error_naming_the_known_ones():
     circuit = circuitnsds.read_netlist(RC_STEP)
     with pytest.raises(circuitnsds.CircuitError, match=r"unknown integration method 'euler': "
-                       r"the methods are auto, exact, theta"):
+                       r"the methods are auto, exact, newton, theta"):
         circuit.transient(method="euler")
     by_option = circuitnsds.read_netlist(RC_STEP.replace(".end", ".options method=euler\n.end"))
     with pytest.raises(circuitnsds.CircuitError, match=r"unknown integration method 'euler'"):

@@ -116,6 +116,10 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         from circuitnsds.engine.small_signal import operating_point_response
 
         state = operating_point(circuit, mlcs)
+        if mlcs.smooth:  # the smooth elements' small-signal model: their Jacobians there
+            from circuitnsds.engine.newton_step import linearised
+
+            mlcs = linearised(mlcs, state.y)
         try:
             values = operating_point_response(mlcs, state.switches, state.active, inputs,
                                               frequencies, Y_out, L_out)

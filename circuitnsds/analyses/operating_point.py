@@ -74,7 +74,8 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     states = np.array([switch.initially_on for switch in mlcs.switches], dtype=bool)
     seen: list[bytes] = []
     while True:
-        result = _solve_dc(circuit, mlcs, states, tol)
+        result = (_solve_smooth_dc(circuit, mlcs, states, tol) if mlcs.smooth
+                  else _solve_dc(circuit, mlcs, states, tol))
         y = np.asarray(result.u[:mlcs.n], dtype=float)
         following = np.array([switch.next_state(bool(on), _control_at_zero(mlcs, switch, y))
                               for switch, on in zip(mlcs.switches, states)], dtype=bool)
@@ -220,6 +221,30 @@ def _hold_integrators(matrix, coupling, source: np.ndarray,
                 matrix[row, column] = sign
         source[row] = -value
     return (matrix, coupling) if dense else (matrix.tocsr(), coupling.tocsr())
+
+
+def _solve_smooth_dc(circuit: Circuit, mlcs: MLCS, states: np.ndarray, tol: float):
+    """The DC point of a circuit with smooth nonlinear elements: Newton–Josephy, with gmin and
+    source stepping when plain Newton fails (:mod:`circuitnsds.engine.newton_dc`); the
+    ``.ic`` nodes held. Returns an object with ``u``, ``z`` and ``active`` as
+    :func:`_solve_dc`'s."""
+    from types import SimpleNamespace
+
+    from circuitnsds.engine.newton_dc import smooth_operating_point
+    from circuitnsds.engine.newton_step import NewtonFailure
+
+    held = [(circuit.nodes.index(node), value) for node, (value, _) in
+            circuit.initial_voltages.items() if node != "0"]
+    try:
+        result = smooth_operating_point(mlcs, tuple(bool(on) for on in states), held, tol)
+    except NewtonFailure as exc:
+        names = ", ".join(relation.name for relation in mlcs.smooth)
+        raise SimulationError(f"the DC operating point of the smooth elements ({names}) cannot be "
+                              f"found: {exc.reason}", where="operating point",
+                              hint="give .ic values near the expected point, or add UIC to .tran "
+                              "to start from initial conditions") from None
+    return SimpleNamespace(u=result.y, z=result.z, active=result.active,
+                           iterations=result.iterations)
 
 
 MAX_IC_TRIALS = 20

@@ -289,6 +289,12 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
     defaults = (tran.source_defaults if tran is not None
                 else SourceDefaults(step, t0 + (periods_warmup + 1) * period))
     mlcs = circuit.mlcs(defaults)
+    if mlcs.smooth:  # (the shooting's period map is a product of affine step maps)
+        names = ", ".join(relation.name for relation in mlcs.smooth[:6])
+        raise CircuitError(f"pss cannot run through smooth nonlinear elements yet ({names}): its "
+                           "period map is a product of the affine steps of ideal devices",
+                           where=circuit.file, hint="run a transient long enough to settle "
+                           "(circuitnsds run), or ac around the operating point")
     start_time = t0 + periods_warmup * period
     try:  # both grids before any work: a period or warm-up of too many steps is an error
         grid = _period_grid(mlcs, step, t0, period)

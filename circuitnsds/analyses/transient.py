@@ -31,7 +31,7 @@ from circuitnsds.circuit.elements import CurrentSource, Diode
 from circuitnsds.circuit.elements.diode_notes import FitRangeObserver
 from circuitnsds.circuit.observers import RunObserver, observers_of
 from circuitnsds.engine.driver import drive
-from circuitnsds.engine.stepper import DEFAULT_STEPPER, Stepper, choose_stepper
+from circuitnsds.engine.stepper import DEFAULT_STEPPER, SMOOTH_STEPPER, Stepper, choose_stepper
 from circuitnsds.engine.theta_stepper import STEPPINGS
 from circuitnsds.engine.timegrid import check_step_count, time_grid
 from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
@@ -254,7 +254,15 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
     Raises:
         CircuitError: an unknown name, or settings the stepper refuses.
     """
-    name = method if method is not None else circuit.options.get("method", DEFAULT_STEPPER)
+    name = method if method is not None else circuit.options.get("method")
+    if name is None and mlcs.smooth:
+        name = SMOOTH_STEPPER
+        warnings.warn(RunNote(
+            f"{circuit.file}: {', '.join(r.name for r in mlcs.smooth[:6])}"
+            f"{' ...' if len(mlcs.smooth) > 6 else ''}: smooth nonlinear element(s); the run is "
+            f"integrated by the Newton stepper (method={SMOOTH_STEPPER}: Newton–Josephy on each "
+            "step, step length by truncation error)"), stacklevel=3)
+    name = DEFAULT_STEPPER if name is None else name
     hint = ".options method=NAME in the netlist, method= in Python"
     try:
         chosen, why = choose_stepper(name, mlcs)
@@ -279,7 +287,8 @@ def _note_method(circuit: Circuit, stepper: Stepper) -> None:
     why = getattr(stepper, "why", None)
     if stepper.name != "exact":
         if why is not None:
-            warnings.warn(RunNote(f"{circuit.file}: integrated by the θ-method ({why})"), stacklevel=3)
+            what = "the Newton stepper" if stepper.name == SMOOTH_STEPPER else "the θ-method"
+            warnings.warn(RunNote(f"{circuit.file}: integrated by {what} ({why})"), stacklevel=3)
         return
     text = (f"{circuit.file}: integrated by the exact event-driven method"
             f"{f' ({why})' if why else ''}: the state is exact between located events, so .tran "

@@ -6,6 +6,7 @@ transient passed; it builds the MLCS only when they did (it cannot exist otherwi
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 from circuitnsds.circuit.circuit import Circuit
@@ -101,6 +102,48 @@ def _model_detail(element) -> str | None:
                       f"on-state diode {element.name}.on; gate junction {element.name}.gk")
         return detail
     return None
+
+
+def smooth_lines(circuit: Circuit, mlcs) -> list[str]:
+    """Which elements are smooth nonlinear relations (the Newton stepper integrates the
+    circuit then) and which ideal; nothing for a circuit of ideal devices only."""
+    if not mlcs.smooth:
+        return []
+    names = {relation.name for relation in mlcs.smooth}
+    ideal = [e.name for e in circuit.elements
+             if e.name not in names and (e.junction is not None or getattr(e, "auxiliaries", ()))]
+    lines = [f"  smooth:   {_listed(sorted(names))}: smooth nonlinear element(s), linearised at "
+             "every Newton iteration; the transient is integrated by the Newton stepper "
+             "(method=newton: each step a nonlinear complementarity problem, its length by "
+             "truncation error; the run summary gives iterations per step and time per iteration)"]
+    if ideal:
+        lines.append(f"  ideal:    {_listed(ideal)}: complementarity pairs and switches, exact in "
+                     "every Newton iteration (no smoothing)")
+    lines.append(f"  cost:     {_newton_cost(circuit, mlcs)}")
+    return lines
+
+
+def _newton_cost(circuit: Circuit, mlcs) -> str:
+    """The measured cost of one Newton step from the operating point (words)."""
+    from circuitnsds.analyses.operating_point import operating_point, uic_state
+    from circuitnsds.engine.newton_step import NewtonFailure
+    from circuitnsds.engine.newton_stepper import NewtonStepper
+    from circuitnsds.errors import CircuitnsdsError
+
+    tran = circuit.analyses.get("tran")
+    if tran is None:
+        return "not measured (no .tran: no step to take)"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            state = uic_state(circuit, mlcs) if tran.uic else operating_point(circuit, mlcs)
+            step, iterations, seconds = NewtonStepper(mlcs).measure_step(state.y, 0.0, tran.step)
+    except (CircuitnsdsError, NewtonFailure, ValueError, ArithmeticError) as exc:
+        return f"not measured (the first step from the starting point failed: {exc})"
+    return (f"the first step ({format_si(step, 's')}) from the starting point took "
+            f"{iterations} Newton iteration(s), {1e6 * seconds:.0f} µs each (each a linearisation "
+            f"and a dense solve of {mlcs.n + mlcs.m} unknowns and pairs); a circuit of ideal devices "
+            "takes about a microsecond per step in its compiled mode loops")
 
 
 def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
@@ -213,6 +256,7 @@ def circuit_report(circuit: Circuit) -> tuple[str, bool]:
                  + (f"; {len(switches)} switches (exogenous modes)" if switches else "")
                  + f"; {len(mlcs.stimuli)} source function(s)")
     lines.append(f"  unknowns: {_listed(mlcs.unknowns)}")
+    lines += smooth_lines(circuit, mlcs)
     lines.append(f"  pairs:    {_listed(mlcs.pairs) if mlcs.pairs else '(none)'}")
     lines.append(f"method:    {_method_line(circuit, mlcs)}")
     stop = t.stop if t else None

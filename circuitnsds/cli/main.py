@@ -439,7 +439,7 @@ def _run(args: argparse.Namespace) -> int:
             + (f" and {int(stats['theta_steps'])} θ steps" if stats.get("theta_steps") else ""))
     return _finish(args, circuit, waves, f"{done} in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-                   f"max residual {residual:.1e}", stream, thermal)
+                   f"max residual {residual:.1e}{newton_summary(stats)}", stream, thermal)
 
 
 def _csv_stream(args: argparse.Namespace, kept: list[str] | None):
@@ -562,6 +562,16 @@ def _junctions(args: argparse.Namespace, circuit, waves, *, steady: bool, period
             print(f"circuitnsds: thermal steady state: tj({name}) = {values[0]:.4g} °C",
                   file=sys.stderr)
     return waves, result
+
+
+def newton_summary(stats: dict) -> str:
+    """The Newton stepper's cost for the run summary (``""`` for another stepper): iterations
+    per step and time per iteration (each a linearisation and a dense solve of the step)."""
+    iterations = stats.get("newton_iterations")
+    if not iterations or not stats.get("steps"):
+        return ""
+    return (f"; Newton: {iterations / stats['steps']:.2f} iterations per step, "
+            f"{1e6 * stats['newton_seconds'] / iterations:.0f} µs per iteration")
 
 
 def _finish(args: argparse.Namespace, circuit, waves, summary: str, stream=None,

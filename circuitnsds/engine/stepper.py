@@ -132,13 +132,17 @@ class Stepper(ABC):
 STEPPERS: dict[str, str] = {
     "theta": "circuitnsds.engine.theta_stepper:ThetaStepper",
     "exact": "circuitnsds.engine.exact.stepper:ExactStepper",
+    "newton": "circuitnsds.engine.newton_stepper:NewtonStepper",
 }
 """The steppers by name: ``"module:Class"``, imported when chosen (one line per stepper)."""
 DEFAULT_STEPPER = "theta"
 """The stepper a run uses unless ``.options method`` or ``method=`` names another (``"auto"``
 makes the exact integrator the default where the circuit qualifies)."""
+SMOOTH_STEPPER = "newton"
+"""The stepper a run of a system with smooth relations uses unless one is named."""
 AUTO = "auto"
-"""The method name that chooses: ``exact`` where it can integrate the system, else ``theta``."""
+"""The method name that chooses: ``newton`` for a system with smooth relations, else ``exact``
+where it can integrate the system, else ``theta``."""
 
 
 def choose_stepper(name: str, mlcs: MLCS) -> tuple[type[Stepper], str | None]:
@@ -150,6 +154,9 @@ def choose_stepper(name: str, mlcs: MLCS) -> tuple[type[Stepper], str | None]:
     """
     if str(name).strip().lower() != AUTO:
         return stepper_class(name), None
+    if mlcs.smooth:
+        return stepper_class(SMOOTH_STEPPER), ("method=auto: the circuit has smooth nonlinear "
+                                               "elements (the Newton stepper)")
     exact = stepper_class("exact")
     reason = exact.unsuited(mlcs)
     if reason is None:

@@ -45,6 +45,15 @@ class ThetaStepper(Stepper):
         self.segments: Segments | None = None
         self.whole: np.ndarray | None = None
 
+    @classmethod
+    def unsuited(cls, mlcs: MLCS) -> str | None:
+        if mlcs.smooth:
+            names = ", ".join(relation.name for relation in mlcs.smooth[:6])
+            return (f"its mode tables are affine, and {names}"
+                    f"{' ...' if len(mlcs.smooth) > 6 else ''} {'is a' if len(mlcs.smooth) == 1 else 'are'} "
+                    "smooth nonlinear element(s): method=newton integrates them")
+        return None
+
     def begin(self, grid: np.ndarray, *, parts: bool) -> None:
         self.whole = grid
         self.segments = Segments(grid) if parts else None

@@ -15,11 +15,12 @@ ideal engine represents exactly (:mod:`circuitnsds.circuit.elements.behavioural`
   branches are such values: a comparator (:class:`Select`), an ideal switch of the engine whose
   instant is located (it is in ``waves.events`` as ``name.cmpK``).
 
-Anything else is refused with a message naming the term: a product or quotient of two
-unknowns, a nonlinear function (``sqrt``, ``exp``, ...) of an unknown, ``==``/``!=``,
-``&&``/``||``/``!`` outside a condition (in one, they chain comparators), conditions that are
-not comparisons, ``sgn``/``floor``/...,
-and ``time`` (write the time function as an independent source and use its ``v()``).
+Any other expression of ``v()``, ``i()``, ``time`` and ``temper`` (a product or quotient of
+unknowns, a nonlinear function of one, ``&&``/``||``/``!``, ``==``) is a smooth nonlinear
+source (:class:`~circuitnsds.circuit.elements.behavioural_smooth.SmoothBehaviouralSource`,
+its derivatives from :mod:`circuitnsds.netlist.smooth_expression`), which the Newton stepper
+integrates. Refused, with the term named: an unknown function, a constant that is undefined,
+``hertz``, a ``TABLE`` of a nonaffine argument.
 
 ``ddt(x)`` of an affine ``x``, added to the value times a constant, is a capacitor-like term
 (:attr:`Affine.rates`, stamped in ``E``); ``ddt()`` anywhere else is refused as nonlinear.
@@ -31,9 +32,11 @@ import math
 from dataclasses import dataclass, field
 
 from circuitnsds.circuit.elements.behavioural import Affine, BehaviouralSource, MinMax, Select
+from circuitnsds.circuit.elements.behavioural_smooth import SmoothBehaviouralSource
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.netlist.behavioural import Node, parse, to_text
 from circuitnsds.netlist.expressions import FUNCTIONS, ExpressionError
+from circuitnsds.netlist.smooth_expression import smooth_expression
 
 NONLINEAR = "nonlinear (a smooth nonlinear device: issue 33)"
 """What a smooth nonlinear term is called in refusals (the next issue brings such devices)."""
@@ -304,6 +307,7 @@ def behavioural_source(reader: StatementReader, letter: str,
         raise reader.error(f"{name}: expected {form} after the two nodes",
                            hint=f"write {name.upper()} n+ n- {form}")
     classifier = Classifier(name)
+    output = key if letter == "b" else ("v" if letter == "e" else "i")
     try:
         if key == "table":
             expression = reader.next("table expression")[1:-1]
@@ -314,11 +318,12 @@ def behavioural_source(reader: StatementReader, letter: str,
             expression = reader.next("expression")[1:-1]
             value = classifier.value(parse(expression))
     except Unrepresentable as exc:
-        raise reader.error(f"{name}: cannot represent the term {exc.term} of {expression}: "
-                           f"{exc.reason}", hint=REPRESENTABLE) from None
+        if key == "table" or not smooth_allowed(exc):
+            raise reader.error(f"{name}: cannot represent the term {exc.term} of {expression}: "
+                               f"{exc.reason}", hint=REPRESENTABLE) from None
+        return _smooth_source(reader, output, nodes, expression, voltage_sources)
     except ExpressionError as exc:
         raise reader.error(f"{name}: {exc}") from None
-    output = key if letter == "b" else ("v" if letter == "e" else "i")
     controls = _controls(value, classifier.auxiliaries)
     for source in controls[1]:
         if source not in voltage_sources:
@@ -332,6 +337,44 @@ def behavioural_source(reader: StatementReader, letter: str,
     return BehaviouralSource(name, (*nodes, *controls[0]), reader.location, output=output,
                              value=value.affine(), auxiliaries=tuple(classifier.auxiliaries),
                              expression=expression)
+
+
+NOT_SMOOTH = ("undefined for these constant arguments", "not a finite number", "division by zero",
+              "unknown function", "argument(s)", "unknown construct")
+"""Reasons of a refusal that a smooth expression would not lift either (they stay errors)."""
+
+
+def smooth_allowed(refusal: Unrepresentable) -> bool:
+    """Whether an expression the ideal engine refuses becomes a smooth nonlinear source (a
+    product, a nonlinear function, ``time``, a logical operation: not a constant that is
+    undefined or an unknown name)."""
+    if "ddt(" in refusal.term.replace(" ", "") or "ddt()" in refusal.reason:
+        return False  # (the smooth relations hold no derivative of an unknown: ddt stays refused)
+    return not any(reason in refusal.reason for reason in NOT_SMOOTH)
+
+
+def _smooth_source(reader: StatementReader, output: str, nodes: list[str], expression: str,
+                   voltage_sources: set[str]) -> SmoothBehaviouralSource:
+    """The source of a nonlinear ``expression``: a smooth relation the Newton stepper
+    linearises (:mod:`circuitnsds.netlist.smooth_expression`)."""
+    name = reader.name
+    try:
+        smooth = smooth_expression(parse(expression), node_name)
+    except ExpressionError as exc:
+        raise reader.error(f"{name}: {exc} in {expression}") from None
+    for kind, source in smooth.inputs:
+        if kind == "i" and source not in voltage_sources:
+            raise reader.error(f"{name}: i({source}): {source!r} is not a voltage source of this "
+                               "circuit", hint="i() senses the current of a V source; add a 0 V "
+                               "source in series with the branch to sense")
+    controls = [node for kind, node in smooth.inputs if kind == "v"]
+    if "limit(" in expression.replace(" ", ""):
+        reader.warn(f"{name}: limit(x, lo, hi) is read as the clamp min(max(x, lo), hi) "
+                    "(LTspice's meaning); ngspice's B source does not clamp with it: for a netlist "
+                    "that means the same in both, write min(max(x, lo), hi)")
+    return SmoothBehaviouralSource(name, (*nodes, *controls), reader.location, output=output,
+                                   expression=expression, inputs=smooth.inputs,
+                                   law=smooth.evaluate, uses_time=smooth.uses_time)
 
 
 def _table(reader: StatementReader, classifier: Classifier, expression: str) -> Linear:
