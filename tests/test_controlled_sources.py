@@ -228,7 +228,7 @@ def test_polynomial_and_laplace_sources_are_reported_as_unsupported(line):
 @pytest.mark.parametrize(
     ("line", "what"),
     [
-        ("Q1 f in 0 qmod", "bipolar"),
+        ("T1 f 0 in 0 z0=50 td=1n", "transmission"),
         ("J1 f in 0 jmod", "jfet"),
     ],
 )

@@ -117,7 +117,7 @@ def test_vendor_model_text_values_are_read():
 @pytest.mark.parametrize(
     ("body", "pattern"),
     [
-        ("Q1 c b e npn", r"<text>:2: q1: bipolar transistors"),
+        ("T1 a 0 b 0 z0=50 td=1n", r"<text>:2: t1: transmission lines"),
         ("R1 a 0", r"<text>:2: r1: missing resistance"),
         ("R1 a 0 -5", r"resistance must be positive"),
         ("R1 a 0 abc", r"'abc' is not a number"),

@@ -23,7 +23,7 @@ from circuitnsds.checks.topology import check_current_cutsets, check_source_loop
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor, Inductor
 from circuitnsds.engine import integrate
-from circuitnsds.errors import NetlistWarning, RunNote, SimulationError
+from circuitnsds.errors import CircuitError, NetlistWarning, RunNote, SimulationError
 from circuitnsds.lazy import is_loaded_instance
 from circuitnsds.solvers import LCPError, solve_mlcp
 from circuitnsds.system.mlcs import MLCS
@@ -66,6 +66,7 @@ def operating_point(circuit: Circuit, mlcs: MLCS, tol: float = 1e-9) -> InitialS
     otherwise), where ngspice would find a point of its smooth comparator by source
     stepping and LTspice and PLECS start from zero.
     """
+    _refuse_smooth(circuit, mlcs)
     check_source_loops(circuit.elements, operating_point=True)
     check_current_cutsets(circuit.elements, circuit.nodes, operating_point=True)
     _warn_unused_element_ics(circuit)
@@ -219,6 +220,15 @@ def _agrees(value: float, actual: float) -> bool:
     return abs(actual - value) <= IC_AGREEMENT * max(1.0, abs(value))
 
 
+def _refuse_smooth(circuit: Circuit, mlcs: MLCS) -> None:
+    """Refuse smooth nonlinear relations, which the ideal operating point would leave out."""
+    from circuitnsds.engine.stepper import smooth_refusal
+
+    reason = smooth_refusal(mlcs)
+    if reason is not None:
+        raise CircuitError(f"the operating point cannot be computed: {reason}", where=circuit.file)
+
+
 def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
     """Initial state from ``ic=`` and ``.ic`` values (SPICE's UIC).
 
@@ -232,6 +242,7 @@ def uic_state(circuit: Circuit, mlcs: MLCS) -> InitialState:
     ``.ic`` values propagated across capacitors with ``ic=`` from known nodes (ground
     first), nodes reached by neither at 0 V.
     """
+    _refuse_smooth(circuit, mlcs)
     y = np.zeros(mlcs.n)
     known = {"0"}
     for node, (value, _) in circuit.initial_voltages.items():

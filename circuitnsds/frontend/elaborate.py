@@ -194,6 +194,7 @@ def _check_unused_models(circuit: Circuit) -> None:
         if name not in used:
             kind = model if isinstance(model, str) else model.kind if is_loaded_instance(
                 model, "circuitnsds.frontend.cards.xspice", "XspiceModel"
+            ) or is_loaded_instance(model, "circuitnsds.circuit.elements.smooth.bjt", "BjtModel"
             ) else type(model).__name__.removesuffix("Model")
             warn_at(circuit.model_locations[name], f".model {name} ({kind.upper()}) is not used")
 

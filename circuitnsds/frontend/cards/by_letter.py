@@ -85,6 +85,7 @@ CARD_READERS: dict[str, CardReader] = {
     "m": CardReader("mosfets", "mosfet", ("models", "options", "off_resistance")),
     "a": CardReader("xspice", "analog_block", ("models",)),
     "z": CardReader("power_devices", "power_device", ("models", "off_resistance")),
+    "q": CardReader("smooth_devices", "bjt", ("models", "off_resistance")),
 }
 """Element letter -> its card reader."""
 
