@@ -102,7 +102,7 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
     # XSPICE ports are marked and bracketed: netlist/subcircuits renames them by their own rule
     "a": ElementLetter("XSPICE code models", 0),
     "x": ElementLetter("subcircuit instances", 0),
-    "j": ElementLetter("JFETs", 0, supported=False),
+    "j": ElementLetter("JFETs", 3),
     "o": ElementLetter("lossy transmission lines", 0, supported=False),
     "p": ElementLetter("coupled transmission lines", 0, supported=False),
     "q": ElementLetter("bipolar transistors", bjt_node_indexes),

@@ -229,7 +229,7 @@ def test_polynomial_and_laplace_sources_are_reported_as_unsupported(line):
     ("line", "what"),
     [
         ("T1 f 0 in 0 z0=50 td=1n", "transmission"),
-        ("J1 f in 0 jmod", "jfet"),
+        ("U1 f in 0 urc l=1m n=10", "rc lines"),
     ],
 )
 def test_unsupported_elements_say_so_with_the_line(line, what):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from circuitnsds.circuit.elements.smooth.bjt import BjtModel, gummel_poon_dc
 from circuitnsds.circuit.elements.smooth.junctions import critical_voltage, pnjlim, thermal_voltage
-from circuitnsds.errors import CircuitError, NetlistError
+from circuitnsds.errors import CircuitError, NetlistError, NetlistWarning
 from tests.conftest import circuit_from
 from tests.smooth_ngspice import relation_of
 
@@ -150,7 +150,6 @@ def test_four_node_line_and_model_with_area():
 @pytest.mark.parametrize(("line", "words"), [
     (".model qx npn(rco=10)", "RCO=10 (quasi-saturation) is not modelled"),
     (".model qx npn(tnom=50)", "TNOM=50"),
-    (".model qx npn(bogus=1)", "unknown parameter 'bogus'"),
     (".model qx npn(bf=0)", "BF must be positive"),
     (".model qx npn(va=10 vaf=20)", "VAF a second time"),
     (".model qx npn(level=4)", "level 4"),
@@ -158,6 +157,12 @@ def test_four_node_line_and_model_with_area():
 def test_model_errors_name_the_parameter(line, words):
     with pytest.raises(NetlistError, match=words.replace("(", r"\(").replace(")", r"\)")):
         circuit_from(f"vc c 0 1\nq1 c b 0 qx\nrb b 0 1k\n{line}")
+
+
+def test_a_parameter_ngspice_does_not_know_is_ignored_with_a_warning():
+    with pytest.warns(NetlistWarning, match="bogus ignored: not a parameter of ngspice 39's"):
+        circuit = circuit_from("vc c 0 1\nq1 c b 0 qx\nrb b 0 1k\n.model qx npn(bogus=1 bf=20)")
+    assert circuit.element("q1").model.bf == 20
 
 
 @pytest.mark.parametrize(("line", "words"), [

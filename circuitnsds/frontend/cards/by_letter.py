@@ -86,6 +86,7 @@ CARD_READERS: dict[str, CardReader] = {
     "a": CardReader("xspice", "analog_block", ("models",)),
     "z": CardReader("power_devices", "power_device", ("models", "off_resistance")),
     "q": CardReader("smooth_devices", "bjt", ("models", "off_resistance")),
+    "j": CardReader("smooth_devices", "jfet", ("models", "off_resistance")),
 }
 """Element letter -> its card reader."""
 

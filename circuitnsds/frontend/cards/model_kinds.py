@@ -10,7 +10,8 @@ that uses none of them.
 MOS_KINDS = {"vdmos": "VDMOS power MOSFET", "nmos": "n-channel MOSFET", "pmos": "p-channel MOSFET"}
 """MOSFET model types (``.model NAME VDMOS|NMOS|PMOS``) -> what they are."""
 
-SMOOTH_KINDS = {"npn": "NPN bipolar transistor", "pnp": "PNP bipolar transistor"}
+SMOOTH_KINDS = {"npn": "NPN bipolar transistor", "pnp": "PNP bipolar transistor",
+                "njf": "n-channel JFET", "pjf": "p-channel JFET"}
 """Model types of the smooth semiconductor devices (:mod:`~circuitnsds.frontend.cards.smooth_devices`)
 -> what they are."""
 

@@ -1,8 +1,11 @@
 """Smooth semiconductor devices: ``.model NAME NPN|PNP(...)`` with ``Q`` lines (Gummel–Poon,
-:mod:`circuitnsds.circuit.elements.smooth.bjt`).
+:mod:`circuitnsds.circuit.elements.smooth.bjt`) and ``.model NAME NJF|PJF(...)`` with ``J``
+lines (:mod:`circuitnsds.circuit.elements.smooth.jfet`).
 
 Parameters take ngspice 39's names (and its aliases: ``VA`` for ``VAF``, ``IK`` for ``IKF``,
-``PE`` for ``VJE``...), units and defaults. The devices are simulated at ngspice's nominal
+``PE`` for ``VJE``, ``VT0`` for ``VTO``...), units and defaults; a name ngspice does not know
+(PSpice's ``ISR``, ``ALPHA`` of a vendor JFET) is ignored with a warning, as ngspice ignores
+it. The devices are simulated at ngspice's nominal
 temperature (27 °C): temperature coefficients, noise and safe-operating-area parameters are
 read and change nothing there; a parameter whose effect the equations leave out (the
 substrate diode ``ISS``, quasi-saturation ``RCO``, ``NKF``, excess phase ``PTF``) is refused
@@ -14,6 +17,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from circuitnsds.circuit.elements.smooth.bjt import Bjt, BjtModel
+from circuitnsds.circuit.elements.smooth.jfet import Jfet, JfetModel
 from circuitnsds.circuit.elements.smooth.junctions import NOMINAL_TEMPERATURE
 from circuitnsds.frontend.cards.reader import StatementReader, node_name
 from circuitnsds.values import parse_value
@@ -51,19 +55,80 @@ BJT_REFUSED = {
 
 
 
-def read_smooth_model(name: str, kind: str, reader: StatementReader) -> BjtModel:
-    """The parameters of a ``.model NAME NPN|PNP(...)`` card (after its type word)."""
+JFET_PARAMETERS = {"vto": "vto", "vt0": "vto", "beta": "beta", "lambda": "lam", "rd": "rd",
+                   "rs": "rs", "cgs": "cgs", "cgd": "cgd", "pb": "pb", "is": "is_", "fc": "fc",
+                   "b": "b"}
+"""``.model NJF|PJF`` parameter (and alias) -> :class:`JfetModel` field."""
+JFET_NO_EFFECT = {"tcv", "vtotc", "bex", "betatce", "xti", "eg", "kf", "af", "nlev", "gdsnoi",
+                  "level", "mfg", "type"}
+"""JFET parameters that change nothing at the nominal temperature (or in a simulation)."""
+
+
+def read_smooth_model(name: str, kind: str, reader: StatementReader) -> BjtModel | JfetModel:
+    """The parameters of a ``.model NAME NPN|PNP|NJF|PJF(...)`` card (after its type word)."""
     params: dict[str, float] = {}
     for key, text in reader.keyword_values():
         if key in params:
             raise reader.error(f".model {name}: parameter {key!r} is given twice")
+        if key in {"mfg", "type"}:  # text in vendor libraries: documentation
+            continue
         params[key] = reader.number(key, text)
+    if kind in {"njf", "pjf"}:
+        return jfet_model(name, kind, params, reader)
     return bjt_model(name, kind, params, reader)
+
+
+def _nominal_temperature(name: str, params: dict[str, float], reader: StatementReader) -> None:
+    """Refuse a ``TNOM`` other than 27 °C: the parameters would be scaled to 27 °C."""
+    for key in ("tnom", "tref"):
+        value = params.get(key)
+        if value is not None and abs(value + 273.15 - NOMINAL_TEMPERATURE) > 1e-9:
+            raise reader.error(f".model {name}: TNOM={value:g} °C: the smooth devices run at "
+                               "27 °C and do not scale their parameters to another TNOM",
+                               hint="give the parameters at 27 °C and leave TNOM out")
+
+
+def _ignored(name: str, kind: str, keys: list[str], reader: StatementReader) -> None:
+    if keys:
+        reader.warn(f".model {name} {kind.upper()}: {', '.join(keys)} ignored: not a parameter "
+                    "of ngspice 39's model, which ignores it too")
+
+
+def jfet_model(name: str, kind: str, params: dict[str, float], reader: StatementReader) -> JfetModel:
+    """A :class:`JfetModel` from the parameters of its card (lower-case names, SI units)."""
+    _nominal_temperature(name, params, reader)
+    fields: dict[str, float] = {}
+    for key, value in params.items():
+        if key in JFET_PARAMETERS:
+            if JFET_PARAMETERS[key] in fields:
+                raise reader.error(f".model {name}: {key.upper()} gives VTO a second time")
+            fields[JFET_PARAMETERS[key]] = value
+    _ignored(name, kind, [key for key in params if key not in JFET_PARAMETERS
+                          and key not in JFET_NO_EFFECT | {"tnom", "tref"}], reader)
+    if params.get("level", 1) != 1:
+        raise reader.error(f".model {name}: JFET level {params['level']:g} is not supported",
+                           hint="circuitnsds has ngspice's level 1")
+    model = JfetModel(name, 1 if kind == "njf" else -1, location=reader.location, **fields)
+    problems = [f"{key.upper()} must not be negative" for key in
+                ("beta", "rd", "rs", "cgs", "cgd", "is_") if getattr(model, key) < 0]
+    if model.pb <= 0:
+        problems.append("PB must be positive")
+    if model.pb == model.vto:
+        problems.append("PB must differ from VTO (B's profile divides by PB - VTO)")
+    if not 0 <= model.fc < 1:
+        problems.append("FC must lie in [0, 1)")
+    if problems:
+        raise reader.error(f".model {name}: {'; '.join(p.replace('IS_', 'IS') for p in problems)}")
+    if model.fc > 0.95:
+        reader.warn(f".model {name}: FC={model.fc:g} limited to 0.95, as ngspice limits it")
+    return model
 
 
 def bjt_model(name: str, kind: str, params: dict[str, float], reader: StatementReader) -> BjtModel:
     """A :class:`BjtModel` from the parameters of its card (lower-case names, SI units)."""
+    _nominal_temperature(name, params, reader)
     fields: dict[str, float] = {}
+    unknown: list[str] = []
     lateral = kind == "pnp"
     for key, value in params.items():
         if key in BJT_PARAMETERS:
@@ -73,19 +138,14 @@ def bjt_model(name: str, kind: str, params: dict[str, float], reader: StatementR
             fields[BJT_PARAMETERS[key]] = value
         elif key == "subs":
             lateral = value < 0
-        elif key in {"tnom", "tref"}:
-            if abs(value + 273.15 - NOMINAL_TEMPERATURE) > 1e-9:
-                raise reader.error(f".model {name}: TNOM={value:g} °C: the smooth devices run at "
-                                   "27 °C and do not scale their parameters to another TNOM",
-                                   hint="give the parameters at 27 °C and leave TNOM out")
         elif key in BJT_REFUSED:
             if value:
                 raise reader.error(f".model {name}: {key.upper()}={value:g} ({BJT_REFUSED[key]}) "
                                    "is not modelled", hint=f"leave {key.upper()} out (or 0) to "
                                    "run without it")
-        elif key not in BJT_NO_EFFECT:
-            raise reader.error(f".model {name} {kind.upper()}: unknown parameter {key!r}",
-                               hint="see ngspice's manual, BJT level 1 (Gummel-Poon)")
+        elif key not in BJT_NO_EFFECT | {"tnom", "tref"}:
+            unknown.append(key)
+    _ignored(name, kind, unknown, reader)
     if params.get("level", 1) != 1:
         raise reader.error(f".model {name}: BJT level {params['level']:g} is not supported",
                            hint="circuitnsds has ngspice's level 1 (Gummel-Poon)")
@@ -119,23 +179,58 @@ def bjt_node_count(words: list[str], models: dict[str, object]) -> int:
 def bjt(reader: StatementReader, models: dict[str, object], off_resistance: float) -> Bjt:
     """``Q name c b e [s] MODEL [area] [off] [m=..]``: a Gummel–Poon transistor. ``off_resistance``
     [Ω] is ``1/GMIN``, the conductance ngspice puts across each junction."""
-    name = reader.name
+    words = _positional_words(reader)
+    count = bjt_node_count(words, models)
+    if len(words) < count + 1:
+        raise reader.error(f"{reader.name}: expected collector, base, emitter, [substrate,] and a "
+                           f"model name, got {len(words)} word(s)", hint="write Qname c b e MODEL")
+    nodes = tuple(node_name(token) for token in words[:count]) + (("0",) if count == 3 else ())
+    model = _model(reader, models, words[count], BjtModel, "a bipolar (NPN, PNP)",
+                   "NPN(IS=1e-14 BF=100)")
+    multiplier = _instance_multiplier(reader, words[count + 1:], "Q")
+    return Bjt(reader.name, nodes, reader.location, model=model, multiplier=multiplier,
+               gmin=1.0 / off_resistance)
+
+
+def jfet(reader: StatementReader, models: dict[str, object], off_resistance: float) -> Jfet:
+    """``J name d g s MODEL [area] [off] [m=..]``: a level-1 JFET. ``off_resistance`` [Ω] is
+    ``1/GMIN``, the conductance ngspice puts across each gate junction."""
+    words = _positional_words(reader)
+    if len(words) < 4:
+        raise reader.error(f"{reader.name}: expected drain, gate, source and a model name, got "
+                           f"{len(words)} word(s)", hint="write Jname d g s MODEL")
+    nodes = tuple(node_name(token) for token in words[:3])
+    model = _model(reader, models, words[3], JfetModel, "a JFET (NJF, PJF)",
+                   "NJF(VTO=-2 BETA=1m)")
+    multiplier = _instance_multiplier(reader, words[4:], "J")
+    return Jfet(reader.name, nodes, reader.location, model=model, multiplier=multiplier,
+                gmin=1.0 / off_resistance)
+
+
+def _positional_words(reader: StatementReader) -> list[str]:
+    """The words of an instance line before its ``key=value`` parameters, ``off`` aside (a hint
+    for ngspice's first Newton iterate: the solution it converges to is the same)."""
     words: list[str] = []
     while not reader.done() and reader.peek(1) != "=":
         token = reader.next("node or model")
-        if token != "off":  # a hint for ngspice's first Newton iterate: the solution is the same
+        if token != "off":
             words.append(token)
-    count = bjt_node_count(words, models)
-    if len(words) < count + 1:
-        raise reader.error(f"{name}: expected collector, base, emitter, [substrate,] and a model "
-                           f"name, got {len(words)} word(s)", hint="write Qname c b e MODEL")
-    nodes = tuple(node_name(token) for token in words[:count]) + (("0",) if count == 3 else ())
-    model_name, extra = words[count], words[count + 1:]
+    return words
+
+
+def _model(reader: StatementReader, models: dict[str, object], model_name: str, kind: type,
+           what: str, example: str):
     model = models.get(model_name)
-    if not isinstance(model, BjtModel):
-        what = "is not defined" if model is None else "is not a bipolar (NPN, PNP) model"
-        raise reader.error(f"{name}: model {model_name!r} {what}",
-                           hint=f"add a line such as: .model {model_name} NPN(IS=1e-14 BF=100)")
+    if not isinstance(model, kind):
+        problem = "is not defined" if model is None else f"is not {what} model"
+        raise reader.error(f"{reader.name}: model {model_name!r} {problem}",
+                           hint=f"add a line such as: .model {model_name} {example}")
+    return model
+
+
+def _instance_multiplier(reader: StatementReader, extra: list[str], letter: str) -> float:
+    """The instance's ``m=`` after its model (and its optional area, which must be 1)."""
+    name = reader.name
     instance = {"m": 1.0, "area": 1.0}
     if extra:
         if len(extra) > 1:
@@ -151,15 +246,14 @@ def bjt(reader: StatementReader, models: dict[str, object], off_resistance: floa
             raise reader.error(f"{name}: {key}= is not supported: the smooth devices run at 27 °C")
         else:
             raise reader.error(f"{name}: instance parameter {key!r} is not supported",
-                               hint="Q lines take m=")
+                               hint=f"{letter} lines take m=")
     if instance["area"] != 1.0:
         raise reader.error(f"{name}: area {extra[0] if extra else instance['area']} is not "
-                           "supported (only 1)", hint="scale IS, IKF, the resistances and "
-                           "capacitances in a model of its own, or use m= for parallel devices")
+                           "supported (only 1)", hint="scale the model's currents, resistances "
+                           "and capacitances in a model of its own, or use m= for parallel devices")
     if instance["m"] <= 0:
         raise reader.error(f"{name}: m={instance['m']:g} must be positive")
-    return Bjt(name, nodes, reader.location, model=model, multiplier=instance["m"],
-               gmin=1.0 / off_resistance)
+    return instance["m"]
 
 
 def _is_number(token: str) -> bool:
