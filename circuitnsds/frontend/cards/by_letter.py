@@ -82,7 +82,7 @@ CARD_READERS: dict[str, CardReader] = {
     "b": BEHAVIOURAL,
     "d": CardReader("devices", "diode", ("models",)),
     "s": _SWITCH, "w": _SWITCH,
-    "m": CardReader("mosfets", "mosfet", ("models", "options", "off_resistance")),
+    "m": CardReader("smooth_devices", "mosfet", ("models", "options", "off_resistance")),
     "a": CardReader("xspice", "analog_block", ("models",)),
     "z": CardReader("power_devices", "power_device", ("models", "off_resistance")),
     "q": CardReader("smooth_devices", "bjt", ("models", "off_resistance")),

@@ -262,3 +262,101 @@ def _is_number(token: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+SMOOTH_FLAG = "smooth"
+"""``smooth=1`` on an ``M`` line or on its ``.model`` makes the MOSFET the smooth device of
+ngspice's equations instead of the ideal switch (``smooth=0`` on the line keeps the switch
+for a model that says ``smooth=1``)."""
+MOS1_REFUSED = {
+    "js": "the junction current density (needs AD, AS)", "cj": "the bottom junction "
+    "capacitance per area (needs AD, AS)", "cjsw": "the sidewall junction capacitance (needs "
+    "PD, PS)", "rsh": "the sheet resistance (needs NRD, NRS)",
+}
+"""Level-1 parameters whose geometry the smooth device does not take (refused when nonzero)."""
+
+
+def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str, float],
+           off_resistance: float):
+    """An ``M`` line: the smooth device when its line or its model says ``smooth=1``
+    (:data:`SMOOTH_FLAG`), else the ideal switch of
+    :func:`circuitnsds.frontend.cards.mosfets.mosfet`."""
+    from circuitnsds.frontend.cards.mosfets import MosfetModel
+    from circuitnsds.frontend.cards.mosfets import mosfet as ideal_mosfet
+
+    tokens = list(reader.tokens)
+    flag = None
+    if SMOOTH_FLAG in tokens:
+        at = tokens.index(SMOOTH_FLAG)
+        if tokens[at + 1:at + 2] == ["="] and len(tokens) > at + 2:
+            flag = reader.number(SMOOTH_FLAG, tokens[at + 2]) != 0
+            reader.tokens = tuple(tokens[:at] + tokens[at + 3:])
+    words = [token for token in reader.tokens[1:reader.tokens.index("=") - 1
+                                              if "=" in reader.tokens else None] if token != "off"]
+    model = models.get(words[-1]) if words else None
+    if flag is None:
+        flag = isinstance(model, MosfetModel) and bool(model.params.get(SMOOTH_FLAG, 0))
+    if not flag:
+        return ideal_mosfet(reader, models, options, off_resistance)
+    return smooth_mosfet(reader, models, off_resistance)
+
+
+def smooth_mosfet(reader: StatementReader, models: dict[str, object], off_resistance: float):
+    """``M name d g s [b] MODEL [m=..] [l=..] [w=..]`` as ngspice's level-1 smooth device."""
+    from circuitnsds.circuit.elements.smooth.mos1 import Mos1, Mos1Model
+    from circuitnsds.frontend.cards.mos_parameters import transconductance
+    from circuitnsds.frontend.cards.mosfets import DEFAULT_LENGTH, MosfetModel
+
+    name = reader.name
+    words = _positional_words(reader)
+    if len(words) not in (4, 5):
+        raise reader.error(f"{name}: expected drain, gate, source, [bulk,] and a model name, "
+                           f"got {len(words)} word(s)", hint="write Mname d g s b MODEL")
+    *node_tokens, model_name = words
+    nodes = tuple(node_name(token) for token in node_tokens)
+    nodes = nodes if len(nodes) == 4 else nodes + (nodes[2],)
+    model = _model(reader, models, model_name, MosfetModel, "a MOSFET (NMOS, PMOS)",
+                   "NMOS(VTO=1 KP=50u)")
+    if model.kind == "vdmos" or int(model.params.get("level", 1)) != 1:
+        what = "VDMOS" if model.kind == "vdmos" else f"level {model.params['level']:g}"
+        raise reader.error(f"{name}: a {what} MOSFET as a smooth device is not supported yet "
+                           "(level 1 is)", hint="leave smooth=1 out to read it as a switch")
+    instance = {"m": 1.0, "l": model.get("l", DEFAULT_LENGTH), "w": model.get("w", DEFAULT_LENGTH)}
+    for key, text in reader.keyword_values():
+        if key not in instance:
+            raise reader.error(f"{name}: instance parameter {key!r} is not supported by the "
+                               "smooth MOSFET", hint="it takes m=, l= and w=")
+        instance[key] = reader.number(key, text)
+    if min(instance.values()) <= 0:
+        raise reader.error(f"{name}: m, l and w must be positive")
+    params = model.params
+    for key, what in MOS1_REFUSED.items():
+        if params.get(key):
+            raise reader.error(f"{name}: model {model.name}: {key.upper()} ({what}) is not "
+                               "supported by the smooth MOSFET")
+    if "nsub" in params and not {"gamma", "phi"} <= params.keys():
+        raise reader.error(f"{name}: model {model.name}: GAMMA and PHI derived from NSUB are "
+                           "not supported by the smooth MOSFET", hint="give GAMMA and PHI")
+    if "tox" in params:
+        reader.warn(f"{name}: model {model.name} gives TOX: its Meyer gate capacitances are left "
+                    "out of the smooth device (ngspice's are not a charge of the voltages)")
+    try:
+        vto = model.threshold_of(instance)[0]
+    except ValueError as exc:
+        raise reader.error(f"{name}: model {model.name}: {exc}") from None
+    length = instance["l"] - 2.0 * params.get("ld", 0.0)
+    if length <= 0:
+        raise reader.error(f"{name}: L - 2·LD = {length:g} m must be positive")
+    device = Mos1Model(
+        model.name, model.polarity, vto=model.polarity * vto,
+        beta=transconductance(params)[0] * instance["w"] / length,
+        gamma=params.get("gamma", 0.0), phi=params.get("phi", 0.6),
+        lam=params.get("lambda", 0.0), rd=params.get("rd", 0.0), rs=params.get("rs", 0.0),
+        is_=params.get("is", 1e-14), cbd=params.get("cbd", 0.0), cbs=params.get("cbs", 0.0),
+        mj=params.get("mj", 0.5), pb=params.get("pb", 0.8), fc=params.get("fc", 0.5),
+        cgs=params.get("cgso", 0.0) * instance["w"], cgd=params.get("cgdo", 0.0) * instance["w"],
+        cgb=params.get("cgbo", 0.0) * length, location=model.location)
+    if device.phi <= 0:
+        raise reader.error(f"{name}: model {model.name}: PHI must be positive")
+    return Mos1(name, nodes, reader.location, model=device, multiplier=instance["m"],
+                gmin=1.0 / off_resistance)
