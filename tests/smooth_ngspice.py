@@ -20,15 +20,16 @@ TIGHT = "reltol=1e-10 vntol=1e-14 abstol=1e-18 itl2=500"
 error at the 1e-6 level (its defaults stop at ``reltol=1e-3`` of the node voltages)."""
 
 
-def ngspice_dc(netlist: str, sweep: str, vectors: list[str]) -> dict[str, np.ndarray]:
+def ngspice_dc(netlist: str, sweep: str, vectors: list[str],
+               options: str = TIGHT) -> dict[str, np.ndarray]:
     """Run ngspice on ``netlist`` (elements and models, no title or ``.end``) with ``.dc sweep``
-    and :data:`TIGHT` tolerances; return each of ``vectors`` (``v(b)``, ``i(vc)``: ngspice's
-    names) over the sweep."""
+    and ``.options`` (:data:`TIGHT` tolerances by default); return each of ``vectors``
+    (``v(b)``, ``i(vc)``: ngspice's names) over the sweep."""
     with tempfile.TemporaryDirectory(prefix="devices_ngspice_") as folder:
         data = Path(folder) / "dc.txt"
         deck = Path(folder) / "dc.cir"
         deck.write_text(
-            f"one device\n{netlist}\n.options {TIGHT}\n.dc {sweep}\n.control\n"
+            f"one device\n{netlist}\n.options {options}\n.dc {sweep}\n.control\n"
             "set wr_singlescale\nset wr_vecnames\noption numdgt=15\nrun\n"
             f"wrdata {data} {' '.join(vectors)}\n.endc\n.end\n")
         run = subprocess.run(["ngspice", "-b", str(deck)], capture_output=True, text=True,

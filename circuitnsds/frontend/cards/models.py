@@ -150,6 +150,10 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         if key in TEXT_PARAMETERS:
             continue
         params[key] = reader.number(key, text)
+    if kind == "d" and params.get("smooth"):  # ngspice's Shockley diode as a smooth device
+        from circuitnsds.frontend.cards.smooth_devices import shockley_diode_model
+
+        return name, shockley_diode_model(name, params, reader)
     if kind == "d":
         return name, replace(_diode_model(name, params, reader, off_resistance, diodes),
                              thermal=thermal)

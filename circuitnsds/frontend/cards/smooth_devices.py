@@ -360,3 +360,78 @@ def smooth_mosfet(reader: StatementReader, models: dict[str, object], off_resist
         raise reader.error(f"{name}: model {model.name}: PHI must be positive")
     return Mos1(name, nodes, reader.location, model=device, multiplier=instance["m"],
                 gmin=1.0 / off_resistance)
+
+
+DIODE_PARAMETERS = {"is": "is_", "js": "is_", "n": "n", "rs": "rs", "bv": "bv", "vb": "bv",
+                    "ibv": "ibv", "ib": "ibv", "nbv": "nbv", "ikf": "ikf", "ik": "ikf",
+                    "ikr": "ikr", "cjo": "cjo", "cj0": "cjo", "cj": "cjo", "vj": "vj", "pb": "vj",
+                    "m": "m", "mj": "m", "fc": "fc", "tt": "tt"}
+"""``.model D(... smooth=1)`` parameter (and alias) -> :class:`ShockleyDiodeModel` field."""
+DIODE_NO_EFFECT = {"smooth", "level", "eg", "xti", "kf", "af", "tlev", "tlevc", "cta", "ctp",
+                   "tcv", "tpb", "tphp", "trs", "trs1", "trs2", "tm1", "tm2", "ttt1", "ttt2",
+                   "tnom", "tref", "bv_max", "fv_max", "te_max", "pd_max", "rth0", "cth0",
+                   "iave", "ipk", "vpk", "diss", "mfg", "type"}
+"""Diode parameters that change nothing at the nominal temperature (or in a simulation)."""
+DIODE_REFUSED = {"isw": "sidewall current", "jsw": "sidewall current", "ns": "sidewall "
+                 "current", "isr": "recombination current", "nr": "recombination current",
+                 "jtun": "tunnelling current", "jtunsw": "tunnelling current", "cjsw": "sidewall "
+                 "capacitance", "cjp": "sidewall capacitance", "fcs": "sidewall capacitance"}
+"""Diode parameters whose effect the smooth diode leaves out (refused when nonzero)."""
+
+
+def shockley_diode_model(name: str, params: dict[str, float], reader: StatementReader):
+    """A ``.model NAME D(... smooth=1)`` card as ngspice's level-1 diode
+    (:class:`~circuitnsds.circuit.elements.smooth.diode.ShockleyDiodeModel`)."""
+    from circuitnsds.circuit.elements.smooth.diode import ShockleyDiodeModel
+
+    _nominal_temperature(name, params, reader)
+    fields: dict[str, float] = {}
+    for key, value in params.items():
+        if key in DIODE_PARAMETERS:
+            if DIODE_PARAMETERS[key] in fields:
+                raise reader.error(f".model {name}: {key.upper()} gives "
+                                   f"{DIODE_PARAMETERS[key].rstrip('_').upper()} a second time")
+            fields[DIODE_PARAMETERS[key]] = value
+        elif key in DIODE_REFUSED and value:
+            raise reader.error(f".model {name}: {key.upper()}={value:g} ({DIODE_REFUSED[key]}) is "
+                               "not modelled by the smooth diode", hint=f"leave {key.upper()} out")
+    _ignored(name, "d", [key for key in params if key not in DIODE_PARAMETERS
+                         and key not in DIODE_NO_EFFECT and key not in DIODE_REFUSED], reader)
+    if params.get("level", 1) != 1:
+        raise reader.error(f".model {name}: diode level {params['level']:g} is not supported "
+                           "as a smooth device", hint="ngspice's level 1 is")
+    model = ShockleyDiodeModel(name, location=reader.location, **fields)
+    problems = [f"{key.upper()} must be positive" for key in ("is_", "n", "vj")
+                if getattr(model, key) <= 0]
+    problems += [f"{key.upper()} must not be negative" for key in
+                 ("rs", "ikf", "ikr", "cjo", "tt") if getattr(model, key) < 0]
+    if model.bv is not None and (model.bv <= 0 or model.ibv <= 0):
+        problems.append("BV and IBV must be positive")
+    if not 0 <= model.fc < 1 or not 0 <= model.m < 1:
+        problems.append("FC and M must lie in [0, 1)")
+    if problems:
+        raise reader.error(f".model {name}: {'; '.join(p.replace('IS_', 'IS') for p in problems)}")
+    return model
+
+
+def diode(reader: StatementReader, models: dict[str, object], off_resistance: float):
+    """A ``D`` line: ngspice's Shockley diode as a smooth device when its model says
+    ``smooth=1``, else the ideal or piecewise-linear diode of
+    :func:`circuitnsds.frontend.cards.devices.diode`."""
+    from circuitnsds.circuit.elements.smooth.diode import ShockleyDiode, ShockleyDiodeModel
+    from circuitnsds.frontend.cards.devices import diode as ideal_diode
+
+    model = models.get(reader.tokens[3]) if len(reader.tokens) > 3 else None
+    if not isinstance(model, ShockleyDiodeModel):
+        return ideal_diode(reader, models)
+    words = _positional_words(reader)
+    nodes = tuple(node_name(token) for token in words[:2])
+    for key, text in reader.keyword_values():
+        if key not in {"m", "area"} or reader.number(key, text) != 1:
+            raise reader.error(f"{reader.name}: {key}={text} is not supported by the smooth diode",
+                               hint="use a model of its own for another area, or parallel diodes")
+    if words[3:]:
+        raise reader.error(f"{reader.name}: area {words[3]} is not supported by the smooth diode "
+                           "(only 1)", hint="scale IS, RS and CJO in a model of its own")
+    return ShockleyDiode(reader.name, nodes, reader.location, model=model,
+                         gmin=1.0 / off_resistance)
