@@ -92,7 +92,6 @@ def test_meyer_capacitances_left_out_are_said():
 
 
 @pytest.mark.parametrize(("line", "model", "words"), [
-    ("m1 d g 0 mx", "vdmos(vto=3 kp=5 smooth=1)", "VDMOS MOSFET as a smooth device"),
     ("m1 d g 0 0 mx", "nmos(level=3 smooth=1)", "level 3 MOSFET as a smooth device"),
     ("m1 d g 0 0 mx", "nmos(cj=1m smooth=1)", "CJ"),
     ("m1 d g 0 0 mx", "nmos(nsub=1e16 tox=20n smooth=1)", "GAMMA and PHI derived from NSUB"),

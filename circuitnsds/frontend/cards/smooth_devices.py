@@ -317,10 +317,12 @@ def smooth_mosfet(reader: StatementReader, models: dict[str, object], off_resist
     nodes = nodes if len(nodes) == 4 else nodes + (nodes[2],)
     model = _model(reader, models, model_name, MosfetModel, "a MOSFET (NMOS, PMOS)",
                    "NMOS(VTO=1 KP=50u)")
-    if model.kind == "vdmos" or int(model.params.get("level", 1)) != 1:
-        what = "VDMOS" if model.kind == "vdmos" else f"level {model.params['level']:g}"
-        raise reader.error(f"{name}: a {what} MOSFET as a smooth device is not supported yet "
-                           "(level 1 is)", hint="leave smooth=1 out to read it as a switch")
+    if model.kind == "vdmos":
+        return smooth_vdmos(reader, model, node_tokens, off_resistance)
+    if int(model.params.get("level", 1)) != 1:
+        raise reader.error(f"{name}: a level {model.params['level']:g} MOSFET as a smooth device "
+                           "is not supported yet (level 1 and VDMOS are)",
+                           hint="leave smooth=1 out to read it as a switch")
     instance = {"m": 1.0, "l": model.get("l", DEFAULT_LENGTH), "w": model.get("w", DEFAULT_LENGTH)}
     for key, text in reader.keyword_values():
         if key not in instance:
@@ -435,3 +437,43 @@ def diode(reader: StatementReader, models: dict[str, object], off_resistance: fl
                            "(only 1)", hint="scale IS, RS and CJO in a model of its own")
     return ShockleyDiode(reader.name, nodes, reader.location, model=model,
                          gmin=1.0 / off_resistance)
+
+
+VDMOS_SMOOTH = {"vto": "vto", "vth0": "vto", "kp": "kp", "lambda": "lam", "theta": "theta",
+                "mtriode": "mtriode", "ksubthres": "ksubthres", "subshift": "subshift",
+                "rd": "rd", "rs": "rs", "rg": "rg", "rds": "rds", "cgs": "cgs",
+                "cgdmin": "cgdmin", "cgdmax": "cgdmax", "a": "a"}
+"""VDMOS parameters of the channel and gate -> :class:`VdmosModel` field."""
+VDMOS_BODY = {"is": "is_", "n": "n", "rb": "rs", "bv": "bv", "ibv": "ibv", "nbv": "nbv",
+              "cjo": "cjo", "vj": "vj", "m": "m", "fc": "fc", "tt": "tt"}
+"""VDMOS body-diode parameters -> :class:`ShockleyDiodeModel` field."""
+
+
+def smooth_vdmos(reader: StatementReader, model, node_tokens: list[str], off_resistance: float):
+    """``M name d g s MODEL`` with a VDMOS model as ngspice's smooth VDMOS (no self-heating,
+    no quasi-saturation ``RQ``, ``M`` 1)."""
+    from circuitnsds.circuit.elements.smooth.diode import ShockleyDiodeModel
+    from circuitnsds.circuit.elements.smooth.vdmos import Vdmos, VdmosModel
+
+    name = reader.name
+    if len(node_tokens) != 3:
+        raise reader.error(f"{name}: a VDMOS has three terminals (d g s); the thermal nodes of "
+                           "ngspice's self-heating model are not supported")
+    for key, text in reader.keyword_values():
+        if key != "m" or reader.number(key, text) != 1:
+            raise reader.error(f"{name}: {key}={text} is not supported by the smooth VDMOS",
+                               hint="give the parallel devices a model of their own")
+    params = model.params
+    if params.get("rq"):
+        raise reader.error(f"{name}: model {model.name}: RQ (quasi-saturation) is not supported "
+                           "by the smooth VDMOS", hint="leave RQ out")
+    channel = {field: params[key] for key, field in VDMOS_SMOOTH.items() if key in params}
+    body = {field: params[key] for key, field in VDMOS_BODY.items() if key in params}
+    diode = ShockleyDiodeModel("body", **{"ibv": 1e-10, "nbv": 1.0, "vj": 0.8, **body})
+    device = VdmosModel(model.name, model.polarity, diode=diode, location=model.location,
+                        **channel)
+    if device.ksubthres <= 0 or device.kp < 0 or device.a <= 0:
+        raise reader.error(f"{name}: model {model.name}: KSUBTHRES and A must be positive, KP "
+                           "not negative")
+    return Vdmos(name, tuple(node_name(token) for token in node_tokens), reader.location,
+                 model=device, gmin=1.0 / off_resistance)
