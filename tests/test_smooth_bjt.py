@@ -10,6 +10,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+import circuitnsds
 from circuitnsds.circuit.elements.smooth.bjt import BjtModel, gummel_poon_dc
 from circuitnsds.circuit.elements.smooth.junctions import critical_voltage, pnjlim, thermal_voltage
 from circuitnsds.errors import CircuitError, NetlistError, NetlistWarning
@@ -190,3 +191,25 @@ def test_analyses_without_a_newton_stepper_refuse_the_device_by_name(analysis):
             circuit.pss(period=20e-6)
         else:
             getattr(circuit, analysis)()
+
+
+@settings(max_examples=40, deadline=None)
+@given(substrate=st.booleans(), off_at=st.one_of(st.none(), st.integers(0, 5)),
+       area=st.booleans(), parameters=st.sampled_from(["", " m=2", " m = 3"]))
+def test_a_q_line_inside_a_subcircuit_renames_its_nodes_and_not_its_model(
+        substrate, off_at, area, parameters):
+    """However a Q line is written (3 or 4 nodes, ``off`` among its words, an area of 1, ``m=``),
+    flattening renames exactly its nodes: the global model keeps its name and every terminal
+    becomes the instance's own (a substrate node too)."""
+    words = ["nc", "nb", "ne", *(["ns"] if substrate else []), "qn", *(["1"] if area else [])]
+    if off_at is not None:
+        words.insert(min(off_at, len(words)), "off")
+    netlist = (f"t\n.model qn npn(bf=50)\n.subckt cell p\nq1 {' '.join(words)}{parameters}\n"
+               "rc p nc 1\nrb p nb 1k\nre ne 0 1\n" + ("rs ns 0 1\n" if substrate else "") +
+               ".ends\nv1 in 0 10\nx1 in cell\n.end\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuitnsds.read_netlist(netlist)
+    bjt = circuit.element("x1.q1")
+    expected = ("x1.nc", "x1.nb", "x1.ne", "x1.ns" if substrate else "0")
+    assert bjt.nodes == expected and bjt.model.name == "qn"
