@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from circuitnsds.values import parse_value
+
 
 def mosfet_node_indexes(tokens: Sequence[str]) -> tuple[int, ...]:
     """Indexes of the nodes of an ``M`` line (``tokens[0]`` is the name): 3 (``d g s MODEL``) or
@@ -25,6 +27,35 @@ def mosfet_node_indexes(tokens: Sequence[str]) -> tuple[int, ...]:
         if tokens[index] != "off":
             words.append(index)
     return tuple(words[:4 if len(words) >= 5 else 3])
+
+
+def _positional(tokens: Sequence[str]) -> list[int]:
+    """Indexes of the words of an element line before its first ``key=value``, the ``off``
+    flag aside (the name, at 0, excluded)."""
+    words = []
+    for index in range(1, len(tokens)):
+        if tokens[index] == "=" or (index + 1 < len(tokens) and tokens[index + 1] == "="):
+            break
+        if tokens[index] != "off":
+            words.append(index)
+    return words
+
+
+def _is_number(token: str) -> bool:
+    try:
+        parse_value(token)
+    except ValueError:
+        return False
+    return True
+
+
+def bjt_node_indexes(tokens: Sequence[str]) -> tuple[int, ...]:
+    """Indexes of the nodes of a ``Q`` line: ``c b e MODEL [area]`` or ``c b e s MODEL
+    [area]``. ngspice asks whether the fourth word is a model; without the models, the fifth
+    word decides: a model name (not a number) after four nodes, else the area after three."""
+    words = _positional(tokens)
+    four = len(words) >= 5 and not _is_number(tokens[words[4]])
+    return tuple(words[:4 if four else 3])
 
 
 @dataclass(frozen=True)
@@ -71,10 +102,10 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
     # XSPICE ports are marked and bracketed: netlist/subcircuits renames them by their own rule
     "a": ElementLetter("XSPICE code models", 0),
     "x": ElementLetter("subcircuit instances", 0),
-    "j": ElementLetter("JFETs", 0, supported=False),
+    "j": ElementLetter("JFETs", 3),
     "o": ElementLetter("lossy transmission lines", 0, supported=False),
     "p": ElementLetter("coupled transmission lines", 0, supported=False),
-    "q": ElementLetter("bipolar transistors", 0, supported=False),
+    "q": ElementLetter("bipolar transistors", bjt_node_indexes),
     "t": ElementLetter("transmission lines", 0, supported=False),
     "u": ElementLetter("RC lines", 0, supported=False),
     "y": ElementLetter("transmission lines", 0, supported=False),
@@ -86,9 +117,10 @@ ELEMENT_LETTERS: dict[str, ElementLetter] = {
 NOT_AN_ELEMENT = ElementLetter("unknown elements", 0, supported=False)
 """What a letter outside :data:`ELEMENT_LETTERS` is: no nodes renamed, refused."""
 
-SMOOTH_NONLINEAR = frozenset("jqz")
-"""Letters of smooth nonlinear devices (BJTs, JFETs, MESFETs): issue 33 brings them, and their
-refusal says so."""
+SMOOTH_NONLINEAR = frozenset("jq")
+"""Letters of the smooth nonlinear devices (BJTs, JFETs: their equations are ngspice's,
+:mod:`circuitnsds.circuit.elements.smooth`); an ``M`` line is smooth or an ideal switch by its
+model's rule."""
 
 SUPPORTED_LETTERS = (", ".join(letter.upper() for letter, kind in ELEMENT_LETTERS.items()
                                if kind.supported and letter != "x") + " and X (subcircuit instances)")

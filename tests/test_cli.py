@@ -36,7 +36,7 @@ def test_default_output_name_and_theta(tmp_path, monkeypatch):
 @pytest.mark.parametrize(
     ("netlist", "args", "message"),
     [
-        ("t\nR1 a 0 1k\nQ1 a b c npn\n.end\n", [], "bad.cir:3: q1: bipolar transistors"),
+        ("t\nR1 a 0 1k\nT1 a 0 b 0 z0=50 td=1n\n.end\n", [], "bad.cir:3: t1: transmission lines"),
         ("t\nD1 a 0 nomodel\nR1 a 0 1\n.tran 1u 1m\n.end\n", [], "bad.cir:2: d1: diode model"),
         ("t\nR1 a 0 1k\n.end\n", [], "no .tran line"),
         ("t\nR1 a 0 1k\n.tran 1u 1m\n.end\n", ["--signals", "v(zz)"], "unknown signal(s) v(zz)"),

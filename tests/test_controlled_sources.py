@@ -228,8 +228,8 @@ def test_polynomial_and_laplace_sources_are_reported_as_unsupported(line):
 @pytest.mark.parametrize(
     ("line", "what"),
     [
-        ("Q1 f in 0 qmod", "bipolar"),
-        ("J1 f in 0 jmod", "jfet"),
+        ("T1 f 0 in 0 z0=50 td=1n", "transmission"),
+        ("U1 f in 0 urc l=1m n=10", "rc lines"),
     ],
 )
 def test_unsupported_elements_say_so_with_the_line(line, what):

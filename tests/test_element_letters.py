@@ -54,7 +54,7 @@ def test_nodes_inside_a_subcircuit_are_renamed_by_the_table():
 
 
 @pytest.mark.parametrize(("line", "message"), [
-    ("q1 c b e qmod", r"q1: bipolar transistors \('Q' lines\) are not supported"),
+    ("t1 a 0 b 0 z0=50 td=1n", r"t1: transmission lines \('T' lines\) are not supported"),
     ("%1 a 0 1", "unknown element type '%'"),
 ])
 def test_a_letter_without_a_reader_is_refused_by_name(line, message):

@@ -27,15 +27,14 @@ CATALOGUE = {
         b"t\n9R1 a 0 1k\nV1 a 0 1\n.tran 1u 1m\n.end\n",
         "bad.cir:2: 9r1: unknown element type '9'\n"
         "  hint: element names start with their type letter: R, C, L, K, V, I, E, F, G, H, B, D, S, "
-        "W, M, A, Z and X (subcircuit instances); in: 9R1 a 0 1k",
+        "W, M, A, J, Q, Z and X (subcircuit instances); in: 9R1 a 0 1k",
     ),
     "unsupported element letter": (
-        b"t\nR1 a 0 1k\nQ1 a b 0 npn\n.tran 1u 1m\n.end\n",
-        "bad.cir:3: q1: bipolar transistors ('Q' lines) are not supported by the ideal engine "
-        "(smooth nonlinear devices: issue 33)\n"
-        "  hint: circuitnsds reads R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A, Z and X (subcircuit "
-        "instances); model a transistor used as a switch with an S switch driven by its gate "
-        "signal, or a MOSFET (M line); in: Q1 a b 0 npn",
+        b"t\nR1 a 0 1k\nT1 a 0 b 0 z0=50 td=1n\n.tran 1u 1m\n.end\n",
+        "bad.cir:3: t1: transmission lines ('T' lines) are not supported by the ideal engine\n"
+        "  hint: circuitnsds reads R, C, L, K, V, I, E, F, G, H, B, D, S, W, M, A, J, Q, Z and X "
+        "(subcircuit instances); model a transistor used as a switch with an S switch driven by "
+        "its gate signal, or a MOSFET (M line); in: T1 a 0 b 0 z0=50 td=1n",
     ),
     ".tran missing": (
         b"t\nR1 a 0 1k\nV1 a 0 1\n.end\n",

@@ -68,6 +68,18 @@ if TYPE_CHECKING:
     from circuitnsds.engine.integrate import Trajectory
 
 
+def smooth_refusal(mlcs: MLCS) -> str | None:
+    """The reason a computation on the linear part of ``mlcs`` alone refuses its smooth
+    nonlinear relations (:mod:`circuitnsds.system.smooth`), naming them; ``None`` without."""
+    if not mlcs.smooth:
+        return None
+    names = ", ".join(relation.name for relation in mlcs.smooth[:5])
+    more = f" and {len(mlcs.smooth) - 5} more" if len(mlcs.smooth) > 5 else ""
+    verb = "is a smooth nonlinear device" if len(mlcs.smooth) == 1 else "are smooth nonlinear devices"
+    return (f"{names}{more} {verb}, which only the Newton stepper (method=newton) solves: "
+            "this method would leave it out")
+
+
 @dataclass
 class StartState:
     """The state at the first point of a part (what :meth:`Stepper.advance` starts from).
@@ -109,8 +121,10 @@ class Stepper(ABC):
 
     @classmethod
     def unsuited(cls, mlcs: MLCS) -> str | None:
-        """Why this stepper cannot integrate ``mlcs`` (words for the reader), or ``None``."""
-        return None
+        """Why this stepper cannot integrate ``mlcs`` (words for the reader), or ``None``. By
+        default a stepper of the MLCS's linear part refuses smooth nonlinear relations (it
+        would leave them out); a stepper that solves them overrides this."""
+        return smooth_refusal(mlcs)
 
     @abstractmethod
     def begin(self, grid: np.ndarray, *, parts: bool) -> None:

@@ -16,7 +16,7 @@ import re
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Element, MutualInductance
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE
-from circuitnsds.element_letters import ELEMENT_LETTERS, SMOOTH_NONLINEAR, SUPPORTED_LETTERS, element_letter
+from circuitnsds.element_letters import ELEMENT_LETTERS, SUPPORTED_LETTERS, element_letter
 from circuitnsds.errors import NetlistError, SourceLocation
 from circuitnsds.frontend.cards import commands, devices, parasitics
 from circuitnsds.frontend.cards.by_letter import CardContext, reader_for
@@ -178,8 +178,7 @@ def _element(statement: Statement, context: CardContext) -> Element | list[Eleme
     if letter in ELEMENT_LETTERS:
         raise reader.error(
             f"{statement.keyword}: {ELEMENT_LETTERS[letter].what} ('{letter.upper()}' lines) "
-            "are not supported by the ideal engine"
-            + (" (smooth nonlinear devices: issue 33)" if letter in SMOOTH_NONLINEAR else ""),
+            "are not supported by the ideal engine",
             hint=f"circuitnsds reads {SUPPORTED_LETTERS}; model a transistor used as a switch "
             "with an S switch driven by its gate signal, or a MOSFET (M line)",
         )
@@ -228,6 +227,8 @@ def _check_unused_models(circuit: Circuit) -> None:
         if name not in used:
             kind = model if isinstance(model, str) else model.kind if is_loaded_instance(
                 model, "circuitnsds.frontend.cards.xspice", "XspiceModel"
+            ) or is_loaded_instance(model, "circuitnsds.circuit.elements.smooth.bjt", "BjtModel"
+            ) or is_loaded_instance(model, "circuitnsds.circuit.elements.smooth.jfet", "JfetModel"
             ) else type(model).__name__.removesuffix("Model")
             warn_at(circuit.model_locations[name], f".model {name} ({kind.upper()}) is not used")
 

@@ -80,11 +80,13 @@ CARD_READERS: dict[str, CardReader] = {
     "v": _INDEPENDENT, "i": _INDEPENDENT,
     "e": _CONTROLLED, "f": _CONTROLLED, "g": _CONTROLLED, "h": _CONTROLLED,
     "b": BEHAVIOURAL,
-    "d": CardReader("devices", "diode", ("models",)),
+    "d": CardReader("smooth_devices", "diode", ("models", "off_resistance")),
     "s": _SWITCH, "w": _SWITCH,
-    "m": CardReader("mosfets", "mosfet", ("models", "options", "off_resistance")),
+    "m": CardReader("smooth_devices", "mosfet", ("models", "options", "off_resistance")),
     "a": CardReader("xspice", "analog_block", ("models",)),
     "z": CardReader("power_devices", "power_device", ("models", "off_resistance")),
+    "q": CardReader("smooth_devices", "bjt", ("models", "off_resistance")),
+    "j": CardReader("smooth_devices", "jfet", ("models", "off_resistance")),
 }
 """Element letter -> its card reader."""
 

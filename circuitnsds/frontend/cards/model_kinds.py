@@ -10,6 +10,11 @@ that uses none of them.
 MOS_KINDS = {"vdmos": "VDMOS power MOSFET", "nmos": "n-channel MOSFET", "pmos": "p-channel MOSFET"}
 """MOSFET model types (``.model NAME VDMOS|NMOS|PMOS``) -> what they are."""
 
+SMOOTH_KINDS = {"npn": "NPN bipolar transistor", "pnp": "PNP bipolar transistor",
+                "njf": "n-channel JFET", "pjf": "p-channel JFET"}
+"""Model types of the smooth semiconductor devices (:mod:`~circuitnsds.frontend.cards.smooth_devices`)
+-> what they are."""
+
 POWER_KINDS = {"igbt": "IGBT", "scr": "thyristor (SCR)"}
 """Power-device model types (``.model NAME IGBT|SCR``, used by ``Z`` lines) -> what they are."""
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 from circuitnsds.circuit.elements import DiodeModel, SwitchModel
 from circuitnsds.circuit.elements.diode import DEFAULT_OFF_RESISTANCE, fitted_model
 from circuitnsds.circuit.elements.diode_fit import MAX_BRANCHES, ShockleyDiode
-from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS, POWER_KINDS
+from circuitnsds.frontend.cards.model_kinds import CODE_MODELS, MOS_KINDS, POWER_KINDS, SMOOTH_KINDS
 from circuitnsds.frontend.cards.reader import StatementReader
 
 # Shockley and datasheet parameters: legitimate in a diode model, not used by the ideal engine.
@@ -35,7 +35,8 @@ DEFAULT_RESISTOR_LENGTH = 10e-6
 
 MODEL_KINDS = {"d": "diode", "sw": "voltage-controlled switch", "csw": "current-controlled switch",
                "vswitch": "voltage-controlled switch", "iswitch": "current-controlled switch",
-               "r": "resistor", "res": "resistor", **MOS_KINDS, **POWER_KINDS}
+               "r": "resistor", "res": "resistor", **MOS_KINDS, **POWER_KINDS,
+               **SMOOTH_KINDS}
 
 
 @dataclass(frozen=True)
@@ -124,6 +125,10 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         from circuitnsds.frontend.cards.mosfets import read_mos_model
 
         return name, read_mos_model(name, kind, reader)
+    if kind in SMOOTH_KINDS:
+        from circuitnsds.frontend.cards.smooth_devices import read_smooth_model
+
+        return name, read_smooth_model(name, kind, reader)
     if kind in POWER_KINDS:
         from circuitnsds.frontend.cards.power_devices import read_power_model
 
@@ -145,6 +150,10 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
         if key in TEXT_PARAMETERS:
             continue
         params[key] = reader.number(key, text)
+    if kind == "d" and params.get("smooth"):  # ngspice's Shockley diode as a smooth device
+        from circuitnsds.frontend.cards.smooth_devices import shockley_diode_model
+
+        return name, shockley_diode_model(name, params, reader)
     if kind == "d":
         return name, replace(_diode_model(name, params, reader, off_resistance, diodes),
                              thermal=thermal)

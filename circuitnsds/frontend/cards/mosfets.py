@@ -59,7 +59,7 @@ TEXT_PARAMETERS = {"mfg", "type"}
 FLAGS = {"nchan", "pchan", "vdmosn", "vdmosp"}
 
 VDMOS_USED = {"vto", "vth0", "kp", "theta", "mtriode", "ksubthres", "subshift", "rd", "rs", "rg",
-              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgdmin", "cgs", "vj", "m", "a"}
+              "rds", "rb", "is", "n", "bv", "cjo", "cgdmax", "cgdmin", "cgs", "vj", "m", "a", "smooth"}
 VDMOS_IGNORED = {
     # smooth-model details that do not change a switch's states or its on-resistance
     "phi", "lambda", "tnom", "kf", "af", "rq", "vq", "tcvth", "vtotc", "mu", "bex", "texp0",
@@ -72,7 +72,7 @@ VDMOS_IGNORED = {
 }
 LEVEL1_USED = {"level", "vto", "vt0", "kp", "u0", "uo", "tox", "ld", "rd", "rs", "is", "cbd", "cbs",
                "cgso", "cgdo", "l", "w", "nsub", "phi", "gamma", "tpg", "nss", "xj", "delta", "wd",
-               "tnom", "pb", "mj", "theta"}
+               "tnom", "pb", "mj", "theta", "smooth"}
 LEVEL1_IGNORED = {
     "lambda", "cgbo", "rsh", "cj", "cjsw", "mjsw", "js", "fc",
     "kf", "af", "uexp", "ucrit", "vmax", "neff", "nfs", "eta",

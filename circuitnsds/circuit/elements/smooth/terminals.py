@@ -1,0 +1,42 @@
+"""A device's terminals (external and internal nodes) onto the unknowns of the MLCS.
+
+A device's equations are written over its own list of terminals (a BJT's ``c, b, e, s`` and
+its internal ``c', b', e'``), some of which are the same unknown (``b' = b`` without base
+resistance) or ground. The relation the engine sees reads each distinct non-ground unknown
+once and writes each once (ground reads 0 V and its row is dropped, so it is left out), so
+that its Jacobian has no repeated columns: :class:`TerminalMap` does the bookkeeping.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TerminalMap:
+    """Terminal ``k`` of a device is the unknown ``unknowns[k]`` of ``y`` (``-1``: ground).
+
+    Attributes:
+        unknowns: per terminal, its index in ``y`` or ``-1``.
+    """
+
+    unknowns: tuple[int, ...]
+
+    @property
+    def inputs(self) -> tuple[int, ...]:
+        """The distinct non-ground unknowns, in terminal order: the relation's ``inputs``
+        and ``rows``."""
+        return tuple(dict.fromkeys(k for k in self.unknowns if k >= 0))
+
+    @property
+    def scatter(self) -> np.ndarray:
+        """``P`` with ``P[k, j] = 1`` when terminal ``k`` is input ``j``: terminal voltages
+        are ``P x``, the rows' values ``Pᵀ f``, the Jacobian ``Pᵀ J P``."""
+        position = {unknown: j for j, unknown in enumerate(self.inputs)}
+        matrix = np.zeros((len(self.unknowns), len(position)))
+        for k, unknown in enumerate(self.unknowns):
+            if unknown >= 0:
+                matrix[k, position[unknown]] = 1.0
+        return matrix
