@@ -67,7 +67,7 @@ CATALOGUE = [
     (".if (nosuch > 0)\nR2 a 0 1\n.endif", r"\.if: undefined parameter 'nosuch'"),
     ("L1 a 0 1m\nL2 b 0 1m\nK1 L1 L2 1 core\n.model core CORE\nR2 b 0 1", r"k1: 'core' after the coupling"),
     ("D1 a 0 dm foo=2\n.model dm D", r"d1: instance parameter 'foo' is not supported"),
-    ("V2 b 0 AM(1 0 1k 10k 0)\nR2 b 0 1", r"v2: .*am"),
+    ("V2 b 0 TRNOISE(1 1n 0 0)\nR2 b 0 1", r"v2: TRNOISE sources are not supported"),
     # Xyce's VSWITCH/VswitchHyst1.cir (before: "unknown parameter 'vhon'", the hint naming SW's)
     ("S1 a b a 0 sw\nR2 b 0 1\n.model sw VSWITCH(RON=1 ROFF=100 VON=1 VHON=0.55 VOFF=0 VHOFF=0.45)",
      r"\.model sw VSWITCH: VHON, VHOFF \(Xyce's hysteresis of its switch\) is not supported"),
