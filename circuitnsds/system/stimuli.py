@@ -461,7 +461,47 @@ class Sffm:
         return abs(self.carrier_frequency) + abs(self.modulation_index * self.signal_frequency)
 
 
-Stimulus = Dc | Sin | Pulse | Pwl | Exp | Am | Sffm
+@dataclass(frozen=True)
+class Sawtooth:
+    """``frac(start + frequency·t)``: rises from ``start`` (a fraction of a period, in [0, 1))
+    at ``frequency`` [Hz] (per second, dimensionless value) and drops to 0 at each period's
+    end. The phase of XSPICE's ``d_pwm`` oscillator; no netlist card writes it. At a drop the
+    value is 1 (the value before it; see the module docstring)."""
+
+    frequency: float
+    start: float = 0.0
+
+    def resolve(self, tstep: float, tstop: float) -> Sawtooth:
+        return self
+
+    def value(self, t: float) -> float:
+        return float(self.sample(np.array([t]))[0])
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]; an instant within rounding of a drop
+        is at the drop (the value 1 before it, 0 at time 0's phase 0)."""
+        phase = self.start + self.frequency * np.asarray(times, dtype=float)
+        whole = np.floor(phase)
+        fraction = phase - whole
+        at_drop = (fraction <= 64 * np.finfo(float).eps * np.maximum(phase, 1.0)) & (phase > 0)
+        return np.where(at_drop, 1.0, fraction)
+
+    def breakpoints(self, stop: float) -> list[float]:
+        """Each drop, and :data:`SAWTOOTH_SETTLE` of a period after it: a comparator of the
+        sawtooth sees the drop in that short first step, so that a step after a drop never
+        holds both the comparator's fall and its next rise (where neither would be seen)."""
+        first = (1.0 - self.start) / self.frequency
+        count = max(0, math.ceil((stop - first) * self.frequency))
+        drops = first + np.arange(count + 1) / self.frequency
+        points = np.column_stack([drops, drops + SAWTOOTH_SETTLE / self.frequency]).ravel()
+        return points[(points > 0) & (points < stop)].tolist()
+
+
+SAWTOOTH_SETTLE = 1e-6
+"""The first step after a sawtooth's drop [periods]."""
+
+
+Stimulus = Dc | Sin | Pulse | Pwl | Exp | Am | Sffm | Sawtooth
 
 
 POINTS_PER_PERIOD = 20

@@ -37,6 +37,8 @@ DIGITAL_PARTS: dict[str, dict[str, object]] = {
     "adc_bridge": {"in_low": 0.1, "in_high": 0.9, "rise_delay": 1e-9, "fall_delay": 1e-9},
     "dac_bridge": {"out_low": 0.0, "out_high": 1.0, "out_undef": 0.5, "input_load": 1e-12,
                    "t_rise": 1e-9, "t_fall": 1e-9},
+    "d_pwm": {"cntl_array": None, "dc_array": None, "frequency": 1e6, "init_phase": 0.0,
+              "rise_delay": 1e-9, "fall_delay": 1e-9},
 }
 """Supported digital code models: parameter -> ngspice default (ngspice 39's ifspec.ifs)."""
 

@@ -18,7 +18,8 @@ are those of ngspice's code models (``src/xspice/icm/analog/*/ifspec.ifs``):
   equilibrium (its input zero); ngspice holds the output at ``out_ic`` there instead.
 
 The digital parts ``d_inverter``, ``d_and``, ``d_or``, ``d_srlatch``, ``d_dff``,
-``adc_bridge`` and ``dac_bridge`` are read by :mod:`circuitnsds.frontend.cards.xspice_digital`.
+``adc_bridge`` and ``dac_bridge`` are read by :mod:`circuitnsds.frontend.cards.xspice_digital`,
+``d_pwm`` by :mod:`circuitnsds.frontend.cards.xspice_pwm`.
 Other code models (``d_nand``, ``d_jkff``, ``hyst``, ``s_xfer``, ...) are refused with a
 message naming the model.
 """
@@ -42,7 +43,8 @@ from circuitnsds.frontend.cards.xspice_ports import (
 )
 from circuitnsds.values import parse_value
 
-VECTOR_PARAMETERS = {"summer": frozenset({"in_offset", "in_gain"})}
+VECTOR_PARAMETERS = {"summer": frozenset({"in_offset", "in_gain"}),
+                     "d_pwm": frozenset({"cntl_array", "dc_array"})}
 """The parameters written as vectors ``[v1 v2 ...]`` (one value per input); every other
 parameter of :data:`CODE_MODELS` is a single value (ngspice refuses either written as the
 other: "Array parameter expected", "Bad real value")."""
@@ -50,7 +52,7 @@ other: "Array parameter expected", "Bad real value")."""
 REFUSED_MODELS = {
     "d_nand", "d_nor", "d_xor", "d_xnor", "d_buffer",
     "d_jkff", "d_tff", "d_srff", "d_dlatch", "d_open_c", "d_open_e", "d_pullup",
-    "d_pulldown", "d_fsm", "d_state", "d_ram", "d_source", "d_osc", "d_tristate", "d_pwm",
+    "d_pulldown", "d_fsm", "d_state", "d_ram", "d_source", "d_osc", "d_tristate",
     "d_lut", "d_genlut", "d_to_real", "real_to_v", "hyst", "slew",
     "s_xfer", "mult", "divide", "d_dt", "cmeter", "lmeter", "climit", "pwl", "ilimit", "aswitch",
     "zener", "file_source", "sine", "square", "triangle", "oneshot", "core", "multi_input_pwl",
@@ -144,6 +146,10 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
                            "supported by the ideal engine",
                            hint="write the block with the A models circuitnsds reads ("
                            + ", ".join(CODE_MODELS) + ") or a B source of its function")
+    if model.kind == "d_pwm":
+        from circuitnsds.frontend.cards.xspice_pwm import pwm_oscillator
+
+        return pwm_oscillator(reader, model, tokens[:-1])
     if model.kind in DIGITAL_PARTS:
         return digital_part(reader, model, tokens[:-1])
     ports = Ports(reader, tokens[:-1])
