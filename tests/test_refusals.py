@@ -63,7 +63,7 @@ CATALOGUE = [
     ("B1 a 0 V={v(b)*v(b)}\nR2 b 0 1", r"b1: cannot represent the term \(v\(b\)\*v\(b\)\)"),
     ("B1 a 0 V={ddt(abs(v(b)))}\nR2 b 0 1", r"b1: cannot represent the term ddt\(abs\(v\(b\)\)\).*issue 33"),
     ("G1 a 0 POLY(1) b 0 0 1\nR2 b 0 1", r"g1: .*POLY"),
-    ("A1 a b ff\n.model ff hyst(in_low=0 in_high=1)", r"a1: .*hyst"),
+    ("A1 a b ff\n.model ff slew(rise_slope=1)", r"a1: .*slew"),
     (".if (nosuch > 0)\nR2 a 0 1\n.endif", r"\.if: undefined parameter 'nosuch'"),
     ("L1 a 0 1m\nL2 b 0 1m\nK1 L1 L2 1 core\n.model core CORE\nR2 b 0 1", r"k1: 'core' after the coupling"),
     ("D1 a 0 dm foo=2\n.model dm D", r"d1: instance parameter 'foo' is not supported"),

@@ -497,8 +497,9 @@ class Sawtooth:
         return points[(points > 0) & (points < stop)].tolist()
 
 
-SAWTOOTH_SETTLE = 1e-6
-"""The first step after a sawtooth's drop [periods]."""
+SAWTOOTH_SETTLE = 1e-4
+"""The first step after a sawtooth's drop [periods]: a comparator's fall at the drop is located
+within it (1e-6 located it closer but ran ng_pwm-sin.cir 3 times slower)."""
 
 
 Stimulus = Dc | Sin | Pulse | Pwl | Exp | Am | Sffm | Sawtooth

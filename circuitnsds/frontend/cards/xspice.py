@@ -20,8 +20,10 @@ are those of ngspice's code models (``src/xspice/icm/analog/*/ifspec.ifs``):
 The digital parts ``d_inverter``, ``d_and``, ``d_or``, ``d_srlatch``, ``d_dff``,
 ``adc_bridge`` and ``dac_bridge`` are read by :mod:`circuitnsds.frontend.cards.xspice_digital`,
 ``d_pwm`` by :mod:`circuitnsds.frontend.cards.xspice_pwm`.
-Other code models (``d_nand``, ``d_jkff``, ``hyst``, ``s_xfer``, ...) are refused with a
-message naming the model.
+``hyst`` (ngspice's two legs without their rounded corners: a comparator with a band and a
+clamped line) and ``d_dt`` (``gain·ddt(in) + out_offset`` on an internal node, clamped to its
+limits) are read here too. Other code models (``d_nand``, ``d_jkff``, ``s_xfer``,
+``lcouple``, ...) are refused with a message naming the model.
 """
 
 from __future__ import annotations
