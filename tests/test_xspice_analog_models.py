@@ -71,6 +71,7 @@ def test_d_dt_limits_clamp_the_derivative():
     ("d_dt(out_lower_limit=2 out_upper_limit=1)", r"ad: out_lower_limit=2 exceeds out_upper_limit=1"),
     ("hyst(in_low=1 in_high=1)", r"ad: in_high=1 of the hyst model 'm' must exceed in_low=1"),
     ("hyst(hyst=-0.1)", r"ad: hyst=-0.1 of 'm' must not be negative"),
+    ("core(area=1 length=1)", r"ad: code model core \('m', XSPICE's magnetic core\).*issue 33"),
 ])
 def test_what_the_ideal_engine_cannot_take_is_refused_by_name(model, message):
     with pytest.raises(NetlistError, match=message):
@@ -98,3 +99,51 @@ def test_hyst_and_d_dt_agree_with_ngspice_39():
     derivative = np.interp(theirs.time, ours.time, ours["v(d)"])
     late = theirs.time > 0.1e-3
     np.testing.assert_allclose(derivative[late], theirs["v(d)"][late], atol=2e-3)
+
+
+def test_a_winding_on_a_reluctance_is_an_inductor_of_n_squared_over_r():
+    # 100 turns on 1e7 A·turn/Wb: L = 100²/1e7 = 1 mH; a 1 V step through 1 Ω:
+    # i = 1 A·(1 - exp(-t/1 ms)), the flux N·i/R
+    waves = run("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nAw (2 0) (m 0) w\n.model w lcouple(num_turns=100)\n"
+                "Rm m 0 1e7\n.tran 1u 5m")
+    t = waves.time
+    current = waves["i(aw)"]  # into l+ (node 2) through the winding, as a V source's
+    expected = 1.0 - np.exp(-(t - 1e-9) / 1e-3)
+    np.testing.assert_allclose(current, expected, atol=1e-3)
+    np.testing.assert_allclose(waves["v(m)"], 100 * current, rtol=1e-9, atol=1e-12)  # mmf = N·i
+    # the same steps as a 1 mH inductor's (before the sign was fixed the winding was a
+    # negative inductance: its current grew without bound)
+    inductor = run("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nL1 2 0 1m\n.tran 1u 5m")
+    np.testing.assert_allclose(current, inductor["i(l1)"], atol=1e-12)
+
+
+@pytest.mark.ngspice
+def test_ngspices_lcouple_transformer_agrees_with_ngspice_39():
+    # ngspice's examples/transformers/transformers1.cir: tr2 is two lcouple windings (120 and
+    # 240 turns) on a 1000 A·turn/Wb reluctance (measured: v(12) 2.3e-5 %, i(v1) 0.111 % nRMS)
+    from circuitnsds.compare import compare
+    from tests.conftest import NETLISTS
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        comparison = compare(NETLISTS / "external" / "ng_transformers1.cir",
+                             signals=["v(12)", "i(v1)"])
+    assert comparison.run.ok, comparison.run.ngspice.message
+    metrics = comparison.run.metrics
+    assert metrics["v(12)"].nrms < 1e-5 and metrics["i(v1)"].nrms < 3e-3
+
+
+@pytest.mark.ngspice
+def test_a_winding_has_ngspices_sign_and_inductance():
+    # ngspice 39 on the step above: v(2) = exp(-t/1 ms), v(m) = 100·i (measured: within
+    # 7.2e-5 V of e^-3 at 3 ms, its own step)
+    from circuitnsds.compare.ngspice import run_ngspice
+
+    text = ("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nAw (2 0) (m 0) w\n.model w lcouple(num_turns=100)\n"
+            "Rm m 0 1e7\n.tran 1u 5m\n")
+    ngspice = run_ngspice("title\n" + text + ".end\n", ["v(2)", "v(m)"], 5e-3)
+    assert ngspice.status == "ok", ngspice.message
+    theirs, ours = ngspice.waveforms, run(text)
+    for node, atol in (("v(2)", 2e-3), ("v(m)", 0.2)):
+        np.testing.assert_allclose(np.interp(theirs.time, ours.time, ours[node]), theirs[node],
+                                   atol=atol, err_msg=node)

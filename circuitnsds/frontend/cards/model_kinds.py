@@ -22,6 +22,7 @@ ANALOG_BLOCKS = {
             "limit_range": 1e-6, "out_ic": 0.0},
     "d_dt": {"gain": 1.0, "out_offset": 0.0, "out_lower_limit": None, "out_upper_limit": None,
              "limit_range": 1e-6},
+    "lcouple": {"num_turns": 1.0},
     "hyst": {"in_low": 0.0, "in_high": 1.0, "hyst": 0.1, "out_lower_limit": 0.0,
              "out_upper_limit": 1.0, "input_domain": 0.01, "fraction": True},
 }

@@ -146,14 +146,22 @@ def analog_block(reader: StatementReader, models: dict[str, object]):
                          f"add .model {model_name} KIND(...), KIND one of {', '.join(CODE_MODELS)}")
     if not isinstance(model, XspiceModel):
         kind = model if isinstance(model, str) else type(model).__name__
-        analog = {"s_xfer": "the analog transfer-function",
-                  "lcouple": "the magnetic-core", "core": "the magnetic-core"}
+        if kind == "core":
+            raise reader.error(f"{name}: code model core ({model_name!r}, XSPICE's magnetic core) "
+                               "is not supported: its B(H) curve is a smooth nonlinear element "
+                               "(issue 33)",
+                               hint="for a linear core write a resistor of its reluctance, "
+                               "length/(µ·area) [A·turn/Wb], between the magnetic nodes of the "
+                               "lcouple windings (read here)")
+        analog = {"s_xfer": "the analog transfer-function"}
         what = analog.get(str(kind)) or ("an XSPICE digital or mixed-signal"
                                          if str(kind).startswith(("d_", "adc", "dac")) else f"the {kind!s}")
         raise reader.error(f"{name}: code model {kind!s} ({what} model {model_name!r}) is not "
                            "supported by the ideal engine",
                            hint="write the block with the A models circuitnsds reads ("
                            + ", ".join(CODE_MODELS) + ") or a B source of its function")
+    if model.kind == "lcouple":
+        return _winding(reader, model, tokens[:-1])
     if model.kind == "d_pwm":
         from circuitnsds.frontend.cards.xspice_pwm import pwm_oscillator
 
@@ -303,3 +311,40 @@ def _hysteresis(reader: StatementReader, model: XspiceModel,
     floor = MinMax("max", line, Affine(constant=min(out_low, out_high)))
     ceiling = MinMax("min", Affine(auxiliaries=((1, 1.0),)), Affine(constant=max(out_low, out_high)))
     return Affine(auxiliaries=((2, 1.0),)), (leg, floor, ceiling)
+
+
+def _pair(reader: StatementReader, tokens: list[str], position: int) -> tuple[tuple[str, str], int]:
+    """A differential port ``(n+ n-)`` or ``%hd(n+ n-)`` at ``position``: its nodes and the
+    position after it."""
+    if tokens[position:position + 1] == ["%hd"]:
+        position += 1
+    if tokens[position:position + 1] != ["("] or tokens[position + 3:position + 4] != [")"]:
+        raise reader.error(f"{reader.name}: lcouple's ports are differential: write "
+                           "A1 (l+ l-) (mmf+ mmf-) MODEL", hint=HINT)
+    return (tokens[position + 1], tokens[position + 2]), position + 4
+
+
+def _winding(reader: StatementReader, model: XspiceModel, tokens: list[str]) -> list[BehaviouralSource]:
+    """``lcouple``: a winding of ``N = num_turns`` turns on an XSPICE magnetic circuit, whose
+    nodes carry the magnetomotive force [A·turn] as a voltage and the flux [Wb] as a current
+    (a resistor there is a reluctance [1/H]). Two ideal sources: on the magnetic port
+    ``mmf+ − mmf- = N·i`` (``i`` the winding's current, into ``l+`` through the winding),
+    driving the flux ``Φ`` out of ``mmf+`` into the magnetic circuit (``Φ = −i(<block>.mmf)``,
+    SPICE's source-current sign); on the electric port ``v(l+) − v(l-) = N·dΦ/dt`` (a
+    ``ddt()`` term of that current), so that a winding's inductance is positive, as in
+    ngspice. With linear reluctances the windings are coupled inductors (``L = N²/R`` for one
+    winding on a reluctance ``R``), exact for the ideal engine."""
+    (plus, minus), position = _pair(reader, tokens, 0)
+    (mmf_plus, mmf_minus), position = _pair(reader, tokens, position)
+    if position != len(tokens):
+        raise reader.error(f"{reader.name}: unexpected {tokens[position]!r} after lcouple's ports",
+                           hint=HINT)
+    turns = model.get("num_turns")
+    magnetic = f"{reader.name}.mmf"
+    common = dict(output="v", expression=f"lcouple {model.name}", model=model.name)
+    return [
+        BehaviouralSource(reader.name, (plus, minus), reader.location,
+                          value=Affine(rates=((("i", magnetic), -turns),)), **common),
+        BehaviouralSource(magnetic, (mmf_plus, mmf_minus), reader.location,
+                          value=Affine(currents=((reader.name, turns),)), **common),
+    ]
