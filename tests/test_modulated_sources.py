@@ -155,3 +155,13 @@ def test_ngspices_am_fm_example_runs_and_agrees_with_ngspice():
     carrier = Sffm(0.1, 2, 200, 45, 10e3, 1e-3, 0.0)
     np.testing.assert_allclose(carrier.sample(theirs.time), theirs["v(10)"], atol=2e-8)
     np.testing.assert_allclose(carrier.sample(ours.time), ours["v(10)"], atol=1e-12)
+
+
+def test_pss_refuses_am_and_sffm_by_name():
+    from circuitnsds.errors import CircuitError
+
+    for line, words in (("V1 a 0 AM(1 0.5 1k 10k)", "AM sources are not supported by pss"),
+                        ("V1 a 0 SFFM(0 1 10k 2 1k)", "SFFM sources are not supported by pss")):
+        circuit = circuit_from(f"{line}\nR1 a 0 1\n.tran 1u 1m")
+        with pytest.raises(CircuitError, match=words):
+            circuit.pss()

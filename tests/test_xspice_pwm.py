@@ -148,3 +148,18 @@ def test_edges_agree_with_ngspice_39():
         mine = np.array([e.time for e in events if e.state == rising])
         assert len(mine) == len(theirs) == 40
         np.testing.assert_allclose(theirs - mine, 1.5e-9, atol=bound[rising])
+
+
+def test_pss_refuses_d_pwm_by_name():
+    # (it said the sawtooth "makes one transition")
+    from circuitnsds.errors import CircuitError
+
+    text = ("Vc c 0 0.5\nAp c d pwm\n.model pwm d_pwm(cntl_array=[-1 1] dc_array=[0 1] "
+            "frequency=100k)\nAb [d] [o] dac\n.model dac dac_bridge(out_low=0 out_high=1)\n"
+            "R1 o 0 1k\n.tran 1u 100u")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuit_from(text)
+    with pytest.raises(CircuitError, match=r"AP.RAMP.*the phase of an XSPICE d_pwm, which pss "
+                       r"does not support yet"):
+        circuit.pss()
