@@ -183,7 +183,7 @@ def test_every_refused_expression_names_its_term(expression, term, reason, form)
     ("lines", "words"),
     [
         ("A1 a b c o ff\n.model ff d_jkff(clk_delay=1n)", ["a1", "d_jkff", "not supported"]),
-        ("A1 a o h\n.model h hyst(in_low=0 in_high=1)", ["a1", "hyst", "not supported"]),
+        ("A1 a o h\n.model h slew(rise_slope=1)", ["a1", "slew", "not supported"]),
         ("A1 %i(a) o g\n.model g gain(gain=2)", ["a1", "%i", "not supported"]),
         ("A1 a o g\n.model g gain(gian=2)", ["unknown parameter 'gian'"]),
         ("A1 a o l\n.model l limit(gain=2)", ["needs out_lower_limit and out_upper_limit"]),

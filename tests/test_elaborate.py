@@ -133,7 +133,7 @@ def test_vendor_model_text_values_are_read():
         ("V1 a 0 SIN(0 1", r"no closing parenthesis"),
         ("V1 a 0 PWL(0 0 1m)", r"PWL needs time-value pairs"),
         ("V1 a 0 PWL(1m 0 0 1)", r"PWL times must not decrease"),
-        ("V1 a 0 SFFM(0 1 1k 5 100)", r"SFFM sources are not supported"),
+        ("V1 a 0 TRNOISE(1 1n 0 0)", r"TRNOISE sources are not supported"),
         ("V1 a 0 SIN(0)", r"SIN takes 2 to 7 numbers"),
         (".tran uic", r"\.tran takes TSTEP TSTOP"),
         (".tran 1u 1m 2m", r"TSTART"),

@@ -60,11 +60,11 @@ CATALOGUE = [
     ("R1 a 0 r={v(a)*2}", r"r1: a resistance that depends on v\(a\) is a smooth nonlinear element"),
     ("B1 a 0 V={ddt(abs(v(b)))}\nR2 b 0 1", r"b1: cannot represent the term ddt\(abs\(v\(b\)\)\).*issue 33"),
     ("G1 a 0 POLY(1) b 0 0 1\nR2 b 0 1", r"g1: .*POLY"),
-    ("A1 a b ff\n.model ff hyst(in_low=0 in_high=1)", r"a1: .*hyst"),
+    ("A1 a b ff\n.model ff slew(rise_slope=1)", r"a1: .*slew"),
     (".if (nosuch > 0)\nR2 a 0 1\n.endif", r"\.if: undefined parameter 'nosuch'"),
     ("L1 a 0 1m\nL2 b 0 1m\nK1 L1 L2 1 core\n.model core CORE\nR2 b 0 1", r"k1: 'core' after the coupling"),
     ("D1 a 0 dm foo=2\n.model dm D", r"d1: instance parameter 'foo' is not supported"),
-    ("V2 b 0 AM(1 0 1k 10k 0)\nR2 b 0 1", r"v2: .*am"),
+    ("V2 b 0 TRNOISE(1 1n 0 0)\nR2 b 0 1", r"v2: TRNOISE sources are not supported"),
     # Xyce's VSWITCH/VswitchHyst1.cir (before: "unknown parameter 'vhon'", the hint naming SW's)
     ("S1 a b a 0 sw\nR2 b 0 1\n.model sw VSWITCH(RON=1 ROFF=100 VON=1 VHON=0.55 VOFF=0 VHOFF=0.45)",
      r"\.model sw VSWITCH: VHON, VHOFF \(Xyce's hysteresis of its switch\) is not supported"),

@@ -43,7 +43,7 @@ from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
 from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
-from circuitnsds.system.stimuli import Dc, Pulse, Pwl, Sin
+from circuitnsds.system.stimuli import Am, Dc, Pulse, Pwl, Sawtooth, Sffm, Sin
 from circuitnsds.units import format_si
 
 DEFAULT_POINTS = 1000
@@ -167,7 +167,11 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
         else:
             why = {Pulse: "a PULSE without PER is a single pulse",
                    Sin: "a SIN needs FREQ and no damping THETA to be periodic",
-                   Pwl: "a PWL holds its last value (repeating PWL is not supported)"}.get(
+                   Pwl: "a PWL holds its last value (repeating PWL is not supported)",
+                   Am: "AM sources are not supported by pss (an AM is its carrier and two "
+                       "side bands: SIN sources in series)",
+                   Sffm: "SFFM sources are not supported by pss",
+                   Sawtooth: "it is the phase of an XSPICE d_pwm, which pss does not support yet"}.get(
                        type(function), "it makes one transition")
             raise CircuitError(f"source {name} ({function}) is not periodic: {why}", where=name,
                                hint="a periodic steady state needs periodic sources (PULSE with PER, "

@@ -1,4 +1,4 @@
-"""Time functions of independent sources: DC, SIN, PULSE, PWL, EXP (ngspice semantics).
+"""Time functions of independent sources: DC, SIN, PULSE, PWL, EXP, AM, SFFM (ngspice semantics).
 
 Each function is a small frozen dataclass with ``value(t)`` (SI units of the
 source: volts or amperes; ``t`` in seconds) and ``breakpoints(stop)`` (the
@@ -375,7 +375,134 @@ class Exp(_TwoLevels):
         return [t for t in (self.rise_delay, self.fall_delay) if 0 < t < stop]
 
 
-Stimulus = Dc | Sin | Pulse | Pwl | Exp
+@dataclass(frozen=True)
+class Am:
+    """``AM(VA VO MF FC TD PHASEC PHASES)`` as ngspice 39 reads it:
+    ``VA·(VO + sin(2π·MF·τ + PHASES))·sin(2π·FC·τ + PHASES)`` with ``τ = t − TD``, and 0 up to
+    ``TD`` [s]. ``VA`` is in the source's unit (V or A), ``VO`` is the carrier offset relative
+    to the modulation's unit amplitude, ``MF`` and ``FC`` are the modulating and carrier
+    frequencies [Hz], the phases are in degrees.
+
+    Defaults: ``MF = 1/TSTOP`` (also when given as 0), ``FC = 0``, ``TD = 0``. ngspice 39 reads
+    ``PHASEC`` and does not use it: ``PHASES`` shifts both sines (kept here, so that the
+    waveform is ngspice's).
+    """
+
+    amplitude: float
+    offset: float
+    modulation_frequency: float | None = None
+    carrier_frequency: float = 0.0
+    delay: float = 0.0
+    carrier_phase_deg: float = 0.0
+    modulation_phase_deg: float = 0.0
+
+    def resolve(self, tstep: float, tstop: float) -> Am:
+        return _with_defaults(self, {"modulation_frequency": 1.0 / tstop},
+                              zero_too=("modulation_frequency",))
+
+    def value(self, t: float) -> float:
+        return float(self.sample(np.array([t]))[0])
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]."""
+        times = np.asarray(times, dtype=float)
+        tau = times - self.delay
+        phase = math.radians(self.modulation_phase_deg)
+        envelope = self.offset + np.sin(2 * math.pi * self.modulation_frequency * tau + phase)
+        wave = self.amplitude * envelope * np.sin(2 * math.pi * self.carrier_frequency * tau + phase)
+        return np.where(tau <= 0, 0.0, wave)
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return [self.delay] if 0 < self.delay < stop else []
+
+    def highest_frequency(self) -> float:
+        """The highest frequency [Hz] of the waveform: the carrier's upper side band."""
+        return abs(self.carrier_frequency) + abs(self.modulation_frequency)
+
+
+@dataclass(frozen=True)
+class Sffm:
+    """``SFFM(VO VA FC MDI FS PHASEC PHASES)`` as ngspice 39 reads it:
+    ``VO + VA·sin(2π·FC·t + PHASEC + MDI·sin(2π·FS·t + PHASES))``, a carrier of frequency ``FC``
+    [Hz] whose phase is modulated at ``FS`` [Hz] with index ``MDI`` (radians); the phases in
+    degrees, ``VO`` and ``VA`` in the source's unit (V or A). There is no delay.
+
+    Defaults: ``FC = FS = 1/TSTOP`` (also when given as 0), ``MDI = 0``.
+    """
+
+    offset: float
+    amplitude: float
+    carrier_frequency: float | None = None
+    modulation_index: float = 0.0
+    signal_frequency: float | None = None
+    carrier_phase_deg: float = 0.0
+    signal_phase_deg: float = 0.0
+
+    def resolve(self, tstep: float, tstop: float) -> Sffm:
+        return _with_defaults(self, {"carrier_frequency": 1.0 / tstop, "signal_frequency": 1.0 / tstop},
+                              zero_too=("carrier_frequency", "signal_frequency"))
+
+    def value(self, t: float) -> float:
+        return float(self.sample(np.array([t]))[0])
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]."""
+        times = np.asarray(times, dtype=float)
+        signal = np.sin(2 * math.pi * self.signal_frequency * times + math.radians(self.signal_phase_deg))
+        return self.offset + self.amplitude * np.sin(
+            2 * math.pi * self.carrier_frequency * times + math.radians(self.carrier_phase_deg)
+            + self.modulation_index * signal)
+
+    def breakpoints(self, stop: float) -> list[float]:
+        return []
+
+    def highest_frequency(self) -> float:
+        """The highest instantaneous frequency [Hz]: ``|FC| + |MDI|·|FS|``."""
+        return abs(self.carrier_frequency) + abs(self.modulation_index * self.signal_frequency)
+
+
+@dataclass(frozen=True)
+class Sawtooth:
+    """``frac(start + frequency·t)``: rises from ``start`` (a fraction of a period, in [0, 1))
+    at ``frequency`` [Hz] (per second, dimensionless value) and drops to 0 at each period's
+    end. The phase of XSPICE's ``d_pwm`` oscillator; no netlist card writes it. At a drop the
+    value is 1 (the value before it; see the module docstring)."""
+
+    frequency: float
+    start: float = 0.0
+
+    def resolve(self, tstep: float, tstop: float) -> Sawtooth:
+        return self
+
+    def value(self, t: float) -> float:
+        return float(self.sample(np.array([t]))[0])
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """:meth:`value` at every instant of ``times`` [s]; an instant within rounding of a drop
+        is at the drop (the value 1 before it, 0 at time 0's phase 0)."""
+        phase = self.start + self.frequency * np.asarray(times, dtype=float)
+        whole = np.floor(phase)
+        fraction = phase - whole
+        at_drop = (fraction <= 64 * np.finfo(float).eps * np.maximum(phase, 1.0)) & (phase > 0)
+        return np.where(at_drop, 1.0, fraction)
+
+    def breakpoints(self, stop: float) -> list[float]:
+        """Each drop, and :data:`SAWTOOTH_SETTLE` of a period after it: a comparator of the
+        sawtooth sees the drop in that short first step, so that a step after a drop never
+        holds both the comparator's fall and its next rise (where neither would be seen)."""
+        first = (1.0 - self.start) / self.frequency
+        count = max(0, math.ceil((stop - first) * self.frequency))
+        drops = first + np.arange(count + 1) / self.frequency
+        points = np.column_stack([drops, drops + SAWTOOTH_SETTLE / self.frequency]).ravel()
+        return points[(points > 0) & (points < stop)].tolist()
+
+
+SAWTOOTH_SETTLE = 1e-4
+"""The first step after a sawtooth's drop [periods]: a comparator's fall at the drop is located
+within it (1e-6 located it closer but ran ng_pwm-sin.cir 3 times slower)."""
+
+
+Stimulus = Dc | Sin | Pulse | Pwl | Exp | Am | Sffm | Sawtooth
 
 
 POINTS_PER_PERIOD = 20
@@ -386,10 +513,13 @@ POINTS_PER_PERIOD = 20
 def resolving_step(stimulus: Stimulus, stop: float) -> float | None:
     """The largest step [s] that resolves a resolved ``stimulus`` over ``[0, stop]``: its
     period / :data:`POINTS_PER_PERIOD` for a SIN of nonzero amplitude or a PULSE whose period
-    is shorter than ``stop``; ``None`` for the others (their corners are grid points)."""
+    is shorter than ``stop``, the period of the highest frequency of an AM or SFFM over the
+    same; ``None`` for the others (their corners are grid points)."""
     if isinstance(stimulus, Sin) and stimulus.amplitude != 0 and stimulus.frequency:
         # (a negative frequency is sin(-ωt): the same period; it divided by 0 when refining)
         return 1.0 / (abs(stimulus.frequency) * POINTS_PER_PERIOD)
+    if isinstance(stimulus, (Am, Sffm)) and stimulus.amplitude != 0 and stimulus.highest_frequency():
+        return 1.0 / (stimulus.highest_frequency() * POINTS_PER_PERIOD)
     if (isinstance(stimulus, Pulse) and stimulus.initial != stimulus.pulsed
             and stimulus.period is not None and 0 < stimulus.period < stop
             and (stimulus.count is None or stimulus.count > 1)):

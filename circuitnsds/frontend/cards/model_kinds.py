@@ -25,6 +25,11 @@ ANALOG_BLOCKS = {
               "limit_range": 1e-6, "fraction": False},
     "int": {"in_offset": 0.0, "gain": 1.0, "out_lower_limit": None, "out_upper_limit": None,
             "limit_range": 1e-6, "out_ic": 0.0},
+    "d_dt": {"gain": 1.0, "out_offset": 0.0, "out_lower_limit": None, "out_upper_limit": None,
+             "limit_range": 1e-6},
+    "lcouple": {"num_turns": 1.0},
+    "hyst": {"in_low": 0.0, "in_high": 1.0, "hyst": 0.1, "out_lower_limit": 0.0,
+             "out_upper_limit": 1.0, "input_domain": 0.01, "fraction": True},
 }
 """Supported analog code models: parameter -> ngspice default (``None``: no default)."""
 
@@ -42,6 +47,8 @@ DIGITAL_PARTS: dict[str, dict[str, object]] = {
     "adc_bridge": {"in_low": 0.1, "in_high": 0.9, "rise_delay": 1e-9, "fall_delay": 1e-9},
     "dac_bridge": {"out_low": 0.0, "out_high": 1.0, "out_undef": 0.5, "input_load": 1e-12,
                    "t_rise": 1e-9, "t_fall": 1e-9},
+    "d_pwm": {"cntl_array": None, "dc_array": None, "frequency": 1e6, "init_phase": 0.0,
+              "rise_delay": 1e-9, "fall_delay": 1e-9},
 }
 """Supported digital code models: parameter -> ngspice default (ngspice 39's ifspec.ifs)."""
 

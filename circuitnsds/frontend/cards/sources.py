@@ -8,7 +8,7 @@ from dataclasses import replace
 from circuitnsds.circuit.elements.base import Element
 from circuitnsds.circuit.elements.sources import CurrentSource, VoltageSource
 from circuitnsds.frontend.cards.reader import StatementReader
-from circuitnsds.system.stimuli import Dc, Exp, Pulse, Pwl, Sin, Stimulus
+from circuitnsds.system.stimuli import Am, Dc, Exp, Pulse, Pwl, Sffm, Sin, Stimulus
 from circuitnsds.values import is_value, parse_value
 
 BEHAVIOURAL_KEYWORDS = {"value", "poly", "table", "laplace", "freq", "cur", "vol"}
@@ -78,7 +78,8 @@ def _is_number(token: str | None) -> bool:
     return token is not None and is_value(token)
 
 
-FUNCTION_ARITY = {"sin": (2, 7), "pulse": (2, 8), "exp": (2, 6), "pwl": (2, None)}
+FUNCTION_ARITY = {"sin": (2, 7), "pulse": (2, 8), "exp": (2, 6), "pwl": (2, None), "am": (2, 8),
+                  "sffm": (2, 8)}
 FUNCTION_ALIASES = {"sine": "sin"}
 """Other spellings of the functions (PSpice's and ngspice's ``SINE(...)``)."""
 
@@ -106,9 +107,9 @@ def _source_function(reader: StatementReader) -> tuple[Stimulus, tuple[float, fl
             if function is not None:
                 raise reader.error(f"{name}: more than one transient function")
             function = _function(reader, FUNCTION_ALIASES.get(token, token))
-        elif token in {"sffm", "am", "trnoise", "trrandom", "distof1", "distof2"}:
+        elif token in {"trnoise", "trrandom", "distof1", "distof2"}:
             raise reader.error(f"{name}: {token.upper()} sources are not supported",
-                               hint="use DC, SIN, PULSE, PWL or EXP")
+                               hint="use DC, SIN, PULSE, PWL, EXP, AM or SFFM")
         elif is_value(token) and dc is None:
             dc = parse_value(token)
         else:
@@ -230,12 +231,38 @@ def _function(reader: StatementReader, kind: str) -> Stimulus:
         if any(x is not None and x < 0 for x in (function.rise_tau, function.fall_tau)):
             raise reader.error(f"{name}: EXP time constants must not be negative")
         return function
+    if kind in NGSPICE39_ORDER:
+        return _modulated(reader, kind, args)
     if len(args) % 2:
         raise reader.error(f"{name}: PWL needs time-value pairs, got {len(args)} numbers")
     times, values = tuple(args[0::2]), tuple(args[1::2])
     if any(b < a for a, b in zip(times, times[1:])):
         raise reader.error(f"{name}: PWL times must not decrease")
     return _with_pwl_options(reader, Pwl(times, values), options)
+
+
+NGSPICE39_ORDER = {"am": "AM(VA VO MF FC TD PHASEC PHASES)", "sffm": "SFFM(VO VA FC MDI FS PHASEC PHASES)"}
+"""The modulated sources' arguments in ngspice 39's order (later ngspice versions reorder them)."""
+
+LATER_ORDER = {"am": "AM(VO VMO VMA FM FC TD PHASEM PHASEC)",
+               "sffm": "SFFM(VO VA FC MDI FM TD PHASEM PHASEC)"}
+
+
+def _modulated(reader: StatementReader, kind: str, args: list[float]) -> Stimulus:
+    """``AM(...)`` or ``SFFM(...)`` read as ngspice 39 reads them (:class:`Am`, :class:`Sffm`).
+
+    ngspice 39 reads seven values; an eighth, which it ignores, is the sign of a line written
+    for a later ngspice, whose order differs: the line is read as ngspice 39 reads it, with a
+    warning that says so."""
+    if len(args) > 7:
+        reader.warn(f"{reader.name}: {kind.upper()} with {len(args)} values: read as ngspice 39 does, "
+                    f"{NGSPICE39_ORDER[kind]}, ignoring the 8th; ngspice 40 and later read "
+                    f"{LATER_ORDER[kind]}, another waveform. Write the 39 order to keep "
+                    "this reading, or the waveform as a B source to have the later one")
+        args = args[:7]
+    if kind == "am":
+        return Am(*args[:2], *_defaults(args[2:], [None, 0.0, 0.0, 0.0, 0.0]))
+    return Sffm(*args[:2], *_defaults(args[2:], [None, 0.0, None, 0.0, 0.0]))
 
 
 def _defaults(given: list[float], defaults: list[float | None]) -> list[float | None]:

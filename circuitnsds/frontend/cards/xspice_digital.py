@@ -62,6 +62,9 @@ DELAYS = frozenset({"rise_delay", "fall_delay", "sr_delay", "enable_delay", "set
 LOADS = frozenset({"input_load", "sr_load", "enable_load", "set_load", "reset_load", "data_load",
                    "clk_load"})
 
+ANALOG_INPUT = frozenset({"adc_bridge", "d_pwm"})
+"""The digital parts whose inputs are analog (their output alone is a digital node)."""
+
 ZERO = Affine()
 ONE = Affine(constant=1.0)
 
@@ -83,6 +86,10 @@ def check_digital_model(reader: StatementReader, name: str, kind: str, params: d
     if "ic" in params and params["ic"] not in (0.0, 1.0):
         raise reader.error(f".model {name} {kind}: ic={params['ic']:g} is not 0 or 1",
                            hint="the initial state of a latch is 0 or 1 (no UNKNOWN state)")
+    if kind == "d_pwm":
+        from circuitnsds.frontend.cards.xspice_pwm import check_pwm_model
+
+        check_pwm_model(reader, name, params)
     if kind == "adc_bridge":
         low = params.get("in_low", DIGITAL_PARTS[kind]["in_low"])
         high = params.get("in_high", DIGITAL_PARTS[kind]["in_high"])
@@ -315,7 +322,7 @@ def check_digital_nodes(elements, models: dict[str, object]) -> None:
     digital = [(element, kind(element)) for element in elements if kind(element) in DIGITAL_PARTS]
     driven = {element.nodes[0]: element for element, k in digital if k != "dac_bridge"}
     for element, k in digital:
-        if k == "adc_bridge":
+        if k in ANALOG_INPUT:
             continue
         for node in element.nodes[2:]:
             if node not in driven:
@@ -325,7 +332,7 @@ def check_digital_nodes(elements, models: dict[str, object]) -> None:
                     hint="convert the analog voltage with an adc_bridge (.model M adc_bridge("
                     "in_low=1.65 in_high=1.65) is the one ngspice 39 inserts by itself for "
                     "vcc = 3.3 V)")
-    digital_ports = {id(element): set(element.nodes[:1] if k == "adc_bridge" else
+    digital_ports = {id(element): set(element.nodes[:1] if k in ANALOG_INPUT else
                                       element.nodes[2:] if k == "dac_bridge" else element.nodes)
                      for element, k in digital}
     for element in elements:
