@@ -23,6 +23,7 @@ from circuitnsds.frontend.cards.reader import warn_at
 from circuitnsds.frontend.elaborate import elaborate
 from circuitnsds.netlist.expressions import Random
 from circuitnsds.netlist.includes import expand_includes
+from circuitnsds.netlist.node_spellings import warn_node_spellings
 from circuitnsds.netlist.parser import (
     ControlBlock,
     Netlist,
@@ -65,6 +66,7 @@ class CircuitBuilder:
 
     def __init__(self, netlist: Netlist):
         self.netlist, self.steps = split_steps(netlist)
+        warn_node_spellings(self.netlist.statements)
         self.seed = options_seed(self.netlist.statements)
         self._names = _written_names(self.netlist)
 

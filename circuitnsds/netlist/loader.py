@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from circuitnsds.netlist.includes import expand_includes
+from circuitnsds.netlist.node_spellings import warn_node_spellings
 from circuitnsds.netlist.parser import Netlist, parse_netlist, read_netlist_file
 from circuitnsds.netlist.subcircuits import flatten
 
@@ -26,7 +27,9 @@ def preprocess(netlist: Netlist, directory: str | Path | None = None) -> Netlist
     Raises:
         NetlistError: with file:line (see :func:`expand_includes` and :func:`flatten`).
     """
-    return flatten(expand_includes(netlist, directory))
+    expanded = expand_includes(netlist, directory)
+    warn_node_spellings(expanded.statements)
+    return flatten(expanded)
 
 
 def load_netlist(path: str | Path) -> Netlist:
