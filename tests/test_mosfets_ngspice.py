@@ -174,3 +174,22 @@ def test_level3_on_resistance_has_theta_mobility_reduction_as_ngspice(drive):
         body = text.split("\n", 1)[1].removesuffix(".end\n")
         circuit = circuit_from(f".options mosdrive={drive:g}\n{body}")
     assert circuit.element("m1").model.on_resistance == pytest.approx(ngspice, rel=0.01)
+
+
+@pytest.mark.parametrize("polarity", [1, -1])
+def test_vdmos_without_vto_has_ngspice_s_threshold_of_zero(polarity):
+    # ngspice 39's VDMOS without VTO has Vto = 0 (not ±3 V): at |Vgs| = 2 V the device
+    # conducts (Vds ≈ 0.126 V of the 5 V through 10 Ω); before, the switch read a 3 V
+    # threshold and stayed open (v(d) = 5 V, exit 0)
+    sign = "" if polarity == 1 else "-"
+    kind = "" if polarity == 1 else "pchan "
+    text = (f"vdmos without vto\nvb b 0 {sign}5\nrl b d 10\nvg g 0 {sign}2\nm1 d g 0 mx\n"
+            f".model mx vdmos({kind}kp=2)\n.tran 1u 10u\n.end\n")
+    theirs = run_ngspice(text, ["v(d)"], 10e-6)
+    assert theirs.ok, theirs.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuit_from(text.split("\n", 1)[1].removesuffix(".end\n"))
+        ours = circuit.transient()
+    assert circuit.element("m1").model.threshold == 0.0
+    assert ours["v(d)"][-1] == pytest.approx(theirs.waveforms["v(d)"][-1], rel=0.1)
