@@ -231,3 +231,17 @@ def test_a_q_line_inside_a_subcircuit_renames_its_nodes_and_not_its_model(
     bjt = circuit.element("x1.q1")
     expected = ("x1.nc", "x1.nb", "x1.ne", "x1.ns" if substrate else "0")
     assert bjt.nodes == expected and bjt.model.name == "qn"
+
+
+def test_well_posedness_sees_the_internal_nodes_a_bjt_s_series_resistances_hold():
+    # q1's rb and rc join its internal nodes q1#base, q1#collector to its terminals inside its
+    # relation; before, the check left the relation out and called the step matrix singular
+    # "whatever the devices do (unknowns v(q1#base))", which the Newton stepper's runs belie
+    circuit = circuit_from("vcc vcc 0 12\nrl vcc c 100\nd1 c vcc dm\n.model dm d()\n"
+                           "vin in 0 pulse(0 5 0 1u 1u 10u 20u)\n"
+                           "rb in b 1k\nq1 c b 0 qn\n.model qn npn(is=1e-14 bf=100 rb=10 rc=1)\n"
+                           ".tran 0.1u 40u")
+    for report in circuit.well_posedness():
+        assert report.verdict == "P", report.summary()
+        assert report.linearised == ("q1",)
+        assert "q1 linearised at zero bias" in report.summary()
