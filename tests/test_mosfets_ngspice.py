@@ -193,3 +193,37 @@ def test_vdmos_without_vto_has_ngspice_s_threshold_of_zero(polarity):
         ours = circuit.transient()
     assert circuit.element("m1").model.threshold == 0.0
     assert ours["v(d)"][-1] == pytest.approx(theirs.waveforms["v(d)"][-1], rel=0.1)
+
+
+def test_vdmos_inverter_without_vto_made_smooth_agrees_with_ngspice():
+    # ngspice's examples/vdmos/inv_vdmos.sp as written (tests/test_mosfets.py INVERTER): its
+    # devices (Vto = 0) conduct through the whole input swing, the run makes them smooth by
+    # itself, and then follows ngspice (before: read as switches, the output froze)
+    import tempfile
+    from pathlib import Path
+
+    from tests.test_mosfets import INVERTER
+
+    with tempfile.TemporaryDirectory(prefix="inverter_") as folder:
+        deck = Path(folder) / "inv_vdmos.cir"
+        deck.write_text(INVERTER)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            comparison = compare(deck, signals=["v(3)"])
+    run = comparison.run
+    assert run.ok, run.ngspice.message
+    assert run.metrics["v(3)"].nrms < 0.01, run.metrics["v(3)"]
+
+
+def test_a_chattering_source_follower_made_smooth_agrees_with_ngspice():
+    from tests.test_mosfets import FOLLOWER
+
+    text = f"source follower\n{FOLLOWER}.end\n"
+    theirs = run_ngspice(text, ["v(s)"], 30e-6)
+    assert theirs.ok, theirs.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ours = circuit_from(FOLLOWER).transient()
+    resampled = np.interp(ours.time, theirs.waveforms.time, theirs.waveforms["v(s)"])
+    relative_rms = np.sqrt(np.mean((ours["v(s)"] - resampled) ** 2) / np.mean(resampled**2))
+    assert relative_rms < 0.01, relative_rms
