@@ -169,7 +169,7 @@ EXTERNAL = Path(__file__).resolve().parent.parent / "netlists" / "external"
     ("ng_meas_expression.cir", None),
     ("ng_pwm-sin.cir", r"apwm: code model d_pwm"),
     ("ng_v-i-sources-am-ffm.cir", r"v1: AM sources are not supported"),
-    ("ng_schmitt.cir", r"q1: bipolar transistors .*issue 33"),
+    ("ng_schmitt.cir", None),
     ("ng_inv_vdmos.sp", None),
     ("xy_gswitch.cir", r"sw1: Xyce's generic switch"),
     ("xy_iswitch_hyst1.cir", r"s1: Xyce's generic switch"),
