@@ -198,6 +198,8 @@ class SimulationError(CircuitnsdsError):
     SOURCE_NOT_FINITE = "source not finite"
     """A source function's value is NaN or infinite (the sources concerned: ``unknowns``)."""
     STEP_MAP_SINGULAR = "step map singular"
+    SWITCH_CHATTERS = "switch chatters"
+    """One switch's state moves its own control back across its threshold (``devices``: it)."""
     """The mode a step took has a singular step matrix, so the step has no affine map."""
 
     def __init__(self, message: str, *, where: object | None = None, hint: str | None = None,

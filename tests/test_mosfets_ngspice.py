@@ -174,3 +174,56 @@ def test_level3_on_resistance_has_theta_mobility_reduction_as_ngspice(drive):
         body = text.split("\n", 1)[1].removesuffix(".end\n")
         circuit = circuit_from(f".options mosdrive={drive:g}\n{body}")
     assert circuit.element("m1").model.on_resistance == pytest.approx(ngspice, rel=0.01)
+
+
+@pytest.mark.parametrize("polarity", [1, -1])
+def test_vdmos_without_vto_has_ngspice_s_threshold_of_zero(polarity):
+    # ngspice 39's VDMOS without VTO has Vto = 0 (not ±3 V): at |Vgs| = 2 V the device
+    # conducts (Vds ≈ 0.126 V of the 5 V through 10 Ω); before, the switch read a 3 V
+    # threshold and stayed open (v(d) = 5 V, exit 0)
+    sign = "" if polarity == 1 else "-"
+    kind = "" if polarity == 1 else "pchan "
+    text = (f"vdmos without vto\nvb b 0 {sign}5\nrl b d 10\nvg g 0 {sign}2\nm1 d g 0 mx\n"
+            f".model mx vdmos({kind}kp=2)\n.tran 1u 10u\n.end\n")
+    theirs = run_ngspice(text, ["v(d)"], 10e-6)
+    assert theirs.ok, theirs.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        circuit = circuit_from(text.split("\n", 1)[1].removesuffix(".end\n"))
+        ours = circuit.transient()
+    assert circuit.element("m1").model.threshold == 0.0
+    assert ours["v(d)"][-1] == pytest.approx(theirs.waveforms["v(d)"][-1], rel=0.1)
+
+
+def test_vdmos_inverter_without_vto_made_smooth_agrees_with_ngspice():
+    # ngspice's examples/vdmos/inv_vdmos.sp as written (tests/test_mosfets.py INVERTER): its
+    # devices (Vto = 0) conduct through the whole input swing, the run makes them smooth by
+    # itself, and then follows ngspice (before: read as switches, the output froze)
+    import tempfile
+    from pathlib import Path
+
+    from tests.test_mosfets import INVERTER
+
+    with tempfile.TemporaryDirectory(prefix="inverter_") as folder:
+        deck = Path(folder) / "inv_vdmos.cir"
+        deck.write_text(INVERTER)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            comparison = compare(deck, signals=["v(3)"])
+    run = comparison.run
+    assert run.ok, run.ngspice.message
+    assert run.metrics["v(3)"].nrms < 0.01, run.metrics["v(3)"]
+
+
+def test_a_chattering_source_follower_made_smooth_agrees_with_ngspice():
+    from tests.test_mosfets import FOLLOWER
+
+    text = f"source follower\n{FOLLOWER}.end\n"
+    theirs = run_ngspice(text, ["v(s)"], 30e-6)
+    assert theirs.ok, theirs.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ours = circuit_from(FOLLOWER).transient()
+    resampled = np.interp(ours.time, theirs.waveforms.time, theirs.waveforms["v(s)"])
+    relative_rms = np.sqrt(np.mean((ours["v(s)"] - resampled) ** 2) / np.mean(resampled**2))
+    assert relative_rms < 0.01, relative_rms

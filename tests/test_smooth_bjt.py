@@ -231,3 +231,32 @@ def test_a_q_line_inside_a_subcircuit_renames_its_nodes_and_not_its_model(
     bjt = circuit.element("x1.q1")
     expected = ("x1.nc", "x1.nb", "x1.ne", "x1.ns" if substrate else "0")
     assert bjt.nodes == expected and bjt.model.name == "qn"
+
+
+def test_well_posedness_sees_the_internal_nodes_a_bjt_s_series_resistances_hold():
+    # q1's rb and rc join its internal nodes q1#base, q1#collector to its terminals inside its
+    # relation; before, the check left the relation out and called the step matrix singular
+    # "whatever the devices do (unknowns v(q1#base))", which the Newton stepper's runs belie
+    circuit = circuit_from("vcc vcc 0 12\nrl vcc c 100\nd1 c vcc dm\n.model dm d()\n"
+                           "vin in 0 pulse(0 5 0 1u 1u 10u 20u)\n"
+                           "rb in b 1k\nq1 c b 0 qn\n.model qn npn(is=1e-14 bf=100 rb=10 rc=1)\n"
+                           ".tran 0.1u 40u")
+    for report in circuit.well_posedness():
+        assert report.verdict == "P", report.summary()
+        assert report.linearised == ("q1",)
+        assert "q1 linearised at zero bias" in report.summary()
+
+
+def test_substrate_capacitance_charges_as_a_constant_capacitor():
+    # CJS (CCS, CSUB) with ngspice's default grading MJS = 0 is a constant capacitance from
+    # the collector to the substrate (ground on a three-node line); before, the card was
+    # refused ("CCS=1e-09 (the substrate capacitance) is not modelled": ngspice's schmitt.cir).
+    # An off NPN whose collector is fed by a 1 V step through 1 kΩ: v(c) = 1 − exp(−t/RC)
+    circuit = circuit_from("vin in 0 pulse(0 1 0 1n 1n 1 2)\nr1 in c 1k\nq1 c 0 0 qn\n"
+                           ".model qn npn(is=1e-30 ccs=1n)\n.tran 10n 3u")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuit.transient(step=1e-9)
+    t = np.array([0.5e-6, 1e-6, 2e-6])
+    expected = 1 - np.exp(-(t - 1e-9) / 1e-6)
+    np.testing.assert_allclose(np.interp(t, waves.time, waves["v(c)"]), expected, atol=2e-3)

@@ -2,6 +2,7 @@
 Jacobians against finite differences (Hypothesis), the square law in closed form, limiting,
 the card reader's refusals."""
 
+import math
 import warnings
 
 import numpy as np
@@ -102,3 +103,16 @@ def test_what_the_smooth_device_does_not_take_is_refused_by_name(line, model, wo
         warnings.simplefilter("ignore")
         with pytest.raises(NetlistError, match=words):
             mosfet_circuit(line, model)
+
+
+def test_a_level1_card_without_junction_current_runs_to_the_square_law_closed_form():
+    # IS=0 (a card that leaves out the bulk junctions): the junction limiting's critical
+    # voltage Vt·ln(Vt/(√2·IS)) divided by zero (a ZeroDivisionError traceback); now none is
+    # limited. beta = KP·W/L = 1 A/V², Vgs − Vto = 3.5 V, triode through 10 Ω from 12 V:
+    # 12 − Vds = 10·(3.5·Vds − Vds²/2), Vds = (36 − √1056)/10
+    circuit = circuit_from(".model nl nmos(level=1 vto=1.5 kp=2e-5 is=0 smooth=1)\nvdd vdd 0 12\n"
+                           "rl vdd d 10\nvg g 0 5\nm1 d g 0 0 nl w=0.1 l=2u\n.tran 10n 1u")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuit.transient()
+    assert float(waves["v(d)"][-1]) == pytest.approx((36 - math.sqrt(1056)) / 10, rel=1e-4)

@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from circuitnsds.analyses import smooth_mosfets
 from circuitnsds.analyses.advice import advise, diagnose, word_unknowns
 from circuitnsds.analyses.fast_modes import FastModeWatch
 from circuitnsds.analyses.memory import refuse_beyond_memory
@@ -73,7 +74,10 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     ``.options pwlfit=I`` fixes every fit's range below ``I`` [A] instead. MOSFETs take their
     output capacitance over the circuit's supply, and are re-evaluated at the gate drive and
     the blocking voltage a first run shows, with the same one rerun
-    (:mod:`~circuitnsds.analyses.mosfet_refits`).
+    (:mod:`~circuitnsds.analyses.mosfet_refits`). A MOSFET whose switch chatters, or which
+    conducts mostly at a weak gate drive in the run returned, is made ngspice's smooth device
+    and the run made again, with a note (:mod:`~circuitnsds.analyses.smooth_mosfets`; not
+    with a ``sink``: the weak drive is noted then).
 
     ``sink`` (with ``signals``): an object with ``append(time, columns, residual)`` (and
     optionally ``expect(rows)``), e.g. :class:`~circuitnsds.output.csvfile.CsvStream`,
@@ -85,12 +89,25 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     if sink is not None or not (refits_allowed(circuit) or mosfets(circuit)):
         return _run_transient(circuit, spec, signals=signals, sink=sink, **settings)
     observers = observers_of(circuit)
-    first = _run_transient(circuit, spec, signals=signals, observers=observers, **settings)
+    try:
+        first = _run_transient(circuit, spec, signals=signals, observers=observers, **settings)
+    except SimulationError as error:
+        smooth = _smooth_chattering(circuit, error)
+        if smooth is None:
+            raise
+        try:
+            return run_transient(smooth, spec, signals=signals, **settings)
+        except SimulationError as failure:
+            smooth_mosfets.failed(circuit, failure, "the switches' error follows")
+            raise error from None
     fits, watch = fit_observer(observers), mosfet_observer(observers)
     refitted = refit_diodes(circuit, fits.peaks) if fits is not None and refits_allowed(circuit) else circuit
     if watch is not None:
         refitted = refit_mosfets(refitted, watch.levels)
     if refitted is circuit:
+        smooth = _smooth_weak(circuit, watch, spec, signals, settings)
+        if smooth is not None:
+            return smooth
         _report(observers)
         return first
     # said once: the first run's other notes; the peaks, drives and time scales of the run returned
@@ -99,8 +116,56 @@ def run_transient(circuit: Circuit, spec: TransientSpec, *, signals: Sequence[st
     again = [observer for observer in observers_of(refitted)
              if isinstance(observer, FitRangeObserver) or is_mosfet_observer(observer)]
     waves = _run_transient(refitted, spec, signals=signals, observers=again, **settings)
+    smooth = _smooth_weak(refitted, mosfet_observer(again), spec, signals, settings)
+    if smooth is not None:
+        return smooth
     _report(again)
     return waves
+
+
+def _smooth_weak(circuit: Circuit, watch, spec: TransientSpec, signals, settings: dict) -> Waveforms | None:
+    """The run made again with the MOSFETs that ``watch`` (the MOSFETs' observer of a run of
+    ``circuit``) saw conducting mostly at a weak gate drive made the smooth device
+    (:mod:`~circuitnsds.analyses.smooth_mosfets`), noted; ``None`` when there are none, their
+    drive is fixed by ``.options mosdrive``, ``.options mosfet=switch`` keeps them, or the
+    smooth run fails (noted: the switches' run is returned then)."""
+    if watch is None or not smooth_mosfets.automatic(circuit):
+        return None
+    from circuitnsds.circuit.elements.mosfet_notes import weak_drive_mosfets
+
+    free = [element for element in mosfets(circuit) if not element.drive_fixed]
+    if len(free) < len(mosfets(circuit)):  # .options mosdrive: the user's switches
+        return None
+    weak = weak_drive_mosfets(free, watch.drives, smooth_mosfets.SMOOTH_SHARE)
+    every = [element.name for element in mosfets(circuit)]
+    smooth, made = smooth_mosfets.as_smooth(circuit, every) if weak else (circuit, [])
+    if not made:
+        return None
+    smooth_mosfets.note(circuit, made, f"({', '.join(weak)} spend{'s' if len(weak) == 1 else ''} "
+                        f"over {smooth_mosfets.SMOOTH_SHARE:.0%} of the conducting time between "
+                        "threshold and half the gate drive: a device in its active region)")
+    try:
+        return run_transient(smooth, spec, signals=signals, **settings)
+    except SimulationError as failure:
+        smooth_mosfets.failed(circuit, failure, "the switches' run is returned, with its notes")
+        return None
+
+
+def _smooth_chattering(circuit: Circuit, error: SimulationError) -> Circuit | None:
+    """``circuit`` with the MOSFET whose switch ``error`` says chatters made the smooth
+    device (:mod:`~circuitnsds.analyses.smooth_mosfets`), noted; ``None`` when the error is
+    another, the switch no MOSFET, or ``.options mosfet=switch`` keeps it."""
+    if error.cause != SimulationError.SWITCH_CHATTERS or not smooth_mosfets.automatic(circuit):
+        return None
+    every = [element.name for element in mosfets(circuit)]
+    chattering = [name for name in every if name in error.devices]
+    smooth, made = smooth_mosfets.as_smooth(circuit, every) if chattering else (circuit, [])
+    if not made:
+        return None
+    smooth_mosfets.note(circuit, made, f"({', '.join(chattering)} chatters as a switch at "
+                        f"{error.where}: its state moves its own gate back across the threshold, "
+                        "the device sits in its active region)")
+    return smooth
 
 
 def _drained(waves: Waveforms, sink) -> Waveforms:

@@ -34,6 +34,18 @@ bordered matrix well-conditioned (``K`` singular for reasons no device can fix, 
 loop of voltage sources and closed ``RON = 0`` switches), ``M`` does not exist and the
 report names the unknowns of the singular direction instead.
 
+**Smooth relations** (BJTs, JFETs, smooth MOSFETs and diodes, nonlinear B/E/G sources)
+enter ``K`` linearised at zero bias (every unknown 0 V or 0 A, ``t = 0``): ``A − J_F``
+and ``E + J_Q``, as the Newton stepper's first iteration from rest sees them. The check
+asks a structural question (is there a step matrix at all, and what do the pairs see), and
+the structure is there at any bias: a device's series resistances (``RB``, ``RC``, ``RD``
+...) join its internal nodes to its terminals inside the relation, and ngspice's GMIN
+spans each junction. Left out, those internal nodes held by nothing but the relation made
+``K`` singular for a false reason. Zero bias rather than the operating point: the checks
+sit below the analyses, and an operating point of a nonlinear circuit is itself a Newton
+solve that may fail; the pairs' verdict is then the one with each smooth device at its
+zero-bias conductance (a transistor off), which the report says.
+
 **Tests.** After symmetric diagonal scaling (``M_ii`` → 1, which changes neither
 property): the P test enumerates every principal minor for up to
 :data:`EXACT_LIMIT` pairs (exact); beyond, it is a sufficient test (positive definite
@@ -102,6 +114,7 @@ class WellPosedness:
             the devices do (``M`` does not exist).
         forced: notes on current sources forcing current through devices that can
             block (the ideal-limit check of :func:`analyse_circuit`).
+        linearised: the smooth relations that entered ``K`` linearised at zero bias.
     """
 
     step: float
@@ -119,6 +132,7 @@ class WellPosedness:
     negative_pairs: tuple[str, ...] = ()
     singular_unknowns: tuple[str, ...] = ()
     forced: list[str] = field(default_factory=list)
+    linearised: tuple[str, ...] = ()
 
     @property
     def verdict(self) -> str:
@@ -180,6 +194,8 @@ class WellPosedness:
                     + ("" if self.psd else ": no"))
         if self.forced:
             text += "; ideal limit: " + "; ".join(self.forced)
+        if self.linearised:
+            text += f" (smooth {', '.join(self.linearised)} linearised at zero bias)"
         return text
 
 
@@ -224,6 +240,9 @@ def analyse(mlcs: MLCS, step: float, states: tuple[bool, ...] | None = None,
     report = WellPosedness(step=step, theta=theta,
                            switch_states={s.name: on for s, on in zip(mlcs.switches, states)},
                            pairs=list(mlcs.pairs), pair_devices=list(mlcs.pair_devices))
+    if mlcs.smooth:
+        report.linearised = tuple(relation.name for relation in mlcs.smooth)
+        mlcs = _at_zero_bias(mlcs)
     with np.errstate(all="ignore"):
         K, B, C, D = step_matrices(mlcs, step, states, theta)
     if not (np.isfinite(K).all() and np.isfinite(D).all()):
@@ -261,6 +280,22 @@ def analyse(mlcs: MLCS, step: float, states: tuple[bool, ...] | None = None,
     reference = float(np.prod(np.sign(np.diag(lu.lu)))) * _permutation_sign(lu.piv) if lu.size else 1.0
     _test(report, mlcs, KK, report.M, mask, reference)
     return report
+
+
+def _at_zero_bias(mlcs: MLCS) -> MLCS:
+    """``mlcs`` with its smooth relations linearised at zero bias (module docstring).
+
+    Raises:
+        CircuitError: a relation cannot be evaluated there.
+    """
+    from circuitnsds.engine.newton_step import linearised
+
+    try:
+        return linearised(mlcs, np.zeros(mlcs.n), 0.0)
+    except ValueError as error:
+        names = ", ".join(relation.name for relation in mlcs.smooth)
+        raise CircuitError(f"the smooth relations of {names} cannot be evaluated at zero bias: {error}",
+                           hint="check their expressions at 0 V (a log or a division by v())") from None
 
 
 def _exclusive(mlcs: MLCS) -> set[frozenset[int]]:

@@ -108,7 +108,8 @@ def chattering_error(name: str, t0: float, t1: float, events: list[SwitchEvent])
     return SimulationError(
         f"switch {name} chatters: its control crosses its threshold again right after each "
         f"switching ({count} switchings within the step from t = {t0:.9g} s to {t1:.9g} s)",
-        where=f"t = {t0:.9g} s", time=float(t0),
+        where=f"t = {t0:.9g} s", time=float(t0), devices=(name,),
+        cause=SimulationError.SWITCH_CHATTERS,
         hint=f"the state of {name} moves its own control back across the threshold; give its "
         "model a hysteresis band wider than that jump (VH, IH), or add a delay (an RC) in the "
         "control path")

@@ -126,7 +126,10 @@ class SmoothParts:
             x = self.read(k, y)
             if relation.limit is not None and previous is not None:
                 x = np.asarray(relation.limit(x, previous.points[k]), dtype=float)
-            f, df, q, dq = relation.evaluate(x, t)
+            try:
+                f, df, q, dq = relation.evaluate(x, t)
+            except OverflowError:  # math.exp of a huge iterate: not finite, damped as such
+                return None
             f, df = np.asarray(f, dtype=float), np.asarray(df, dtype=float)
             if not (np.isfinite(f).all() and np.isfinite(df).all()):
                 return None

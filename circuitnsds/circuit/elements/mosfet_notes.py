@@ -125,16 +125,27 @@ def waveform_mosfet_levels(mosfets: list[Mosfet], waves) -> dict[str, list[float
     return levels
 
 
+def weak_drive_mosfets(mosfets: list[Mosfet], drives: dict[str, list[float]],
+                       share: float = WEAK_DRIVE_SHARE) -> list[str]:
+    """The names of ``mosfets`` that spend more than ``share`` of their conducting time with
+    a weak gate drive (``drives``: :func:`mosfet_drives`)."""
+    found = []
+    for element in mosfets:
+        conducting, weak, _ = drives.get(element.name, (0.0, 0.0, 0.0))
+        if conducting > 0 and weak > share * conducting:
+            found.append(element.name)
+    return found
+
+
 def note_weak_gate_drives(circuit: Circuit, mosfets: list[Mosfet],
                           drives: dict[str, list[float]]) -> None:
     """A :class:`RunNote` for each of ``mosfets`` that spends more than :data:`WEAK_DRIVE_SHARE`
     of its conducting time with a weak gate drive (``drives``: :func:`mosfet_drives`): read as
     a switch whose Ron was computed at ``gate_drive``, it is then not what the circuit does."""
+    weak_ones = weak_drive_mosfets(mosfets, drives)
     for element in mosfets:
-        if element.name not in drives:
-            continue
-        conducting, weak, lowest = drives[element.name]
-        if conducting > 0 and weak > WEAK_DRIVE_SHARE * conducting:
+        if element.name in weak_ones:
+            conducting, weak, lowest = drives[element.name]
             threshold = element.model.threshold
             warnings.warn(RunNote(
                 f"{circuit.file}: {element.describe()} spends {100 * weak / conducting:.0f} % of "

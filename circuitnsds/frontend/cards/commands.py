@@ -37,6 +37,8 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "
                             "(default: the drive the circuit applies, found by a first run)",
+                "mosfet": "'switch' to keep every MOSFET read as an ideal switch, also where a run "
+                          "shows it is none ('auto', the default: made the smooth device then)",
                 "pwlfit": "top of the current range [A] over which Shockley diode models are "
                 "fitted by parallel PWL branches (5 decades below it), or 'auto' (the default): "
                 "where a run's currents are",
@@ -48,7 +50,7 @@ USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)"
                 "rthsa": "thermal resistance [K/W] of the heatsink shared by the devices with "
                 "thermal= data, to ambient",
                 "cthsa": "thermal capacitance [J/K] of the heatsink (with rthsa; default 0)"}
-TEXT_OPTIONS = {"diode": {"ideal", "fit", "limit"}}
+TEXT_OPTIONS = {"diode": {"ideal", "fit", "limit"}, "mosfet": {"switch", "auto"}}
 NGSPICE_METHODS = {"trap", "trapezoidal", "gear"}
 """ngspice's ``.options method`` values: ignored with the other options circuitnsds does not use
 (its θ-method is ``.options theta``)."""

@@ -112,10 +112,11 @@ class MosfetModel:
 
     def threshold_of(self, instance: dict[str, float]) -> tuple[float, str]:
         """``(Vto [V], how it was found)`` for the channel ``instance["l"]`` × ``["w"]``
-        [m]: VDMOS ``VTO`` (ngspice's default 3 V); level 1–3 as ngspice derives it
+        [m]: VDMOS ``VTO`` (ngspice 39's default 0 V for either channel: ``.model mx vdmos(kp=2)``
+        at Vgs = 2 V, Vds = 5 V draws 4 A there); level 1–3 as ngspice derives it
         (:mod:`~circuitnsds.frontend.cards.mos_parameters`: from ``NSUB``, ``TOX``, ...)."""
         if self.kind == "vdmos":
-            return self.params.get("vto", self.params.get("vth0", 3.0 * self.polarity)), "VTO"
+            return self.params.get("vto", self.params.get("vth0", 0.0)), "VTO"
         return threshold(self.params, self.polarity, instance["l"], instance["w"])
 
 

@@ -29,13 +29,14 @@ BJT_PARAMETERS = {
     "rc": "rc", "re": "re", "cje": "cje", "vje": "vje", "pe": "vje", "mje": "mje", "me": "mje",
     "cjc": "cjc", "vjc": "vjc", "pc": "vjc", "mjc": "mjc", "mc": "mjc", "xcjc": "xcjc",
     "tf": "tf", "xtf": "xtf", "vtf": "vtf", "itf": "itf", "tr": "tr", "fc": "fc",
+    "cjs": "cjs", "ccs": "cjs", "csub": "cjs",
 }
 """``.model NPN|PNP`` parameter (and alias) -> :class:`BjtModel` field."""
 BJT_NO_EFFECT = {
     # temperature dependence (none at TEMP = TNOM), noise, safe operating area, documentation
     "xtb", "eg", "xti", "kf", "af", "tlev", "tlevc", "ctc", "cte", "cts", "tvjc", "tvje", "tvjs",
     "vbe_max", "vbc_max", "vce_max", "pd_max", "ic_max", "ib_max", "te_max", "rth0", "level",
-    "vjs", "ps", "mjs", "ms", "ns", "vceo", "icrating", "iave", "vpk",
+    "vjs", "ps", "ns", "vceo", "icrating", "iave", "vpk",
     *(f"t{name}{k}" for name in ("bf", "br", "ikf", "ikr", "irb", "nc", "ne", "nf", "nr", "rb",
                                  "rc", "re", "rm", "vaf", "var", "itf", "tf", "tr", "mje",
                                  "mjc", "mjs", "ns", "is", "ise", "isc", "iss") for k in (1, 2)),
@@ -43,8 +44,9 @@ BJT_NO_EFFECT = {
 }
 """Parameters that change nothing at the nominal temperature, or describe the device only."""
 BJT_REFUSED = {
-    "iss": "the substrate diode", "cjs": "the substrate capacitance",
-    "csub": "the substrate capacitance", "ccs": "the substrate capacitance",
+    "iss": "the substrate diode", "mjs": "the grading of the substrate capacitance (a "
+    "constant CJS is modelled)", "ms": "the grading of the substrate capacitance (a constant "
+    "CJS is modelled)",
     "ptf": "excess phase", "rco": "quasi-saturation", "qco": "quasi-saturation",
     "vo": "quasi-saturation", "gamma": "quasi-saturation", "quasimod": "quasi-saturation",
     "vg": "quasi-saturation", "cn": "quasi-saturation", "d": "quasi-saturation",
@@ -155,7 +157,7 @@ def bjt_model(name: str, kind: str, params: dict[str, float], reader: StatementR
                 if getattr(model, key) <= 0]
     problems += [f"{key.upper()} must not be negative" for key in
                  ("is_", "ise", "isc", "ikf", "ikr", "rb", "irb", "rc", "re", "cje", "cjc",
-                  "tf", "tr", "itf", "xtf") if getattr(model, key) < 0]
+                  "tf", "tr", "itf", "xtf", "cjs") if getattr(model, key) < 0]
     if model.rbm is not None and not 0 <= model.rbm <= model.rb:
         problems.append("RBM must lie between 0 and RB")
     if not 0 <= model.xcjc <= 1:

@@ -77,6 +77,8 @@ class BjtModel:
         fc: forward-bias depletion capacitance coefficient.
         lateral: the substrate junction is at the base (``SUBS=-1``, PNP's default) rather
             than at the collector (``SUBS=1``, NPN's default).
+        cjs: ``CJS`` (``CCS``, ``CSUB``) substrate capacitance [F] across that junction,
+            constant as ngspice's with its default grading ``MJS = 0``.
     """
 
     name: str
@@ -113,6 +115,7 @@ class BjtModel:
     tr: float = 0.0
     fc: float = 0.5
     lateral: bool = False
+    cjs: float = 0.0
     location: SourceLocation | None = field(default=None, compare=False)
 
     @property
@@ -122,7 +125,7 @@ class BjtModel:
     @property
     def has_charges(self) -> bool:
         """Whether any junction stores charge."""
-        return any((self.cje, self.cjc, self.tf, self.tr))
+        return any((self.cje, self.cjc, self.tf, self.tr, self.cjs))
 
     @property
     def base_leakage(self) -> tuple[float, float]:
@@ -385,6 +388,11 @@ def bjt_terminal_values(bjt: Bjt, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
             q[minus] -= sign * value
             q_jacobian[plus] += sign * gradient
             q_jacobian[minus] -= sign * gradient
+        substrate = _difference(S, substrate_node, model.cjs)  # q = CJS·(v_s − v_c'), linear
+        q[S] += substrate @ v
+        q[substrate_node] -= substrate @ v
+        q_jacobian[S] += substrate
+        q_jacobian[substrate_node] -= substrate
     return m * f, m * jacobian, m * q, m * q_jacobian
 
 

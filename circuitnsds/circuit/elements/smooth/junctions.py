@@ -29,7 +29,9 @@ def thermal_voltage(temperature: float = NOMINAL_TEMPERATURE) -> float:
 
 def critical_voltage(saturation: float, vt: float) -> float:
     """``Vcrit = Vt·ln(Vt/(√2·Is))`` [V]: where SPICE starts limiting a junction's steps
-    (``saturation`` [A], ``vt`` [V])."""
+    (``saturation`` [A], ``vt`` [V]); infinite for ``IS = 0`` (never limited)."""
+    if saturation <= 0.0:  # no junction current (IS=0): nothing to limit
+        return math.inf
     return vt * math.log(vt / (ROOT2 * saturation))
 
 
