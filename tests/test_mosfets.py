@@ -367,3 +367,42 @@ def test_a_source_follower_chatters_as_a_switch_and_runs_as_the_smooth_device():
     assert float(np.interp(15e-6, waves.time, waves["v(s)"])) == pytest.approx(follower, rel=2e-3)
     with pytest.raises(SimulationError, match="switch m1 chatters"):
         circuit_from(".options mosfet=switch\n" + FOLLOWER).transient()
+
+
+CURRENT_LIMITED = """current-limited VDMOS: driven fully to 5 V, its channel saturates near 1 A
+vdd vdd 0 12
+rl vdd d 1
+vg g 0 pulse(0 5 1u 100n 100n 8u 20u)
+m1 d g 0 mx
+.model mx vdmos(vto=3.6 kp=1)
+.tran 10n 40u
+.end
+"""
+
+
+def test_a_fully_driven_mosfet_asked_for_more_than_its_saturation_current_runs_smooth():
+    # ngspice's examples/vdmos/dcdc (netlists/external/ng_vdmos_dcdc.sp) drives an IRF510 to 5 V
+    # only: ngspice's device saturates near 1.3 A where the switch's Ron let 8.6 A through
+    # (119 % off on i(l1), exit 0 with a note). Here Kp/2·(5 − 3.6)² = 0.98 A: the square law's
+    # current through 1 Ω leaves v(d) = 12 − 0.98 V; as a switch (Ron 0.714 Ω at 5 V) it read
+    # 12·0.714/1.714 = 5.0 V
+    circuit, waves, notes = _run_noted(CURRENT_LIMITED)
+    assert any("m1 carries over 25% of the conducting time more than its channel's saturation "
+               "current" in note and "smooth MOSFET" in note for note in notes), notes
+    on = (waves.time > 4e-6) & (waves.time < 8e-6)
+    assert waves["v(d)"][on] == pytest.approx(12.0 - 0.5 * 1.4**2, rel=1e-3)
+    _, kept, notes = _run_noted(CURRENT_LIMITED.replace(".tran", ".options mosfet=switch\n.tran"))
+    on = (kept.time > 4e-6) & (kept.time < 8e-6)
+    assert kept["v(d)"][on] == pytest.approx(12.0 * (1 / 1.4) / (1 + 1 / 1.4), rel=1e-3)
+    assert not any("smooth MOSFET" in note for note in notes), notes
+
+
+@pytest.mark.ngspice
+def test_the_current_limited_mosfet_agrees_with_ngspice():
+    from circuitnsds.compare import run_ngspice
+
+    theirs = run_ngspice(CURRENT_LIMITED, ["v(d)"], 40e-6)
+    assert theirs.ok, theirs.message
+    _, ours, _ = _run_noted(CURRENT_LIMITED)
+    resampled = np.interp(ours.time, theirs.waveforms.time, theirs.waveforms["v(d)"])
+    assert np.sqrt(np.mean((ours["v(d)"] - resampled) ** 2) / np.mean(resampled**2)) < 0.01

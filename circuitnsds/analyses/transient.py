@@ -131,19 +131,29 @@ def _smooth_weak(circuit: Circuit, watch, spec: TransientSpec, signals, settings
     smooth run fails (noted: the switches' run is returned then)."""
     if watch is None or not smooth_mosfets.automatic(circuit):
         return None
-    from circuitnsds.circuit.elements.mosfet_notes import weak_drive_mosfets
+    from circuitnsds.circuit.elements.mosfet_notes import current_limited_mosfets, weak_drive_mosfets
 
     free = [element for element in mosfets(circuit) if not element.drive_fixed]
     if len(free) < len(mosfets(circuit)):  # .options mosdrive: the user's switches
         return None
     weak = weak_drive_mosfets(free, watch.drives, smooth_mosfets.SMOOTH_SHARE)
+    limited = [name for name in current_limited_mosfets(free, watch.limited, smooth_mosfets.SMOOTH_SHARE)
+               if name not in weak]
     every = [element.name for element in mosfets(circuit)]
-    smooth, made = smooth_mosfets.as_smooth(circuit, every) if weak else (circuit, [])
+    smooth, made = smooth_mosfets.as_smooth(circuit, every) if weak or limited else (circuit, [])
     if not made:
         return None
-    smooth_mosfets.note(circuit, made, f"({', '.join(weak)} spend{'s' if len(weak) == 1 else ''} "
-                        f"over {smooth_mosfets.SMOOTH_SHARE:.0%} of the conducting time between "
-                        "threshold and half the gate drive: a device in its active region)")
+    reasons = []
+    if weak:
+        reasons.append(f"{', '.join(weak)} spend{'s' if len(weak) == 1 else ''} over "
+                       f"{smooth_mosfets.SMOOTH_SHARE:.0%} of the conducting time between threshold "
+                       "and half the gate drive: a device in its active region")
+    if limited:
+        reasons.append(f"{', '.join(limited)} carr{'ies' if len(limited) == 1 else 'y'} over "
+                       f"{smooth_mosfets.SMOOTH_SHARE:.0%} of the conducting time more than its "
+                       "channel's saturation current at the gate drive applied: a current source, "
+                       "not Ron")
+    smooth_mosfets.note(circuit, made, f"({'; '.join(reasons)})")
     try:
         return run_transient(smooth, spec, signals=signals, **settings)
     except SimulationError as failure:

@@ -70,6 +70,20 @@ class ChannelLaw:
             return math.inf
         return (1.0 + self.theta * overdrive) / (self.gain * overdrive)
 
+    def saturation_current(self, drive: float) -> float:
+        """The channel's saturation current [A] of the instance at ``|Vgs| = drive`` [V]:
+        ``gain·Vov²/2/(1 + θ·Vgs)`` (the square law; a VDMOS's ``mtriode`` is in ``gain``, so
+        with ``mtriode`` > 1 this is that much above ngspice's: the larger the figure, the fewer
+        channels it finds current-limited)."""
+        overdrive = drive - self.threshold
+        if self.device == "vdmos":
+            argument = (overdrive - self.shift) / self.slope
+            overdrive = self.slope * (argument if argument > 30 else math.log1p(math.exp(argument)))
+            damping = 1.0 + self.theta * drive
+        else:
+            damping = 1.0 + self.theta * max(overdrive, 0.0)
+        return self.count * self.gain * max(overdrive, 0.0) ** 2 / (2.0 * damping)
+
     def resistance(self, drive: float) -> float:
         """``Ron`` [Ω] of the instance at ``|Vgs| = drive`` [V]."""
         return (self.drain + self.source + self.channel(drive)) / self.count

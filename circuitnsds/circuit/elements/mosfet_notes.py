@@ -38,10 +38,14 @@ class GateDriveObserver:
         self.levels: dict[str, list[float]] = {}
         """MOSFET name -> ``[highest |Vgs| while conducting, highest blocking voltage while
         open]`` [V] over the run (``0.0``: never in that state)."""
+        self.limited: dict[str, list[float]] = {}
+        """MOSFET name -> ``[conducting time, time of it carrying more than its channel's
+        saturation current]`` [s] over the run (:func:`mosfet_current_limits`)."""
 
     def observe(self, mlcs: MLCS, trajectory, first: int) -> None:
         mosfet_drives(self.mosfets, mlcs, trajectory, self.drives)
         mosfet_levels(self.mosfets, mlcs, trajectory, self.levels)
+        mosfet_current_limits(self.mosfets, mlcs, trajectory, self.limited)
 
     def report(self) -> None:
         note_weak_gate_drives(self.circuit, self.mosfets, self.drives)
@@ -74,6 +78,50 @@ def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
         total[1] += float(lengths[weak].sum())
         total[2] = min(total[2], float(np.min(control[closed])))
     return drives
+
+
+CURRENT_LIMIT_MARGIN = 1.5
+"""A conducting switch's current above this many times its channel's saturation current at the
+gate drive of the step counts as beyond what the device can carry."""
+
+
+def mosfet_current_limits(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
+                          limited: dict[str, list[float]]) -> dict[str, list[float]]:
+    """MOSFET name -> ``[conducting time, time of it with the switch's current above
+    :data:`CURRENT_LIMIT_MARGIN` times the channel's saturation current at the step's gate
+    drive]`` [s] of each of ``mosfets`` with a channel law, over the steps of ``trajectory``,
+    added to ``limited`` (earlier parts of the same run), which is updated and returned. A
+    switch fully driven but carrying more than its channel can (a VDMOS at 5 V of gate with a
+    3.6 V threshold, asked for 8 A where it saturates near 1.3 A) is a current source, not
+    the resistor Ron."""
+    named = {e.name: e for e in mosfets if e.channel is not None}
+    if not named or trajectory.time.size < 2:
+        return limited
+    lengths = np.diff(trajectory.time)
+    for j, switch in enumerate(mlcs.switches):
+        element = named.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        if not closed.any():
+            continue
+        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+        current = np.abs(trajectory.y[1:, switch.row])
+        saturation = np.array([element.channel.saturation_current(abs(float(v))) for v in control[closed]])
+        beyond = np.zeros_like(closed)
+        beyond[closed] = current[closed] > CURRENT_LIMIT_MARGIN * saturation
+        total = limited.setdefault(switch.name, [0.0, 0.0])
+        total[0] += float(lengths[closed].sum())
+        total[1] += float(lengths[beyond].sum())
+    return limited
+
+
+def current_limited_mosfets(mosfets: list[Mosfet], limited: dict[str, list[float]],
+                            share: float) -> list[str]:
+    """The names of ``mosfets`` that carry more than their saturation current for more than
+    ``share`` of their conducting time (``limited``: :func:`mosfet_current_limits`)."""
+    return [e.name for e in mosfets if (lambda t: t[0] > 0 and t[1] > share * t[0])(
+        limited.get(e.name, (0.0, 0.0)))]
 
 
 def mosfet_levels(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
