@@ -51,6 +51,23 @@ class StateCoordinates:
         return self.sigma.size
 
 
+def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``N⁻¹ rhs`` for the algebraic block ``N`` of a mode, or :class:`NotIndexOne` when ``N``
+    is singular. Singular is judged on ``N`` equilibrated (rows, then columns, scaled to a
+    largest entry of 1): the rank does not change, but the scale of the circuit's values
+    does not count against it (an open switch's 1e-9 S beside an amplifier's gain of 1e4 is
+    a condition of 1e13 unscaled, 10 scaled)."""
+    rows = np.abs(N).max(axis=1)
+    rows[rows == 0] = 1.0
+    scaled = N / rows[:, None]
+    columns = np.abs(scaled).max(axis=0)
+    columns[columns == 0] = 1.0
+    scaled /= columns[None, :]
+    if np.linalg.cond(scaled) > 1e13:
+        raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
+    return np.linalg.solve(scaled, rhs / rows[:, None]) / columns[:, None]
+
+
 class ModeDynamics:
     """The reduced equations of one mode (module docstring)."""
 
@@ -67,9 +84,7 @@ class ModeDynamics:
         R1 = np.hstack([coordinates.U1.T, np.zeros((r, k))])
         R2 = np.block([[coordinates.U2.T, np.zeros((n - r, k))], [np.zeros((k, n)), np.eye(k)]])
         N = R2 @ A_bar @ T2
-        if N.size and np.linalg.cond(N) > 1e13:
-            raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
-        solve = np.linalg.solve(N, R2) if N.size else np.zeros((0, n + k))
+        solve = _algebraic_solve(N, R2) if N.size else np.zeros((0, n + k))
         self.P = T1 - T2 @ solve @ A_bar @ T1
         self.Q = -T2 @ solve
         inv_sigma = 1.0 / coordinates.sigma
