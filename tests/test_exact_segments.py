@@ -260,3 +260,27 @@ def test_the_voltage_mode_buck_runs_exactly_and_theta_converges_to_it():
             differences.append(np.max(np.abs(run.y[:, mlcs.unknowns.index(signal)] - reference)))
     coarse, fine = np.array(differences[:2]), np.array(differences[2:])
     assert np.all((coarse / fine > 7) & (coarse / fine < 13))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=8, max_size=8), st.floats(0, 20e-6),
+       st.sampled_from([(False,), (True,)]), st.booleans())
+def test_the_cached_solution_map_is_the_closed_form_solution(state, start, closed, conducting):
+    # the map is built from unit inputs; it must give the closed form for any state and piece
+    from circuitnsds.engine.exact.run import ExactSystem
+    from circuitnsds.engine.exact.sources import SourcePieces
+
+    mlcs = circuitnsds.read_netlist(BUCK).mlcs()
+    system = ExactSystem(mlcs)
+    mode = system.mode(np.array([conducting] * mlcs.m), closed)
+    x = np.resize(np.array(state), system.coordinates.rank)
+    pieces = SourcePieces(mlcs.stimuli, 1e-3)
+    sources = pieces.piece(start, pieces.next_corner(start))
+    z, functions = system.event_functions(mode, closed, x, sources, np.abs(x))
+    reference = mode.solution(x, sources)
+    rows, constants, _, _ = system.event_rows(mode, closed)
+    for tau in (0.0, 3e-8, 1e-6, 7e-6):
+        expected = reference(tau)
+        assert np.allclose(z(tau), expected, rtol=1e-9, atol=1e-9 * (1 + np.abs(expected).max()))
+        g = rows @ expected + constants
+        assert np.allclose(functions.table(tau), g, rtol=1e-9, atol=1e-9 * (1 + np.abs(g).max()))

@@ -19,6 +19,7 @@ import numpy as np
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
 from circuitnsds.engine.exact.roots import first_root, lower_bounds
+from circuitnsds.engine.exact.solution_map import SolutionMap
 from circuitnsds.engine.exact.sources import SourcePieces
 from circuitnsds.system.mlcs import MLCS
 
@@ -88,6 +89,7 @@ class ExactSystem:
         self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
+        self._maps: dict[tuple, SolutionMap] = {}
         self.controls = [self._row(s.control) for s in mlcs.switches]
 
     def _row(self, row) -> np.ndarray:
@@ -122,29 +124,33 @@ class ExactSystem:
         (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
         the instant; without this term the crossing is found at a ``τ`` with
         ``instant + τ == instant`` and the loop never advances)."""
-        rows, constants, rows_P, rows_Q = self._event_rows(mode, closed)
-        z = mode.solution(x, sources)
-        values = z.map(rows)
+        rows, constants, rows_P, rows_Q = self.event_rows(mode, closed)
+        linear = self._solution_map(mode, rows, constants, sources)
+        inputs = linear.inputs(x, sources.coefficients)
+        z = linear.solution(inputs)
+        table = linear.table(inputs)
         phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.maximum(np.abs(x), x_size) + rows_Q @ phi0 + np.abs(constants)
-        # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
-        at_zero = np.where(values.powers == 0, values.exponents, 0) + (values.powers == 1)
-        slopes = np.abs((at_zero @ values.coefficients).real)
+        slopes = np.abs((linear.slope_weights @ table).real)
         tolerances = RELATIVE_TOL * scale + slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300)) + 1e-300
-        # the constants join the term τ^0 e^{0τ} (one is added when the solution has none)
-        plain = np.flatnonzero((values.powers == 0) & (values.exponents == 0))
-        if plain.size:
-            coefficients = values.coefficients.copy()
-            coefficients[plain[0]] += constants
-            powers, exponents = values.powers, values.exponents
-        else:
-            coefficients = np.vstack([values.coefficients, constants[None, :].astype(complex)])
-            powers = np.append(values.powers, 0)
-            exponents = np.append(values.exponents, 0j)
+        # terms that vanish in every column are left out (a bound multiplies their size by
+        # their growth, and 0·∞ is not a number)
+        keep = np.any(table != 0, axis=1)
         labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
-        return z, EventFunctions(ExpPoly(coefficients, powers, exponents), tolerances, labels)
+        return z, EventFunctions(ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep]),
+                                 tolerances, labels)
 
-    def _event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
+    def _solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
+                      sources: ExpPoly) -> SolutionMap:
+        """The mode's :class:`~.solution_map.SolutionMap` for the structure of ``sources``."""
+        key = (id(mode), sources.powers.tobytes(), sources.exponents.tobytes())
+        linear = self._maps.get(key)
+        if linear is None:
+            linear = SolutionMap(mode, sources.powers, sources.exponents, sources.size, rows, constants)
+            self._maps[key] = linear
+        return linear
+
+    def event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
         """``(rows, constants, |rows P|, |rows Q|)``: ``g = rows · z + constants`` for every
         pair and switch of the mode (:meth:`event_functions`), cached with the mode."""
         cached = self._rows.get(id(mode))

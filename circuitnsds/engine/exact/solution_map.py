@@ -1,0 +1,79 @@
+"""A mode's solution and event functions as one linear map of the segment's data.
+
+On a segment the mode's solution ``z(τ)`` (:meth:`~.mode.ModeDynamics.solution`) is an
+exponential polynomial whose terms (powers and exponents) depend only on the mode and on
+the *structure* of the sources' piece (its powers and exponents), and whose coefficients
+are affine in the state ``x`` at the segment's start and in the piece's coefficients ``s``:
+
+    coefficients(z) = K [x; s; 1].
+
+So is every event function of the mode (``g = rows · z + constants``). :class:`SolutionMap`
+holds ``K`` for ``z`` and for the table of event functions, built once per mode and source
+structure from the solutions of the unit inputs (the closed form of
+:func:`~.exppoly.response`, nothing approximated), so that a segment costs two complex
+matrix-vector products instead of the closed form's assembly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from circuitnsds.engine.exact.exppoly import ExpPoly
+from circuitnsds.engine.exact.mode import ModeDynamics
+
+
+class SolutionMap:
+    """``z`` and the event functions of ``mode`` for sources of the structure
+    ``(powers, exponents)`` over ``sources`` columns (module docstring)."""
+
+    def __init__(self, mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
+                 rows: np.ndarray, constants: np.ndarray):
+        r = mode.V1t.shape[0]
+        terms_in = len(powers)
+        size = mode.P.shape[0]
+        inputs = r + terms_in * sources + 1
+        solutions = []
+        for column in range(inputs):
+            x = np.zeros(r)
+            s = np.zeros((terms_in, sources), complex)
+            if column < r:
+                x[column] = 1.0
+            elif column < inputs - 1:
+                s.flat[column - r] = 1.0
+            solutions.append(mode.solution(x, ExpPoly(s, powers, exponents)))
+        keys: dict[tuple[int, complex], int] = {(0, 0j): 0}
+        for z in solutions:
+            for key in zip(z.powers.tolist(), z.exponents.tolist()):
+                keys.setdefault(key, len(keys))
+        self.powers = np.array([k[0] for k in keys], int)
+        self.exponents = np.array([k[1] for k in keys], complex)
+        terms = len(keys)
+        K = np.zeros((terms, size, inputs), complex)
+        for column, z in enumerate(solutions):
+            for j, key in enumerate(zip(z.powers.tolist(), z.exponents.tolist())):
+                K[keys[key], :, column] += z.coefficients[j]
+        # each unit input's solution holds the constant part (the last column's) too
+        K[:, :, :-1] -= K[:, :, -1:]
+        self.state_size = r
+        self.size = size
+        self.z_map = K.reshape(terms * size, inputs)
+        table = np.einsum("tsi,cs->tci", K, rows)
+        table[0, :, -1] += constants               # the constants join the term τ^0 e^{0τ}
+        self.columns = rows.shape[0]
+        self.table_map = table.reshape(terms * self.columns, inputs)
+        # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
+        self.slope_weights = np.where(self.powers == 0, self.exponents, 0) + (self.powers == 1)
+
+    def inputs(self, x: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
+        """``[x; s; 1]`` for the state ``x`` and the piece's coefficients ``s``."""
+        return np.concatenate([x.astype(complex), coefficients.ravel(), [1.0]])
+
+    def solution(self, inputs: np.ndarray) -> ExpPoly:
+        """``z(τ)`` (the same function as :meth:`ModeDynamics.solution`)."""
+        coefficients = (self.z_map @ inputs).reshape(len(self.powers), self.size)
+        return ExpPoly(coefficients, self.powers, self.exponents)
+
+    def table(self, inputs: np.ndarray) -> np.ndarray:
+        """The event functions' coefficients, ``(terms, columns)`` (the constants included)."""
+        return (self.table_map @ inputs).reshape(len(self.powers), self.columns)
+
