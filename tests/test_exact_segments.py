@@ -284,3 +284,29 @@ def test_the_cached_solution_map_is_the_closed_form_solution(state, start, close
         assert np.allclose(z(tau), expected, rtol=1e-9, atol=1e-9 * (1 + np.abs(expected).max()))
         g = rows @ expected + constants
         assert np.allclose(functions.table(tau), g, rtol=1e-9, atol=1e-9 * (1 + np.abs(g).max()))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_term, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(1e-5, 2e-3))
+def test_the_compiled_first_event_is_the_certified_first_root(terms, offset, horizon):
+    # the compiled search over a table's columns against roots.first_root column by column
+    from circuitnsds.engine.exact.first_event import first_event
+
+    rows, powers, exponents = [[offset, -offset]], [0], [0j]
+    for re0, im0, re1, im1, p, decay, omega in terms:
+        for sign in ((1, -1) if omega else (1,)):
+            rows.append([complex(re0, sign * im0 if omega else 0), complex(re1, sign * im1 if omega else 0)])
+            powers.append(p)
+            exponents.append(complex(decay, sign * omega))
+    g = ExpPoly(np.array(rows, complex), np.array(powers), np.array(exponents, complex))
+    tolerances = np.array([1e-12, 1e-12])
+    tau, column = first_event(g.coefficients, g.powers.astype(np.int64), g.exponents, tolerances,
+                              horizon, 1e-13)
+    roots = [first_root(ExpPoly(g.coefficients[:, k:k + 1], g.powers, g.exponents), horizon, 1e-12,
+                        resolution=1e-13 * horizon) for k in range(2)]
+    found = [r for r in roots if r is not None]
+    if not found:
+        assert column == -1 and tau == horizon
+    else:
+        assert tau == pytest.approx(min(found), rel=1e-9, abs=1e-18)
+        assert roots[column] == pytest.approx(tau, rel=1e-9, abs=1e-18)

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly
+from circuitnsds.engine.exact.first_event import first_event
 from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
-from circuitnsds.engine.exact.roots import first_root, lower_bounds
 from circuitnsds.engine.exact.solution_map import SolutionMap
 from circuitnsds.engine.exact.sources import SourcePieces
 from circuitnsds.system.mlcs import MLCS
@@ -277,15 +277,10 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         mode = system.mode(active, closed)
         horizon = end - t
         tau = horizon
-        # every function at once over the whole piece; the search only where that fails (a
-        # bound that is not a number, 0·∞ from a term another column does not have, fails)
-        cleared = lower_bounds(functions.table, 0.0, horizon) > -functions.tolerances
-        doubtful = np.flatnonzero(~cleared)
-        for k in doubtful:
-            root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
-                              resolution=1e-13 * max(horizon, 1e-300))
-            if root is not None and root < tau:
-                tau = root
+        # every function at once, compiled (:mod:`.first_event`)
+        table = functions.table
+        tau, _ = first_event(np.ascontiguousarray(table.coefficients), table.powers.astype(np.int64),
+                             table.exponents, functions.tolerances, horizon, 1e-13)
         segments += 1
         stop_at = t + tau
         last = row
