@@ -310,3 +310,33 @@ def test_the_compiled_first_event_is_the_certified_first_root(terms, offset, hor
     else:
         assert tau == pytest.approx(min(found), rel=1e-9, abs=1e-18)
         assert roots[column] == pytest.approx(tau, rel=1e-9, abs=1e-18)
+
+
+PEAK_CURRENT = str(Path(__file__).parent.parent / "netlists" / "buck_peak_current.cir")
+
+
+@pytest.mark.parametrize("netlist, stop", [(BUCK, 0.1e-3), (VOLTAGE_MODE, 40e-6), (PEAK_CURRENT, 40e-6)])
+def test_the_compiled_loop_runs_the_python_loop(netlist, stop):
+    # the same segments, events and rows as the loop that chooses every mode in Python (to
+    # round-off: the voltage-mode buck's PWM instants, its amplifier's gain 1e4 in them, move
+    # by 1e-9 of the time between summation orders, as much as they did from the closed form
+    # assembled term by term to either loop; the rows after them by the signals' slew times
+    # that: 3e-8 of a signal's range, measured)
+    from circuitnsds.engine.exact.run import run_python
+
+    circuit = circuitnsds.read_netlist(netlist)
+    mlcs = circuit.mlcs()
+    tran = circuit.analyses["tran"]
+    state = uic_state(circuit, mlcs) if tran.uic else operating_point(circuit, mlcs)
+    active = np.zeros(mlcs.m, bool) if state.active is None else np.asarray(state.active, bool)
+    times = np.arange(round(stop / tran.step) + 1) * tran.step
+    compiled = run_exact(mlcs, times, state.y, active, tuple(state.switches))
+    python = run_python(mlcs, times, state.y, active, tuple(state.switches))
+    assert compiled.segments == python.segments
+    assert [(e.name, e.kind) for e in compiled.events] == [(e.name, e.kind) for e in python.events]
+    assert np.allclose([e.time for e in compiled.events], [e.time for e in python.events], rtol=1e-8,
+                       atol=0)
+    scale = np.abs(python.y).max(axis=0) + 1e-12
+    assert np.max(np.abs(compiled.y - python.y) / scale) < 2e-7
+    largest = np.abs(python.currents).max(initial=0)
+    assert np.all(np.abs(compiled.currents - python.currents) <= 2e-7 * largest)

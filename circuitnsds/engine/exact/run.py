@@ -18,9 +18,12 @@ import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.first_event import first_event
+from circuitnsds.engine.exact.loop import FINISHED, NEW_MODE, STALLED, exact_loop
 from circuitnsds.engine.exact.mode import ModeDynamics, StateCoordinates
+from circuitnsds.engine.exact.mode_tables import ModeTables
 from circuitnsds.engine.exact.solution_map import SolutionMap
-from circuitnsds.engine.exact.sources import SourcePieces
+from circuitnsds.engine.exact.source_table import SourceTable
+from circuitnsds.jit import AVAILABLE
 from circuitnsds.system.mlcs import MLCS
 
 MAX_MODE_CHANGES = 64
@@ -125,7 +128,7 @@ class ExactSystem:
         the instant; without this term the crossing is found at a ``τ`` with
         ``instant + τ == instant`` and the loop never advances)."""
         rows, constants, rows_P, rows_Q = self.event_rows(mode, closed)
-        linear = self._solution_map(mode, rows, constants, sources)
+        linear = self.solution_map(mode, rows, constants, sources.powers, sources.exponents, sources.size)
         inputs = linear.inputs(x, sources.coefficients)
         z = linear.solution(inputs)
         table = linear.table(inputs)
@@ -140,15 +143,20 @@ class ExactSystem:
         return z, EventFunctions(ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep]),
                                  tolerances, labels)
 
-    def _solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
-                      sources: ExpPoly) -> SolutionMap:
-        """The mode's :class:`~.solution_map.SolutionMap` for the structure of ``sources``."""
-        key = (id(mode), sources.powers.tobytes(), sources.exponents.tobytes())
+    def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
+                     powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
+        """The mode's :class:`~.solution_map.SolutionMap` for sources of the structure
+        ``(powers, exponents)`` over ``columns`` sources (cached)."""
+        key = (id(mode), powers.tobytes(), exponents.tobytes())
         linear = self._maps.get(key)
         if linear is None:
-            linear = SolutionMap(mode, sources.powers, sources.exponents, sources.size, rows, constants)
+            linear = SolutionMap(mode, powers, exponents, columns, rows, constants)
             self._maps[key] = linear
         return linear
+
+    def built_modes(self) -> list[tuple[tuple[bool, ...], tuple[bool, ...]]]:
+        """``(active, closed)`` of every mode built so far."""
+        return list(self._modes)
 
     def event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]):
         """``(rows, constants, |rows P|, |rows Q|)``: ``g = rows · z + constants`` for every
@@ -248,10 +256,78 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
 def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
               closed0: tuple[bool, ...]) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0] = 0`` to ``times[-1]``, writing a row at each
-    of ``times``."""
+    of ``times``: in the compiled loop (:mod:`.loop`) over the modes met so far, Python
+    choosing the mode only where the loop meets one it does not know; the same loop in
+    Python (:func:`run_python`) without numba."""
+    if not AVAILABLE:
+        return run_python(mlcs, times, y0, active0, closed0)
     system = ExactSystem(mlcs)
     stop = float(times[-1])
-    pieces = SourcePieces(mlcs.stimuli, stop)
+    sources = SourceTable(mlcs.stimuli, stop)
+    tables = ModeTables(system, sources)
+    n, m = system.n, system.m
+    Y = np.zeros((len(times), n))
+    L = np.zeros((len(times), m))
+    Y[0] = y0
+    clock = np.zeros(1)
+    counters = np.zeros(7, np.int64)
+    counters[1] = tables.add(np.asarray(active0, bool), tuple(closed0))
+    counters[3] = 1
+    x = system.coordinates.V1.T @ y0
+    x_size = np.abs(system.coordinates.V1.T) @ np.abs(y0)
+    sources_now = np.zeros(sources.coefficients.shape[1:], complex)
+    S = system.S
+    v1t = np.ascontiguousarray(system.coordinates.V1.T)
+    capacity = 1024
+    event_times = np.zeros(capacity)
+    event_index, event_on = np.zeros(capacity, np.int64), np.zeros(capacity, bool)
+    times = np.asarray(times, dtype=float)
+    while True:
+        status = exact_loop(clock, counters, x, x_size, sources_now, sources.corners, sources.coefficients,
+                            sources.exponents, sources.powers, sources.partner, S, tables.bits, tables.known,
+                            tables.z_map, tables.table_map, tables.powers, tables.exponents, tables.terms,
+                            tables.slope_weights, tables.rows_p, tables.rows_q, tables.rows_c, v1t,
+                            np.abs(v1t), times, Y, L, event_times, event_index, event_on)
+        if status == FINISHED:
+            break
+        if status == STALLED:
+            raise Chattering(f"the exact integrator does not advance from t = {clock[0]!r} s")
+        if counters[4] + tables.columns > capacity:  # (also what EVENTS_FULL asks)
+            capacity *= 2
+            event_times, event_index, event_on = (np.resize(a, capacity) for a in (event_times, event_index,
+                                                                                   event_on))
+        if status == NEW_MODE:
+            t = float(clock[0])
+            active, closed = tables.mode_of(int(counters[1]))
+            piece = ExpPoly(sources_now.copy(), sources.powers, sources.exponents)
+            new_active, new_closed, _, _ = choose_mode(system, active, closed, x, piece, x_size, t)
+            before = np.concatenate([active, closed])
+            after = np.concatenate([new_active, new_closed])
+            for c in np.flatnonzero(before != after):
+                event_times[counters[4]], event_index[counters[4]], event_on[counters[4]] = t, c, after[c]
+                counters[4] += 1
+            tables.add_all_built()
+            counters[1] = tables.add(new_active, new_closed)
+            counters[2] = 1
+    events = [ExactEvent(float(event_times[e]), *_event_name(mlcs, int(event_index[e]), bool(event_on[e])))
+              for e in range(counters[4])]
+    return ExactRun(times, Y, L, events, int(counters[5]))
+
+
+def _event_name(mlcs: MLCS, column: int, on: bool) -> tuple[str, str]:
+    """``(name, kind)`` of an event of the event function ``column`` (pairs, then switches)."""
+    if column < mlcs.m:
+        return mlcs.pairs[column], "on" if on else "off"
+    return mlcs.switches[column - mlcs.m].name, "close" if on else "open"
+
+
+def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
+               closed0: tuple[bool, ...]) -> ExactRun:
+    """:func:`run_exact` in Python (every segment through :func:`choose_mode`): what runs
+    without numba, and the reference of the compiled loop."""
+    system = ExactSystem(mlcs)
+    stop = float(times[-1])
+    sources = SourceTable(mlcs.stimuli, stop)
     n, m = system.n, system.m
     Y = np.zeros((len(times), n))
     L = np.zeros((len(times), m))
@@ -266,9 +342,10 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     segments = 0
     stalled = 0
     while t < stop:
-        end = pieces.next_corner(t)
-        sources = pieces.piece(t, end)
-        new_active, new_closed, z, functions = choose_mode(system, active, closed, x, sources, x_size, t)
+        k = sources.interval(t)
+        end = float(sources.corners[k + 1])
+        piece = sources.piece(k, t)
+        new_active, new_closed, z, functions = choose_mode(system, active, closed, x, piece, x_size, t)
         for j in np.flatnonzero(new_active != active):
             events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
         for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
@@ -276,7 +353,6 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         active, closed = new_active, new_closed
         mode = system.mode(active, closed)
         horizon = end - t
-        tau = horizon
         # every function at once, compiled (:mod:`.first_event`)
         table = functions.table
         tau, _ = first_event(np.ascontiguousarray(table.coefficients), table.powers.astype(np.int64),
