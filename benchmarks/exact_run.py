@@ -2,7 +2,8 @@
 ``benchmarks/exact_vs_ngspice.py`` (until ``.options method=exact`` reaches the command
 line, the benchmark times this script): read the netlist, start from its operating point
 (or UIC), run :func:`~circuitnsds.engine.exact.run.run_exact` on the ``.tran`` grid up to
-``--stop``, and print one JSON line: segments, events, rows and the seconds of the run itself.
+``--stop``, and print one JSON line: segments, events, rows and the seconds of the run itself (wall and
+CPU).
 
 Usage: ``PYTHONPATH=$PWD python benchmarks/exact_run.py NETLIST --stop 0.1``
 """
@@ -14,11 +15,12 @@ import json
 import time
 import warnings
 
-import numpy as np
-
 import circuitnsds
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.engine.exact.run import run_exact
+
+# numpy is imported inside the functions, after circuitnsds: one BLAS thread, as the command line
+# has it (circuitnsds/_blas.py; a threaded BLAS on a busy machine was 2x slower here)
 
 
 def main() -> None:
@@ -33,13 +35,15 @@ def main() -> None:
         mlcs = circuit.mlcs()
         state = uic_state(circuit, mlcs) if tran.uic else operating_point(circuit, mlcs)
     stop = tran.stop if args.stop is None else args.stop
+    import numpy as np
+
     times = np.arange(round(stop / tran.step) + 1) * tran.step
     active = np.zeros(mlcs.m, bool) if state.active is None else np.asarray(state.active, bool)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     run = run_exact(mlcs, times, state.y, active, tuple(state.switches))
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     print(json.dumps({"segments": run.segments, "events": len(run.events), "rows": len(run.times),
-                      "seconds": seconds}))
+                      "seconds": seconds, "cpu": cpu}))
 
 
 if __name__ == "__main__":

@@ -7,10 +7,11 @@ point, the exact run on the ``.tran`` grid with every unknown kept in memory; no
 written), until ``.options method=exact`` reaches ``circuitnsds run``. ngspice's is
 ``ngspice -b -r out.raw`` on the netlist as ``circuitnsds compare`` translates it (the
 idealised-diode parameters dropped: its Shockley diode), with ``.tran`` stretched to ``S``
-(start-up, parsing and writing every vector at its own time points). The table: wall
-seconds of each, ngspice / ours, the exact run's segments (pieces between events and
-source corners) and events, and the exact run's own µs per segment (its in-process time:
-start-up and parsing excluded). ``--fraction 0.1`` runs a tenth of each stop.
+(start-up, parsing and writing every vector at its own time points). The table: wall and
+CPU seconds of each whole process and ngspice / ours (the CPU figures are the ones to
+read on a shared machine), the exact run's segments (pieces between events and source
+corners) and events, and the exact run's own CPU µs per segment (start-up, parsing and
+the operating point excluded; mode building included). ``--fraction 0.1`` runs a tenth of each stop.
 
 Usage: ``PYTHONPATH=$PWD python benchmarks/exact_vs_ngspice.py [--fraction 1] [--only X.cir ...]``
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -33,30 +35,36 @@ CASES = [("buck_voltage_mode.cir", 0.1), ("buck_peak_current.cir", 0.1), ("buck_
          ("inverter_three_phase.cir", 0.4)]
 
 
-def ours(path: Path, stop: float, timeout: float) -> tuple[float, dict]:
-    """Wall seconds of the whole process, and what it printed."""
-    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+def timed(command: list[str], timeout: float, **options) -> tuple[float, float, subprocess.CompletedProcess]:
+    """``(wall seconds, CPU seconds, result)`` of a child process (its user + system time:
+    on a shared machine the wall time also counts the other processes' turns)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "exact_run.py"), str(path),
-                           "--stop", repr(stop)], capture_output=True, text=True, timeout=timeout,
-                          env=environment)
+    done = subprocess.run(command, capture_output=True, text=True, timeout=timeout, **options)
     seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return seconds, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, done
+
+
+def ours(path: Path, stop: float, timeout: float) -> tuple[float, float, dict]:
+    """Wall and CPU seconds of the whole process, and what it printed."""
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    seconds, cpu, done = timed([sys.executable, str(ROOT / "benchmarks" / "exact_run.py"), str(path),
+                                "--stop", repr(stop)], timeout, env=environment)
     if done.returncode:
-        return seconds, {"failed": (done.stderr.strip().splitlines() or ["?"])[-1][:80]}
-    return seconds, json.loads(done.stdout.strip().splitlines()[-1])
+        return seconds, cpu, {"failed": (done.stderr.strip().splitlines() or ["?"])[-1][:80]}
+    return seconds, cpu, json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def ngspice(path: Path, stop: float, timeout: float) -> float | None:
-    """Wall seconds of ``ngspice -b``, or ``None`` when it failed."""
+def ngspice(path: Path, stop: float, timeout: float) -> tuple[float, float] | None:
+    """Wall and CPU seconds of ``ngspice -b``, or ``None`` when it failed."""
     with tempfile.TemporaryDirectory() as scratch:
         deck = Path(scratch) / "deck.cir"
         deck.write_text(translate_netlist(path, stop=stop).text)
-        start = time.perf_counter()
-        done = subprocess.run(["ngspice", "-b", "-r", str(Path(scratch) / "out.raw"), str(deck)],
-                              capture_output=True, text=True, timeout=timeout)
-        seconds = time.perf_counter() - start
+        seconds, cpu, done = timed(["ngspice", "-b", "-r", str(Path(scratch) / "out.raw"), str(deck)],
+                                   timeout)
     output = done.stdout + done.stderr
-    return None if done.returncode or "too small" in output.lower() else seconds
+    return None if done.returncode or "too small" in output.lower() else (seconds, cpu)
 
 
 def main() -> None:
@@ -65,22 +73,23 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", help="netlists to run (default: all)")
     parser.add_argument("--timeout", type=float, default=1800.0)
     args = parser.parse_args()
-    print(f"{'netlist':<26} {'stop':>6} {'ours s':>8} {'ngspice s':>9} {'ratio':>6} "
-          f"{'segments':>8} {'events':>7} {'µs/segment':>10}")
+    print(f"{'':<26} {'':>6} {'wall s':^24} {'CPU s':^24}")
+    print(f"{'netlist':<26} {'stop':>6} {'ours':>7} {'ngspice':>8} {'ratio':>7} {'ours':>7} {'ngspice':>8} "
+          f"{'ratio':>7} {'segments':>8} {'events':>7} {'CPU µs/segment':>14}")
     for name, stop in CASES:
         if args.only and name not in args.only:
             continue
         path = ROOT / "netlists" / name
         stop *= args.fraction
-        seconds, result = ours(path, stop, args.timeout)
+        seconds, cpu, result = ours(path, stop, args.timeout)
         theirs = ngspice(path, stop, args.timeout)
-        spice = f"{theirs:>9.2f}" if theirs is not None else f"{'failed':>9}"
-        if "failed" in result:
-            print(f"{name:<26} {stop:>6.3g} {'failed':>8} {spice}  {result['failed']}")
+        if "failed" in result or theirs is None:
+            why = result.get("failed", "ngspice failed")
+            print(f"{name:<26} {stop:>6.3g} failed: {why}")
             continue
-        ratio = f"{theirs / seconds:>6.2f}" if theirs is not None else f"{'-':>6}"
-        print(f"{name:<26} {stop:>6.3g} {seconds:>8.2f} {spice} {ratio} {result['segments']:>8} "
-              f"{result['events']:>7} {1e6 * result['seconds'] / result['segments']:>10.0f}")
+        print(f"{name:<26} {stop:>6.3g} {seconds:>7.2f} {theirs[0]:>8.2f} {theirs[0] / seconds:>7.2f} "
+              f"{cpu:>7.2f} {theirs[1]:>8.2f} {theirs[1] / cpu:>7.2f} {result['segments']:>8} "
+              f"{result['events']:>7} {1e6 * result['cpu'] / result['segments']:>14.0f}")
 
 
 if __name__ == "__main__":
