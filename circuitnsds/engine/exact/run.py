@@ -93,6 +93,9 @@ class ExactSystem:
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
         self._maps: dict[tuple, SolutionMap] = {}
+        self.sources_used: np.ndarray | None = None
+        """``(terms, sources)``: the source coefficients a run's pieces can have nonzero
+        (:attr:`.source_table.SourceTable.used`, set by the run); ``None``: all."""
         self.controls = [self._row(s.control) for s in mlcs.switches]
 
     def _row(self, row) -> np.ndarray:
@@ -147,10 +150,12 @@ class ExactSystem:
                      powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
         """The mode's :class:`~.solution_map.SolutionMap` for sources of the structure
         ``(powers, exponents)`` over ``columns`` sources (cached)."""
-        key = (id(mode), powers.tobytes(), exponents.tobytes())
+        used = self.sources_used if self.sources_used is not None and self.sources_used.shape == (
+            powers.size, columns) else None
+        key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes())
         linear = self._maps.get(key)
         if linear is None:
-            linear = SolutionMap(mode, powers, exponents, columns, rows, constants)
+            linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used)
             self._maps[key] = linear
         return linear
 
@@ -264,6 +269,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     system = ExactSystem(mlcs)
     stop = float(times[-1])
     sources = SourceTable(mlcs.stimuli, stop)
+    system.sources_used = sources.used
     tables = ModeTables(system, sources)
     n, m = system.n, system.m
     Y = np.zeros((len(times), n))
@@ -328,6 +334,7 @@ def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarra
     system = ExactSystem(mlcs)
     stop = float(times[-1])
     sources = SourceTable(mlcs.stimuli, stop)
+    system.sources_used = sources.used
     n, m = system.n, system.m
     Y = np.zeros((len(times), n))
     L = np.zeros((len(times), m))

@@ -27,13 +27,17 @@ class SolutionMap:
     ``(powers, exponents)`` over ``sources`` columns (module docstring)."""
 
     def __init__(self, mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
-                 rows: np.ndarray, constants: np.ndarray):
+                 rows: np.ndarray, constants: np.ndarray, used: np.ndarray | None = None):
+        """``used``: ``(terms, sources)``, the source coefficients that can be nonzero (the
+        map of the others is 0: they cost no closed form to build); all by default."""
         r = mode.V1t.shape[0]
         terms_in = len(powers)
         size = mode.P.shape[0]
         inputs = r + terms_in * sources + 1
+        used = np.ones(terms_in * sources, bool) if used is None else np.asarray(used, bool).ravel()
+        built = [column for column in range(inputs) if column < r or column == inputs - 1 or used[column - r]]
         solutions = []
-        for column in range(inputs):
+        for column in built:
             x = np.zeros(r)
             s = np.zeros((terms_in, sources), complex)
             if column < r:
@@ -49,11 +53,11 @@ class SolutionMap:
         self.exponents = np.array([k[1] for k in keys], complex)
         terms = len(keys)
         K = np.zeros((terms, size, inputs), complex)
-        for column, z in enumerate(solutions):
+        for column, z in zip(built, solutions):
             for j, key in enumerate(zip(z.powers.tolist(), z.exponents.tolist())):
                 K[keys[key], :, column] += z.coefficients[j]
         # each unit input's solution holds the constant part (the last column's) too
-        K[:, :, :-1] -= K[:, :, -1:]
+        K[:, :, built[:-1]] -= K[:, :, -1:]
         self.state_size = r
         self.size = size
         self.z_map = K.reshape(terms * size, inputs)

@@ -45,6 +45,9 @@ class SourceTable:
         self.coefficients = np.zeros((starts.size, len(keys), len(stimuli)), complex)
         for column, s in enumerate(stimuli):
             _fill(s, starts, ends, keys, self.coefficients[:, :, column])
+        self.used = np.any(self.coefficients != 0, axis=0)
+        """``(terms, sources)``: the coefficients nonzero on some interval (the others are
+        0 on every piece: a mode's map needs no closed form for them)."""
 
     def interval(self, t0: float) -> int:
         """The interval whose piece holds just after ``t0`` (its end is the first corner
