@@ -145,6 +145,8 @@ def _exact_loop(clock, counters, x, x_size, sources_now,
     wanted = np.zeros(columns, np.bool_)
     seen = np.zeros(MAX_MODE_CHANGES, np.int64)
     weights = np.zeros(terms_max, np.complex128)
+    growth = np.zeros(terms_max, np.complex128)
+    ratios = np.zeros(terms_max, np.complex128)
     t = clock[0]
     k, mode, chosen, row, events, segments, stalled = (counters[0], counters[1], counters[2], counters[3],
                                                        counters[4], counters[5], counters[6])
@@ -225,10 +227,28 @@ def _exact_loop(clock, counters, x, x_size, sources_now,
                 for q in range(inputs.shape[0]):
                     total += z_map[mode, line, q] * inputs[q]
                 z[j, i] = total
+        # the rows of the grid in the segment: e^{ν τ} at the first, then times e^{ν Δ} from
+        # row to row (one complex product per term, the exponentials only when Δ changes by
+        # more than the times' own round-off)
+        first_row = True
+        step = -1.0
         while row < times.shape[0] and times[row] <= stop_at:
             local = times[row] - t
+            if first_row:
+                for j in range(count):
+                    growth[j] = np.exp(exponents[mode, j] * local)
+                first_row = False
+            else:
+                delta = times[row] - times[row - 1]
+                # a grid's steps differ by round-off of the times, which they carry anyway
+                if abs(delta - step) > 4 * _ulp(times[row]):
+                    step = delta
+                    for j in range(count):
+                        ratios[j] = np.exp(exponents[mode, j] * delta)
+                for j in range(count):
+                    growth[j] *= ratios[j]
             for j in range(count):
-                weights[j] = local ** powers[mode, j] * np.exp(exponents[mode, j] * local)
+                weights[j] = growth[j] * local ** powers[mode, j] if powers[mode, j] else growth[j]
             for i in range(n + m):
                 value = 0.0
                 for j in range(count):
