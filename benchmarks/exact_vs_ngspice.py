@@ -1,6 +1,7 @@
 """The exact integrator against ngspice 39, whole processes, on issue 31's long runs: the
 closed-loop bucks over 100 ms (10,000 switching periods) and the three-phase sine-PWM
-inverter over 400 ms (20 line cycles).
+inverter over 400 ms (20 line cycles; ``benchmarks/netlists/``, with the long runs: in
+``netlists/`` every test of the bundled netlists would run it).
 
 Ours is ``python benchmarks/exact_run.py NETLIST --stop S`` (start-up, parsing, operating
 point, the exact run on the ``.tran`` grid with every unknown kept in memory; no file
@@ -31,8 +32,8 @@ from pathlib import Path
 from circuitnsds.compare.translate import translate_netlist
 
 ROOT = Path(__file__).resolve().parent.parent
-CASES = [("buck_voltage_mode.cir", 0.1), ("buck_peak_current.cir", 0.1), ("buck_hysteretic.cir", 0.1),
-         ("inverter_three_phase.cir", 0.4)]
+CASES = [("netlists/buck_voltage_mode.cir", 0.1), ("netlists/buck_peak_current.cir", 0.1),
+         ("netlists/buck_hysteretic.cir", 0.1), ("benchmarks/netlists/inverter_three_phase.cir", 0.4)]
 
 
 def timed(command: list[str], timeout: float, **options) -> tuple[float, float, subprocess.CompletedProcess]:
@@ -77,9 +78,10 @@ def main() -> None:
     print(f"{'netlist':<26} {'stop':>6} {'ours':>7} {'ngspice':>8} {'ratio':>7} {'ours':>7} {'ngspice':>8} "
           f"{'ratio':>7} {'segments':>8} {'events':>7} {'CPU µs/segment':>14}")
     for name, stop in CASES:
+        path = ROOT / name
+        name = path.name
         if args.only and name not in args.only:
             continue
-        path = ROOT / "netlists" / name
         stop *= args.fraction
         seconds, cpu, result = ours(path, stop, args.timeout)
         theirs = ngspice(path, stop, args.timeout)
