@@ -102,12 +102,13 @@ class ModeDynamics:
         self.e_active = e[act]
         self.active_index = act
         self.V1t = coordinates.V1.T
-        # the maps of solution(), per mode: sources and e_a into the modal forcing and into z
-        self._modal_from_sources = self.W_inv @ self.H[:, :n] @ S
-        self._modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
-        self._z_from_modal = self.P @ self.W
-        self._z_from_sources = self.Q[:, :n] @ S
-        self._z_constant = self.Q[:, n:] @ self.e_active
+        # the maps of solution() (and of SolutionMap), per mode: sources and e_a into the
+        # modal forcing (W⁻¹ H ...) and into z (P W for the modal part, Q ... directly)
+        self.modal_from_sources = self.W_inv @ self.H[:, :n] @ S
+        self.modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
+        self.z_from_modal = self.P @ self.W
+        self.z_from_sources = self.Q[:, :n] @ S
+        self.z_constant = self.Q[:, n:] @ self.e_active
 
     def forcing_size(self, sources: ExpPoly) -> np.ndarray:
         """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes
@@ -124,13 +125,13 @@ class ModeDynamics:
             coefficients = np.vstack([coefficients, np.zeros((1, coefficients.shape[1]))])
             powers, exponents = np.append(powers, 0), np.append(exponents, 0j)
             plain = np.array([len(powers) - 1])
-        modal_forcing = coefficients @ self._modal_from_sources.T
-        direct = coefficients @ self._z_from_sources.T
-        modal_forcing[plain[0]] += self._modal_constant
-        direct[plain[0]] += self._z_constant
+        modal_forcing = coefficients @ self.modal_from_sources.T
+        direct = coefficients @ self.z_from_sources.T
+        modal_forcing[plain[0]] += self.modal_constant
+        direct[plain[0]] += self.z_constant
         if self.eigenvalues.size:
             modal = response(self.eigenvalues, self.W_inv @ x0, ExpPoly(modal_forcing, powers, exponents))
-            z = ExpPoly(np.vstack([modal.coefficients @ self._z_from_modal.T, direct]),
+            z = ExpPoly(np.vstack([modal.coefficients @ self.z_from_modal.T, direct]),
                         np.concatenate([modal.powers, powers]),
                         np.concatenate([modal.exponents, exponents]))
         else:
