@@ -315,16 +315,13 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             tables.add_all_built()
             counters[1] = tables.add(new_active, new_closed)
             counters[2] = 1
-    events = [ExactEvent(float(event_times[e]), *_event_name(mlcs, int(event_index[e]), bool(event_on[e])))
-              for e in range(counters[4])]
+    # (name, kind) of each event function going on and off: pairs, then switches
+    names = list(mlcs.pairs) + [switch.name for switch in mlcs.switches]
+    kinds = [("off", "on")] * mlcs.m + [("open", "close")] * len(mlcs.switches)
+    count = int(counters[4])
+    events = [ExactEvent(t, names[c], kinds[c][on]) for t, c, on in
+              zip(event_times[:count].tolist(), event_index[:count].tolist(), event_on[:count].tolist())]
     return ExactRun(times, Y, L, events, int(counters[5]))
-
-
-def _event_name(mlcs: MLCS, column: int, on: bool) -> tuple[str, str]:
-    """``(name, kind)`` of an event of the event function ``column`` (pairs, then switches)."""
-    if column < mlcs.m:
-        return mlcs.pairs[column], "on" if on else "off"
-    return mlcs.switches[column - mlcs.m].name, "close" if on else "open"
 
 
 def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
