@@ -69,8 +69,8 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     r = coordinates.rank
     finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
     W = coordinates.V1.T @ vectors[:n, finite]
-    W = W / np.linalg.norm(W, axis=0)
-    return alpha[finite] / beta[finite], W
+    with np.errstate(divide="ignore", invalid="ignore"):  # (not finite: the caller takes F's)
+        return alpha[finite] / beta[finite], W / np.linalg.norm(W, axis=0)
 
 
 def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -114,6 +114,10 @@ class ModeDynamics:
         self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
         if r:
             eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
+            if not (np.all(np.isfinite(eigenvalues)) and np.all(np.isfinite(W))):
+                # the pencil has fewer than r finite eigenvalues to working precision (a
+                # fast mode's β at round-off, its vector's differential part 0): F's own
+                eigenvalues, W = np.linalg.eig(self.F)
             if np.linalg.cond(W) > 1e10:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
             self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)
