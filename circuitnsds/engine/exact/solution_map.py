@@ -9,9 +9,9 @@ are affine in the state ``x`` at the segment's start and in the piece's coeffici
 
 So is every event function of the mode (``g = rows · z + constants``). :class:`SolutionMap`
 holds ``K`` for ``z`` and for the table of event functions, built once per mode and source
-structure from the solutions of the unit inputs (the closed form of
-:func:`~.exppoly.response`, nothing approximated), so that a segment costs two complex
-matrix-vector products instead of the closed form's assembly.
+structure term by term in closed form (the terms of :func:`~.exppoly.response`, nothing
+approximated), so that a segment costs two complex matrix-vector products instead of the
+closed form's assembly.
 """
 
 from __future__ import annotations
@@ -29,16 +29,15 @@ class SolutionMap:
     def __init__(self, mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
                  rows: np.ndarray, constants: np.ndarray, used: np.ndarray | None = None):
         """``used``: ``(terms, sources)``, the source coefficients that can be nonzero (the
-        map of the others is 0: they cost no closed form to build); all by default."""
+        map of the others is left 0); all by default."""
         r = mode.V1t.shape[0]
         terms_in = len(powers)
         size = mode.P.shape[0]
         inputs = r + terms_in * sources + 1
         used = np.ones(terms_in * sources, bool) if used is None else np.asarray(used, bool).ravel()
         if powers.size and powers.max() > 1:
-            K, keys = self._from_unit_inputs(mode, powers, exponents, sources, used)
-        else:
-            K, keys = _affine_pieces(mode, powers, exponents, sources, used)
+            raise ValueError(f"source pieces of power {powers.max()}: only constants and ramps have maps")
+        K, keys = _affine_pieces(mode, powers, exponents, sources, used)
         self.powers = np.array([k[0] for k in keys], int)
         self.exponents = np.array([k[1] for k in keys], complex)
         terms = len(keys)
@@ -52,36 +51,6 @@ class SolutionMap:
         # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
         self.slope_weights = np.where(self.powers == 0, self.exponents, 0) + (self.powers == 1)
 
-    @staticmethod
-    def _from_unit_inputs(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
-                          used: np.ndarray) -> tuple[np.ndarray, list]:
-        """``(K, keys)`` from the closed form of each unit input (any powers)."""
-        r = mode.V1t.shape[0]
-        terms_in = len(powers)
-        size = mode.P.shape[0]
-        inputs = r + terms_in * sources + 1
-        built = [column for column in range(inputs) if column < r or column == inputs - 1 or used[column - r]]
-        solutions = []
-        for column in built:
-            x = np.zeros(r)
-            s = np.zeros((terms_in, sources), complex)
-            if column < r:
-                x[column] = 1.0
-            elif column < inputs - 1:
-                s.flat[column - r] = 1.0
-            solutions.append(mode.solution(x, ExpPoly(s, powers, exponents)))
-        keys: dict[tuple[int, complex], int] = {(0, 0j): 0}
-        for z in solutions:
-            for key in zip(z.powers.tolist(), z.exponents.tolist()):
-                keys.setdefault(key, len(keys))
-        K = np.zeros((len(keys), size, inputs), complex)
-        for column, z in zip(built, solutions):
-            for j, key in enumerate(zip(z.powers.tolist(), z.exponents.tolist())):
-                K[keys[key], :, column] += z.coefficients[j]
-        # each unit input's solution holds the constant part (the last column's) too
-        K[:, :, built[:-1]] -= K[:, :, -1:]
-        return K, list(keys)
-
     def inputs(self, x: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
         """``[x; s; 1]`` for the state ``x`` and the piece's coefficients ``s``."""
         return np.concatenate([x.astype(complex), coefficients.ravel(), [1.0]])
@@ -94,7 +63,6 @@ class SolutionMap:
     def table(self, inputs: np.ndarray) -> np.ndarray:
         """The event functions' coefficients, ``(terms, columns)`` (the constants included)."""
         return (self.table_map @ inputs).reshape(len(self.powers), self.columns)
-
 
 
 def _affine_pieces(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
