@@ -5,17 +5,17 @@ three-phase sine-PWM inverter over 400 ms (20 line cycles) and the open-loop buc
 bundled netlists would run them).
 
 Ours is ``python -m circuitnsds run NETLIST --stop S -o out.csv`` on the netlist with
-``.options method=exact`` added (start-up, parsing, operating point, the exact run on the
-``.tran`` grid and every signal written to the CSV). ngspice's is ``ngspice -b -r out.raw``
-on the netlist as ``circuitnsds compare`` translates it (the idealised-diode parameters
-dropped: its Shockley diode), with ``.tran`` stretched to ``S`` (start-up, parsing and
-writing every vector at its own time points). The table: wall and CPU seconds of each
-whole process and ngspice / ours (the CPU figures are the ones to read on a shared
-machine), the exact run's segments (pieces between events and source corners) and events
-as the run summary prints them, and the run's own seconds per segment (as the summary
-times it: start-up, parsing, the operating point and the CSV excluded; mode building and
-the rows included). ``--fraction 0.1`` runs a tenth of each stop; ``--method theta`` runs
-ours with the θ-method instead (its steps in place of segments).
+``.options method=exact`` added and ``--signals`` one output (start-up, parsing, operating
+point, the exact run on the ``.tran`` grid and the signal written to the CSV at every row).
+ngspice's is ``ngspice -b -r out.raw`` on the netlist as ``circuitnsds compare`` translates it
+(the idealised-diode parameters dropped: its Shockley diode), with ``.tran`` stretched to ``S``
+(start-up, parsing and writing every vector at its own time points). The table: wall and CPU
+seconds of each whole process and ngspice / ours (the CPU figures are the ones to read on a
+shared machine), the exact run's segments (pieces between events and source corners) and events
+as the run summary prints them, and the run's own seconds per segment (as the summary times it:
+start-up, parsing, the operating point and the CSV excluded; mode building and the rows
+included). ``--fraction 0.1`` runs a tenth of each stop; ``--method theta`` runs ours with the
+θ-method instead (its steps in place of segments).
 
 Usage: ``PYTHONPATH=$PWD python benchmarks/exact_vs_ngspice.py [--fraction 1] [--only X.cir ...]``
 """
@@ -35,9 +35,10 @@ from pathlib import Path
 from circuitnsds.compare.translate import translate_netlist
 
 ROOT = Path(__file__).resolve().parent.parent
-CASES = [("netlists/buck_voltage_mode.cir", 0.1), ("netlists/buck_peak_current.cir", 0.1),
-         ("netlists/buck_hysteretic.cir", 0.1), ("benchmarks/netlists/inverter_three_phase.cir", 0.4),
-         ("benchmarks/netlists/buck_100ms.cir", 0.1)]
+CASES = [("netlists/buck_voltage_mode.cir", 0.1, "v(out)"), ("netlists/buck_peak_current.cir", 0.1, "v(out)"),
+         ("netlists/buck_hysteretic.cir", 0.1, "v(out)"),
+         ("benchmarks/netlists/inverter_three_phase.cir", 0.4, "i(lab)"),
+         ("benchmarks/netlists/buck_100ms.cir", 0.1, "v(out)")]
 SUMMARY = re.compile(r"(\d+) rows from (\d+) exact segments \((\d+) events located\).* in ([\d.]+) s")
 THETA_SUMMARY = re.compile(r"(\d+) steps.* in ([\d.]+) s")
 
@@ -53,7 +54,8 @@ def timed(command: list[str], timeout: float, **options) -> tuple[float, float, 
     return seconds, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, done
 
 
-def ours(path: Path, stop: float, timeout: float, method: str = "exact") -> tuple[float, float, dict]:
+def ours(path: Path, stop: float, signal: str, timeout: float, method: str = "exact"
+         ) -> tuple[float, float, dict]:
     """Wall and CPU seconds of the whole ``circuitnsds run`` process, and its summary's figures."""
     environment = dict(os.environ, PYTHONPATH=str(ROOT))
     with tempfile.TemporaryDirectory() as scratch:
@@ -63,7 +65,8 @@ def ours(path: Path, stop: float, timeout: float, method: str = "exact") -> tupl
         deck.write_text("\n".join([*lines[:end], f".options method={method}", *lines[end:]]) + "\n")
         seconds, cpu, done = timed([sys.executable, "-m", "circuitnsds", "run", str(deck), "--stop",
                                     repr(stop),
-                                    "-o", str(Path(scratch) / "out.csv")], timeout, env=environment)
+                                    "-o", str(Path(scratch) / "out.csv"), "--signals", signal], timeout,
+                                   env=environment)
     if done.returncode:
         return seconds, cpu, {"failed": (done.stderr.strip().splitlines() or ["?"])[-1][:80]}
     found = SUMMARY.search(done.stderr)
@@ -95,13 +98,13 @@ def main() -> None:
     print(f"{'':<26} {'':>6} {'wall s':^24} {'CPU s':^24}")
     print(f"{'netlist':<26} {'stop':>6} {'ours':>7} {'ngspice':>8} {'ratio':>7} {'ours':>7} {'ngspice':>8} "
           f"{'ratio':>7} {'segments':>8} {'events':>7} {'run µs/segment':>14}")
-    for name, stop in CASES:
+    for name, stop, signal in CASES:
         path = ROOT / name
         name = path.name
         if args.only and name not in args.only:
             continue
         stop *= args.fraction
-        seconds, cpu, result = ours(path, stop, args.timeout, args.method)
+        seconds, cpu, result = ours(path, stop, signal, args.timeout, args.method)
         theirs = (1.0, 1.0) if args.no_ngspice else ngspice(path, stop, args.timeout)
         if "failed" in result or theirs is None:
             why = result.get("failed", "ngspice failed")
