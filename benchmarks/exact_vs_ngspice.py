@@ -40,7 +40,7 @@ CASES = [("netlists/buck_voltage_mode.cir", 0.1, "v(out)"), ("netlists/buck_peak
          ("benchmarks/netlists/inverter_three_phase.cir", 0.4, "i(lab)"),
          ("benchmarks/netlists/buck_100ms.cir", 0.1, "v(out)")]
 SUMMARY = re.compile(r"(\d+) rows from (\d+) exact segments \((\d+) events located\).* in ([\d.]+) s")
-THETA_SUMMARY = re.compile(r"(\d+) steps.* in ([\d.]+) s")
+THETA_SUMMARY = re.compile(r"(\d+) θ-method steps.* in ([\d.]+) s")
 
 
 def timed(command: list[str], timeout: float, **options) -> tuple[float, float, subprocess.CompletedProcess]:

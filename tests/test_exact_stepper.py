@@ -218,7 +218,8 @@ def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys):
     assert ("method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
             "(method=auto: the circuit is piecewise linear and its sources have closed forms)") in out
     _, out, _ = run_info(tmp_path, capsys, path=NETLISTS / "buck_converter.cir")
-    assert "method:    the θ-method\n" in out
+    assert ("method:    the θ-method (the default; .options method=auto would integrate this circuit "
+            "exactly, its switching instants located, slower to start)\n") in out
     _, out, _ = run_info(tmp_path, capsys, _ladder(210).replace(".end", ".options method=auto\n.end"))
     assert re.search(r"method:    the θ-method \(method=auto: the exact integrator cannot run it: it has "
                      r"2\d\d unknowns and 0 pairs, more than the 200", out)
@@ -273,6 +274,14 @@ def test_the_interval_charges_are_the_integral_and_add_up(terms, a, width, split
     assert abs(whole - reference) <= 1e-9 * scale + 10 * error
     parts = interval_integrals(f, np.array([a, m]), np.array([m, b]))[:, 0]
     assert abs(parts.sum() - whole) <= 1e-12 * scale
+
+
+def test_the_run_summary_says_the_theta_method_ran(tmp_path, capsys):
+    from circuitnsds.cli.main import main
+
+    netlist = str(NETLISTS / "buck_converter.cir")
+    assert main(["run", netlist, "--stop", "2u", "-o", str(tmp_path / "out.csv")]) == 0
+    assert re.search(r"circuitnsds: \d+ θ-method steps in ", capsys.readouterr().err)
 
 
 def test_the_run_summary_counts_rows_segments_and_events(tmp_path, capsys):
