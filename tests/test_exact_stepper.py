@@ -328,3 +328,17 @@ def test_the_three_phase_inverter_runs_exactly_and_theta_converges_to_it():
     coarse, fine = differences
     assert coarse < 0.01
     assert 5 < coarse / fine < 20
+
+
+def test_a_zener_regulator_on_a_ramp_from_zero_breaks_down_at_its_closed_form_instant():
+    # v(in) = 2000 t V; v(out) = v(in)/1.1 until it reaches BV = 5.1 V at t = 2.805 ms, then
+    # 5.1 V. A PWL from 0 V has no constant on its only interval: the loop's maps had left the
+    # constant out, so each piece from an event on restarted the ramp from 0 V and the Zener
+    # never broke down (a wrong answer, exit 0)
+    waves = _exact(NETLISTS / "zener_regulator.cir")
+    t = waves.time
+    np.testing.assert_allclose(waves["v(in)"], 2000 * t, rtol=1e-12, atol=1e-12)
+    # (to 1e-9: the blocking diode's Roff, 1e-12 S, loads the divider by 1e-10)
+    np.testing.assert_allclose(waves["v(out)"], np.minimum(2000 * t / 1.1, 5.1), rtol=1e-9, atol=1e-12)
+    assert [(e.element, e.state) for e in waves.events] == [("dz1.reverse", True)]
+    assert waves.events[0].time == pytest.approx(2.805e-3, rel=1e-12)

@@ -46,8 +46,13 @@ class SourceTable:
         for column, s in enumerate(stimuli):
             _fill(s, starts, ends, keys, self.coefficients[:, :, column])
         self.used = np.any(self.coefficients != 0, axis=0)
-        """``(terms, sources)``: the coefficients nonzero on some interval (the others are
-        0 on every piece: a mode's map needs no closed form for them)."""
+        """``(terms, sources)``: the coefficients nonzero on some piece (the others are 0 on
+        every piece: a mode's map needs no closed form for them). A piece from inside an
+        interval is the interval's shifted (:func:`shift`): a ramp's term feeds its partner
+        (``τ e^{ντ}`` into ``e^{ντ}``), which is then used even where every interval's own
+        is 0 (a PWL from 0 V: without it the ramp restarted from 0 at each event)."""
+        for j in np.flatnonzero(self.partner >= 0):
+            self.used[self.partner[j]] |= self.used[j]
 
     def interval(self, t0: float) -> int:
         """The interval whose piece holds just after ``t0`` (its end is the first corner
