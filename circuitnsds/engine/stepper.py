@@ -137,7 +137,7 @@ STEPPERS: dict[str, str] = {
 DEFAULT_STEPPER = "theta"
 """The stepper a run uses unless ``.options method`` or ``method=`` names another. ``"auto"``
 (the exact integrator where the circuit qualifies) is the recommendation for accuracy at the
-switching instants, not the default: on ``benchmarks/performance.py``'s cases it was 2-6x
+switching instants, not the default: on ``benchmarks/performance.py``'s cases it was 2-11x
 slower than θ in CPU, the exact loop's fixed costs (numba's cache load, scipy, each mode's
 closed forms) against θ's C loop (``benchmarks/method_auto_vs_theta.py``, docs/method.md)."""
 AUTO = "auto"
