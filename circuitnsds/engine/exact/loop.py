@@ -144,6 +144,17 @@ def _find(bits, known, wanted):
     return -1
 
 
+def _grown(nu, tau):
+    """``e^{ν τ}``: 1 for ``ν = 0`` (constants and ramps), one real exponential for a real
+    ``ν`` (most modes), the complex one otherwise (a pure function of ``ν`` and ``τ``: a run in
+    parts computes every row as the run in one part)."""
+    if nu.imag == 0.0:
+        if nu.real == 0.0:
+            return 1.0 + 0j
+        return np.exp(nu.real * tau) + 0j
+    return np.exp(nu * tau)
+
+
 def _moments(nu, p, w, out):
     """``J_q(w) = ∫_0^w s^q e^{νs} ds`` for ``q = 0..p`` into ``out`` (:mod:`.charge`)."""
     nw = nu * w
@@ -327,13 +338,13 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
             begin = max(times[row - 1] - t, 0.0)
             if first_row and begin > 0.0:
                 for j in range(count):
-                    at_a[j] = np.exp(exponents[mode, j] * begin)
+                    at_a[j] = _grown(exponents[mode, j], begin)
             elif first_row:
                 at_a[:count] = 1.0
             else:
                 at_a[:count] = growth[:count]
             for j in range(count):
-                growth[j] = np.exp(exponents[mode, j] * local)
+                growth[j] = _grown(exponents[mode, j], local)
                 weights[j] = growth[j] * local ** powers[mode, j] if powers[mode, j] else growth[j]
             for i in range(n + m):
                 value = 0.0
@@ -365,7 +376,7 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
             begin = max(times[row - 1] - t, 0.0)
             if tau > begin:
                 for j in range(count):
-                    at_a[j] = np.exp(exponents[mode, j] * begin)
+                    at_a[j] = _grown(exponents[mode, j], begin)
                 _charge(z, n, active, powers[mode], exponents[mode], count, begin, tau, at_a, moments,
                         widths, charges[row])
         if row >= rows_total:  # (the state stays at this segment's start, to resume from)
@@ -404,6 +415,7 @@ _ulp = jit(_ulp)
 _functions = jit(_functions)
 _violated = jit(_violated)
 _find = jit(_find)
+_grown = jit(_grown)
 _moments = jit(_moments)
 _charge = jit(_charge)
 exact_loop = jit(_exact_loop)
