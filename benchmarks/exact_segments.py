@@ -17,11 +17,12 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 import circuitnsds
 from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.engine.exact.run import run_exact
+
+# numpy is imported inside the functions, after circuitnsds: one BLAS thread, as the command line
+# has it (circuitnsds/_blas.py; a threaded BLAS on a busy machine was 2x slower here)
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 CASES = [("buck_converter.cir", 0.4e-3), ("boost_converter.cir", 2e-3), ("buck_hysteretic.cir", None),
@@ -37,6 +38,8 @@ def prepared(name: str, stop: float | None):
         mlcs = circuit.mlcs()
         state = uic_state(circuit, mlcs) if tran.uic else operating_point(circuit, mlcs)
     stop = tran.stop if stop is None else stop
+    import numpy as np
+
     times = np.arange(round(stop / tran.step) + 1) * tran.step
     active = np.zeros(mlcs.m, bool) if state.active is None else np.asarray(state.active, bool)
     return lambda: run_exact(mlcs, times, state.y, active, tuple(state.switches)), stop

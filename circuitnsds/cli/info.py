@@ -183,7 +183,7 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
 
 def _method_line(circuit: Circuit, mlcs) -> str:
     """Which stepper a run would use (``.options method``, else the default) and why."""
-    from circuitnsds.engine.stepper import DEFAULT_STEPPER, choose_stepper
+    from circuitnsds.engine.stepper import DEFAULT_STEPPER, choose_stepper, default_note
 
     name = circuit.options.get("method", DEFAULT_STEPPER)
     try:
@@ -195,6 +195,8 @@ def _method_line(circuit: Circuit, mlcs) -> str:
         return f"{chosen.name}, which cannot run this circuit: {reason}"
     words = {"theta": "the θ-method", "exact": "exact, event-driven (.tran TSTEP sets the rows "
              "reported, not the accuracy)"}.get(chosen.name, chosen.name)
+    if "method" not in circuit.options:
+        why = default_note(mlcs)
     return words + (f" ({why})" if why else "")
 
 

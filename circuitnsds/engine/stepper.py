@@ -150,8 +150,11 @@ STEPPERS: dict[str, str] = {
 }
 """The steppers by name: ``"module:Class"``, imported when chosen (one line per stepper)."""
 DEFAULT_STEPPER = "theta"
-"""The stepper a run uses unless ``.options method`` or ``method=`` names another (``"auto"``
-makes the exact integrator the default where the circuit qualifies)."""
+"""The stepper a run uses unless ``.options method`` or ``method=`` names another. ``"auto"``
+(the exact integrator where the circuit qualifies) is the recommendation for accuracy at the
+switching instants, not the default: on ``benchmarks/performance.py``'s cases it was 2-11x
+slower than θ in CPU, the exact loop's fixed costs (numba's cache load, scipy, each mode's
+closed forms) against θ's C loop (``benchmarks/method_auto_vs_theta.py``, docs/method.md)."""
 SMOOTH_STEPPER = "newton"
 """The stepper a run of a system with smooth relations uses unless one is named."""
 AUTO = "auto"
@@ -177,6 +180,16 @@ def choose_stepper(name: str, mlcs: MLCS) -> tuple[type[Stepper], str | None]:
         return exact, ("method=auto: the circuit is piecewise linear and its sources have closed "
                        "forms")
     return stepper_class("theta"), f"method=auto: the exact integrator cannot run it: {reason}"
+
+
+def default_note(mlcs: MLCS) -> str:
+    """Why a run without ``.options method`` takes :data:`DEFAULT_STEPPER`, and what ``auto``
+    would do for ``mlcs`` (words for ``info``)."""
+    reason = stepper_class("exact").unsuited(mlcs)
+    if reason is not None:
+        return f"the default; the exact integrator cannot run it: {reason}"
+    return ("the default; .options method=auto would integrate this circuit exactly, its switching "
+            "instants located, slower to start")
 
 
 def stepper_class(name: str) -> type[Stepper]:

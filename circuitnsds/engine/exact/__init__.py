@@ -10,5 +10,10 @@ exponential polynomial in the time since the segment's start, computed in closed
 * :mod:`.mode`: one mode's reduced state equations ``x' = F x + H φ(t)`` and the map back
   to every unknown, with ``F``'s eigen-decomposition cached;
 * :mod:`.roots`: the first root of an event function, certified root-free elsewhere;
-* :mod:`.run`: the event loop.
+  :mod:`.first_event`: the same search, compiled, over every event function of a segment;
+* :mod:`.solution_map`: a mode's solution and event functions as one linear map of the
+  segment's state and source coefficients; :mod:`.source_table`: every source's piece on
+  every interval of the run; :mod:`.mode_tables`: the modes met, as arrays;
+* :mod:`.loop`: the event loop, compiled; :mod:`.run`: the run (Python chooses a mode the
+  loop has not met; :func:`.run.run_python` is the whole loop in Python).
 """

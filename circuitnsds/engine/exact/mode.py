@@ -69,8 +69,25 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     r = coordinates.rank
     finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
     W = coordinates.V1.T @ vectors[:n, finite]
-    W = W / np.linalg.norm(W, axis=0)
-    return alpha[finite] / beta[finite], W
+    with np.errstate(divide="ignore", invalid="ignore"):  # (not finite: the caller takes F's)
+        return alpha[finite] / beta[finite], W / np.linalg.norm(W, axis=0)
+
+
+def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``N⁻¹ rhs`` for the algebraic block ``N`` of a mode, or :class:`NotIndexOne` when ``N``
+    is singular. Singular is judged on ``N`` equilibrated (rows, then columns, scaled to a
+    largest entry of 1): the rank does not change, but the scale of the circuit's values
+    does not count against it (an open switch's 1e-9 S beside an amplifier's gain of 1e4 is
+    a condition of 1e13 unscaled, 10 scaled)."""
+    rows = np.abs(N).max(axis=1)
+    rows[rows == 0] = 1.0
+    scaled = N / rows[:, None]
+    columns = np.abs(scaled).max(axis=0)
+    columns[columns == 0] = 1.0
+    scaled /= columns[None, :]
+    if np.linalg.cond(scaled) > 1e13:
+        raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
+    return np.linalg.solve(scaled, rhs / rows[:, None]) / columns[:, None]
 
 
 class ModeDynamics:
@@ -89,9 +106,7 @@ class ModeDynamics:
         R1 = np.hstack([coordinates.U1.T, np.zeros((r, k))])
         R2 = np.block([[coordinates.U2.T, np.zeros((n - r, k))], [np.zeros((k, n)), np.eye(k)]])
         N = R2 @ A_bar @ T2
-        if N.size and np.linalg.cond(N) > 1e13:
-            raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
-        solve = np.linalg.solve(N, R2) if N.size else np.zeros((0, n + k))
+        solve = _algebraic_solve(N, R2) if N.size else np.zeros((0, n + k))
         self.P = T1 - T2 @ solve @ A_bar @ T1
         self.Q = -T2 @ solve
         inv_sigma = 1.0 / coordinates.sigma
@@ -99,6 +114,10 @@ class ModeDynamics:
         self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
         if r:
             eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
+            if not (np.all(np.isfinite(eigenvalues)) and np.all(np.isfinite(W))):
+                # the pencil has fewer than r finite eigenvalues to working precision (a
+                # fast mode's β at round-off, its vector's differential part 0): F's own
+                eigenvalues, W = np.linalg.eig(self.F)
             if np.linalg.cond(W) > 1e10:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
             self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)
@@ -109,12 +128,13 @@ class ModeDynamics:
         self.e_active = e[act]
         self.active_index = act
         self.V1t = coordinates.V1.T
-        # the maps of solution(), per mode: sources and e_a into the modal forcing and into z
-        self._modal_from_sources = self.W_inv @ self.H[:, :n] @ S
-        self._modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
-        self._z_from_modal = self.P @ self.W
-        self._z_from_sources = self.Q[:, :n] @ S
-        self._z_constant = self.Q[:, n:] @ self.e_active
+        # the maps of solution() (and of SolutionMap), per mode: sources and e_a into the
+        # modal forcing (W⁻¹ H ...) and into z (P W for the modal part, Q ... directly)
+        self.modal_from_sources = self.W_inv @ self.H[:, :n] @ S
+        self.modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
+        self.z_from_modal = self.P @ self.W
+        self.z_from_sources = self.Q[:, :n] @ S
+        self.z_constant = self.Q[:, n:] @ self.e_active
 
     def forcing_size(self, sources: ExpPoly) -> np.ndarray:
         """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes
@@ -131,13 +151,13 @@ class ModeDynamics:
             coefficients = np.vstack([coefficients, np.zeros((1, coefficients.shape[1]))])
             powers, exponents = np.append(powers, 0), np.append(exponents, 0j)
             plain = np.array([len(powers) - 1])
-        modal_forcing = coefficients @ self._modal_from_sources.T
-        direct = coefficients @ self._z_from_sources.T
-        modal_forcing[plain[0]] += self._modal_constant
-        direct[plain[0]] += self._z_constant
+        modal_forcing = coefficients @ self.modal_from_sources.T
+        direct = coefficients @ self.z_from_sources.T
+        modal_forcing[plain[0]] += self.modal_constant
+        direct[plain[0]] += self.z_constant
         if self.eigenvalues.size:
             modal = response(self.eigenvalues, self.W_inv @ x0, ExpPoly(modal_forcing, powers, exponents))
-            z = ExpPoly(np.vstack([modal.coefficients @ self._z_from_modal.T, direct]),
+            z = ExpPoly(np.vstack([modal.coefficients @ self.z_from_modal.T, direct]),
                         np.concatenate([modal.powers, powers]),
                         np.concatenate([modal.exponents, exponents]))
         else:

@@ -2,10 +2,16 @@
 
 From a consistent state, repeat: take the sources' current piece; solve the mode's state
 equations in closed form over it (:class:`~.mode.ModeDynamics`); find the first event
-(:func:`~.roots.first_root` over every pair's and switch's event function, and the piece's
-end); write the output rows that fall before it; at the event choose the next mode
+(:func:`~.first_event.first_event` over every pair's and switch's event function, and the
+piece's end); write the output rows that fall before it; at the event choose the next mode
 (:func:`choose_mode`) and go on. Nothing is approximated between events: the error is the
 round-off of the closed forms and of the located instants.
+
+:func:`run_exact` runs that loop compiled (:mod:`.loop`) over the modes met so far, Python
+choosing the mode only where the loop meets one it does not know (and enumerating when the
+flipping cycles); :func:`run_python` is the same loop in Python: what runs without numba,
+when a run records its segments (the period map's derivative needs them as objects), and
+the reference a test holds the compiled loop to.
 """
 
 from __future__ import annotations
@@ -18,9 +24,13 @@ import numpy as np
 
 from circuitnsds.engine.exact.charge import interval_integrals
 from circuitnsds.engine.exact.exppoly import ExpPoly
+from circuitnsds.engine.exact.first_event import crossed_within_tolerance, first_event
+from circuitnsds.engine.exact.loop import COUNTERS, FINISHED, NEW_MODE, STALLED, exact_loop
 from circuitnsds.engine.exact.mode import ModeDynamics, NotIndexOne, StateCoordinates
-from circuitnsds.engine.exact.roots import first_root, lower_bounds
-from circuitnsds.engine.exact.sources import SourcePieces
+from circuitnsds.engine.exact.mode_tables import ModeTables
+from circuitnsds.engine.exact.solution_map import SolutionMap
+from circuitnsds.engine.exact.source_table import SourceTable
+from circuitnsds.jit import AVAILABLE
 from circuitnsds.system.mlcs import MLCS
 
 MAX_MODE_CHANGES = 64
@@ -157,6 +167,11 @@ class ExactSystem:
         self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
+        self._maps: dict[tuple, SolutionMap] = {}
+        self._tables: dict[float, tuple[SourceTable, ModeTables]] = {}
+        self.sources_used: np.ndarray | None = None
+        """``(terms, sources)``: the source coefficients a run's pieces can have nonzero
+        (:attr:`.source_table.SourceTable.used`, set by the run); ``None``: all."""
         self.controls = [self._row(s.control) for s in mlcs.switches]
 
     def _row(self, row) -> np.ndarray:
@@ -193,28 +208,55 @@ class ExactSystem:
         the instant; without this term the crossing is found at a ``τ`` with
         ``instant + τ == instant`` and the loop never advances)."""
         rows, constants, rows_P, rows_Q, rows_Y = self._event_rows(mode, closed)
-        z = mode.solution(x, sources)
-        values = z.map(rows)
+        linear = self.solution_map(mode, rows, constants, sources.powers, sources.exponents, sources.size)
+        inputs = linear.inputs(x, sources.coefficients)
+        z = linear.solution(inputs)
+        table = linear.table(inputs)
         phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.abs(x) + rows_Q @ phi0 + np.abs(constants)
-        # g'(0) = Re Σ c_j (ν_j [p_j = 0] + [p_j = 1])
-        at_zero = np.where(values.powers == 0, values.exponents, 0) + (values.powers == 1)
-        slopes = np.abs((at_zero @ values.coefficients).real)
+        slopes = np.abs((linear.slope_weights @ table).real)
         summed = SUM_ULPS * np.finfo(float).eps * (rows_Y @ y_size)
         resolution = slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
         tolerances = RELATIVE_TOL * scale + summed + resolution + 1e-300
-        # the constants join the term τ^0 e^{0τ} (one is added when the solution has none)
-        plain = np.flatnonzero((values.powers == 0) & (values.exponents == 0))
-        if plain.size:
-            coefficients = values.coefficients.copy()
-            coefficients[plain[0]] += constants
-            powers, exponents = values.powers, values.exponents
-        else:
-            coefficients = np.vstack([values.coefficients, constants[None, :].astype(complex)])
-            powers = np.append(values.powers, 0)
-            exponents = np.append(values.exponents, 0j)
+        # terms that vanish in every column are left out (a bound multiplies their size by
+        # their growth, and 0·∞ is not a number)
+        keep = np.any(table != 0, axis=1)
         labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
-        return z, EventFunctions(ExpPoly(coefficients, powers, exponents), tolerances, labels)
+        return z, EventFunctions(ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep]),
+                                 tolerances, labels)
+
+    def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
+                     powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
+        """The mode's :class:`~.solution_map.SolutionMap` for sources of the structure
+        ``(powers, exponents)`` over ``columns`` sources (cached)."""
+        used = self.sources_used if self.sources_used is not None and self.sources_used.shape == (
+            powers.size, columns) else None
+        key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes())
+        linear = self._maps.get(key)
+        if linear is None:
+            linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used)
+            self._maps[key] = linear
+        return linear
+
+    def built_modes(self) -> list[tuple[tuple[bool, ...], tuple[bool, ...]]]:
+        """``(active, closed)`` of every mode built so far."""
+        return list(self._modes)
+
+    def tables(self, stop: float) -> tuple[SourceTable, ModeTables]:
+        """The sources' table of a run ending at ``stop`` [s] and the compiled loop's table of
+        the modes met (kept with the system: the parts of one run share them)."""
+        if stop not in self._tables:
+            sources = SourceTable(self.mlcs.stimuli, stop)
+            self.sources_used = sources.used
+            self._tables[stop] = (sources, ModeTables(self, sources))
+        sources, tables = self._tables[stop]
+        self.sources_used = sources.used
+        return sources, tables
+
+    def event_row_data(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> tuple:
+        """``(rows, constants, |rows P|, |rows Q|, |rows P V1ᵀ|)`` of :meth:`event_functions`
+        (what :mod:`.mode_tables` packs for the compiled loop)."""
+        return self._event_rows(mode, closed)
 
     def event_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
         """The rows ``r`` with ``g = r · z + constant`` of every pair and switch of the mode,
@@ -342,23 +384,6 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
     raise Chattering("no mode holds after this instant")
 
 
-def _crossed_within_tolerance(functions: EventFunctions, tau: float, horizon: float,
-                              ended_by: int | None) -> tuple[float, int | None]:
-    """The segment's end ``tau`` [s] and the column ending it (``ended_by``, ``None``: the
-    piece's end), or the first zero before it of a function that starts
-    clearly positive (above its tolerance) and ends negative without going below ``-tol``:
-    its crossing is certain, and taking it at the next corner instead delays the event by
-    ``tol / |g'|`` (a flyback's secondary diode, ``tol`` 0.4 V through ``Roff``, turned on
-    at the gate's corner 5 ns after the primary switch opened)."""
-    ends = functions.table(tau)
-    crossed = np.flatnonzero((ends < 0) & (functions.table(0.0) > functions.tolerances))
-    for k in crossed:
-        root = first_root(functions.function(k), tau, 0.0, resolution=1e-13 * max(horizon, 1e-300))
-        if root is not None and root < tau:
-            tau, ended_by = root, int(k)
-    return tau, ended_by
-
-
 def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
     """How far below its tolerance the worst violated function of a mode is (its value over
     its tolerance); infinite if one is violated by its slope (it leaves the mode at once)."""
@@ -377,20 +402,126 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
               system: ExactSystem | None = None, stop: float | None = None,
               record: list[Segment] | None = None) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0]`` (0 unless resumed) to ``times[-1]``,
-    writing a row at each of ``times``.
+    writing a row at each of ``times``: in the compiled loop (:mod:`.loop`) over the modes
+    met so far, Python choosing the mode only where the loop meets one it does not know;
+    in Python (:func:`run_python`, the same arithmetic to round-off) without numba or when
+    ``record`` asks for the segments.
 
     ``resume``: the loop state to go on from (``y0`` is then row 0 only, and ``times[0]`` is
-    at or after ``resume.t``); ``system``: the prepared system to reuse (its modes cached);
-    ``stop`` [s]: the end of the whole run when this is a part of it (the sources' pieces
-    end at their corners or there, as in the whole run); ``record``: a list that gets each
-    segment computed (:class:`Segment`: what the period map's derivative needs).
+    at or after ``resume.t``); ``system``: the prepared system to reuse (its modes and
+    tables cached); ``stop`` [s]: the end of the whole run when this is a part of it (the
+    sources' pieces end at their corners or there, as in the whole run); ``record``: a list
+    that gets each segment computed (:class:`Segment`: what the period map's derivative
+    needs).
 
     Raises:
         Chattering, NotIndexOne: with ``run`` (the rows written before) and ``time`` set.
     """
+    if not AVAILABLE or record is not None:
+        return run_python(mlcs, times, y0, active0, closed0, resume=resume, system=system, stop=stop,
+                          record=record)
+    system = ExactSystem(mlcs) if system is None else system
+    times = np.asarray(times, dtype=float)
+    sources, tables = system.tables(float(times[-1]) if stop is None else stop)
+    n, m, w = system.n, system.m, len(closed0)
+    count = len(times)
+    Y, L, charges = np.zeros((count, n)), np.zeros((count, m)), np.zeros((count, m))
+    row_active, row_closed = np.zeros((count, m), bool), np.zeros((count, w), bool)
+    Y[0] = y0
+    row_active[0], row_closed[0] = active0, closed0
+    if resume is None:
+        resume = LoopState(0.0, system.coordinates.V1.T @ y0, np.abs(y0),
+                           np.asarray(active0, dtype=bool), tuple(closed0))
+    clock = np.array([resume.t])
+    x = np.array(resume.x, dtype=float)
+    y_size = np.array(resume.y_size, dtype=float)
+    counters = np.zeros(COUNTERS, np.int64)
+    counters[0] = sources.interval(resume.t)
+    counters[3] = 1
+    counters[7] = int(resume.announced)
+    widened = np.zeros(tables.columns)
+    sources_now = np.zeros(sources.coefficients.shape[1:], complex)
+    v1t = np.ascontiguousarray(system.coordinates.V1.T)
+    capacity = 1024
+    event_times = np.zeros(capacity)
+    event_index, event_on = np.zeros(capacity, np.int64), np.zeros(capacity, bool)
+    tail_row, tail_dt, tail_y = np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros((capacity, n))
+
+    def state() -> LoopState:
+        active, closed = tables.mode_of(int(counters[1]))
+        return LoopState(float(clock[0]), x.copy(), y_size.copy(), active, closed, bool(counters[7]))
+
+    def result() -> ExactRun:
+        names = list(mlcs.pairs) + [switch.name for switch in mlcs.switches]
+        kinds = [("off", "on")] * m + [("open", "close")] * w
+        used = int(counters[4])
+        events = [ExactEvent(t, names[c], kinds[c][on]) for t, c, on in
+                  zip(event_times[:used].tolist(), event_index[:used].tolist(), event_on[:used].tolist())]
+        tails = {int(r): (tail_y[i].copy(), float(tail_dt[i])) for i, r in enumerate(tail_row[:counters[8]])}
+        return ExactRun(times, Y, L, events, int(counters[5]), row_active, row_closed, charges, tails,
+                        state(), int(counters[3]))
+
+    def choose(active: np.ndarray, closed: tuple[bool, ...]) -> None:
+        """The mode at ``clock[0]`` chosen in Python from ``(active, closed)``, its events
+        reported, the loop told to take it."""
+        t = float(clock[0])
+        piece = ExpPoly(sources.piece(int(counters[0]), t).coefficients, sources.powers, sources.exponents)
+        new_active, new_closed, _, functions = choose_mode(system, active, closed, x, piece, y_size, t)
+        if not counters[7]:
+            before = np.concatenate([active, closed])
+            after = np.concatenate([new_active, new_closed])
+            for c in np.flatnonzero(before != after):
+                event_times[counters[4]], event_index[counters[4]] = t, c
+                event_on[counters[4]] = after[c]
+                counters[4] += 1
+        tables.add_all_built()
+        counters[1] = tables.add(new_active, new_closed)
+        counters[2] = 1
+        counters[7] = 1  # (reported: the loop does not report them again)
+        # Python's tolerances, widened where it took a mode below a leakage (LEAKAGE_EXCESS),
+        # are the least the loop's take for this segment
+        widened[:] = functions.tolerances
+
+    try:
+        try:
+            counters[1] = tables.add(np.asarray(resume.active, bool), tuple(resume.closed))
+        except NotIndexOne:  # (a mode without state equations to start from: Python leaves it)
+            choose(np.asarray(resume.active, bool), tuple(resume.closed))
+        while True:
+            status = exact_loop(clock, counters, x, y_size, sources_now, widened, sources.corners,
+                                sources.coefficients, sources.exponents, sources.powers, sources.partner,
+                                system.S, tables.bits, tables.known, tables.z_map, tables.table_map,
+                                tables.powers, tables.exponents, tables.terms, tables.slope_weights,
+                                tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c, v1t, times, Y,
+                                L, charges, row_active, row_closed, event_times, event_index, event_on,
+                                tail_row, tail_dt, tail_y)
+            if status == FINISHED:
+                break
+            if status == STALLED:
+                raise Chattering(f"the exact integrator does not advance from t = {clock[0]!r} s")
+            if counters[4] + tables.columns > capacity or counters[8] + 1 > capacity:  # (EVENTS_FULL)
+                capacity *= 2
+                event_times, event_index, event_on, tail_row, tail_dt = (
+                    np.resize(a, capacity) for a in (event_times, event_index, event_on, tail_row, tail_dt))
+                tail_y = np.resize(tail_y, (capacity, n))
+            if status == NEW_MODE:
+                choose(*tables.mode_of(int(counters[1])))
+    except (Chattering, NotIndexOne) as exc:
+        exc.time = float(clock[0])
+        exc.run = result()
+        raise
+    return result()
+
+
+def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
+               closed0: tuple[bool, ...], *, resume: LoopState | None = None,
+               system: ExactSystem | None = None, stop: float | None = None,
+               record: list[Segment] | None = None) -> ExactRun:
+    """:func:`run_exact` in Python (every segment through :func:`choose_mode`): what runs
+    without numba or with ``record``, and the reference of the compiled loop."""
     system = ExactSystem(mlcs) if system is None else system
     last_time = float(times[-1])
-    pieces = SourcePieces(mlcs.stimuli, last_time if stop is None else stop)
+    sources_table, _ = system.tables(last_time if stop is None else stop)
     n, m = system.n, system.m
     Y = np.zeros((len(times), n))
     L = np.zeros((len(times), m))
@@ -415,8 +546,9 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     try:
         while t < last_time or (t == last_time and row < len(times)):
             state = LoopState(t, x, y_size, active, closed, quiet)
-            end = pieces.next_corner(t)
-            sources = pieces.piece(t, end)
+            k = sources_table.interval(t)
+            end = float(sources_table.corners[k + 1])
+            sources = sources_table.piece(k, t)
             new_active, new_closed, z, functions = choose_mode(system, active, closed, x, sources,
                                                                y_size, t)
             if not quiet:
@@ -429,18 +561,16 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             active, closed = new_active, new_closed
             mode = system.mode(active, closed)
             horizon = end - t
-            tau = horizon
-            # every function at once over the whole piece; the search only where that fails (a
-            # bound that is not a number, 0·∞ from a term another column does not have, fails)
-            cleared = lower_bounds(functions.table, 0.0, horizon) > -functions.tolerances
-            doubtful = np.flatnonzero(~cleared)
-            ended_by = None
-            for k in doubtful:
-                root = first_root(functions.function(k), tau, float(functions.tolerances[k]),
-                                  resolution=1e-13 * max(horizon, 1e-300))
-                if root is not None and root < tau:
-                    tau, ended_by = root, int(k)
-            tau, ended_by = _crossed_within_tolerance(functions, tau, horizon, ended_by)
+            # every function at once, compiled (:mod:`.first_event`), then a crossing inside
+            # the tolerance (:func:`.first_event.crossed_within_tolerance`)
+            table = functions.table
+            coefficients = np.ascontiguousarray(table.coefficients)
+            powers = table.powers.astype(np.int64)
+            tau, column = first_event(coefficients, powers, table.exponents, functions.tolerances,
+                                      horizon, 1e-13)
+            tau, column = crossed_within_tolerance(coefficients, powers, table.exponents,
+                                                   functions.tolerances, tau, column, horizon, 1e-13)
+            ended_by = None if column < 0 else int(column)
             segments += 1
             if record is not None:
                 record.append(Segment(t, tau, mode, closed, z, functions, ended_by))

@@ -1,0 +1,182 @@
+"""The first event of a segment, compiled: every event function of the mode at once.
+
+The same certified search as :mod:`.roots` (its module docstring: a lower bound per
+interval from a Taylor model of the slow terms and the largest magnitude of the fast ones;
+an interval that cannot be cleared is halved, left half first, so the root found is the
+first one), written as loops over plain arrays so that numba compiles it
+(:func:`circuitnsds.jit.jit`; without numba the same code runs in Python). The root is
+refined by the Illinois method (regula falsi that halves the weight of an end kept twice)
+to a bracket of a few ulps, the bracket kept at every step, so it stays in the interval
+where the search certified the first sign change.
+
+A segment's functions share their terms (the columns of one table); the search runs on the
+columns that the bound over the whole segment does not clear, each up to the earliest root
+found so far, so a later column costs nothing once an earlier root is known.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from circuitnsds.jit import jit
+
+MAX_DEPTH = 200
+"""Halvings of one interval at most (as :data:`.roots.MAX_DEPTH`)."""
+MAX_STACK = 2 * MAX_DEPTH + 2
+"""Intervals pending at most (a halving pushes two, pops one)."""
+EPSILON = float(np.finfo(float).eps)
+
+
+def _value(c, p, nu, tau):
+    """``Re Σ c_j τ^p_j e^{ν_j τ}``."""
+    total = 0.0
+    for j in range(c.shape[0]):
+        total += (c[j] * tau ** p[j] * np.exp(nu[j] * tau)).real
+    return total
+
+
+def _bound(c, p, nu, a, b):
+    """A lower bound of ``Re Σ c_j τ^p_j e^{ν_j τ}`` on ``[a, b]`` (:func:`.roots.lower_bounds`)."""
+    width = b - a
+    fast = 0.0
+    bend = 0.0
+    g0 = 0.0
+    g1 = 0.0
+    for j in range(c.shape[0]):
+        size = abs(c[j])
+        if size == 0.0:
+            continue
+        q = p[j]
+        growth = np.exp(max(nu[j].real * a, nu[j].real * b))
+        speed = abs(nu[j])
+        if speed * width > 1.0:
+            fast += size * b ** q * growth
+            continue
+        bend += size * growth * (speed * speed * b ** q + 2 * q * speed * b ** max(q - 1, 0)
+                                 + q * (q - 1) * b ** max(q - 2, 0))
+        at_a = np.exp(nu[j] * a)
+        power = a ** q
+        lowered = q * a ** max(q - 1, 0) if q > 0 else 0.0
+        g0 += (c[j] * power * at_a).real
+        g1 += (c[j] * (lowered + nu[j] * power) * at_a).real
+    return min(g0, g0 + g1 * width - bend * width * width / 2) - fast
+
+
+def _refine(c, p, nu, a, b):
+    """The root of the function in ``[a, b]`` (``g(a) >= 0 > g(b)``), to a few ulps; ``a``
+    when ``g(a) <= 0``, ``b`` when ``g(b) >= 0``."""
+    ga = _value(c, p, nu, a)
+    gb = _value(c, p, nu, b)
+    if ga <= 0.0:
+        return a
+    if gb >= 0.0:
+        return b
+    side = 0
+    for _ in range(400):
+        if b - a <= 4 * EPSILON * max(abs(b), 1e-300):
+            break
+        m = b - gb * (b - a) / (gb - ga)
+        if not (a < m < b):
+            m = 0.5 * (a + b)
+        gm = _value(c, p, nu, m)
+        if gm == 0.0:
+            return m
+        if gm > 0.0:
+            a, ga = m, gm
+            if side == 1:
+                gb *= 0.5
+            side = 1
+        else:
+            b, gb = m, gm
+            if side == -1:
+                ga *= 0.5
+            side = -1
+    return b
+
+
+def _first_root(c, p, nu, horizon, tol, resolution):
+    """:func:`.roots.first_root` of one column: the first ``τ`` in ``(0, horizon]`` where
+    the function goes below ``-tol`` (its root), or ``-1.0`` when there is none."""
+    # -g' for the bound that certifies a single crossing: d/dτ τ^p e^{ντ} = (ν τ^p + p τ^{p-1}) e^{ντ}
+    terms = c.shape[0]
+    dc = np.empty(2 * terms, np.complex128)
+    dp = np.empty(2 * terms, np.int64)
+    dnu = np.empty(2 * terms, np.complex128)
+    for j in range(terms):
+        dc[j] = -c[j] * nu[j]
+        dp[j] = p[j]
+        dnu[j] = nu[j]
+        dc[terms + j] = -c[j] * p[j]
+        dp[terms + j] = max(p[j] - 1, 0)
+        dnu[terms + j] = nu[j]
+    starts = np.empty(MAX_STACK)
+    ends = np.empty(MAX_STACK)
+    depths = np.empty(MAX_STACK, np.int64)
+    starts[0], ends[0], depths[0] = 0.0, horizon, 0
+    top = 1
+    while top > 0:
+        top -= 1
+        a, b, depth = starts[top], ends[top], depths[top]
+        if _bound(c, p, nu, a, b) > -tol:
+            continue
+        gb = _value(c, p, nu, b)
+        if gb < -tol and _bound(dc, dp, dnu, a, b) > 0.0:
+            return _refine(c, p, nu, a, b)
+        if b - a <= resolution or depth >= MAX_DEPTH:
+            if gb < -tol:
+                return _refine(c, p, nu, a, b)
+            continue
+        m = 0.5 * (a + b)
+        starts[top], ends[top], depths[top] = m, b, depth + 1
+        starts[top + 1], ends[top + 1], depths[top + 1] = a, m, depth + 1
+        top += 2
+    return -1.0
+
+
+def _first_event(table, powers, exponents, tolerances, horizon, relative_resolution):
+    """``(τ, column)``: the earliest root over the columns of ``table`` in ``(0, horizon]``
+    (``(horizon, -1)`` when none): each column is cleared by its bound over the whole
+    interval or searched up to the earliest root found so far."""
+    best = horizon
+    column = -1
+    resolution = relative_resolution * max(horizon, 1e-300)
+    for k in range(table.shape[1]):
+        c = np.ascontiguousarray(table[:, k])
+        if _bound(c, powers, exponents, 0.0, best) > -tolerances[k]:
+            continue
+        root = _first_root(c, powers, exponents, best, tolerances[k], resolution)
+        if root >= 0.0 and root < best:
+            best = root
+            column = k
+    return best, column
+
+
+_value = jit(_value)
+_bound = jit(_bound)
+_refine = jit(_refine)
+_first_root = jit(_first_root)
+first_event = jit(_first_event)
+"""Compiled :func:`_first_event` (the Python function without numba)."""
+
+
+def _crossed_within_tolerance(table, powers, exponents, tolerances, tau, column, horizon,
+                              relative_resolution):
+    """``(τ, column)``: the segment's end ``tau`` and the column ending it (-1: the piece's
+    end), or the first zero before it of a function that starts clearly positive (above its
+    tolerance) and ends negative at ``tau`` without going below ``-tol`` (:func:`_first_event`
+    lets it pass): its crossing is certain, and taking it at the next corner delays the event
+    by ``tol / |g'|`` (a flyback's secondary diode, ``tol`` 0.4 V through its ``Roff``, turned
+    on at the gate's corner 5 ns after the primary switch opened)."""
+    resolution = relative_resolution * max(horizon, 1e-300)
+    for k in range(table.shape[1]):
+        c = np.ascontiguousarray(table[:, k])
+        if _value(c, powers, exponents, tau) < 0.0 and _value(c, powers, exponents, 0.0) > tolerances[k]:
+            root = _first_root(c, powers, exponents, tau, 0.0, resolution)
+            if root >= 0.0 and root < tau:
+                tau = root
+                column = k
+    return tau, column
+
+
+crossed_within_tolerance = jit(_crossed_within_tolerance)
+"""Compiled :func:`_crossed_within_tolerance` (the Python function without numba)."""

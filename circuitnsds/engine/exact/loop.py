@@ -1,0 +1,422 @@
+"""The event loop of the exact integrator, compiled, over the modes already known.
+
+Each segment: the sources' piece from the interval table (:mod:`.source_table`), the
+mode's event functions from its cached map (:mod:`.solution_map`), the mode that holds
+(violated pairs and switches flipped, as :func:`.run.choose_mode` does), the first event
+(:mod:`.first_event`), the output rows before it and the state at it. Everything a segment
+needs is in arrays indexed by mode; the loop returns to Python (:func:`.run.run_exact`)
+only when a flip leads to a mode it has no map for, when the flipping cycles (the
+enumeration is Python's), when its event buffer is full or when it stops advancing.
+
+The arrays and their shapes (``M`` modes, ``T`` terms, ``n`` unknowns, ``m`` pairs,
+``w`` switches, ``c = m + w`` event functions, ``r`` states, ``I`` inputs of a map):
+``bits (M, c)`` each mode's active pairs and closed switches; ``z_map (M, T·(n+m), I)``,
+``table_map (M, T·c, I)``, ``powers (M, T)``, ``exponents (M, T)``, ``terms (M,)``:
+:class:`~.solution_map.SolutionMap` with ``z = [y; λ]`` over every pair (0 for an
+inactive one); ``rows_p (M, c, r)``, ``rows_q (M, c, n)``, ``rows_y (M, c, n)``,
+``rows_c (M, c)``: the magnitudes that make an event function's round-off
+(:meth:`.run.ExactSystem.event_functions`).
+
+Besides the rows (``y``, the pairs' multipliers) it writes what the stepper reports of each
+row (:class:`.run.ExactRun`): the mode of the segment the row ends, each pair's charge over
+the interval ending at the row (the closed-form integral, :mod:`.charge`'s formulas), and
+the unknowns at the start of the last segment inside a row's interval (its ``tails``).
+Every row is computed from the exponentials at its own time, nothing carried from the
+row before: a run in parts is then the run in one part, bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from circuitnsds.engine.exact.first_event import crossed_within_tolerance, first_event
+from circuitnsds.jit import jit
+
+FINISHED, NEW_MODE, EVENTS_FULL, STALLED = 0, 1, 2, 3
+"""What :func:`exact_loop` returns."""
+MAX_MODE_CHANGES = 64
+RELATIVE_TOL = 1e-12
+TIME_ULPS = 4.0
+SUM_ULPS = 8.0
+"""As :data:`.run.SUM_ULPS` (the round-off of the unknowns summed at an instant)."""
+EPSILON = float(np.finfo(float).eps)
+SERIES_TERMS = 24
+"""As :data:`.charge.SERIES_TERMS`."""
+COUNTERS = 9
+"""``counters``: interval, mode, mode already chosen at this instant (1) or not, next output
+row, events written, segments, stalled segments, events at this instant reported already
+(1), tails written."""
+
+
+def _shifted(coefficients, exponents, partner, delta, out):
+    """:func:`.source_table.shift` into ``out``."""
+    for j in range(coefficients.shape[0]):
+        factor = np.exp(exponents[j] * delta)
+        for s in range(coefficients.shape[1]):
+            out[j, s] = coefficients[j, s] * factor
+    for j in range(coefficients.shape[0]):
+        if partner[j] >= 0:
+            for s in range(coefficients.shape[1]):
+                out[partner[j], s] += delta * out[j, s]
+
+
+def _ulp(t):
+    """An upper bound of one ulp of ``t`` (``math.ulp`` is not compiled)."""
+    return EPSILON * max(abs(t), 1e-300)
+
+
+def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights, rows_p, rows_q,
+               rows_y, rows_c, x, y_size, forcing, instant, table, tolerances):
+    """The mode's event functions (``table``) and their round-off (``tolerances``), as
+    :meth:`.run.ExactSystem.event_functions` has them."""
+    count = terms[mode]
+    for j in range(count):
+        for k in range(columns):
+            total = 0j
+            line = j * columns + k
+            for i in range(inputs.shape[0]):
+                total += table_map[mode, line, i] * inputs[i]
+            table[j, k] = total
+    for k in range(columns):
+        scale = rows_c[mode, k]
+        for i in range(x.shape[0]):
+            scale += rows_p[mode, k, i] * abs(x[i])
+        for i in range(forcing.shape[0]):
+            scale += rows_q[mode, k, i] * forcing[i]
+        summed = 0.0
+        for i in range(y_size.shape[0]):
+            summed += rows_y[mode, k, i] * y_size[i]
+        slope = 0.0
+        for j in range(count):
+            slope += (slope_weights[mode, j] * table[j, k]).real
+        tolerances[k] = (RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed
+                         + abs(slope) * TIME_ULPS * _ulp(instant) + 1e-300)
+
+
+def _violated(table, powers, exponents, count, k, tolerance):
+    """Whether function ``k`` is negative at 0, or zero and decreasing (to the second
+    derivative): :func:`.run._violations`."""
+    value = 0.0
+    for j in range(count):
+        if powers[j] == 0:
+            value += table[j, k].real
+    if value < -tolerance:
+        return True
+    if value > tolerance:
+        return False
+    d1 = 0.0
+    size1 = 0.0
+    d2 = 0.0
+    size2 = 0.0
+    for j in range(count):
+        c = table[j, k]
+        nu = exponents[j]
+        p = powers[j]
+        size1 += abs(c * nu) + (abs(c) * p if p > 0 else 0.0)
+        size2 += abs(c * nu * nu) + (2 * abs(c * nu) * p if p > 0 else 0.0) + (
+            abs(c) * p * (p - 1) if p > 1 else 0.0)
+        if p == 0:
+            d1 += (c * nu).real
+            d2 += (c * nu * nu).real
+        elif p == 1:
+            d1 += c.real
+            d2 += 2 * (c * nu).real
+        elif p == 2:
+            d2 += 2 * c.real
+    tolerance1 = RELATIVE_TOL * size1 + 1e-300
+    if d1 < -tolerance1:
+        return True
+    if abs(d1) <= tolerance1:
+        return d2 < -(RELATIVE_TOL * size2 + 1e-300)
+    return False
+
+
+def _find(bits, known, wanted):
+    """The index of the mode ``wanted`` among the first ``known`` rows of ``bits``, or -1."""
+    for i in range(known):
+        same = True
+        for k in range(bits.shape[1]):
+            if bits[i, k] != wanted[k]:
+                same = False
+                break
+        if same:
+            return i
+    return -1
+
+
+def _grown(nu, tau):
+    """``e^{ν τ}``: 1 for ``ν = 0`` (constants and ramps), one real exponential for a real
+    ``ν`` (most modes), the complex one otherwise (a pure function of ``ν`` and ``τ``: a run in
+    parts computes every row as the run in one part)."""
+    if nu.imag == 0.0:
+        if nu.real == 0.0:
+            return 1.0 + 0j
+        return np.exp(nu.real * tau) + 0j
+    return np.exp(nu * tau)
+
+
+def _moments(nu, p, w, out):
+    """``J_q(w) = ∫_0^w s^q e^{νs} ds`` for ``q = 0..p`` into ``out`` (:mod:`.charge`)."""
+    nw = nu * w
+    if nu == 0:
+        for q in range(p + 1):
+            out[q] = w ** (q + 1) / (q + 1)
+    elif abs(nw) < 1.0:
+        for q in range(p + 1):
+            series = 0j
+            term = 1.0 + 0j
+            for k in range(SERIES_TERMS):
+                series += term / (q + k + 1)
+                term = term * nw / (k + 1)
+                if k % 4 == 3 and abs(term) <= 1e-17:
+                    break
+            out[q] = series * w ** (q + 1)
+    else:
+        grown = np.exp(nw)
+        out[0] = (grown - 1.0) / nu
+        for q in range(1, p + 1):
+            out[q] = (w ** q * grown - q * out[q - 1]) / nu
+
+
+def _charge(z, n, active, powers, exponents, count, a, b, at_a, moments, widths, out):
+    """``out[i] += ∫_a^b λ_i dτ`` for each active pair ``i`` of the segment's ``z``;
+    ``at_a[j] = e^{ν_j a}``; ``moments``/``widths``: each term's ``J_q`` of the last width
+    (reused while the width is the same)."""
+    w = b - a
+    for j in range(count):
+        p = powers[j]
+        if widths[j] != w:
+            _moments(exponents[j], p, w, moments[j])
+            widths[j] = w
+    for i in range(out.shape[0]):
+        if not active[i]:
+            continue
+        total = 0.0
+        for j in range(count):
+            p = powers[j]
+            weight = 0j
+            binomial = 1.0
+            for q in range(p + 1):
+                weight += binomial * a ** (p - q) * moments[j, q]
+                binomial = binomial * (p - q) / (q + 1)
+            weight *= at_a[j]
+            c = z[j, n + i]
+            total += c.real * weight.real - c.imag * weight.imag
+        out[i] += total
+
+
+def _exact_loop(clock, counters, x, y_size, sources_now, widened,
+                corners, source_coefficients, source_exponents, source_powers, partner, s_matrix,
+                bits, known, z_map, table_map, powers, exponents, terms, slope_weights,
+                rows_p, rows_q, rows_y, rows_c, v1t,
+                times, y_out, l_out, charges, row_active, row_closed,
+                event_times, event_index, event_on, tail_row, tail_dt, tail_y):
+    """Run from ``clock[0]`` [s] until the row ``times[-1]`` is written (the sources' table
+    ends at ``corners[-1]``, at or after it); ``counters``: :data:`COUNTERS`; ``widened``:
+    tolerances the first segment's functions take at least, when Python chose its mode
+    (:data:`.run.LEAKAGE_EXCESS`), zeroed once used. Returns a status (:data:`FINISHED` ...);
+    the state (``clock``, ``counters``, ``x``, ``y_size``) is where it stopped: at the
+    start of the segment it could not compute or, finished, of the one holding the last row
+    (with the mode before the choice there)."""
+    n = y_out.shape[1]
+    m = l_out.shape[1]
+    rows_total = times.shape[0]
+    columns = bits.shape[1]
+    stop = corners[corners.shape[0] - 1]
+    terms_max = powers.shape[1]
+    top_power = 0
+    for i in range(powers.shape[0]):
+        for j in range(terms_max):
+            top_power = max(top_power, powers[i, j])
+    table = np.zeros((terms_max, columns), np.complex128)
+    tolerances = np.zeros(columns)
+    zeros_in = x.shape[0]
+    inputs = np.zeros(z_map.shape[2], np.complex128)
+    forcing = np.zeros(n)
+    wanted = np.zeros(columns, np.bool_)
+    seen = np.zeros(MAX_MODE_CHANGES, np.int64)
+    weights = np.zeros(terms_max, np.complex128)
+    growth = np.zeros(terms_max, np.complex128)
+    at_a = np.zeros(terms_max, np.complex128)
+    moments = np.zeros((terms_max, top_power + 1), np.complex128)
+    widths = np.full(terms_max, -1.0)
+    t = clock[0]
+    k, mode, chosen, row, events, segments, stalled, quiet, tails = (
+        counters[0], counters[1], counters[2], counters[3], counters[4], counters[5], counters[6],
+        counters[7], counters[8])
+    status = FINISHED
+    while t < stop or (t == stop and row < rows_total):
+        if events + columns > event_times.shape[0] or tails + 1 > tail_row.shape[0]:
+            status = EVENTS_FULL
+            break
+        threshold = t * (1 + 1e-15) + 1e-300
+        while k + 2 < corners.shape[0] and corners[k + 1] <= threshold:
+            k += 1
+        end = corners[k + 1]
+        _shifted(source_coefficients[k], source_exponents, partner, t - corners[k], sources_now)
+        # inputs [x; s; 1] and the forcing's size Σ_terms |S f_term| at τ = 0
+        for i in range(zeros_in):
+            inputs[i] = x[i]
+        position = zeros_in
+        for j in range(sources_now.shape[0]):
+            for s in range(sources_now.shape[1]):
+                inputs[position] = sources_now[j, s]
+                position += 1
+        inputs[position] = 1.0
+        forcing[:] = 0.0
+        for j in range(sources_now.shape[0]):
+            if source_powers[j] == 0:
+                for i in range(n):
+                    total = 0j
+                    for s in range(sources_now.shape[1]):
+                        total += s_matrix[i, s] * sources_now[j, s]
+                    forcing[i] += abs(total)
+        previous = mode
+        from_python = chosen == 1
+        changes = 0
+        while True:
+            _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights, rows_p, rows_q,
+                       rows_y, rows_c, x, y_size, forcing, t, table, tolerances)
+            if chosen == 1:
+                break
+            any_bad = False
+            for c in range(columns):
+                bad = _violated(table, powers[mode], exponents[mode], terms[mode], c, tolerances[c])
+                wanted[c] = bits[mode, c] != bad
+                any_bad = any_bad or bad
+            if not any_bad:
+                break
+            seen[changes] = mode
+            changes += 1
+            following = _find(bits, known, wanted)
+            cycled = following < 0 or changes >= MAX_MODE_CHANGES
+            for i in range(changes):
+                if seen[i] == following:
+                    cycled = True
+            if cycled:
+                status = NEW_MODE
+                break
+            mode = following
+        if status != FINISHED:
+            mode = previous
+            break
+        if from_python:
+            for c in range(columns):
+                tolerances[c] = max(tolerances[c], widened[c])
+                widened[c] = 0.0
+        chosen = 0
+        quiet_here = quiet
+        if quiet == 0:
+            for c in range(columns):
+                if bits[mode, c] != bits[previous, c]:
+                    event_times[events] = t
+                    event_index[events] = c
+                    event_on[events] = bits[mode, c]
+                    events += 1
+        quiet = 0
+        count = terms[mode]
+        horizon = end - t
+        tau, ended_by = first_event(table[:count], powers[mode, :count], exponents[mode, :count], tolerances,
+                                    horizon, 1e-13)
+        tau, ended_by = crossed_within_tolerance(table[:count], powers[mode, :count], exponents[mode, :count],
+                                                 tolerances, tau, ended_by, horizon, 1e-13)
+        segments += 1
+        stop_at = t + tau
+        z = np.zeros((count, n + m), np.complex128)
+        for j in range(count):
+            for i in range(n + m):
+                total = 0j
+                line = j * (n + m) + i
+                for q in range(inputs.shape[0]):
+                    total += z_map[mode, line, q] * inputs[q]
+                z[j, i] = total
+        active = bits[mode, :m]
+        widths[:] = -1.0  # (the moments are this mode's terms')
+        first_row = True
+        while row < rows_total and times[row] <= stop_at:
+            local = times[row] - t
+            begin = max(times[row - 1] - t, 0.0)
+            if first_row and begin > 0.0:
+                for j in range(count):
+                    at_a[j] = _grown(exponents[mode, j], begin)
+            elif first_row:
+                at_a[:count] = 1.0
+            else:
+                at_a[:count] = growth[:count]
+            for j in range(count):
+                growth[j] = _grown(exponents[mode, j], local)
+                weights[j] = growth[j] * local ** powers[mode, j] if powers[mode, j] else growth[j]
+            for i in range(n + m):
+                value = 0.0
+                for j in range(count):
+                    value += z[j, i].real * weights[j].real - z[j, i].imag * weights[j].imag
+                if i < n:
+                    y_out[row, i] = value
+                else:
+                    l_out[row, i - n] = value
+            for c in range(m):
+                row_active[row, c] = bits[mode, c]
+            for c in range(columns - m):
+                row_closed[row, c] = bits[mode, m + c]
+            _charge(z, n, active, powers[mode], exponents[mode], count, begin, local, at_a, moments,
+                    widths, charges[row])
+            if first_row and times[row - 1] < t:  # the row's interval holds this segment's start
+                tail_row[tails] = row
+                tail_dt[tails] = local
+                for i in range(n):
+                    value = 0.0
+                    for j in range(count):
+                        if powers[mode, j] == 0:
+                            value += z[j, i].real
+                    tail_y[tails, i] = value
+                tails += 1
+            first_row = False
+            row += 1
+        if row < rows_total and tau > 0:  # the next row's interval holds this segment's end
+            begin = max(times[row - 1] - t, 0.0)
+            if tau > begin:
+                for j in range(count):
+                    at_a[j] = _grown(exponents[mode, j], begin)
+                _charge(z, n, active, powers[mode], exponents[mode], count, begin, tau, at_a, moments,
+                        widths, charges[row])
+        if row >= rows_total:  # (the state stays at this segment's start, to resume from)
+            mode = previous
+            quiet = quiet_here
+            break
+        y_end = np.zeros(n)
+        size_end = np.zeros(n)
+        for j in range(count):
+            weight = tau ** powers[mode, j] * np.exp(exponents[mode, j] * tau)
+            magnitude = abs(weight)
+            for i in range(n):
+                y_end[i] += (z[j, i] * weight).real
+                size_end[i] += abs(z[j, i]) * magnitude
+        for i in range(x.shape[0]):
+            total = 0.0
+            for q in range(n):
+                total += v1t[i, q] * y_end[q]
+            x[i] = total
+        for i in range(n):
+            y_size[i] = size_end[i]
+        new_t = stop_at if tau < horizon else end
+        stalled = stalled + 1 if new_t <= t else 0
+        t = new_t
+        if stalled > MAX_MODE_CHANGES:
+            status = STALLED
+            break
+    clock[0] = t
+    counters[0], counters[1], counters[2], counters[3] = k, mode, chosen, row
+    counters[4], counters[5], counters[6], counters[7], counters[8] = events, segments, stalled, quiet, tails
+    return status
+
+
+_shifted = jit(_shifted)
+_ulp = jit(_ulp)
+_functions = jit(_functions)
+_violated = jit(_violated)
+_find = jit(_find)
+_grown = jit(_grown)
+_moments = jit(_moments)
+_charge = jit(_charge)
+exact_loop = jit(_exact_loop)
+"""Compiled :func:`_exact_loop` (the Python function without numba)."""

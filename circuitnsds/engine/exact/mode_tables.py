@@ -1,0 +1,102 @@
+"""The known modes of a run as the arrays the compiled loop reads (:mod:`.loop`).
+
+A mode joins when Python has met it (:func:`.run.choose_mode` builds it); its solution
+map for the run's source structure (:class:`~.solution_map.SolutionMap`, ``z`` widened to
+every pair: an inactive pair's multiplier is 0) and the magnitudes of its event functions'
+round-off are packed into arrays indexed by mode, which grow (capacity doubled, terms
+padded with zero coefficients) as modes join.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from circuitnsds.engine.exact.source_table import SourceTable
+
+
+class ModeTables:
+    """Arrays of :mod:`.loop` for the modes of ``system`` (an :class:`.run.ExactSystem`)."""
+
+    def __init__(self, system, sources: SourceTable):
+        self.system = system
+        self.sources = sources
+        self.n, self.m = system.n, system.m
+        self.columns = system.m + len(system.mlcs.switches)
+        self.inputs = system.coordinates.rank + sources.powers.size * len(system.mlcs.stimuli) + 1
+        self.known = 0
+        self.index: dict[tuple, int] = {}
+        self._allocate(8, 1)
+
+    def _allocate(self, capacity: int, terms: int) -> None:
+        old = getattr(self, "bits", None)
+        n, m, c, r = self.n, self.m, self.columns, self.system.coordinates.rank
+        fresh = {
+            "bits": np.zeros((capacity, c), np.bool_),
+            "z_map": np.zeros((capacity, terms * (n + m), self.inputs), complex),
+            "table_map": np.zeros((capacity, terms * c, self.inputs), complex),
+            "powers": np.zeros((capacity, terms), np.int64),
+            "exponents": np.zeros((capacity, terms), complex),
+            "terms": np.zeros(capacity, np.int64),
+            "slope_weights": np.zeros((capacity, terms), complex),
+            "rows_p": np.zeros((capacity, c, r)),
+            "rows_q": np.zeros((capacity, c, n)),
+            "rows_y": np.zeros((capacity, c, n)),
+            "rows_c": np.zeros((capacity, c)),
+        }
+        if old is not None:
+            for name, array in fresh.items():
+                current = getattr(self, name)
+                if name in ("z_map", "table_map"):
+                    array[:self.known, :current.shape[1]] = current[:self.known]
+                elif name in ("powers", "exponents", "slope_weights"):
+                    array[:self.known, :current.shape[1]] = current[:self.known]
+                else:
+                    array[:self.known] = current[:self.known]
+        for name, array in fresh.items():
+            setattr(self, name, array)
+
+    def mode_of(self, index: int) -> tuple[np.ndarray, tuple[bool, ...]]:
+        """``(active, closed)`` of mode ``index``."""
+        bits = self.bits[index]
+        return bits[:self.m].copy(), tuple(bool(b) for b in bits[self.m:])
+
+    def add(self, active: np.ndarray, closed: tuple[bool, ...]) -> int:
+        """The index of the mode (added when new)."""
+        key = (tuple(bool(a) for a in active), tuple(closed))
+        if key in self.index:
+            return self.index[key]
+        system, sources = self.system, self.sources
+        mode = system.mode(np.asarray(active, bool), tuple(closed))
+        rows, constants, rows_P, rows_Q, rows_Y = system.event_row_data(mode, tuple(closed))
+        linear = system.solution_map(mode, rows, constants, sources.powers, sources.exponents,
+                                     len(system.mlcs.stimuli))
+        terms = linear.powers.size
+        n, m, c = self.n, self.m, self.columns
+        if self.known == self.bits.shape[0] or terms > self.powers.shape[1]:
+            self._allocate(2 * self.bits.shape[0] if self.known == self.bits.shape[0] else self.bits.shape[0],
+                           max(terms, self.powers.shape[1]))
+        i = self.known
+        self.bits[i, :m] = key[0]
+        self.bits[i, m:] = key[1]
+        z = linear.z_map.reshape(terms, linear.size, self.inputs)
+        wide = np.zeros((terms, n + m, self.inputs), complex)
+        wide[:, :n] = z[:, :n]
+        wide[:, n + mode.active_index] = z[:, n:]
+        self.z_map[i, :terms * (n + m)] = wide.reshape(terms * (n + m), self.inputs)
+        self.table_map[i, :terms * c] = linear.table_map
+        self.powers[i, :terms] = linear.powers
+        self.exponents[i, :terms] = linear.exponents
+        self.slope_weights[i, :terms] = linear.slope_weights
+        self.terms[i] = terms
+        self.rows_p[i] = rows_P
+        self.rows_q[i] = rows_Q[:, :n]
+        self.rows_y[i] = rows_Y
+        self.rows_c[i] = rows_Q[:, n:] @ np.abs(mode.e_active) + np.abs(constants)
+        self.index[key] = i
+        self.known += 1
+        return i
+
+    def add_all_built(self) -> None:
+        """Every mode the system has built (the flips Python went through) joins."""
+        for active, closed in list(self.system.built_modes()):
+            self.add(np.array(active, bool), closed)
