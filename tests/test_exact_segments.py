@@ -362,3 +362,17 @@ def test_the_compiled_loop_runs_the_python_loop(netlist, stop):
     assert compiled.state.t == pytest.approx(python.state.t, rel=1e-12)
     np.testing.assert_array_equal(compiled.state.active, python.state.active)
     assert compiled.state.closed == python.state.closed
+
+
+def test_a_search_that_cannot_clear_a_zero_function_gives_up_instead_of_running_on():
+    # 0.3·cos(ωτ) written twice with opposite signs: zero everywhere, but its bound over any
+    # interval (the fast terms by their magnitude) is -1.2, below the tolerance, so no interval
+    # is ever cleared and the halving would visit 2^43 of them (a suite run held ten minutes in
+    # the compiled loop there, out of Ctrl-C's reach); now it gives up, and no instant is made up
+    from circuitnsds.engine.exact.first_event import UNRESOLVED, first_event
+
+    omega = 2 * np.pi * 5e3
+    table = np.array([[0.3 + 0j], [0.3 + 0j], [-0.3 + 0j], [-0.3 + 0j]])
+    exponents = np.array([1j * omega, -1j * omega, 1j * omega, -1j * omega])
+    tau, column = first_event(table, np.zeros(4, np.int64), exponents, np.array([1e-12]), 2e-3, 1e-13)
+    assert (tau, column) == (0.0, -2) and UNRESOLVED < 0

@@ -23,6 +23,14 @@ from circuitnsds.jit import jit
 MAX_DEPTH = 200
 """Halvings of one interval at most (as :data:`.roots.MAX_DEPTH`)."""
 MAX_STACK = 2 * MAX_DEPTH + 2
+MAX_VISITS = 200_000
+"""Intervals one search visits at most. A function that stays within its tolerance of zero
+over a stretch (grazing, sliding) is never cleared by its bound there, and halving it down to
+the resolution would visit 2^43 intervals: the search gives up (:data:`UNRESOLVED`) and the
+loop stops as stalled, so the run hands the stretch to the θ-method, instead of computing on
+without end where Ctrl-C cannot reach (measured: a suite run held 10 minutes there)."""
+UNRESOLVED = -2.0
+"""What a search that gave up returns (no instant is found: none is made up)."""
 """Intervals pending at most (a halving pushes two, pops one)."""
 EPSILON = float(np.finfo(float).eps)
 
@@ -114,7 +122,11 @@ def _first_root(c, p, nu, horizon, tol, resolution):
     depths = np.empty(MAX_STACK, np.int64)
     starts[0], ends[0], depths[0] = 0.0, horizon, 0
     top = 1
+    visits = 0
     while top > 0:
+        visits += 1
+        if visits > MAX_VISITS:
+            return UNRESOLVED
         top -= 1
         a, b, depth = starts[top], ends[top], depths[top]
         if _bound(c, p, nu, a, b) > -tol:
@@ -135,7 +147,8 @@ def _first_root(c, p, nu, horizon, tol, resolution):
 
 def _first_event(table, powers, exponents, tolerances, horizon, relative_resolution):
     """``(τ, column)``: the earliest root over the columns of ``table`` in ``(0, horizon]``
-    (``(horizon, -1)`` when none): each column is cleared by its bound over the whole
+    (``(horizon, -1)`` when none; ``(0.0, -2)`` when a search gave up, :data:`MAX_VISITS`):
+    each column is cleared by its bound over the whole
     interval or searched up to the earliest root found so far."""
     best = horizon
     column = -1
@@ -145,6 +158,8 @@ def _first_event(table, powers, exponents, tolerances, horizon, relative_resolut
         if _bound(c, powers, exponents, 0.0, best) > -tolerances[k]:
             continue
         root = _first_root(c, powers, exponents, best, tolerances[k], resolution)
+        if root == UNRESOLVED:
+            return 0.0, -2
         if root >= 0.0 and root < best:
             best = root
             column = k

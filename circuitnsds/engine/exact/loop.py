@@ -318,6 +318,9 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
         horizon = end - t
         tau, ended_by = first_event(table[:count], powers[mode, :count], exponents[mode, :count], tolerances,
                                     horizon, 1e-13)
+        if ended_by == -2:  # (the search gave up: first_event.MAX_VISITS)
+            status = STALLED
+            break
         tau, ended_by = crossed_within_tolerance(table[:count], powers[mode, :count], exponents[mode, :count],
                                                  tolerances, tau, ended_by, horizon, 1e-13)
         segments += 1
