@@ -182,10 +182,11 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
 
 
 def _method_line(circuit: Circuit, mlcs) -> str:
-    """Which stepper a run would use (``.options method``, else the default) and why."""
-    from circuitnsds.engine.stepper import DEFAULT_STEPPER, choose_stepper
+    """Which stepper a run would use (``.options method``, else the default: the Newton stepper
+    for smooth relations, as the run takes it) and why."""
+    from circuitnsds.engine.stepper import DEFAULT_STEPPER, SMOOTH_STEPPER, choose_stepper
 
-    name = circuit.options.get("method", DEFAULT_STEPPER)
+    name = circuit.options.get("method", SMOOTH_STEPPER if mlcs.smooth else DEFAULT_STEPPER)
     try:
         chosen, why = choose_stepper(name, mlcs)
     except ValueError as exc:
