@@ -21,7 +21,7 @@ IGNORED_COMMANDS = {
     ".noise": "only .tran is supported", ".tf": "only .tran is supported",
     ".sens": "only .tran is supported", ".pz": "only .tran is supported",
     ".disto": "only .tran is supported",
-    ".temp": "the ideal devices have no temperature dependence",
+    ".temp": "the ideal devices have no temperature dependence and the smooth ones run at 27 °C",
     ".width": "output formatting does not apply",
     ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
     ".nodeset": "the ideal operating point needs no hints",
