@@ -185,7 +185,7 @@ def test_unused_model_and_missing_end_warn():
 def test_models_may_follow_their_use_and_are_case_insensitive():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        circuit = read("D1 A 0 MyDiode\nR1 a 0 1\n.MODEL mydiode d (VFWD=0.6)")
+        circuit = read("D1 a 0 MyDiode\nR1 a 0 1\n.MODEL mydiode d (VFWD=0.6)")
     assert circuit.element("d1").model.forward_drop == 0.6
 
 
