@@ -20,12 +20,7 @@ def mosfet_node_indexes(tokens: Sequence[str]) -> tuple[int, ...]:
     """Indexes of the nodes of an ``M`` line (``tokens[0]`` is the name): 3 (``d g s MODEL``) or
     4 (``d g s b MODEL``), the first words before the first ``key=value``, the ``off`` flag
     aside wherever it stands (as the card reader reads the line)."""
-    words = []
-    for index in range(1, len(tokens)):
-        if tokens[index] == "=" or (index + 1 < len(tokens) and tokens[index + 1] == "="):
-            break
-        if tokens[index] != "off":
-            words.append(index)
+    words = _positional(tokens)
     return tuple(words[:4 if len(words) >= 5 else 3])
 
 

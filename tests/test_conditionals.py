@@ -68,6 +68,11 @@ def test_parameters_given_to_the_reader_choose_the_branch():
     (".if (1)\nR1 1 0 1", r"<text>:3: \.if is never closed by \.endif"),
     ("R1 1 0 1\n.endif", r"<text>:4: \.endif without an \.if above it"),
     (".if (nosuch > 1)\nR1 1 0 1\n.endif", r"<text>:3: \.if: undefined parameter 'nosuch'"),
+    # a second .else or an .elseif after .else was dropped silently (the first .else's lines ran)
+    (".if (0)\nR1 1 0 1\n.else\nR1 1 0 2\n.else\nR1 1 0 3\n.endif",
+     r"<text>:7: \.else after the \.else of its block \(line 5\)"),
+    (".if (0)\nR1 1 0 1\n.else\nR1 1 0 2\n.elseif (1)\nR1 1 0 3\n.endif",
+     r"<text>:7: \.elseif after the \.else of its block"),
 ])
 def test_malformed_blocks_are_refused_at_their_line(lines, pattern):
     with pytest.raises(NetlistError, match=pattern):

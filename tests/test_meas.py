@@ -164,7 +164,8 @@ from hypothesis import strategies as st  # noqa: E402
 
 WORDS = st.sampled_from(["tran", "ac", "x", "avg", "rms", "when", "find", "deriv", "trig", "targ",
                          "v(a)", "i(v1)", "=", "from", "to", "td", "rise", "fall", "cross", "last",
-                         "val", "at", "1m", "-2", "abc", "'p'", "pp", "integ", "max_at"])
+                         "val", "at", "1m", "-2", "abc", "'p'", "pp", "integ", "max_at",
+                         "par(v(a)", "par(v(a))", "par('v(a)*k')", "par('sqrt(v(a))')"])
 
 
 @settings(max_examples=300, deadline=None)
@@ -193,6 +194,18 @@ def test_par_expression_of_signals_is_measured_as_its_values_on_the_grid(rc):
 def test_a_par_expression_that_is_not_one_is_refused_at_its_line():
     with pytest.raises(NetlistError, match=r"par\('v\(out\) \*'\)"):
         parse_meas(".meas tran p FIND par('v(out) *') AT=1m")
+
+
+@pytest.mark.parametrize("expression, message", [
+    ("par(v(out)", "single quotes"),  # was a TypeError: the run ended in 'internal error'
+    ("par('v(out)*k')", "undefined parameter 'k' in 'v\\(out\\)\\*k'"),
+    ("par('foo(v(out))')", r"unknown function foo\(\)"),
+    ("par('pow(v(out))')", r"pow\(\) takes 2 argument"),
+])
+def test_a_par_expression_that_fails_at_every_point_is_refused_at_its_line(expression, message):
+    # an undefined name or function failed at each point alike: the measurement printed NaN, exit 0
+    with pytest.raises(NetlistError, match=message):
+        parse_meas(f".meas tran p MAX {expression}")
 
 
 def test_param_names_and_measured_levels_in_meas_are_the_values_ngspice_gives_them():

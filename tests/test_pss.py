@@ -221,6 +221,21 @@ def test_no_period_is_refused_in_words(sources, message):
         circuitnsds.read_netlist(text).pss()
 
 
+@pytest.mark.parametrize("source, message", [
+    # each ran with .pss GFREQ and reported a converged "periodic" state, exit 0
+    ("AM(1 0 1.3k 10k)", "V1 .* is not periodic: AM"),
+    ("PWL(0 0 1m 1)", "V1 .* is not periodic"),
+    ("SIN(0 1 1.3k)", r"V1 repeats every 0.000769231 s, and the period given to pss, 0.001 s"),
+])
+def test_a_given_period_that_a_source_does_not_repeat_with_is_refused(source, message):
+    text = f"t\nV1 a 0 {source}\nD1 a b dm\nR1 b 0 1k\nC1 b 0 1u\n.model dm d\n.pss 1k\n.end\n"
+    with pytest.raises(circuitnsds.CircuitError, match=message):
+        circuitnsds.read_netlist(text).pss()
+    # a harmonic of the given period is periodic with it
+    harmonic = text.replace(source, "SIN(0 1 3k)")
+    assert circuitnsds.read_netlist(harmonic).pss().period == pytest.approx(1e-3)
+
+
 def test_undamped_state_is_diagnosed():
     # an inductor across a square wave of non-zero mean: its current ramps every period
     text = "t\nV1 a 0 PULSE(0 1 0 1u 1u 6u 10u)\nL1 a 0 1m\n.tran 0.1u 1m uic\n.end\n"

@@ -59,6 +59,8 @@ CATALOGUE = [
     # (netlist lines, what the message must name)
     ("R1 a 0 r={v(a)*2}", r"r1: a resistance that depends on v\(a\) is a smooth nonlinear element"),
     ("B1 a 0 V={ddt(abs(v(b)))}\nR2 b 0 1", r"b1: cannot represent the term ddt\(abs\(v\(b\)\)\).*issue 33"),
+    # (before: "unknown function ddt()", as though ddt were not read at all)
+    ("B1 c 0 I={ddt(v(a)*v(c))}\nR2 c 0 1", r"b1: ddt\(\) of a nonlinear value"),
     ("G1 a 0 POLY(1) b 0 0 1\nR2 b 0 1", r"g1: .*POLY"),
     ("A1 a b ff\n.model ff slew(rise_slope=1)", r"a1: .*slew"),
     (".if (nosuch > 0)\nR2 a 0 1\n.endif", r"\.if: undefined parameter 'nosuch'"),

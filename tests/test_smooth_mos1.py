@@ -40,6 +40,22 @@ def test_smooth_flag_on_the_model_or_the_line_chooses_the_device(line, model, sm
     assert isinstance(element, Mos1 if smooth else Mosfet)
 
 
+@pytest.mark.parametrize(("line", "model"), [
+    ("m1 d g 0 0 mx smooth=2", "nmos(vto=1 kp=50u)"),
+    ("m1 d g 0 0 mx", "nmos(vto=1 kp=50u smooth=0.5)"),
+    ("m1 d g 0 0 mx smooth=-1", "nmos(vto=1 kp=50u smooth=1)"),
+])
+def test_a_smooth_flag_other_than_0_or_1_is_refused_at_its_line(line, model):
+    # smooth=2 or 0.5 read as 1 without a word (and any nonzero diode model's smooth= too)
+    with pytest.raises(NetlistError, match=r"smooth=(2|0.5|-1) must be 0 or 1"):
+        mosfet_circuit(line, model)
+
+
+def test_a_diode_model_with_a_smooth_flag_other_than_0_or_1_is_refused():
+    with pytest.raises(NetlistError, match=r"smooth=3 must be 0 or 1"):
+        circuit_from("V1 a 0 1\nD1 a 0 dx\n.model dx d(is=1e-14 smooth=3)\n.tran 1u 10u")
+
+
 @settings(max_examples=150, deadline=None)
 @given(st.booleans(), st.floats(-2, 6), st.floats(-6, 6), st.floats(-3, 0.6), st.floats(-2, 2),
        st.lists(st.floats(-0.05, 0.05), min_size=2, max_size=2))

@@ -223,6 +223,9 @@ def test_info_says_which_elements_are_smooth_and_which_ideal():
     text, _ = circuit_report(circuit)
     assert "smooth:   g1: smooth nonlinear element(s)" in text and "Newton stepper" in text
     assert "ideal:    s1, d1: complementarity pairs and switches" in text
+    # the stepper the run takes without .options method (info named theta, "which cannot run it")
+    assert re.search(r"^method: +newton \(taken by itself for the smooth nonlinear elements\)$", text,
+                     re.MULTILINE)
     assert re.search(r"cost: +the first step \([\d.]+ [nµ]s\) from the starting point took [1-9]\d* Newton "
                      r"iteration\(s\), \d+ µs each", text)
 

@@ -149,6 +149,52 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
         CircuitError: a time-varying source is not periodic (PWL, EXP, a damped SIN, a PULSE
             without period), no source is periodic, or their periods have no common multiple.
     """
+    periods, start = _source_periods(circuit)
+    if not periods:
+        raise CircuitError("the circuit has no periodic source, so it has no period", where=circuit.file,
+                           hint="give the period (pss(period=...), --period, or .pss GFREQ); a circuit "
+                           "that oscillates by itself is not supported")
+    longest, owner = max(periods)
+    for multiple in range(1, MOST_PERIODS + 1):
+        candidate = multiple * longest
+        if all(_divides(p, candidate) for p, _ in periods):
+            return candidate, start
+    listed = ", ".join(f"{name}: {p:.6g} s" for p, name in periods)
+    raise CircuitError(f"the sources' periods have no common multiple up to {MOST_PERIODS} × "
+                       f"{longest:.6g} s ({listed})", where=owner,
+                       hint="give the period yourself (pss(period=...), --period), or make the periods "
+                       "commensurate")
+
+
+def _divides(period: float, candidate: float) -> bool:
+    """Whether ``candidate`` [s] is a whole multiple of ``period`` [s] (within PERIOD_MATCH)."""
+    return abs(candidate / period - round(candidate / period)) <= PERIOD_MATCH * candidate / period
+
+
+def check_given_period(circuit: Circuit, period: float) -> None:
+    """Refuse a period given to pss (``.pss GFREQ``, ``--period``) that some source does not
+    repeat with: the shooting would close an orbit of a forcing that is not periodic there.
+
+    Raises:
+        CircuitError: a time-varying source is not periodic, or ``period`` [s] is not a whole
+            multiple of a source's period (naming it).
+    """
+    periods, _ = _source_periods(circuit)
+    for source_period_, name in periods:
+        if not _divides(source_period_, period):
+            raise CircuitError(f"source {name} repeats every {source_period_:.6g} s, and the period "
+                               f"given to pss, {period:.6g} s, is not a whole multiple of it: the "
+                               "circuit has no steady state of that period",
+                               where=name, hint="give a period that every source repeats with "
+                               "(.pss GFREQ, --period), or leave it out to have it found")
+
+
+def _source_periods(circuit: Circuit) -> tuple[list[tuple[float, str]], float]:
+    """Each time-varying source's period [s] with its name, and the largest delay [s].
+
+    Raises:
+        CircuitError: a time-varying source is not periodic.
+    """
     periods: list[tuple[float, str]] = []
     start = 0.0
     for element in circuit.elements:
@@ -176,21 +222,7 @@ def source_period(circuit: Circuit) -> tuple[float, float]:
             raise CircuitError(f"source {name} ({function}) is not periodic: {why}", where=name,
                                hint="a periodic steady state needs periodic sources (PULSE with PER, "
                                "SIN with FREQ) and constants")
-    if not periods:
-        raise CircuitError("the circuit has no periodic source, so it has no period", where=circuit.file,
-                           hint="give the period (pss(period=...), --period, or .pss GFREQ); a circuit "
-                           "that oscillates by itself is not supported")
-    longest, owner = max(periods)
-    for multiple in range(1, MOST_PERIODS + 1):
-        candidate = multiple * longest
-        if all(abs(candidate / p - round(candidate / p)) <= PERIOD_MATCH * candidate / p
-               for p, _ in periods):
-            return candidate, start
-    listed = ", ".join(f"{name}: {p:.6g} s" for p, name in periods)
-    raise CircuitError(f"the sources' periods have no common multiple up to {MOST_PERIODS} × "
-                       f"{longest:.6g} s ({listed})", where=owner,
-                       hint="give the period yourself (pss(period=...), --period), or make the periods "
-                       "commensurate")
+    return periods, start
 
 
 def run_pss(circuit: Circuit, spec: PssSpec | None, **settings) -> PSSResult:
@@ -258,6 +290,8 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
             raise
     if period is None:
         period = 1.0 / spec.frequency if spec is not None else found_period
+    if found_period is None and 0 < period < math.inf:
+        check_given_period(circuit, period)
     if t0 is None:
         t0 = _periodic_from(circuit)
     if not period > 0:

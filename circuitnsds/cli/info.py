@@ -182,10 +182,11 @@ def run_checks(circuit: Circuit) -> list[tuple[str, str | None, bool]]:
 
 
 def _method_line(circuit: Circuit, mlcs) -> str:
-    """Which stepper a run would use (``.options method``, else the default) and why."""
-    from circuitnsds.engine.stepper import DEFAULT_STEPPER, choose_stepper, default_note
+    """Which stepper a run would use (``.options method``, else the default: the Newton stepper
+    for smooth relations, as the run takes it) and why."""
+    from circuitnsds.engine.stepper import DEFAULT_STEPPER, SMOOTH_STEPPER, choose_stepper, default_note
 
-    name = circuit.options.get("method", DEFAULT_STEPPER)
+    name = circuit.options.get("method", SMOOTH_STEPPER if mlcs.smooth else DEFAULT_STEPPER)
     try:
         chosen, why = choose_stepper(name, mlcs)
     except ValueError as exc:
@@ -196,7 +197,8 @@ def _method_line(circuit: Circuit, mlcs) -> str:
     words = {"theta": "the θ-method", "exact": "exact, event-driven (.tran TSTEP sets the rows "
              "reported, not the accuracy)"}.get(chosen.name, chosen.name)
     if "method" not in circuit.options:
-        why = default_note(mlcs)
+        why = ("taken by itself for the smooth nonlinear elements" if mlcs.smooth
+               else default_note(mlcs))
     return words + (f" ({why})" if why else "")
 
 

@@ -29,28 +29,37 @@ def resolve_conditionals(statements: list[Statement], overrides: Mapping[str, fl
     ``.if`` lines themselves); the same list when there is no ``.if``.
 
     Raises:
-        NetlistError: an ``.elseif``/``.else``/``.endif`` without its ``.if``, an ``.if``
-            never closed, or a condition that cannot be evaluated (with file:line).
+        NetlistError: an ``.elseif``/``.else``/``.endif`` without its ``.if``, an ``.elseif``
+            or a second ``.else`` after its block's ``.else``, an ``.if`` never closed, or a
+            condition that cannot be evaluated (with file:line).
     """
     if not any(statement.keyword in KEYWORDS for statement in statements):
         return statements
     kept: list[Statement] = []
-    blocks: list[list] = []  # [parent taking, this branch taking, a branch taken, .if statement]
+    blocks: list[list] = []  # [parent taking, this branch taking, a branch taken, .if statement,
+    #                          its .else statement or None]
     for statement in statements:
         keyword = statement.keyword
         taking = all(block[1] for block in blocks)
         if keyword == ".if":
             holds = taking and _holds(statement, kept, overrides, random)
-            blocks.append([taking, holds, holds, statement])
+            blocks.append([taking, holds, holds, statement, None])
         elif keyword in {".elseif", ".else", ".endif"}:
             if not blocks:
                 raise NetlistError(f"{keyword} without an .if above it", where=statement.location,
                                    hint="open the block with .if (condition), or remove the line")
             block = blocks[-1]
+            if keyword != ".endif" and block[4] is not None:
+                earlier = block[4].location
+                raise NetlistError(f"{keyword} after the .else of its block"
+                                   + (f" (line {earlier.line})" if earlier else ""),
+                                   where=statement.location,
+                                   hint="a block has one .else, its last branch: close it with "
+                                   ".endif first, or make the earlier .else an .elseif")
             if keyword == ".endif":
                 blocks.pop()
             elif keyword == ".else":
-                block[1], block[2] = block[0] and not block[2], True
+                block[1], block[2], block[4] = block[0] and not block[2], True, statement
             else:
                 holds = block[0] and not block[2] and _holds(statement, kept, overrides, random)
                 block[1], block[2] = holds, block[2] or holds

@@ -321,6 +321,9 @@ def smooth_expression(tree: Node, node_name: Callable[[str], str] = lambda n: n
                 r = math.hypot(a, b)
                 return r, _plus(_scaled(da, a / r), _scaled(db, b / r))
             return length
+        if name == "ddt":  # (read by the ideal engine of an affine argument only)
+            raise ExpressionError("ddt() of a nonlinear value: the smooth relations hold no time "
+                                  "derivative")
         raise ExpressionError(f"unknown function {name}()")
 
     evaluator = build(tree)

@@ -361,7 +361,9 @@ def _smooth_source(reader: StatementReader, output: str, nodes: list[str], expre
     try:
         smooth = smooth_expression(parse(expression), node_name)
     except ExpressionError as exc:
-        raise reader.error(f"{name}: {exc} in {expression}") from None
+        raise reader.error(f"{name}: {exc} in {expression}", hint="write the value with v(), i(), "
+                           "time, numbers and the functions .param expressions know; ddt() only "
+                           "of an affine combination of v() and i(), added to the value") from None
     for kind, source in smooth.inputs:
         if kind == "i" and source not in voltage_sources:
             raise reader.error(f"{name}: i({source}): {source!r} is not a voltage source of this "

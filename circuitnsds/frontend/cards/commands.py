@@ -21,7 +21,7 @@ IGNORED_COMMANDS = {
     ".noise": "only .tran is supported", ".tf": "only .tran is supported",
     ".sens": "only .tran is supported", ".pz": "only .tran is supported",
     ".disto": "only .tran is supported",
-    ".temp": "the ideal devices have no temperature dependence",
+    ".temp": "the ideal devices have no temperature dependence and the smooth ones run at 27 °C",
     ".width": "output formatting does not apply",
     ".backanno": "LTspice's schematic back-annotation; ngspice's LTspice mode removes it too",
     ".nodeset": "the ideal operating point needs no hints",
@@ -32,7 +32,8 @@ IGNORED_COMMANDS = {
 
 USED_OPTIONS = {"theta": "θ of the θ-method, in [0.5, 1] (1 = implicit Euler)",
                 "method": "the integration method, a stepper of circuitnsds.engine.stepper.STEPPERS "
-                          "('theta', 'exact') or 'auto' (exact where the circuit qualifies); "
+                          "('theta', 'exact', 'newton') or 'auto' (newton for smooth elements, "
+                          "else exact where the circuit qualifies); "
                           "ngspice's 'trap' and 'gear' are ignored",
                 "gmin": "default off-conductance [S] of diodes and switches (Roff = 1/gmin)",
                 "mosdrive": "gate drive |Vgs| [V] at which a MOSFET's on-resistance is computed "

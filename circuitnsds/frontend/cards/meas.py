@@ -103,7 +103,10 @@ def _expression_signal(token: str, fail) -> Callable[[Callable[[str], np.ndarray
     every point of the run's grid. Returns the function of a signal fetcher that computes it."""
     from circuitnsds.netlist.expressions import ExpressionError, evaluate, parse
 
-    expression = re.fullmatch(r"par\(\s*'([^']*)'\s*\)", token)[1].lower()
+    quoted = re.fullmatch(r"par\(\s*'([^']*)'\s*\)", token)
+    if quoted is None:
+        raise fail(f"{token}: the expression of par() goes in single quotes: par('v(a)*i(r1)')")
+    expression = quoted[1].lower()
     probes: list[str] = []
 
     def placeholder(match: re.Match) -> str:
@@ -115,7 +118,7 @@ def _expression_signal(token: str, fail) -> Callable[[Callable[[str], np.ndarray
 
     text = _PROBE.sub(placeholder, expression)
     try:
-        parse(text)
+        _check_names(parse(text), expression)
     except ExpressionError as exc:
         raise fail(f"{token}: {exc}") from None
 
@@ -132,6 +135,39 @@ def _expression_signal(token: str, fail) -> Callable[[Callable[[str], np.ndarray
         return result
 
     return values
+
+
+def _check_names(node: tuple, text: str) -> None:
+    """Raise for a name or function ``node`` does not define at any point of the run: an
+    undefined parameter, an unknown function or a wrong argument count would otherwise fail
+    at every point alike and leave the measurement NaN (a division by zero fails at a point)."""
+    from circuitnsds.netlist.expressions import (
+        CONDITIONAL_FUNCTIONS,
+        CONSTANTS,
+        FUNCTIONS,
+        ExpressionError,
+        UndefinedNameError,
+        excerpt,
+    )
+
+    kind = node[0]
+    if kind == "name" and not node[1].startswith("cnsds_probe_") and node[1] not in CONSTANTS:
+        raise UndefinedNameError(node[1], text)
+    if kind == "call":
+        name, arguments = node[1], node[2]
+        least, most = (3, 3) if name in CONDITIONAL_FUNCTIONS else FUNCTIONS.get(
+            name, (None, None, None))[1:3]
+        if least is None:
+            raise ExpressionError(f"unknown function {name}() in {excerpt(text)}; known: "
+                                  + ", ".join(sorted({*FUNCTIONS, *CONDITIONAL_FUNCTIONS})))
+        if len(arguments) < least or (most is not None and len(arguments) > most):
+            raise ExpressionError(f"{name}() takes {least if least == most else f'{least} or more'}"
+                                  f" argument(s), got {len(arguments)} in {excerpt(text)}")
+    children = {"neg": node[1:], "not": node[1:], "if": node[1:], "call": node[2] if
+                kind == "call" else (),
+                "chain": (node[1], *(inner for _, inner in node[2])) if kind == "chain" else ()}
+    for child in children.get(kind, ()):
+        _check_names(child, text)
 
 
 def _with_expression_signals(spec: MeasureSpec, fail) -> MeasureSpec:

@@ -117,6 +117,12 @@ def read_model(reader: StatementReader, off_resistance: float = DEFAULT_OFF_RESI
                                hint=f"write .model NAME {kind.upper()}(param=value ...) with every "
                                "parameter inside the parentheses")
         reader.tokens = reader.tokens[:-1]
+    if "smooth" in reader.tokens[:-2]:  # the same flag on any model card: 0 or 1, nothing else
+        from circuitnsds.frontend.cards.smooth_devices import smooth_flag
+
+        at = reader.tokens.index("smooth")
+        if reader.tokens[at + 1] == "=":
+            smooth_flag(reader, reader.tokens[at + 2])
     if kind in CODE_MODELS:  # the families' modules imported only for a netlist that uses them
         from circuitnsds.frontend.cards.xspice import read_xspice_model
 

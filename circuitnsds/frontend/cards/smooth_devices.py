@@ -280,6 +280,17 @@ MOS1_REFUSED = {
 """Level-1 parameters whose geometry the smooth device does not take (refused when nonzero)."""
 
 
+def smooth_flag(reader, text: str) -> bool:
+    """The value of ``smooth=`` written as ``text``: 1 for the smooth device, 0 for the ideal
+    one; any other value is an error (``smooth=2`` read as 1 and ``smooth=0.5`` as 1 too)."""
+    value = reader.number(SMOOTH_FLAG, text)
+    if value not in (0, 1):
+        raise reader.error(f"{reader.name}: smooth={text} must be 0 or 1",
+                           hint="write smooth=1 for the smooth device of ngspice's equations, "
+                           "smooth=0 (or nothing) for the ideal one")
+    return value == 1
+
+
 def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str, float],
            off_resistance: float):
     """An ``M`` line: the smooth device when its line or its model says ``smooth=1``
@@ -293,7 +304,7 @@ def mosfet(reader: StatementReader, models: dict[str, object], options: dict[str
     if SMOOTH_FLAG in tokens:
         at = tokens.index(SMOOTH_FLAG)
         if tokens[at + 1:at + 2] == ["="] and len(tokens) > at + 2:
-            flag = reader.number(SMOOTH_FLAG, tokens[at + 2]) != 0
+            flag = smooth_flag(reader, tokens[at + 2])
             reader.tokens = tuple(tokens[:at] + tokens[at + 3:])
     words = [token for token in reader.tokens[1:reader.tokens.index("=") - 1
                                               if "=" in reader.tokens else None] if token != "off"]
