@@ -43,7 +43,7 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap
+from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -398,14 +398,7 @@ def bjt_terminal_values(bjt: Bjt, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 def bjt_evaluator(bjt: Bjt, terminals: TerminalMap):
     """``evaluate(x, t)`` of the BJT's :class:`SmoothRelation` over ``terminals.inputs``."""
-    scatter = terminals.scatter
-
-    def evaluate(x: np.ndarray, t: float = 0.0):
-        f, jacobian, q, q_jacobian = bjt_terminal_values(bjt, scatter @ np.asarray(x, dtype=float))
-        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
-                scatter.T @ q_jacobian @ scatter)
-
-    return evaluate
+    return scattered_evaluator(bjt_terminal_values, bjt, terminals)
 
 
 def bjt_limiter(bjt: Bjt, terminals: TerminalMap):

@@ -31,7 +31,7 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap
+from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -192,14 +192,7 @@ def diode_terminal_values(diode: ShockleyDiode, v: np.ndarray) -> tuple[np.ndarr
 
 def diode_evaluator(diode: ShockleyDiode, terminals: TerminalMap):
     """``evaluate(x, t)`` of the diode's :class:`SmoothRelation` over ``terminals.inputs``."""
-    scatter = terminals.scatter
-
-    def evaluate(x: np.ndarray, t: float = 0.0):
-        f, jacobian, q, q_jacobian = diode_terminal_values(diode, scatter @ np.asarray(x, dtype=float))
-        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
-                scatter.T @ q_jacobian @ scatter)
-
-    return evaluate
+    return scattered_evaluator(diode_terminal_values, diode, terminals)
 
 
 def diode_limiter(diode: ShockleyDiode, terminals: TerminalMap):

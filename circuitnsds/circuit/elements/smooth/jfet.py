@@ -35,7 +35,7 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap
+from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -212,14 +212,7 @@ def jfet_terminal_values(jfet: Jfet, v: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def jfet_evaluator(jfet: Jfet, terminals: TerminalMap):
     """``evaluate(x, t)`` of the JFET's :class:`SmoothRelation` over ``terminals.inputs``."""
-    scatter = terminals.scatter
-
-    def evaluate(x: np.ndarray, t: float = 0.0):
-        f, jacobian, q, q_jacobian = jfet_terminal_values(jfet, scatter @ np.asarray(x, dtype=float))
-        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
-                scatter.T @ q_jacobian @ scatter)
-
-    return evaluate
+    return scattered_evaluator(jfet_terminal_values, jfet, terminals)
 
 
 def jfet_limiter(jfet: Jfet, terminals: TerminalMap):

@@ -39,7 +39,7 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap
+from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -243,14 +243,7 @@ def mos1_terminal_values(mosfet: Mos1, v: np.ndarray) -> tuple[np.ndarray, np.nd
 
 def mos1_evaluator(mosfet: Mos1, terminals: TerminalMap):
     """``evaluate(x, t)`` of the MOSFET's :class:`SmoothRelation` over ``terminals.inputs``."""
-    scatter = terminals.scatter
-
-    def evaluate(x: np.ndarray, t: float = 0.0):
-        f, jacobian, q, q_jacobian = mos1_terminal_values(mosfet, scatter @ np.asarray(x, dtype=float))
-        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
-                scatter.T @ q_jacobian @ scatter)
-
-    return evaluate
+    return scattered_evaluator(mos1_terminal_values, mosfet, terminals)
 
 
 def limited_voltages(model: Mos1Model, new: tuple[float, float, float],

@@ -9,6 +9,7 @@ that its Jacobian has no repeated columns: :class:`TerminalMap` does the bookkee
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,3 +41,18 @@ class TerminalMap:
             if unknown >= 0:
                 matrix[k, position[unknown]] = 1.0
         return matrix
+
+
+def scattered_evaluator(terminal_values: Callable, device, terminals: TerminalMap) -> Callable:
+    """``evaluate(x, t)`` of a device's :class:`~circuitnsds.system.smooth.SmoothRelation`
+    over ``terminals.inputs``: ``terminal_values(device, v)`` gives ``(f, ∂f/∂v, q, ∂q/∂v)`` at
+    the device's own terminal voltages ``v = scatter @ x`` [V], and they are gathered back onto
+    the relation's inputs (a terminal on ground, or two on one node, summed)."""
+    scatter = terminals.scatter
+
+    def evaluate(x: np.ndarray, t: float = 0.0):
+        f, jacobian, q, q_jacobian = terminal_values(device, scatter @ np.asarray(x, dtype=float))
+        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
+                scatter.T @ q_jacobian @ scatter)
+
+    return evaluate

@@ -40,7 +40,7 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap
+from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -257,14 +257,7 @@ def vdmos_terminal_values(mosfet: Vdmos, v: np.ndarray) -> tuple[np.ndarray, np.
 
 def vdmos_evaluator(mosfet: Vdmos, terminals: TerminalMap):
     """``evaluate(x, t)`` of the VDMOS's :class:`SmoothRelation` over ``terminals.inputs``."""
-    scatter = terminals.scatter
-
-    def evaluate(x: np.ndarray, t: float = 0.0):
-        f, jacobian, q, q_jacobian = vdmos_terminal_values(mosfet, scatter @ np.asarray(x, dtype=float))
-        return (scatter.T @ f, scatter.T @ jacobian @ scatter, scatter.T @ q,
-                scatter.T @ q_jacobian @ scatter)
-
-    return evaluate
+    return scattered_evaluator(vdmos_terminal_values, mosfet, terminals)
 
 
 def vdmos_limiter(mosfet: Vdmos, terminals: TerminalMap):
