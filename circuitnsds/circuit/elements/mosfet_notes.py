@@ -52,6 +52,24 @@ class GateDriveObserver:
         note_mosfet_values(self.circuit, self.mosfets, self.levels)
 
 
+def _conducting_steps(mosfets: list[Mosfet], mlcs: MLCS, trajectory):
+    """``(element, switch, lengths, closed, control)`` for each of ``mosfets`` that conducts in
+    some step of ``trajectory``: the steps' lengths [s], whether each ran closed, and the gate
+    control ``|Vgs|`` [V] at each step's end."""
+    named = {e.name: e for e in mosfets}
+    if not named or trajectory.time.size < 2:
+        return
+    lengths = np.diff(trajectory.time)
+    for j, switch in enumerate(mlcs.switches):
+        element = named.get(switch.name)
+        if element is None:
+            continue
+        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
+        if closed.any():
+            control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+            yield element, switch, lengths, closed, control
+
+
 def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
                   drives: dict[str, list[float]]) -> dict[str, list[float]]:
     """MOSFET name -> ``[conducting time, time of it with a weak gate drive, smallest |Vgs|]``
@@ -59,18 +77,7 @@ def mosfet_drives(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
     (of earlier parts of the same run), which is updated and returned. A step counts with the
     state it ran in and the gate drive at its end; "weak": an overdrive below half of
     ``gate_drive - Vto``."""
-    named = {e.name: e for e in mosfets}
-    if not named or trajectory.time.size < 2:
-        return drives
-    lengths = np.diff(trajectory.time)
-    for j, switch in enumerate(mlcs.switches):
-        element = named.get(switch.name)
-        if element is None:
-            continue
-        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
-        if not closed.any():
-            continue
-        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+    for element, switch, lengths, closed, control in _conducting_steps(mosfets, mlcs, trajectory):
         threshold = element.model.threshold
         weak = closed & (control < threshold + 0.5 * (element.gate_drive - threshold))
         total = drives.setdefault(switch.name, [0.0, 0.0, math.inf])
@@ -94,18 +101,8 @@ def mosfet_current_limits(mosfets: list[Mosfet], mlcs: MLCS, trajectory,
     switch fully driven but carrying more than its channel can (a VDMOS at 5 V of gate with a
     3.6 V threshold, asked for 8 A where it saturates near 1.3 A) is a current source, not
     the resistor Ron."""
-    named = {e.name: e for e in mosfets if e.channel is not None}
-    if not named or trajectory.time.size < 2:
-        return limited
-    lengths = np.diff(trajectory.time)
-    for j, switch in enumerate(mlcs.switches):
-        element = named.get(switch.name)
-        if element is None:
-            continue
-        closed = np.asarray(trajectory.switches[1:, j], dtype=bool)
-        if not closed.any():
-            continue
-        control = sum(value * trajectory.y[1:, column] for column, value in switch.control)
+    with_law = [e for e in mosfets if e.channel is not None]
+    for element, switch, lengths, closed, control in _conducting_steps(with_law, mlcs, trajectory):
         current = np.abs(trajectory.y[1:, switch.row])
         saturation = np.array([element.channel.saturation_current(abs(float(v))) for v in control[closed]])
         beyond = np.zeros_like(closed)
