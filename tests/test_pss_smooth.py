@@ -76,3 +76,12 @@ def test_the_cli_runs_pss_through_a_smooth_element(tmp_path):
     assert status == 0
     header = output.read_text().splitlines()[0].lower()
     assert "v(x)" in header and "v(d)" in header
+
+
+def test_ac_around_a_smooth_pss_is_refused_in_words_that_fit_it():
+    # before this module, the refusal blamed .options method=exact, which the circuit never set
+    from circuitnsds.errors import CircuitError
+
+    with pytest.raises(CircuitError, match=r"through smooth nonlinear elements.*no step maps"):
+        _quiet(circuit_from(DIODE_RC).ac, around="pss", input="vin", outputs="v(x)",
+               frequencies=[1e3])
