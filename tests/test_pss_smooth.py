@@ -12,7 +12,7 @@ import pytest
 from circuitnsds.analyses.operating_point import operating_point
 from circuitnsds.analyses.pss import _plain_transient, _whole_grid
 from circuitnsds.engine.stepper import StartState
-from circuitnsds.errors import SimulationError
+from circuitnsds.errors import CircuitWarning, SimulationError
 from tests.conftest import circuit_from
 
 # an RC driven by a SIN into a Shockley-law current sink behind 50 Ω: conducting on the
@@ -85,3 +85,32 @@ def test_ac_around_a_smooth_pss_is_refused_in_words_that_fit_it():
     with pytest.raises(CircuitError, match=r"through smooth nonlinear elements.*no step maps"):
         _quiet(circuit_from(DIODE_RC).ac, around="pss", input="vin", outputs="v(x)",
                frequencies=[1e3])
+
+
+def test_the_npn_switch_with_a_collector_capacitor_recharges_as_the_rc_closed_form():
+    # q1's junction charges make v(b) a state beside v(c); while q1 is off (vin = 0 from 12 µs)
+    # cl recharges through rl: implicit Euler's v(c)_k = 5 − (5 − v(c)_0)(1 + h/τ)^-k, τ = 10 µs,
+    # to q1's 1 pF collector capacitance (measured 1.0e-4 V)
+    netlist = ("vcc vcc 0 5\nrl vcc c 1k\ncl c 0 10n\nvin in 0 pulse(0 5 0 1u 1u 10u 20u)\n"
+               "rb in b 10k\nq1 c b 0 qn\n.model qn npn(is=1e-14 bf=100 cje=2p cjc=1p tf=1n)\n"
+               ".tran 0.1u 40u")
+    result = _quiet(circuit_from(netlist).pss, period=20e-6)
+    assert result.state_names == ["v(c)", "v(b)"]
+    time, v_c = result.waveforms.time, result.waveforms["v(c)"]
+    first = int(np.searchsorted(time, 13e-6))
+    steps = np.arange(time.size - first)
+    closed_form = 5.0 - (5.0 - v_c[first]) * (1.0 + 0.1e-6 / 10e-6) ** -steps
+    assert np.abs(v_c[first:] - closed_form).max() < 5e-4
+    assert v_c[np.searchsorted(time, 8e-6)] < 0.2  # saturated while driven
+    assert v_c[0] == pytest.approx(v_c[-1], abs=1e-9)
+
+
+def test_an_unstable_orbit_is_warned_about_and_its_multiplier_is_the_closed_form():
+    # g1 feeds 2 mS (and a cubic term, 1e-6 of it at 1 V) back into c1 against r1's 1 mS: a net
+    # −1 mS on 1 µF grows by 1/(1 − h/τ) per implicit-Euler step, τ = 1 ms, h = 10 µs:
+    # 0.99^-100 = 2.732 per period; Newton still finds the (small, unstable) periodic orbit
+    netlist = ("vin in 0 sin(0 1 1k)\nr1 in x 1k\nc1 x 0 1u\n"
+               "g1 0 x cur={2e-3*v(x)+1e-6*v(x)*v(x)*v(x)}\n.tran 10u 2m")
+    with pytest.warns(CircuitWarning, match=r"not stable.*2\.73"):
+        result = circuit_from(netlist).pss()
+    assert float(np.abs(result.multipliers).max()) == pytest.approx(0.99**-100, rel=1e-4)

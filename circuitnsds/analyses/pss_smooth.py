@@ -14,6 +14,7 @@ costs ``1 + len(x)`` runs per Newton step.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +26,7 @@ from circuitnsds.engine.driver import drive
 from circuitnsds.engine.integrate import Trajectory
 from circuitnsds.engine.newton_stepper import NewtonStepper
 from circuitnsds.engine.stepper import StartState
-from circuitnsds.errors import SimulationError
+from circuitnsds.errors import CircuitWarning, SimulationError
 from circuitnsds.system.mlcs import MLCS
 
 PERTURBATION = 1e-6
@@ -138,6 +139,11 @@ class SmoothShooter:
                            shooting="finite-difference monodromy", periods_run=self.periods_run)
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
+        if multipliers.size and np.abs(multipliers).max() > 1.0:
+            warnings.warn(CircuitWarning(
+                f"{self.circuit.file}: the periodic solution found is not stable (largest Floquet "
+                f"multiplier |λ| = {np.abs(multipliers).max():.6g} > 1, by finite differences): a "
+                "transient would not settle to it"), stacklevel=5)
         return PSSResult(
             waveforms=waves, period=self.period, t0=float(run.time[0]),
             state_names=[self.mlcs.unknowns[j] for j in self.state], state=current.x0.copy(),
