@@ -206,11 +206,19 @@ def test_ac_linearises_smooth_sources_at_the_operating_point():
     assert np.allclose(result.transfer["v(x)"], exact, rtol=1e-6)
 
 
-def test_pss_refuses_smooth_relations_by_name():
+def test_pss_through_a_square_law_load_returns_the_capacitor_s_charge_each_period():
+    # before: pss refused the smooth relation ("pss cannot run through smooth ... (g1)"). On the
+    # periodic orbit c1's charge comes back: over the implicit-Euler steps of a period, what
+    # rs brings in equals what g1 takes out, Σ h·((v(s) − v(x))/1k − 1e-3·v(x)²) = 0
     circuit = circuit_from("vs s 0 sin(0 1 1k)\nrs s x 1k\ng1 x 0 cur={1e-3*v(x)*v(x)}\nc1 x 0 1u\n"
                            ".tran 10u 2m")
-    with pytest.raises(circuitnsds.CircuitError, match=r"pss cannot run through smooth .*\(g1\)"):
-        circuit.pss(period=1e-3)
+    result = circuit.pss(period=1e-3)
+    waves = result.waveforms
+    v_s, v_x = waves["v(s)"][1:], waves["v(x)"][1:]
+    brought_in = np.sum(np.diff(waves.time) * (v_s - v_x) / 1e3)
+    taken_out = np.sum(np.diff(waves.time) * 1e-3 * v_x**2)
+    assert taken_out > 1e-8  # the load draws charge: the balance is not 0 = 0
+    assert brought_in == pytest.approx(taken_out, rel=1e-6)
 
 
 def test_info_says_which_elements_are_smooth_and_which_ideal():

@@ -131,9 +131,12 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         from circuitnsds.engine.small_signal import periodic_response
 
         if pss.maps is None:
-            raise CircuitError("ac around a periodic steady state found on the exact map (.options "
-                               "method=exact) is not built yet", where=circuit.file,
-                               hint="run the ac with .options method=theta (its step maps)")
+            found = ("through smooth nonlinear elements (finite-difference shooting)" if mlcs.smooth
+                     else "on the exact map (.options method=exact)")
+            hint = ("ac around the operating point (--around op) linearises the smooth elements"
+                    if mlcs.smooth else "run the ac with .options method=theta (its step maps)")
+            raise CircuitError(f"ac around a periodic steady state found {found} is not built "
+                               "yet: it has no step maps", where=circuit.file, hint=hint)
         _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
         values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}

@@ -35,6 +35,7 @@ from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements.diode_notes import waveform_diode_peaks
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.integrate import Trajectory, trajectory_bytes
+from circuitnsds.engine.newton_stepper import NewtonStepper
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
 from circuitnsds.engine.stepper import StartState, stepper_class
 from circuitnsds.engine.theta_stepper import ThetaStepper
@@ -123,6 +124,11 @@ class PSSResult:
     means: dict[str, float] | None = None
     """On the exact map (``.options method=exact``): each unknown's mean over the period, the
     closed-form integral (``maps`` is then ``None``)."""
+    periods_run: int = 0
+    """Periods of the stepper run by the shooting itself (warm-up and fallbacks not counted)
+    when it is the finite-difference one (smooth nonlinear elements), else 0."""
+    shooting: str = ""
+    """How the period map and its Jacobian were found when not by the affine step maps."""
 
     @property
     def decay_rate(self) -> float:
@@ -136,6 +142,8 @@ class PSSResult:
                     "circuit has no state (no capacitor or inductor), so every period is the same")
         largest = float(np.abs(self.multipliers).max(initial=0.0))
         exact = "" if self.means is None else " on the exact period map"
+        if self.shooting:
+            exact = f" by {self.shooting} ({self.periods_run} periods run)"
         return (f"periodic steady state{exact}: T = {self.period:.6g} s from t0 = {self.t0:.6g} s, "
                 f"{self.iterations} Newton step(s), residual {self.relative_residual:.1e} "
                 f"(relative), largest Floquet multiplier |λ| = {largest:.6g}")
@@ -327,12 +335,6 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
     defaults = (tran.source_defaults if tran is not None
                 else SourceDefaults(step, t0 + (periods_warmup + 1) * period))
     mlcs = circuit.mlcs(defaults)
-    if mlcs.smooth:  # (the shooting's period map is a product of affine step maps)
-        names = ", ".join(relation.name for relation in mlcs.smooth[:6])
-        raise CircuitError(f"pss cannot run through smooth nonlinear elements yet ({names}): its "
-                           "period map is a product of the affine steps of ideal devices",
-                           where=circuit.file, hint="run a transient long enough to settle "
-                           "(circuitnsds run), or ac around the operating point")
     start_time = t0 + periods_warmup * period
     try:  # both grids before any work: a period or warm-up of too many steps is an error
         grid = _period_grid(mlcs, step, t0, period)
@@ -353,7 +355,15 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
             y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
             charge = None
             del run
-        if _exact_map(circuit, mlcs):
+        if mlcs.smooth:  # no affine step maps: finite-difference shooting on the Newton stepper
+            from circuitnsds.analyses.pss_smooth import SmoothShooter
+
+            if charge is not None:  # (initial conditions y cannot express: one period from them)
+                run = _plain_transient(mlcs, grid, StartState(y, charge, None, active, switches))
+                y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
+            result = SmoothShooter(circuit, mlcs, grid, period, tol).solve(y, active, switches,
+                                                                             max_iterations)
+        elif _exact_map(circuit, mlcs):
             from circuitnsds.analyses.pss_exact import exact_pss
 
             if charge is not None:  # (initial conditions y cannot express: one step of θ first)
@@ -384,9 +394,10 @@ def _exact_map(circuit: Circuit, mlcs: MLCS) -> bool:
 
 def _plain_transient(mlcs: MLCS, grid: np.ndarray, start: StartState) -> Trajectory:
     """A plain transient over ``grid`` from ``start``: the θ stepper at θ = 1 (implicit Euler,
-    whose period maps the shooting uses), driven in one part, every point kept."""
+    whose period maps the shooting uses), or the Newton stepper at θ = 1 through smooth
+    nonlinear elements, driven in one part, every point kept."""
     recorder = TrajectoryRecorder()
-    drive(ThetaStepper(mlcs), grid, start, recorder)
+    drive(NewtonStepper(mlcs, lte=False) if mlcs.smooth else ThetaStepper(mlcs), grid, start, recorder)
     return recorder.trajectory
 
 
