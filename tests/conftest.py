@@ -1,8 +1,19 @@
-"""Shared helpers for the engine tests."""
+"""Shared helpers for the engine tests.
 
+Hypothesis runs reproducibly by default (``derandomize``: the same examples on every machine
+and every run, so a failure in CI is one anyone can rerun); ``HYPOTHESIS_PROFILE=explore`` draws
+new examples each run, to look for new failures (what a change to a solver or parser should be
+run with before it lands)."""
+
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+settings.register_profile("reproducible", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "reproducible"))
 
 import circuitnsds
 from circuitnsds import native

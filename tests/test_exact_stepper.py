@@ -253,7 +253,10 @@ def test_theta_converges_at_first_order_to_the_exact_flyback():
     assert np.all((coarse / fine > 1.8) & (coarse / fine < 2.3)), coarse / fine
 
 
-_charge_term = st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.integers(0, 2),
+# (a coefficient near the subnormal range integrates to a subnormal charge, which holds no
+# relative precision to compare: 7.3e-305 over a microsecond failed once)
+_charge_coefficient = st.floats(-3, 3).filter(lambda c: c == 0.0 or abs(c) > 1e-100)
+_charge_term = st.tuples(_charge_coefficient, _charge_coefficient, st.integers(0, 2),
                          st.sampled_from([0.0, -1e-9, -20.0, -3e3, -1e6]), st.sampled_from([0.0, 0.0, 5e3]))
 
 
