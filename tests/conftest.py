@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+import circuitnsds
+from circuitnsds import native
+
 settings.register_profile("reproducible", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "reproducible"))
-
-import circuitnsds
-from circuitnsds import native
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 
