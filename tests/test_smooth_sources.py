@@ -396,3 +396,16 @@ def test_a_run_kept_in_parts_counts_its_steps_once(monkeypatch):
     assert np.array_equal(kept["v(x)"], whole["v(x)"])
     for key in ("steps", "newton_iterations", "events"):
         assert kept.stats[key] == whole.stats[key], key
+
+
+def test_the_command_line_summary_names_the_newton_stepper(tmp_path, capsys):
+    # it said "11512 θ-method steps" for the NPN netlist the Newton stepper had run
+    from circuitnsds.cli.main import main
+
+    netlist = tmp_path / "square.cir"
+    netlist.write_text(f"square law\n{SQUARE_LAW}\n.end\n")
+    assert main(["run", str(netlist), "-o", str(tmp_path / "out.csv")]) == 0
+    summary = capsys.readouterr().err
+    assert re.search(r"circuitnsds: \d+ Newton-stepper steps in .*Newton: [\d.]+ iterations per step",
+                     summary), summary
+    assert "θ-method" not in summary.split("\n")[0]

@@ -433,7 +433,8 @@ def _run(args: argparse.Namespace) -> int:
     thermal = None
     if args.thermal_devices:
         waves, thermal = _junctions(args, circuit, waves, steady=False)
-    done = (f"{stats['steps']} θ-method steps" if "exact_segments" not in stats else
+    kind = "Newton-stepper" if stats.get("newton_iterations") else "θ-method"
+    done = (f"{stats['steps']} {kind} steps" if "exact_segments" not in stats else
             f"{stats['steps']} rows from {int(stats['exact_segments'])} exact segments "
             f"({int(stats['events'])} events located)"
             + (f" and {int(stats['theta_steps'])} θ steps" if stats.get("theta_steps") else ""))
