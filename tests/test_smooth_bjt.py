@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import circuitnsds
@@ -45,6 +45,9 @@ def central_difference(function, x, step=1e-7):
 
 
 @settings(max_examples=150, deadline=None)
+# a base current of 1.7e-9·IRB: the base resistance's shape lost 7 digits to tan z − z there,
+# and its jitter showed as 6e-6 S in the finite difference (drawn by Hypothesis 6.170)
+@example("npn, irb", 0.3125, -1.0, 0.0, [0.0, 0.03125, 0.0], 0.0)
 @given(st.sampled_from(sorted(MODELS)), st.floats(-6, 0.95), st.floats(-6, 0.95),
        st.floats(-2, 2), st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3),
        st.floats(-3, 3))

@@ -203,6 +203,32 @@ _CRIT = 14.59025
 _SCALE = 2.4317
 
 
+SHAPE_SERIES_BELOW = 0.1
+"""``z`` below which :func:`_base_shape` sums its Taylor series (its closed form subtracts
+nearly equal numbers there: ``tan z − z`` of a small base current lost 7 digits, which made
+the base resistance jitter by 1e-5 Ω, enough to show as 6e-6 S in a finite difference)."""
+_SHAPE_SERIES = (1 / 3, -4 / 45, -4 / 315, -8 / 4725, -4 / 18711, -5528 / 212837625)
+"""Coefficients of ``z^0, z^2, ..., z^10`` of ``(tan z − z)/(z·tan² z)``."""
+
+
+def _base_shape(z: float) -> tuple[float, float]:
+    """``(s, ds/dz)`` of ``s(z) = (tan z − z)/(z·tan² z)``, SPICE2's base-resistance shape
+    (``1/3`` at ``z = 0``)."""
+    if z < SHAPE_SERIES_BELOW:
+        square = z * z
+        value = slope = 0.0
+        for k in range(len(_SHAPE_SERIES) - 1, -1, -1):
+            value = value * square + _SHAPE_SERIES[k]
+            if k:
+                slope = slope * square + 2 * k * _SHAPE_SERIES[k]
+        return value, slope * z
+    t = math.tan(z)
+    numerator, denominator = t * t, z * t * t
+    slope_denominator = t * t + 2.0 * z * t * (1.0 + t * t)
+    return ((t - z) / denominator,
+            (numerator * denominator - (t - z) * slope_denominator) / denominator ** 2)
+
+
 def base_resistance(model: BjtModel, dc: GummelPoonDC) -> tuple[float, float, float]:
     """``(rbb [Ω], drbb/dvbe, drbb/dvbc [Ω/V])``: ngspice's base resistance, ``RBM + (RB −
     RBM)/qb``, or with ``IRB`` the SPICE2 form ``RBM + 3·(RB − RBM)·(tan z − z)/(z·tan² z)``,
@@ -216,14 +242,11 @@ def base_resistance(model: BjtModel, dc: GummelPoonDC) -> tuple[float, float, fl
     clamped = ratio <= 1e-9
     a = max(ratio, 1e-9)
     root = math.sqrt(1.0 + _CRIT * a)
-    z = (root - 1.0) / (_SCALE * math.sqrt(a))
-    t = math.tan(z)
-    shape = (t - z) / (z * t * t)
-    numerator, denominator = t * t, z * t * t
-    slope_denominator = t * t + 2.0 * z * t * (1.0 + t * t)
-    shape_z = (numerator * denominator - (t - z) * slope_denominator) / denominator ** 2
-    z_a = 0.0 if clamped else (_CRIT * math.sqrt(a) / (2.0 * root)
-                               - (root - 1.0) / (2.0 * math.sqrt(a))) / (_SCALE * a)
+    # z = (root − 1)/(SCALE·√a), written without the difference of nearly equal numbers
+    z = _CRIT * math.sqrt(a) / (_SCALE * (root + 1.0))
+    shape, shape_z = _base_shape(z)
+    z_a = 0.0 if clamped else (_CRIT / _SCALE) * ((root + 1.0) / (2.0 * math.sqrt(a))
+                                                  - math.sqrt(a) * _CRIT / (2.0 * root)) / (root + 1.0) ** 2
     scale = 3.0 * extra * shape_z * z_a / model.irb
     return minimum + 3.0 * extra * shape, scale * dc.base_vbe, scale * dc.base_vbc
 
