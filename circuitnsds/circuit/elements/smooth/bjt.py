@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -43,7 +44,11 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
+from circuitnsds.circuit.elements.smooth.terminals import (
+    TerminalMap,
+    difference_gradient,
+    scattered_evaluator,
+)
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -349,12 +354,8 @@ class Bjt(Element):
             charges=model.has_charges))
 
 
-def _difference(plus: int, minus: int, sign: float) -> np.ndarray:
-    """The gradient of ``sign·(v[plus] − v[minus])`` over the seven terminals."""
-    gradient = np.zeros(7)
-    gradient[plus] += sign
-    gradient[minus] -= sign
-    return gradient
+_difference = partial(difference_gradient, 7)
+"""The gradient of ``sign·(v[plus] − v[minus])`` over the 7 terminals."""
 
 
 def bjt_terminal_values(bjt: Bjt, v: np.ndarray) -> tuple[np.ndarray, np.ndarray,

@@ -21,6 +21,7 @@ the nominal temperature 27 °C:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -35,7 +36,11 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
+from circuitnsds.circuit.elements.smooth.terminals import (
+    TerminalMap,
+    difference_gradient,
+    scattered_evaluator,
+)
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -160,11 +165,8 @@ class Jfet(Element):
             charges=bool(self.model.cgs or self.model.cgd)))
 
 
-def _difference(plus: int, minus: int, sign: float) -> np.ndarray:
-    gradient = np.zeros(5)
-    gradient[plus] += sign
-    gradient[minus] -= sign
-    return gradient
+_difference = partial(difference_gradient, 5)
+"""The gradient of ``sign·(v[plus] − v[minus])`` over the 5 terminals."""
 
 
 def jfet_terminal_values(jfet: Jfet, v: np.ndarray) -> tuple[np.ndarray, np.ndarray,

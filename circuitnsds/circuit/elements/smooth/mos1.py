@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -39,7 +40,11 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
+from circuitnsds.circuit.elements.smooth.terminals import (
+    TerminalMap,
+    difference_gradient,
+    scattered_evaluator,
+)
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -185,11 +190,8 @@ class Mos1(Element):
             charges=self.model.has_charges))
 
 
-def _difference(plus: int, minus: int, sign: float) -> np.ndarray:
-    gradient = np.zeros(6)
-    gradient[plus] += sign
-    gradient[minus] -= sign
-    return gradient
+_difference = partial(difference_gradient, 6)
+"""The gradient of ``sign·(v[plus] − v[minus])`` over the 6 terminals."""
 
 
 def mos1_terminal_values(mosfet: Mos1, v: np.ndarray) -> tuple[np.ndarray, np.ndarray,

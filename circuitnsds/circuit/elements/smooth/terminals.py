@@ -56,3 +56,12 @@ def scattered_evaluator(terminal_values: Callable, device, terminals: TerminalMa
                 scatter.T @ q_jacobian @ scatter)
 
     return evaluate
+
+
+def difference_gradient(size: int, plus: int, minus: int, sign: float) -> np.ndarray:
+    """The gradient of ``sign·(v[plus] − v[minus])`` over a device's ``size`` terminal
+    voltages (a junction's or a branch's voltage, as the equations read it)."""
+    gradient = np.zeros(size)
+    gradient[plus] += sign
+    gradient[minus] -= sign
+    return gradient

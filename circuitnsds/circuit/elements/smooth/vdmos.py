@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -40,7 +41,11 @@ from circuitnsds.circuit.elements.smooth.junctions import (
     pnjlim,
     thermal_voltage,
 )
-from circuitnsds.circuit.elements.smooth.terminals import TerminalMap, scattered_evaluator
+from circuitnsds.circuit.elements.smooth.terminals import (
+    TerminalMap,
+    difference_gradient,
+    scattered_evaluator,
+)
 from circuitnsds.errors import SourceLocation
 from circuitnsds.system.mlcs import MLCSBuilder
 from circuitnsds.system.smooth import SmoothRelation
@@ -202,11 +207,8 @@ class Vdmos(Element):
             charges=model.has_charges))
 
 
-def _difference(plus: int, minus: int, sign: float) -> np.ndarray:
-    gradient = np.zeros(7)
-    gradient[plus] += sign
-    gradient[minus] -= sign
-    return gradient
+_difference = partial(difference_gradient, 7)
+"""The gradient of ``sign·(v[plus] − v[minus])`` over the 7 terminals."""
 
 
 def vdmos_terminal_values(mosfet: Vdmos, v: np.ndarray) -> tuple[np.ndarray, np.ndarray,
