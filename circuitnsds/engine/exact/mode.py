@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly, response
+from circuitnsds.solvers.pencil import pencil_eigen
 
 
 class NotIndexOne(Exception):
@@ -61,11 +62,9 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     25.6 mΩ instead of its switch's 20 mΩ. The pencil keeps 1e-12 where ``F`` has 1e12, so
     its slow eigenvalues are accurate; its ``r`` finite ones are the eigenvalues of ``F``
     (an index-1 mode), the others infinite (``β = 0``)."""
-    from scipy.linalg import eig
-
     E_bar = np.zeros_like(A_bar)
     E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
-    (alpha, beta), vectors = eig(A_bar, E_bar, homogeneous_eigvals=True)
+    alpha, beta, vectors = pencil_eigen(A_bar, E_bar)
     r = coordinates.rank
     finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
     W = coordinates.V1.T @ vectors[:n, finite]
