@@ -6,7 +6,8 @@ bundled netlists would run them).
 
 Ours is ``python -m circuitnsds run NETLIST --stop S -o out.csv`` on the netlist with
 ``.options method=exact`` added and ``--signals`` one output (start-up with the package's
-bytecode compiled, as after an install; parsing, operating point, the exact run on the ``.tran`` grid and the signal written to the CSV at every row).
+bytecode compiled, as after an install; parsing, the operating point, the exact run on the
+``.tran`` grid and the signal written to the CSV at every row).
 ngspice's is ``ngspice -b -r out.raw`` on the netlist as ``circuitnsds compare`` translates it
 (the idealised-diode parameters dropped: its Shockley diode), with ``.tran`` stretched to ``S``
 (start-up, parsing and writing every vector at its own time points). The table: wall and CPU
