@@ -84,3 +84,27 @@ def test_pss_with_method_exact_is_the_exact_orbit_and_ac_around_it_is_refused():
     # auto keeps the θ shooting (whose step maps ac needs)
     auto = circuitnsds.read_netlist(text.replace("method=exact", "method=auto")).pss()
     assert auto.means is None and auto.maps is not None
+
+
+def test_a_ramp_comparators_saltation_counts_the_ramps_own_slope():
+    # Voltage-mode loop (tests/test_ac_pwm.py's closed-loop buck): S1 opens where the control
+    # 0.2·(3 V − v(out)) meets a 0..1 V ramp. The event function moves with the state and with
+    # time by itself (the ramp), so the saltation's rate is ∇g·f⁻ + ∂g/∂t; with ∇g·f⁻ alone
+    # the monodromy was wrong and Newton stalled at a residual of 1.25 after 30 steps.
+    from tests.test_ac_pwm import buck, read
+
+    circuit = read(buck(loop=True))
+    mlcs = circuit.mlcs()
+    start = uic_state(circuit, mlcs)
+    orbit = periodic_orbit(mlcs, 0.0, 10e-6, start.y, np.zeros(mlcs.m, bool), tuple(start.switches),
+                           warm_periods=5)
+    assert orbit.residuals[-1] < 1e-12 and len(orbit.residuals) <= 6
+    system = ExactSystem(mlcs)
+    base = period_map(system, 0.0, 10e-6, orbit.x, orbit.active, orbit.closed)[0]
+    differences = np.zeros_like(orbit.monodromy)
+    for j in range(orbit.x.size):
+        step = np.zeros(orbit.x.size)
+        step[j] = 1e-6 * max(1.0, abs(orbit.x[j]))
+        moved = period_map(system, 0.0, 10e-6, orbit.x + step, orbit.active, orbit.closed)[0]
+        differences[:, j] = (moved - base) / step[j]
+    assert np.max(np.abs(differences - orbit.monodromy)) < 1e-6 * np.max(np.abs(orbit.monodromy))
