@@ -447,7 +447,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     widened = np.zeros(tables.columns)
     sources_now = np.zeros(sources.coefficients.shape[1:], complex)
     v1t = np.ascontiguousarray(system.coordinates.V1.T)
-    capacity = 1024
+    # events and tails of a part (doubled when full; np.zeros leaves untouched pages unallocated)
+    capacity = max(4096, len(times) // 16)
     event_times = np.zeros(capacity)
     event_index, event_on = np.zeros(capacity, np.int64), np.zeros(capacity, bool)
     tail_row, tail_dt, tail_y = np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros((capacity, n))
