@@ -345,3 +345,74 @@ def test_a_zener_regulator_on_a_ramp_from_zero_breaks_down_at_its_closed_form_in
     np.testing.assert_allclose(waves["v(out)"], np.minimum(2000 * t / 1.1, 5.1), rtol=1e-9, atol=1e-12)
     assert [(e.element, e.state) for e in waves.events] == [("dz1.reverse", True)]
     assert waves.events[0].time == pytest.approx(2.805e-3, rel=1e-12)
+
+
+# ---------------------------------------------------------------- what auto may give the exact loop
+
+
+@pytest.mark.parametrize(("body", "words"), [
+    ("V1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1", r"its source\(s\) v1 \(AM\) have no closed form"),
+    ("V1 a 0 SFFM(0 1 1k 2 100)\nR1 a 0 1", r"its source\(s\) v1 \(SFFM\) have no closed form"),
+    # a resistor stepping in time: switches that follow a PWL alone (the exact loop's event
+    # functions saw no control: i(r1) was 0 after t = 0 instead of 1 A, then 0.5 A)
+    ("V1 a 0 1\nR1 a 0 {time < 1m ? 1 : 2}", r"its switch\(es\) r1#1, r1#2 follow a source's time "
+                                               r"function without a circuit quantity"),
+])
+def test_auto_takes_theta_where_the_exact_loop_has_no_closed_form(body, words):
+    circuit = circuitnsds.read_netlist(f"refused\n{body}\n.tran 10u 3m\n.end\n")
+    chosen, why = choose_stepper("auto", circuit.mlcs())
+    assert chosen.name == "theta" and re.search(words, why)
+    with pytest.raises(circuitnsds.CircuitError, match=r"'exact' cannot run this circuit: " + words):
+        circuit.transient(method="exact")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RunNote)
+        waves = circuit.transient(method="auto")
+    if "time <" in body:  # the θ-method's answer: 1 A before the corner, 0.5 A after it
+        t = waves.time
+        np.testing.assert_allclose(waves["i(r1)"][t <= 1e-3], 1.0, rtol=1e-9)
+        np.testing.assert_allclose(waves["i(r1)"][t > 1e-3 + 1e-9], 0.5, rtol=1e-9)
+
+
+UNSTABLE = ("unstable\nI1 0 a pulse(0 1m 0 1u 1u 1m 1)\nC1 a 0 1u\nR1 a 0 2k\nG1 a 0 a 0 -1m\n"
+            ".tran 1m 3\n.end\n")
+
+
+@pytest.mark.parametrize("signals", [None, ["v(a)"]])
+def test_an_exact_state_that_overflows_stops_the_run_with_the_rows_before_it(signals):
+    # v' = 500 v + i/C: after the first pulse (1 mA, 1 µs edges, 1 ms wide) v = K e^{500 t} with
+    # K = ∫ 1000·p(s) e^{-500 s} ds (the pulse at 1 s adds e^-500 of that), beyond the largest
+    # double at 1.4199 s; the first grid point after it is 1.421 s. Before, the exact loop wrote
+    # NaN from there on, and the run ended as if nothing had happened.
+    def shape(s: float) -> float:
+        return min(s / 1e-6, 1.0) if s < 1.001e-3 else max(1.0 - (s - 1.001e-3) / 1e-6, 0.0)
+
+    weight = quad(lambda s: 1e3 * shape(s) * math.exp(-500 * s), 0, 1.002e-3, points=[1e-6, 1.001e-3],
+                  epsabs=0, epsrel=1e-12)[0]
+    with pytest.raises(circuitnsds.SimulationError, match=r"the state is not finite at t = ") as caught:
+        circuitnsds.read_netlist(UNSTABLE).transient(method="exact", signals=signals)
+    error = caught.value
+    overflow = (math.log(1.7976931348623157e308) - math.log(weight)) / 500
+    assert overflow < error.time <= overflow + 1e-3
+    assert error.cause == circuitnsds.SimulationError.STATE_NOT_FINITE
+    assert "the circuit is unstable" in error.hint
+    partial = error.partial
+    assert partial.time[-1] < error.time and np.isfinite(partial["v(a)"]).all()
+    t = partial.time[partial.time > 2e-3]
+    np.testing.assert_allclose(partial["v(a)"][partial.time > 2e-3],
+                               np.exp(500 * t + math.log(weight)), rtol=1e-6)
+
+
+def test_a_step_without_solution_in_a_theta_stretch_keeps_the_rows_before_it():
+    # a negative resistance across an ideal diode: the exact loop hands the stretch to θ, whose
+    # step at 10.1 ms has no solution; the rows of the part before the stretch are kept (before:
+    # the error held only the stretch's one row)
+    netlist = ("negative resistance drives an ideal diode\nI1 0 a sin(0 1m 50)\nD1 a 0 d\nR1 a 0 2k\n"
+               "G1 a 0 a 0 -1m\n.model d D\n.tran 100u 40m\n.end\n")
+    with pytest.raises(circuitnsds.SimulationError, match=r"has no solution with ideal devices") as caught:
+        circuitnsds.read_netlist(netlist).transient(method="exact")
+    error = caught.value
+    assert error.time == pytest.approx(10.1e-3)
+    partial = error.partial
+    assert partial.time.size == 101 and partial.time[-1] == pytest.approx(10e-3)
+    # v(a) = -2k · i: the diode blocks while the source current is positive (Roff's 1e-12 S aside)
+    np.testing.assert_allclose(partial["v(a)"], -2.0 * np.sin(2 * np.pi * 50 * partial.time), atol=1e-8)
