@@ -210,16 +210,27 @@ def test_exact_refuses_smooth_relations_naming_them():
                                              "piecewise linear")
 
 
-def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys):
+@pytest.mark.parametrize("default", ["theta", "auto"])
+def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys, monkeypatch, default):
+    from circuitnsds.engine import stepper
     from tests.test_info import run_info
 
+    monkeypatch.setattr(stepper, "DEFAULT_STEPPER", default)  # (either default, the words of each)
     auto = (NETLISTS / "buck_converter.cir").read_text().replace(".end", ".options method=auto\n.end")
     _, out, _ = run_info(tmp_path, capsys, auto)
     assert ("method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
             "(method=auto: the circuit is piecewise linear and its sources have closed forms)") in out
     _, out, _ = run_info(tmp_path, capsys, path=NETLISTS / "buck_converter.cir")
     assert ("method:    the θ-method (the default; .options method=auto would integrate this circuit "
-            "exactly, its switching instants located, slower to start)\n") in out
+            "exactly, its switching instants located, slower to start)\n" if default == "theta" else
+            "method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
+            "(the default, method=auto: the circuit is piecewise linear and its sources have closed "
+            "forms)\n") in out
+    if default == "auto":  # θ where the exact integrator cannot run the circuit, and why
+        am = "am\nV1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n"
+        _, out, _ = run_info(tmp_path, capsys, am)
+        assert ("method:    the θ-method (the default, method=auto: the exact integrator cannot run "
+                "it: its source(s) v1 (AM) have no closed form it integrates") in out
     _, out, _ = run_info(tmp_path, capsys, _ladder(210).replace(".end", ".options method=auto\n.end"))
     assert re.search(r"method:    the θ-method \(method=auto: the exact integrator cannot run it: it has "
                      r"2\d\d unknowns and 0 pairs, more than the 200", out)
@@ -281,10 +292,43 @@ def test_the_interval_charges_are_the_integral_and_add_up(terms, a, width, split
 
 def test_the_run_summary_says_the_theta_method_ran(tmp_path, capsys):
     from circuitnsds.cli.main import main
+    from tests.conftest import pinned_copy
 
+    netlist = str(pinned_copy(NETLISTS / "buck_converter.cir", tmp_path))  # (θ named)
+    assert main(["run", netlist, "--stop", "2u", "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: \d+ θ-method steps in ", err) and "method=" not in err
+
+
+def test_the_run_summary_says_which_method_the_default_auto_took_and_why(tmp_path, capsys,
+                                                                        monkeypatch):
+    """With auto the default, the summary line says which stepper ran and why; no note (every
+    run of the default would carry one), unless the exact loop handed a stretch to θ."""
+    from circuitnsds.analyses import transient
+    from circuitnsds.cli.main import main
+    from circuitnsds.engine import stepper
+
+    for module in (stepper, transient):
+        monkeypatch.setattr(module, "DEFAULT_STEPPER", "auto")
     netlist = str(NETLISTS / "buck_converter.cir")
     assert main(["run", netlist, "--stop", "2u", "-o", str(tmp_path / "out.csv")]) == 0
-    assert re.search(r"circuitnsds: \d+ θ-method steps in ", capsys.readouterr().err)
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: \d+ rows from \d+ exact segments \(\d+ events located\) in .*; "
+                     r"method=auto \(the default\): the circuit is piecewise linear and its sources "
+                     r"have closed forms; .tran TSTEP sets the rows reported, not the accuracy", err)
+    assert "note:" not in err
+    am = tmp_path / "am.cir"
+    am.write_text("am\nV1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    assert main(["run", str(am), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: 1000 θ-method steps in .*; method=auto \(the default\): the "
+                     r"exact integrator cannot run it: its source\(s\) v1 \(AM\) have no closed form", err)
+    assert "note:" not in err
+    peak = tmp_path / "peak.cir"  # a hand-off to θ is still noted
+    peak.write_text(PEAK)
+    assert main(["run", str(peak), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "stretch(es) of the exact integration handed to the θ-method, the first at t = 0 s" in err
 
 
 def test_the_run_summary_counts_rows_segments_and_events(tmp_path, capsys):
