@@ -121,7 +121,7 @@ def test_theta_converges_at_first_order_to_the_exact_stepper():
     exact = _exact(NETLISTS / "buck_converter.cir", step=0.1e-6, stop=0.3e-3)
     differences = []
     for step in (1e-7, 1e-8):
-        theta = circuit.transient(step=step, stop=0.3e-3)
+        theta = circuit.transient(step=step, stop=0.3e-3, method="theta")  # (θ, whatever the default)
         differences.append([np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                             for name in ("v(out)", "i(l1)")])
     coarse, fine = np.array(differences)
@@ -170,7 +170,7 @@ def test_a_capacitor_held_to_a_source_by_a_diode_goes_to_theta_and_back():
         waves = circuitnsds.read_netlist(PEAK).transient(method="exact")
     assert waves.stats["handoffs"] >= 2 and 0 < waves.stats["theta_steps"] < waves.time.size / 2
     t, vc = waves.time, np.asarray(waves["v(c)"])
-    theta = circuitnsds.read_netlist(PEAK).transient()
+    theta = circuitnsds.read_netlist(PEAK).transient(method="theta")
     conducting = np.asarray(theta.impulse("d1")) > 0
     # while it conducts, v(c) is the source's value at the point (θ's algebraic rows)
     assert np.max(np.abs(vc[conducting] - 5 * np.sin(2e3 * math.pi * t[conducting]))) < 1e-9
@@ -257,7 +257,7 @@ def test_theta_converges_at_first_order_to_the_exact_flyback():
     circuit = circuitnsds.read_netlist(FLYBACK)
     differences = []
     for step in (2e-9, 1e-9):
-        theta = circuit.transient(step=step, stop=30e-6)
+        theta = circuit.transient(step=step, stop=30e-6, method="theta")  # (θ, whatever the default)
         differences.append([np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                             for name in ("v(clamp)", "v(out)", "i(lp)", "i(ls)")])
     coarse, fine = np.array(differences)
@@ -369,7 +369,7 @@ def test_the_three_phase_inverter_runs_exactly_and_theta_converges_to_it():
     for step in (1e-7, 1e-8):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunNote)
-            theta = circuit.transient(step=step, stop=0.4e-3)
+            theta = circuit.transient(step=step, stop=0.4e-3, method="theta")  # (θ, whatever the default)
         differences.append(max(np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                                / np.max(np.abs(exact[name])) for name in ("i(lab)", "i(lbc)")))
     coarse, fine = differences
