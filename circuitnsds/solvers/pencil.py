@@ -19,7 +19,7 @@ from types import ModuleType
 
 import numpy as np
 
-__all__ = ["pencil_eigen"]
+__all__ = ["balancing", "pencil_eigen"]
 
 _FLAPACK: list[ModuleType | None] = []
 
@@ -45,17 +45,54 @@ def _flapack() -> ModuleType | None:
     return _FLAPACK[0]
 
 
-def pencil_eigen(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pencil_eigen(A: np.ndarray, B: np.ndarray, *, balance: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(alpha, beta, vectors)``: the generalized eigenvalues ``alpha / beta`` of
     ``A v = λ B v`` (``beta = 0``: an infinite eigenvalue) and the right eigenvectors as
-    complex columns (not normalised), for real square ``A`` and ``B``.
+    complex columns (not normalised), for real square ``A`` and ``B``, computed on the
+    balanced pencil (:func:`balancing`) unless ``balance`` is false.
 
     Raises:
         np.linalg.LinAlgError: the QZ iteration failed.
     """
     lapack = _flapack()
-    A = np.asarray(A, dtype=float)
-    B = np.asarray(B, dtype=float)
+    if not balance:
+        return _eigen(lapack, np.asarray(A, dtype=float), np.asarray(B, dtype=float))
+    rows, columns = balancing(A, B)
+    A = np.asarray(A, dtype=float) * rows[:, None] * columns[None, :]
+    B = np.asarray(B, dtype=float) * rows[:, None] * columns[None, :]
+    alpha, beta, vectors = _eigen(lapack, A, B)
+    return alpha, beta, vectors * columns[:, None]
+
+
+def balancing(A: np.ndarray, B: np.ndarray, sweeps: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Powers of two ``(r, c)`` that scale the rows and columns of ``|A| + |B|`` towards a
+    largest entry of 1 each (alternating sweeps): ``(diag(r) A diag(c), diag(r) B diag(c))``
+    has the eigenvalues of ``(A, B)`` and the right eigenvectors ``diag(c)⁻¹ v``, and being
+    powers of two the scaling itself rounds nothing.
+
+    Why: a circuit's pencil mixes 1 H with a blocked diode's 1e-12 S. The transformer-fed
+    bridge with all four diodes blocking has the eigenvalues −0.1, −10 and −1.8e17 /s; QZ on
+    the pencil as it is gave +32 /s for the first (its error ε times the largest entries), a
+    magnetising current growing instead of decaying, and the exact integrator missed every
+    diode turn-on after 63 ms. Balanced, QZ gives −0.1 and −10 to round-off (LAPACK's
+    ``dggbal`` does the same for ``dggevx``, which scipy does not wrap)."""
+    size = np.abs(np.asarray(A, dtype=float)) + np.abs(np.asarray(B, dtype=float))
+    r = np.ones(size.shape[0])
+    c = np.ones(size.shape[1])
+    for _ in range(sweeps):
+        largest = (size * r[:, None] * c[None, :]).max(axis=1)
+        largest[largest == 0] = 1.0
+        r = r / np.exp2(np.round(np.log2(largest)))
+        largest = (size * r[:, None] * c[None, :]).max(axis=0)
+        largest[largest == 0] = 1.0
+        c = c / np.exp2(np.round(np.log2(largest)))
+    return r, c
+
+
+def _eigen(lapack: ModuleType | None, A: np.ndarray, B: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``pencil_eigen`` of an already balanced pencil."""
     if lapack is None:
         from scipy.linalg import eig
 

@@ -61,15 +61,38 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     of ``F`` are then known to ``eps·‖F‖`` ≈ 200 /s: a flyback's primary ramped through
     25.6 mΩ instead of its switch's 20 mΩ. The pencil keeps 1e-12 where ``F`` has 1e12, so
     its slow eigenvalues are accurate; its ``r`` finite ones are the eigenvalues of ``F``
-    (an index-1 mode), the others infinite (``β = 0``)."""
+    (an index-1 mode), the others infinite (``β = 0``).
+
+    Where the pencil has fewer than ``r`` finite eigenvalues (a mode faster than ``1/ε`` times
+    the slow ones: the transformer-fed bridge with every diode blocking, whose leakage through
+    the blocked diodes is −1.8e17 /s) it is solved again balanced
+    (:func:`~circuitnsds.solvers.pencil.balancing`), which gets the slow ones right (−0.1 and
+    −10 /s; unbalanced −0.0996, and ``F``'s own, taken before, +32 /s for the magnetising
+    mode: a current growing instead of decaying), and :class:`ModeDynamics` takes the
+    missing fast ones from ``F``, whose largest eigenvalues are accurate relative to their size
+    (its slow ones are not). Balancing every mode moved well-conditioned ones by ulps, enough
+    to change a degenerate start's choice of mode (the voltage-mode buck at 0 V everywhere)."""
     E_bar = np.zeros_like(A_bar)
     E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
-    alpha, beta, vectors = pencil_eigen(A_bar, E_bar)
     r = coordinates.rank
-    finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
-    W = coordinates.V1.T @ vectors[:n, finite]
-    with np.errstate(divide="ignore", invalid="ignore"):  # (not finite: the caller takes F's)
-        return alpha[finite] / beta[finite], W / np.linalg.norm(W, axis=0)
+    eigenvalues, vectors = _finite_eigen(*pencil_eigen(A_bar, E_bar, balance=False), r)
+    if eigenvalues.size < r:
+        eigenvalues, vectors = _finite_eigen(*pencil_eigen(A_bar, E_bar), r)
+    W = coordinates.V1.T @ vectors[:n]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return eigenvalues, W / np.linalg.norm(W, axis=0)
+
+
+def _finite_eigen(alpha: np.ndarray, beta: np.ndarray, vectors: np.ndarray, r: int
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The (at most ``r``) finite eigenvalues ``α/β`` of a pencil, the nearest to finite
+    first, and their vectors."""
+    ratio = np.abs(beta) / np.maximum(np.abs(alpha), 1e-300)
+    order = np.argsort(-ratio, kind="stable")[:r]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = alpha[order] / beta[order]
+    finite = np.isfinite(values) & (np.abs(beta[order]) > 0)
+    return values[finite], vectors[:, order[finite]]
 
 
 def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -122,10 +145,15 @@ class ModeDynamics:
         self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
         if r:
             eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
-            if not (np.all(np.isfinite(eigenvalues)) and np.all(np.isfinite(W))):
-                # the pencil has fewer than r finite eigenvalues to working precision (a
-                # fast mode's β at round-off, its vector's differential part 0): F's own
-                eigenvalues, W = np.linalg.eig(self.F)
+            keep = np.isfinite(eigenvalues) & np.all(np.isfinite(W), axis=0)
+            eigenvalues, W = eigenvalues[keep], W[:, keep]
+            if eigenvalues.size < r:
+                # the pencil has fewer than r finite eigenvalues to working precision (a fast
+                # mode's β at round-off): the fastest of F's complete them
+                fast, fast_vectors = np.linalg.eig(self.F)
+                missing = np.argsort(-np.abs(fast), kind="stable")[:r - eigenvalues.size]
+                eigenvalues = np.concatenate([eigenvalues.astype(complex), fast[missing]])
+                W = np.hstack([W.astype(complex), fast_vectors[:, missing]])
             if np.linalg.cond(W) > 1e10:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
             self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)
