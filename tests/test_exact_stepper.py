@@ -247,7 +247,9 @@ def test_the_flyback_clamp_at_its_netlists_step_is_the_converged_value():
     waves = _exact(FLYBACK, stop=0.3e-3, signals=["v(clamp)", "v(in)"])
     clamp = float(waves["v(clamp)"][-1] - waves["v(in)"][-1])
     assert abs(clamp - 33.26877) < 1e-4 * 33.26877
-    assert waves.stats["handoffs"] == 0
+    # the exact integrator ran it all but the first 16 grid steps: at t = 0 every diode is at
+    # 0 V and 0 A, and the leakages (1e-12 A) decide no mode, so θ starts it
+    assert waves.stats["handoffs"] <= 1 and waves.stats["theta_steps"] <= 16
 
 
 def test_theta_converges_at_first_order_to_the_exact_flyback():
@@ -460,3 +462,23 @@ def test_a_step_without_solution_in_a_theta_stretch_keeps_the_rows_before_it():
     assert partial.time.size == 101 and partial.time[-1] == pytest.approx(10e-3)
     # v(a) = -2k · i: the diode blocks while the source current is positive (Roff's 1e-12 S aside)
     np.testing.assert_allclose(partial["v(a)"], -2.0 * np.sin(2 * np.pi * 50 * partial.time), atol=1e-8)
+
+
+def test_the_transformer_bridge_sees_every_turn_on():
+    # netlists/transformer_rectifier.cir: with every diode blocking, the secondary's leakage
+    # through them is a −1.8e17 /s mode. Its amplification of the state's round-off had made
+    # the blocked diodes' tolerance grow to 1.4 V (and F's eigenvalue +32 /s for the primary's
+    # −0.1 /s): forward biases of 0.6 to 2 V went unseen, and the exact run's mean output was
+    # 12.7 V (θ: 16.3 V). Against θ at the netlist's 20 µs (itself ~0.03 V off its converged
+    # mean): every half-cycle conducts, the mean and the ripple agree
+    circuit = circuitnsds.read_netlist(NETLISTS / "transformer_rectifier.cir")
+    exact = _exact(NETLISTS / "transformer_rectifier.cir")
+    theta = circuit.transient(method="theta")
+    last = exact.time > 0.08
+    v_exact, v_theta = np.asarray(exact["v(out)"]), np.asarray(theta["v(out)"])
+    assert abs(v_exact[last].mean() - v_theta[last].mean()) < 0.1
+    assert abs(np.ptp(v_exact[last]) / np.ptp(v_theta[last]) - 1) < 0.05
+    charging = np.asarray(exact["i(d1)"]) + np.asarray(exact["i(d2)"])  # into the output
+    for k in range(1, 10):  # each half-cycle of the mains charges the capacitor
+        inside = (exact.time > k * 0.01) & (exact.time < (k + 1) * 0.01)
+        assert charging[inside].max() > 0.5

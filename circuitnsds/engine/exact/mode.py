@@ -26,6 +26,16 @@ import numpy as np
 from circuitnsds.engine.exact.exppoly import ExpPoly, response
 from circuitnsds.solvers.pencil import pencil_eigen
 
+FAST_DECAY = 1e15
+"""[1/s] A mode decaying faster than this (``Re λ < −FAST_DECAY``: e^-1000 after a picosecond)
+is a parasitic one: a blocked diode's 1e-12 S or an open switch's 1e-9 S against an
+inductance (a transformer's leakage behind blocked diodes: −1.8e17 /s). Its homogeneous part
+is left out of a segment's solution (it is gone after a femtosecond: at the segment's start it
+holds only the round-off of the state along it), and so is its amplification of that
+round-off from the event functions' tolerances (:meth:`.run.ExactSystem.event_functions`):
+taking it in, the bridge's blocked diodes had a tolerance of 1.4 V and a forward bias of
+0.6 V went unseen."""
+
 
 class NotIndexOne(Exception):
     """The mode cannot be reduced to state equations (index 2 or a defective ``F``)."""
@@ -169,6 +179,11 @@ class ModeDynamics:
         self.modal_from_sources = self.W_inv @ self.H[:, :n] @ S
         self.modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
         self.z_from_modal = self.P @ self.W
+        # the modes that are gone a femtosecond after any instant (module docstring of
+        # solution_map) and what of P persists after them
+        self.fast = self.eigenvalues.real < -FAST_DECAY if self.eigenvalues.size else np.zeros(0, bool)
+        slow = ~self.fast
+        self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real if r else self.P
         self.z_from_sources = self.Q[:, :n] @ S
         self.z_constant = self.Q[:, n:] @ self.e_active
 

@@ -293,8 +293,9 @@ class ExactSystem:
             else:
                 signs[r], constants[r] = -1.0, switch.on_threshold
         rows *= signs[:, None]
-        cached = (rows, constants, np.abs(rows @ mode.P), np.abs(rows @ mode.Q),
-                  np.abs(rows @ mode.P @ mode.V1t))
+        # (the state's round-off through what of P persists: mode.FAST_DECAY)
+        cached = (rows, constants, np.abs(rows @ mode.P_persistent), np.abs(rows @ mode.Q),
+                  np.abs(rows @ mode.P_persistent @ mode.V1t))
         self._rows[id(mode)] = cached
         return cached
 

@@ -85,7 +85,10 @@ def _affine_pieces(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray
 
     lam = mode.eigenvalues.astype(complex)
     z_modal = mode.z_from_modal
+    fast = mode.fast
     for k in range(lam.size):          # the state: x0 = e_i starts mode k at W⁻¹[k, i]
+        if fast[k]:                    # (gone a femtosecond after the start: mode.FAST_DECAY)
+            continue
         for i in range(r):
             add((0, lam[k]), z_modal[:, k] * mode.W_inv[k, i], i)
     forcings = [(int(powers[t]), complex(exponents[t]), mode.modal_from_sources,
@@ -106,11 +109,13 @@ def _affine_pieces(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray
                     add((p + 1, lam[k]), z_modal[:, k] * (c / (p + 1)), column)
                 elif p == 0:
                     add((0, mu), z_modal[:, k] * (c / delta), column)
-                    add((0, lam[k]), z_modal[:, k] * (-c / delta), column)
+                    if not fast[k]:
+                        add((0, lam[k]), z_modal[:, k] * (-c / delta), column)
                 else:
                     add((1, mu), z_modal[:, k] * (c / delta), column)
                     add((0, mu), z_modal[:, k] * (-c / delta**2), column)
-                    add((0, lam[k]), z_modal[:, k] * (c / delta**2), column)
+                    if not fast[k]:
+                        add((0, lam[k]), z_modal[:, k] * (c / delta**2), column)
     K = np.zeros((len(keys), size, inputs), complex)
     for key, vector, column in columns:
         K[keys[key], :, column] += vector
