@@ -482,3 +482,17 @@ def test_the_transformer_bridge_sees_every_turn_on():
     for k in range(1, 10):  # each half-cycle of the mains charges the capacitor
         inside = (exact.time > k * 0.01) & (exact.time < (k + 1) * 0.01)
         assert charging[inside].max() > 0.5
+
+
+def test_a_current_ramping_into_a_capacitor_held_by_gmin_charges_linearly():
+    # 1 mA from 0.1 ms (1 ns edge) into 1 µF whose node only gmin (1e-12 S) holds: a mode of
+    # λ = −1e-6 /s under a ramp. The closed form's terms c/δ² (1e12 of the answer) cancelled
+    # to 6e7 V; the near-resonance series gives the line 1e-3 V/µs to within the edge's
+    # 0.5 ns·1 mA/1 µF = 5e-7 V
+    circuit = circuitnsds.read_netlist("t\nI1 0 1 PULSE(0 1m 0.1m 1n 1n 1 2)\nC1 1 0 1u\n.tran 1u 1m\n.end\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuit.transient(method="exact")
+    t = waves.time
+    expected = np.where(t > 0.1e-3, 1e-3 * (t - 0.1e-3) / 1e-6, 0.0)
+    assert np.max(np.abs(np.asarray(waves["v(1)"]) - expected)) < 6e-7

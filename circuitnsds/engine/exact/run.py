@@ -173,6 +173,9 @@ class ExactSystem:
         """``(terms, sources)``: the source coefficients a run's pieces can have nonzero
         (:attr:`.source_table.SourceTable.used`, set by the run); ``None``: all."""
         self.controls = [self._row(s.control) for s in mlcs.switches]
+        self.horizon = 0.0
+        """[s] The longest piece of the sources' table in use (set by :meth:`tables`): the
+        longest segment a solution map serves (:data:`.solution_map.NEAR_RESONANCE`)."""
 
     def _row(self, row) -> np.ndarray:
         vector = np.zeros(self.n)
@@ -236,10 +239,11 @@ class ExactSystem:
         ``(powers, exponents)`` over ``columns`` sources (cached)."""
         used = self.sources_used if self.sources_used is not None and self.sources_used.shape == (
             powers.size, columns) else None
-        key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes())
+        key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes(),
+               self.horizon)
         linear = self._maps.get(key)
         if linear is None:
-            linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used)
+            linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used, self.horizon)
             self._maps[key] = linear
         return linear
 
@@ -253,9 +257,11 @@ class ExactSystem:
         if stop not in self._tables:
             sources = SourceTable(self.mlcs.stimuli, stop)
             self.sources_used = sources.used
+            self.horizon = float(np.max(np.diff(sources.corners), initial=0.0))
             self._tables[stop] = (sources, ModeTables(self, sources))
         sources, tables = self._tables[stop]
         self.sources_used = sources.used
+        self.horizon = float(np.max(np.diff(sources.corners), initial=0.0))
         return sources, tables
 
     def event_row_data(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> tuple:
