@@ -298,7 +298,7 @@ enum {
     A_SOURCE_EXPONENTS, A_SOURCE_POWERS, A_PARTNER, A_S_MATRIX, A_BITS, A_Z_MAP, A_TABLE_MAP, A_POWERS,
     A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_V1T, A_TIMES, A_Y_OUT,
     A_L_OUT, A_CHARGES, A_ROW_ACTIVE, A_ROW_CLOSED, A_EVENT_TIMES, A_EVENT_INDEX, A_EVENT_ON, A_TAIL_ROW,
-    A_TAIL_DT, A_TAIL_Y, A_COUNT_ARRAYS
+    A_TAIL_DT, A_TAIL_Y, A_SPANS, A_SPANS_KNOWN, A_COUNT_ARRAYS
 };
 
 /* The order of the entries of the `sizes` argument (int64); run.NATIVE_SIZES. */
@@ -332,7 +332,35 @@ typedef struct {
     uint8_t *event_on;
     int64_t *tail_row;
     double *tail_dt, *tail_y;
+    int64_t *spans, *spans_known;
 } Exact;
+
+/* Each known mode's terms' spans of inputs (spans (M, T, 4): [lo, hi) of the z map's inputs
+ * that are not 0 for some unknown, then the event table's), computed once per mode (the
+ * caller keeps them between calls; spans_known[0] modes have theirs): a term of a source's
+ * exponent reads only that source's inputs, a mode's own exponent only the state. */
+static void find_spans(Exact *L) {
+    const int64_t T = L->T, I = L->I, width = L->n + L->m, columns = L->columns;
+    for (int64_t mode = L->spans_known[0]; mode < L->known; mode++)
+        for (int64_t j = 0; j < T; j++) {
+            int64_t *span = L->spans + (mode * T + j) * 4;
+            for (int which = 0; which < 2; which++) {
+                const int64_t lines = which == 0 ? width : columns;
+                const cplx *map = which == 0 ? L->z_map + (mode * T * width + j * width) * I
+                                             : L->table_map + (mode * T * columns + j * columns) * I;
+                int64_t lo = I, hi = 0;
+                for (int64_t i = 0; i < lines; i++)
+                    for (int64_t q = 0; q < I; q++)
+                        if (map[i * I + q].re != 0.0 || map[i * I + q].im != 0.0) {
+                            lo = q < lo ? q : lo;
+                            hi = q + 1 > hi ? q + 1 : hi;
+                        }
+                span[2 * which] = lo < hi ? lo : 0;
+                span[2 * which + 1] = hi;
+            }
+        }
+    L->spans_known[0] = L->known;
+}
 
 /* loop._shifted: the sources' piece k shifted by delta into L->sources_now. */
 static void shifted(const Exact *L, int64_t k, double delta) {
@@ -357,15 +385,16 @@ static void shifted(const Exact *L, int64_t k, double delta) {
 static inline double ulp_of(double t) { return EPSILON * fmax(fabs(t), 1e-300); }
 
 /* loop._functions: the mode's event functions (table (T, columns)) and their round-off. */
-static void functions(const Exact *L, int64_t mode, const cplx *inputs, const double *x, const double *y_size,
-                      const double *forcing, double instant, cplx *table, double *tolerances) {
+static void functions(const Exact *L, int64_t mode, const cplx *inputs, const double *x, const double *y_size, const double *forcing, double instant, cplx *table,
+                      double *tolerances) {
     int64_t count = L->terms[mode], columns = L->columns, I = L->I;
     const cplx *map = L->table_map + mode * (L->T * columns) * I;
     for (int64_t j = 0; j < count; j++)
         for (int64_t k = 0; k < columns; k++) {
             const cplx *line = map + (j * columns + k) * I;
             cplx total = {0.0, 0.0};
-            for (int64_t i = 0; i < I; i++) {
+            const int64_t *span = L->spans + (mode * L->T + j) * 4;
+            for (int64_t i = span[2]; i < span[3]; i++) { /* (outside, the map's inputs are 0) */
                 cplx product = cmul(line[i], inputs[i]);
                 total.re += product.re;
                 total.im += product.im;
@@ -512,10 +541,10 @@ static void moments_of(cplx nu, int64_t p, double w, cplx *out) {
 
 /* Per-segment scratch of the rows (loop.py's arrays of the same names). */
 typedef struct {
-    double *nu_re, *nu_im, *growth_re, *growth_im, *at_re, *at_im, *integral_re, *integral_im, *kept_w, *kept_re,
-        *kept_im, *values, *z_re, *z_im, *y_end, *size_end, *forcing, *tolerances;
+    double *nu_re, *nu_im, *growth_re, *growth_im, *at_re, *at_im, *integral_re, *integral_im, *kept_w, *values, *z_re, *z_im, *y_end, *size_end, *forcing, *tolerances, *kept_w2, *kept_re2,
+        *kept_im2;
     cplx *moments, *inputs, *table;
-    int64_t *pairs, *seen;
+    int64_t *pairs, *seen, *next_slot;
     uint8_t *wanted;
     int64_t top_power;
 } Rows;
@@ -529,27 +558,34 @@ static inline void integral(Rows *R, int64_t j, int64_t p, double a, double w, d
             *out_im = 0.0;
             return;
         }
-        if (R->kept_w[j] != w) {
+        /* expm1(νw)/ν kept for the last two widths (a uniform grid's rows differ in width by
+         * an ulp or two from row to row: two values, most often) */
+        int64_t slot = R->kept_w2[2 * j] == w ? 0 : R->kept_w2[2 * j + 1] == w ? 1 : -1;
+        if (slot < 0) {
+            slot = R->next_slot[j];
+            R->next_slot[j] = 1 - slot;
+            double *kept_re = R->kept_re2 + 2 * j + slot, *kept_im = R->kept_im2 + 2 * j + slot;
             if (nu_im == 0.0) {
-                R->kept_re[j] = expm1(nu_re * w) / nu_re;
-                R->kept_im[j] = 0.0;
+                *kept_re = expm1(nu_re * w) / nu_re;
+                *kept_im = 0.0;
             } else {
                 double x = nu_re * w, y = nu_im * w;
                 double half = sin(0.5 * y);
                 double e_re = expm1(x) * cos(y) - 2.0 * half * half;
                 double e_im = exp(x) * sin(y);
                 double size = nu_re * nu_re + nu_im * nu_im;
-                R->kept_re[j] = (e_re * nu_re + e_im * nu_im) / size;
-                R->kept_im[j] = (e_im * nu_re - e_re * nu_im) / size;
+                *kept_re = (e_re * nu_re + e_im * nu_im) / size;
+                *kept_im = (e_im * nu_re - e_re * nu_im) / size;
             }
-            R->kept_w[j] = w;
+            R->kept_w2[2 * j + slot] = w;
         }
+        double q_re = R->kept_re2[2 * j + slot], q_im = R->kept_im2[2 * j + slot];
         if (nu_im == 0.0) {
-            *out_re = at_re * R->kept_re[j];
+            *out_re = at_re * q_re;
             *out_im = 0.0;
         } else {
-            *out_re = at_re * R->kept_re[j] - at_im * R->kept_im[j];
-            *out_im = at_re * R->kept_im[j] + at_im * R->kept_re[j];
+            *out_re = at_re * q_re - at_im * q_im;
+            *out_im = at_re * q_im + at_im * q_re;
         }
         return;
     }
@@ -590,6 +626,34 @@ static void charge(Rows *R, int64_t n, int64_t width, int64_t pair_count, const 
         }
         out[i] += total;
     }
+}
+
+/* values[i] += zr[i] w for i < width (four at a time: each element's sum in the numba loop's
+ * order, the four independent). */
+static inline void add_real(double *restrict values, const double *restrict zr, double w, int64_t width) {
+    int64_t i = 0;
+    for (; i + 4 <= width; i += 4) {
+        double a = zr[i] * w, b = zr[i + 1] * w, c = zr[i + 2] * w, d = zr[i + 3] * w;
+        values[i] += a;
+        values[i + 1] += b;
+        values[i + 2] += c;
+        values[i + 3] += d;
+    }
+    for (; i < width; i++)
+        values[i] += zr[i] * w;
+}
+
+/* values[i] += zr[i] w_re - zi[i] w_im for i < width. */
+static inline void add_complex(double *restrict values, const double *restrict zr, const double *restrict zi,
+                               double w_re, double w_im, int64_t width) {
+    int64_t i = 0;
+    for (; i + 2 <= width; i += 2) {
+        double a = zr[i] * w_re - zi[i] * w_im, b = zr[i + 1] * w_re - zi[i + 1] * w_im;
+        values[i] += a;
+        values[i + 1] += b;
+    }
+    for (; i < width; i++)
+        values[i] += zr[i] * w_re - zi[i] * w_im;
 }
 
 static int64_t run(Exact *L, Rows *R, Search *search) {
@@ -639,6 +703,9 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
                     }
                     forcing[i] += csize(total.re, total.im);
                 }
+        int real_inputs = 1;
+        for (int64_t q = 0; q < I; q++)
+            real_inputs = real_inputs && inputs[q].im == 0.0;
         int64_t previous = mode;
         int from_python = chosen == 1;
         int64_t changes = 0;
@@ -710,24 +777,25 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
             R->nu_re[j] = exponents[j].re;
             R->nu_im[j] = exponents[j].im;
             R->kept_w[j] = -1.0;
+            R->kept_w2[2 * j] = -1.0;
+            R->kept_w2[2 * j + 1] = -1.0;
+            R->next_slot[j] = 0;
         }
         /* z = [y; λ] per term; the pairs' columns only when a row or a row's charge needs them */
         int64_t size = row < rows_total && (L->times[row] <= stop_at || (tau > 0 && pair_count > 0)) ? width : n;
-        int real_inputs = 1;
-        for (int64_t q = 0; q < I; q++)
-            real_inputs = real_inputs && inputs[q].im == 0.0;
         const cplx *z_map = L->z_map + mode * (T * width) * I;
         for (int64_t j = 0; j < count; j++)
             for (int64_t i = 0; i < size; i++) {
                 const cplx *line = z_map + (j * width + i) * I;
+                const int64_t *span = L->spans + (mode * T + j) * 4; /* (outside, the map's inputs are 0) */
                 double total_re = 0.0, total_im = 0.0;
                 if (real_inputs) {
-                    for (int64_t q = 0; q < I; q++) {
+                    for (int64_t q = span[0]; q < span[1]; q++) {
                         total_re += line[q].re * inputs[q].re;
                         total_im += line[q].im * inputs[q].re;
                     }
                 } else {
-                    for (int64_t q = 0; q < I; q++) {
+                    for (int64_t q = span[0]; q < span[1]; q++) {
                         cplx value = cmul(line[q], inputs[q]);
                         total_re += value.re;
                         total_im += value.im;
@@ -741,6 +809,8 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         while (row < rows_total && L->times[row] <= stop_at) {
             double local = L->times[row] - t;
             double begin = fmax(L->times[row - 1] - t, 0.0);
+            /* e^{ν local} for each row from its own time (nothing carried from the row
+             * before: a run in parts, whose parts start at any row, is the run in one part) */
             for (int64_t j = 0; j < count; j++) {
                 if (!first_row) {
                     R->at_re[j] = R->growth_re[j];
@@ -763,18 +833,21 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
                     w_re *= power;
                     w_im *= power;
                 }
-                const double *zr = R->z_re + j * width, *zi = R->z_im + j * width;
                 if (R->nu_im[j] == 0.0)
-                    for (int64_t i = 0; i < width; i++)
-                        values[i] += zr[i] * w_re;
+                    add_real(values, R->z_re + j * width, w_re, width);
                 else
-                    for (int64_t i = 0; i < width; i++)
-                        values[i] += zr[i] * w_re - zi[i] * w_im;
+                    add_complex(values, R->z_re + j * width, R->z_im + j * width, w_re, w_im, width);
             }
-            memcpy(L->y_out + row * n, values, sizeof(double) * (size_t)n);
-            memcpy(L->l_out + row * m, values + n, sizeof(double) * (size_t)m);
-            memcpy(L->row_active + row * m, L->bits + mode * columns, (size_t)m);
-            memcpy(L->row_closed + row * (columns - m), L->bits + mode * columns + m, (size_t)(columns - m));
+            double *y_row = L->y_out + row * n, *l_row = L->l_out + row * m;
+            for (int64_t i = 0; i < n; i++)
+                y_row[i] = values[i];
+            for (int64_t i = 0; i < m; i++)
+                l_row[i] = values[n + i];
+            const uint8_t *mode_bits = L->bits + mode * columns;
+            for (int64_t c = 0; c < m; c++)
+                L->row_active[row * m + c] = mode_bits[c];
+            for (int64_t c = m; c < columns; c++)
+                L->row_closed[row * (columns - m) + c - m] = mode_bits[c];
             charge(R, n, width, pair_count, powers, count, begin, local, L->charges + row * m);
             if (first_row && L->times[row - 1] < t) { /* the row's interval holds this segment's start */
                 L->tail_row[tails] = row;
@@ -906,6 +979,9 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.tail_row = arrays[A_TAIL_ROW];
     L.tail_dt = arrays[A_TAIL_DT];
     L.tail_y = arrays[A_TAIL_Y];
+    L.spans = arrays[A_SPANS];
+    L.spans_known = arrays[A_SPANS_KNOWN];
+    find_spans(&L);
 
     const int64_t T = L.T, width = L.n + L.m;
     int64_t top_power = 0;
@@ -913,11 +989,11 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         top_power = L.powers[i] > top_power ? L.powers[i] : top_power;
     Rows R;
     R.top_power = top_power;
-    size_t doubles = (size_t)(11 * T + width + 2 * T * width + 3 * L.n + L.columns);
+    size_t doubles = (size_t)(15 * T + width + 2 * T * width + 3 * L.n + L.columns);
     size_t complexes = (size_t)(T * (top_power + 1) + L.I + T * L.columns + 5 * T + 1);
     double *d = calloc(doubles, sizeof(double));
     cplx *c = calloc(complexes, sizeof(cplx));
-    int64_t *ints = calloc((size_t)(L.m + MAX_MODE_CHANGES + 2 * T + 1), sizeof(int64_t));
+    int64_t *ints = calloc((size_t)(L.m + MAX_MODE_CHANGES + 3 * T + 1), sizeof(int64_t));
     uint8_t *wanted = calloc((size_t)L.columns + 1, 1);
     Search *search = malloc(sizeof(Search));
     int64_t status = OUT_OF_MEMORY;
@@ -932,15 +1008,16 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         R.integral_re = next; next += T;
         R.integral_im = next; next += T;
         R.kept_w = next; next += T;
-        R.kept_re = next; next += T;
-        R.kept_im = next; next += T;
         R.values = next; next += width;
         R.z_re = next; next += T * width;
         R.z_im = next; next += T * width;
         R.y_end = next; next += L.n;
         R.size_end = next; next += L.n;
         R.forcing = next; next += L.n;
-        R.tolerances = next;
+        R.tolerances = next; next += L.columns;
+        R.kept_w2 = next; next += 2 * T;
+        R.kept_re2 = next; next += 2 * T;
+        R.kept_im2 = next;
         cplx *cn = c;
         R.moments = cn; cn += T * (top_power + 1);
         R.inputs = cn; cn += L.I;
@@ -951,6 +1028,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         R.pairs = ints;
         R.seen = ints + L.m;
         search->dp = ints + L.m + MAX_MODE_CHANGES;
+        R.next_slot = ints + L.m + MAX_MODE_CHANGES + 2 * T;
         R.wanted = wanted;
         status = run(&L, &R, search);
     }
