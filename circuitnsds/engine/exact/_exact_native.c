@@ -549,6 +549,9 @@ typedef struct {
     int64_t top_power;
 } Rows;
 
+static const double BINOMIALS[5][6] = {
+    {1, 0, 0, 0, 0, 0}, {1, 1, 0, 0, 0, 0}, {1, 2, 1, 0, 0, 0}, {1, 3, 3, 1, 0, 0}, {1, 4, 6, 4, 1, 0}};
+
 /* loop._integral: ∫_a^{a+w} τ^p e^{ντ} dτ (re, im) for term j, e^{νa} = at. */
 static inline void integral(Rows *R, int64_t j, int64_t p, double a, double w, double *out_re, double *out_im) {
     double nu_re = R->nu_re[j], nu_im = R->nu_im[j], at_re = R->at_re[j], at_im = R->at_im[j];
@@ -600,7 +603,8 @@ static inline void integral(Rows *R, int64_t j, int64_t p, double a, double w, d
         double factor = binomial * ipow(a, p - q);
         weight_re += factor * moments[q].re;
         weight_im += factor * moments[q].im;
-        binomial = binomial * (double)(p - q) / (double)(q + 1);
+        /* (C(p, q + 1): exact integers either way, the table spares two divisions) */
+        binomial = p <= 4 ? BINOMIALS[p][q + 1] : binomial * (double)(p - q) / (double)(q + 1);
     }
     *out_re = weight_re * at_re - weight_im * at_im;
     *out_im = weight_re * at_im + weight_im * at_re;

@@ -188,20 +188,25 @@ def _moments(nu, p, w, out):
             out[q] = (w ** q * grown - q * out[q - 1]) / nu
 
 
-def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, kept_re, kept_im, moments):
+def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, kept_re, kept_im, next_slot, moments):
     """``∫_a^{a+w} τ^p e^{ντ} dτ`` [s] as ``(real part, imaginary part)``, with
     ``e^{νa} = at_re + i at_im``. ``p = 0``: ``e^{νa} expm1(νw)/ν`` (``w`` for ``ν = 0``; a real
     ``ν``, most terms, in real arithmetic; a complex one with ``expm1(x + iy) = (expm1(x) cos y
-    − 2 sin²(y/2)) + i e^x sin y``), ``expm1(νw)/ν`` kept in ``kept_re[j], kept_im[j]`` while
-    ``kept_w[j]`` is ``w`` (a pure function of ``ν`` and ``w``: the run in parts is the run in
-    one part); ``p >= 1``: :func:`_moments` into ``moments[j]``, kept the same way."""
+    − 2 sin²(y/2)) + i e^x sin y``), ``expm1(νw)/ν`` kept for the last two widths in
+    ``kept_re[j, slot], kept_im[j, slot]`` (``kept_w[j, slot]`` the width; a uniform grid's rows
+    differ in width by an ulp or two: two values, most often; a pure function of ``ν`` and ``w``:
+    the run in parts is the run in one part); ``p >= 1``: :func:`_moments` into ``moments[j]``,
+    kept while ``kept_w[j, 0]`` is ``w``."""
     if p == 0:
         if nu_im == 0.0 and nu_re == 0.0:
             return w, 0.0
-        if kept_w[j] != w:
+        slot = 0 if kept_w[j, 0] == w else 1 if kept_w[j, 1] == w else -1
+        if slot < 0:
+            slot = next_slot[j]
+            next_slot[j] = 1 - slot
             if nu_im == 0.0:
-                kept_re[j] = np.expm1(nu_re * w) / nu_re
-                kept_im[j] = 0.0
+                kept_re[j, slot] = np.expm1(nu_re * w) / nu_re
+                kept_im[j, slot] = 0.0
             else:
                 x = nu_re * w
                 y = nu_im * w
@@ -209,15 +214,17 @@ def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, kept_re, kept_im, 
                 e_re = np.expm1(x) * np.cos(y) - 2.0 * half * half
                 e_im = np.exp(x) * np.sin(y)
                 size = nu_re * nu_re + nu_im * nu_im  # (E/ν = E ν̄ / |ν|², written out)
-                kept_re[j] = (e_re * nu_re + e_im * nu_im) / size
-                kept_im[j] = (e_im * nu_re - e_re * nu_im) / size
-            kept_w[j] = w
+                kept_re[j, slot] = (e_re * nu_re + e_im * nu_im) / size
+                kept_im[j, slot] = (e_im * nu_re - e_re * nu_im) / size
+            kept_w[j, slot] = w
+        q_re = kept_re[j, slot]
+        q_im = kept_im[j, slot]
         if nu_im == 0.0:
-            return at_re * kept_re[j], 0.0
-        return at_re * kept_re[j] - at_im * kept_im[j], at_re * kept_im[j] + at_im * kept_re[j]
-    if kept_w[j] != w:
+            return at_re * q_re, 0.0
+        return at_re * q_re - at_im * q_im, at_re * q_im + at_im * q_re
+    if kept_w[j, 0] != w:
         _moments(complex(nu_re, nu_im), p, w, moments[j])
-        kept_w[j] = w
+        kept_w[j, 0] = w
     weight_re = 0.0
     weight_im = 0.0
     binomial = 1.0
@@ -230,7 +237,7 @@ def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, kept_re, kept_im, 
 
 
 def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b, at_re, at_im, kept_w,
-            kept_re, kept_im, moments, integral_re, integral_im, out):
+            kept_re, kept_im, next_slot, moments, integral_re, integral_im, out):
     """``out[i] += ∫_a^b λ_i dτ`` for each active pair ``i = pairs[:pair_count]`` of the
     segment's ``z`` (its real and imaginary parts ``z_re``, ``z_im``); ``e^{ν_j a} = at_re[j] +
     i at_im[j]``; ``integral_re``, ``integral_im``: scratch (terms)."""
@@ -238,8 +245,42 @@ def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b,
         return
     w = b - a
     for j in range(count):
-        integral_re[j], integral_im[j] = _integral(nu_re[j], nu_im[j], powers[j], a, w, at_re[j], at_im[j],
-                                                   j, kept_w, kept_re, kept_im, moments)
+        nr = nu_re[j]
+        ni = nu_im[j]
+        if powers[j] != 0:
+            integral_re[j], integral_im[j] = _integral(nr, ni, powers[j], a, w, at_re[j], at_im[j], j, kept_w,
+                                                       kept_re, kept_im, next_slot, moments)
+            continue
+        if ni == 0.0 and nr == 0.0:
+            integral_re[j] = w
+            integral_im[j] = 0.0
+            continue
+        # (:func:`_integral`'s p = 0, written here: a call per term and row costs numba more)
+        slot = 0 if kept_w[j, 0] == w else 1 if kept_w[j, 1] == w else -1
+        if slot < 0:
+            slot = next_slot[j]
+            next_slot[j] = 1 - slot
+            if ni == 0.0:
+                kept_re[j, slot] = np.expm1(nr * w) / nr
+                kept_im[j, slot] = 0.0
+            else:
+                x = nr * w
+                y = ni * w
+                half = np.sin(0.5 * y)
+                e_re = np.expm1(x) * np.cos(y) - 2.0 * half * half
+                e_im = np.exp(x) * np.sin(y)
+                size = nr * nr + ni * ni
+                kept_re[j, slot] = (e_re * nr + e_im * ni) / size
+                kept_im[j, slot] = (e_im * nr - e_re * ni) / size
+            kept_w[j, slot] = w
+        q_re = kept_re[j, slot]
+        q_im = kept_im[j, slot]
+        if ni == 0.0:
+            integral_re[j] = at_re[j] * q_re
+            integral_im[j] = 0.0
+        else:
+            integral_re[j] = at_re[j] * q_re - at_im[j] * q_im
+            integral_im[j] = at_re[j] * q_im + at_im[j] * q_re
     for k in range(pair_count):
         i = pairs[k]
         total = 0.0
@@ -289,9 +330,10 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
     at_im = np.zeros(terms_max)
     integral_re = np.zeros(terms_max)
     integral_im = np.zeros(terms_max)
-    kept_w = np.full(terms_max, -1.0)
-    kept_re = np.zeros(terms_max)
-    kept_im = np.zeros(terms_max)
+    kept_w = np.full((terms_max, 2), -1.0)
+    kept_re = np.zeros((terms_max, 2))
+    kept_im = np.zeros((terms_max, 2))
+    next_slot = np.zeros(terms_max, np.int64)
     moments = np.zeros((terms_max, top_power + 1), np.complex128)
     pairs = np.zeros(m, np.int64)
     values = np.zeros(n + m)
@@ -392,7 +434,9 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
         for j in range(count):
             nu_re[j] = exponents[mode, j].real
             nu_im[j] = exponents[mode, j].imag
-            kept_w[j] = -1.0  # (what _integral keeps is this mode's terms')
+            kept_w[j, 0] = -1.0  # (what _integral keeps is this mode's terms')
+            kept_w[j, 1] = -1.0
+            next_slot[j] = 0
         # z = [y; λ] per term (real and imaginary parts); the pairs' columns only when a row
         # or a row's charge needs them (most of an inverter's segments hold no row)
         size = n + m if row < rows_total and (times[row] <= stop_at or (tau > 0 and pair_count > 0)) else n
@@ -454,7 +498,8 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
             for c in range(columns - m):
                 row_closed[row, c] = bits[mode, m + c]
             _charge(z_re, z_im, n, pairs, pair_count, powers[mode], nu_re, nu_im, count, begin, local,
-                    at_re, at_im, kept_w, kept_re, kept_im, moments, integral_re, integral_im, charges[row])
+                    at_re, at_im, kept_w, kept_re, kept_im, next_slot, moments, integral_re, integral_im,
+                    charges[row])
             if first_row and times[row - 1] < t:  # the row's interval holds this segment's start
                 tail_row[tails] = row
                 tail_dt[tails] = local
@@ -473,8 +518,8 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
                 for j in range(count):
                     at_re[j], at_im[j] = _grown(nu_re[j], nu_im[j], begin)
                 _charge(z_re, z_im, n, pairs, pair_count, powers[mode], nu_re, nu_im, count, begin, tau,
-                        at_re, at_im, kept_w, kept_re, kept_im, moments, integral_re, integral_im,
-                        charges[row])
+                        at_re, at_im, kept_w, kept_re, kept_im, next_slot, moments, integral_re,
+                        integral_im, charges[row])
         if row >= rows_total:  # (the state stays at this segment's start, to resume from)
             mode = previous
             quiet = quiet_here
