@@ -22,7 +22,16 @@ row (:class:`.run.ExactRun`): the mode of the segment the row ends, each pair's 
 the interval ending at the row (the closed-form integral, :mod:`.charge`'s formulas), and
 the unknowns at the start of the last segment inside a row's interval (its ``tails``).
 Every row is computed from the exponentials at its own time, nothing carried from the
-row before: a run in parts is then the run in one part, bit for bit.
+row before (but the previous row's ``e^{νa}`` for the charge, a value of the same formula):
+a run in parts, whose parts start at any row, is then the run in one part, bit for bit.
+A term with a real exponent (most of a converter's) is summed in real arithmetic; the charge
+of a term with ``p = 0`` is ``e^{νa} expm1(νw)/ν`` (:func:`_charge`).
+
+The same loop is C (``_exact_native.c``), which :func:`.run.run_exact` calls when it was
+built; this one runs compiled by numba without the library (``CIRCUITNSDS_NATIVE=0``). The
+two give the same numbers bit for bit on the bundled netlists (``tests/test_exact_native.py``;
+the C loop also skips the inputs a term's map multiplies by 0, which changes no sum). Edit
+the two together.
 """
 
 from __future__ import annotations
@@ -188,40 +197,11 @@ def _moments(nu, p, w, out):
             out[q] = (w ** q * grown - q * out[q - 1]) / nu
 
 
-def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, kept_re, kept_im, next_slot, moments):
-    """``∫_a^{a+w} τ^p e^{ντ} dτ`` [s] as ``(real part, imaginary part)``, with
-    ``e^{νa} = at_re + i at_im``. ``p = 0``: ``e^{νa} expm1(νw)/ν`` (``w`` for ``ν = 0``; a real
-    ``ν``, most terms, in real arithmetic; a complex one with ``expm1(x + iy) = (expm1(x) cos y
-    − 2 sin²(y/2)) + i e^x sin y``), ``expm1(νw)/ν`` kept for the last two widths in
-    ``kept_re[j, slot], kept_im[j, slot]`` (``kept_w[j, slot]`` the width; a uniform grid's rows
-    differ in width by an ulp or two: two values, most often; a pure function of ``ν`` and ``w``:
-    the run in parts is the run in one part); ``p >= 1``: :func:`_moments` into ``moments[j]``,
-    kept while ``kept_w[j, 0]`` is ``w``."""
-    if p == 0:
-        if nu_im == 0.0 and nu_re == 0.0:
-            return w, 0.0
-        slot = 0 if kept_w[j, 0] == w else 1 if kept_w[j, 1] == w else -1
-        if slot < 0:
-            slot = next_slot[j]
-            next_slot[j] = 1 - slot
-            if nu_im == 0.0:
-                kept_re[j, slot] = np.expm1(nu_re * w) / nu_re
-                kept_im[j, slot] = 0.0
-            else:
-                x = nu_re * w
-                y = nu_im * w
-                half = np.sin(0.5 * y)
-                e_re = np.expm1(x) * np.cos(y) - 2.0 * half * half
-                e_im = np.exp(x) * np.sin(y)
-                size = nu_re * nu_re + nu_im * nu_im  # (E/ν = E ν̄ / |ν|², written out)
-                kept_re[j, slot] = (e_re * nu_re + e_im * nu_im) / size
-                kept_im[j, slot] = (e_im * nu_re - e_re * nu_im) / size
-            kept_w[j, slot] = w
-        q_re = kept_re[j, slot]
-        q_im = kept_im[j, slot]
-        if nu_im == 0.0:
-            return at_re * q_re, 0.0
-        return at_re * q_re - at_im * q_im, at_re * q_im + at_im * q_re
+def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, moments):
+    """``∫_a^{a+w} τ^p e^{ντ} dτ`` [s] for a term with ``p >= 1`` (resonances and ramps) as
+    ``(real part, imaginary part)``, with ``e^{νa} = at_re + i at_im``: ``e^{νa} Σ_q C(p, q)
+    a^{p−q} J_q(w)`` (:mod:`.charge`), the ``J_q`` (:func:`_moments`) kept in ``moments[j]``
+    while ``kept_w[j, 0]`` is ``w``. (``p = 0``, most terms, is :func:`_charge`'s.)"""
     if kept_w[j, 0] != w:
         _moments(complex(nu_re, nu_im), p, w, moments[j])
         kept_w[j, 0] = w
@@ -240,7 +220,14 @@ def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b,
             kept_re, kept_im, next_slot, moments, integral_re, integral_im, out):
     """``out[i] += ∫_a^b λ_i dτ`` for each active pair ``i = pairs[:pair_count]`` of the
     segment's ``z`` (its real and imaginary parts ``z_re``, ``z_im``); ``e^{ν_j a} = at_re[j] +
-    i at_im[j]``; ``integral_re``, ``integral_im``: scratch (terms)."""
+    i at_im[j]``. A term with ``p = 0`` integrates to ``e^{νa} expm1(νw)/ν`` (``w = b − a``;
+    ``w`` for ``ν = 0``; a real ``ν``, most terms, in real arithmetic; a complex one with
+    ``expm1(x + iy) = (expm1(x) cos y − 2 sin²(y/2)) + i e^x sin y``), ``expm1(νw)/ν`` kept for
+    the last two widths in ``kept_re[j, slot], kept_im[j, slot]`` (``kept_w[j, slot]`` the
+    width, ``next_slot[j]`` the one to replace: a uniform grid's rows differ in width by an ulp
+    or two, two values most often; a pure function of ``ν`` and ``w``, so the run in parts is
+    the run in one part); ``p >= 1``: :func:`_integral`. ``integral_re``, ``integral_im``:
+    scratch (terms)."""
     if pair_count == 0:
         return
     w = b - a
@@ -249,13 +236,14 @@ def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b,
         ni = nu_im[j]
         if powers[j] != 0:
             integral_re[j], integral_im[j] = _integral(nr, ni, powers[j], a, w, at_re[j], at_im[j], j, kept_w,
-                                                       kept_re, kept_im, next_slot, moments)
+                                                       moments)
             continue
         if ni == 0.0 and nr == 0.0:
             integral_re[j] = w
             integral_im[j] = 0.0
             continue
-        # (:func:`_integral`'s p = 0, written here: a call per term and row costs numba more)
+        # (written here, not in a function: a numba call per term and row passing arrays
+        # cost more than the rows' arithmetic)
         slot = 0 if kept_w[j, 0] == w else 1 if kept_w[j, 1] == w else -1
         if slot < 0:
             slot = next_slot[j]

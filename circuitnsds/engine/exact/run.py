@@ -7,11 +7,12 @@ piece's end); write the output rows that fall before it; at the event choose the
 (:func:`choose_mode`) and go on. Nothing is approximated between events: the error is the
 round-off of the closed forms and of the located instants.
 
-:func:`run_exact` runs that loop compiled (:mod:`.loop`) over the modes met so far, Python
-choosing the mode only where the loop meets one it does not know (and enumerating when the
-flipping cycles); :func:`run_python` is the same loop in Python: what runs without numba,
-when a run records its segments (the period map's derivative needs them as objects), and
-the reference a test holds the compiled loop to.
+:func:`run_exact` runs that loop compiled (:mod:`.loop`; in C, ``_exact_native.c``, when it
+was built, else by numba) over the modes met so far, Python choosing the mode only where the
+loop meets one it does not know (and enumerating when the flipping cycles); :func:`run_python`
+is the same loop in Python: what runs without either, when a run records its segments (the
+period map's derivative needs them as objects), and the reference a test holds the compiled
+loop to.
 """
 
 from __future__ import annotations
@@ -460,9 +461,10 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
               system: ExactSystem | None = None, stop: float | None = None,
               record: list[Segment] | None = None) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0]`` (0 unless resumed) to ``times[-1]``,
-    writing a row at each of ``times``: in the compiled loop (:mod:`.loop`) over the modes
-    met so far, Python choosing the mode only where the loop meets one it does not know;
-    in Python (:func:`run_python`, the same arithmetic to round-off) without numba or when
+    writing a row at each of ``times``: in the compiled loop (:mod:`.loop`: the C library's
+    when built, :func:`native_loop`, else numba's) over the modes met so far, Python choosing
+    the mode only where the loop meets one it does not know;
+    in Python (:func:`run_python`, the same arithmetic to round-off) without either or when
     ``record`` asks for the segments.
 
     ``resume``: the loop state to go on from (``y0`` is then row 0 only, and ``times[0]`` is
