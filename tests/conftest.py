@@ -6,6 +6,7 @@ new examples each run, to look for new failures (what a change to a solver or pa
 run with before it lands)."""
 
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -24,6 +25,23 @@ NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 def circuit_from(body: str, title: str = "test circuit"):
     """A Circuit from netlist lines (title and .end added)."""
     return circuitnsds.read_netlist(f"{title}\n{body}\n.end\n")
+
+
+def pinned(text: str, method: str = "theta") -> str:
+    """Netlist ``text`` run by ``method`` whatever the default (``.options method=...`` before
+    its ``.end``): for tests of one stepper's behaviour (the θ-method's step counts, its
+    order, its loops) through the command line or a netlist file."""
+    ends = list(re.finditer(r"^\.end\s*$", text, re.IGNORECASE | re.MULTILINE))
+    assert ends, "a netlist with an .end line"
+    at = ends[-1].start()
+    return f"{text[:at]}.options method={method}\n{text[at:]}"
+
+
+def pinned_copy(path: Path, folder: Path, method: str = "theta") -> Path:
+    """A copy of the netlist file ``path`` in ``folder``, :func:`pinned` to ``method``."""
+    copy = folder / path.name
+    copy.write_text(pinned(path.read_text(), method))
+    return copy
 
 
 @pytest.fixture

@@ -40,7 +40,9 @@ def test_source_free_circuits_never_gain_energy():
         ("book_fig1_3d.cir", [(("n1", "0"), C_BOOK)], [("l1", 1.0)]),
         ("book_fig1_3b.cir", [(("n1", "0"), C_BOOK)], [("l1", 1.0)]),
     ]:
-        waves = circuitnsds.read_netlist(NETLISTS / name).transient()
+        # θ's implicit Euler never raises the stored energy (the exact integrator raises a
+        # lossless LC's by the round-off of its eigenvalues, 1e-10 of it): pinned to θ
+        waves = circuitnsds.read_netlist(NETLISTS / name).transient(method="theta")
         energy = stored_energy(waves, caps, inductors)
         assert np.all(np.diff(energy) <= 1e-12 * energy[0]), name
         assert energy[-1] < energy[0], name

@@ -28,7 +28,8 @@ R4 q 0 1k
 
 
 def test_comparators_switch_at_the_located_crossings_and_output_the_chosen_branch():
-    waves = circuit_from(rc_comparators(TAU / 100)).transient(theta=0.5)
+    # (θ's located crossings at θ = 0.5, its error bounds: pinned to θ)
+    waves = circuit_from(rc_comparators(TAU / 100)).transient(theta=0.5, method="theta")
     crossing = {level: -TAU * np.log(1 - level) for level in (0.3, 0.5, 0.8)}
     expected = {("b2.cmp1", True): crossing[0.3], ("b1.cmp0", True): crossing[0.5],
                 ("g1.cmp0", False): crossing[0.5], ("b2.cmp0", False): crossing[0.8]}
@@ -79,7 +80,9 @@ def test_hysteresis_written_as_feedback_of_the_output_gives_the_analytic_period(
     # threshold moves with its own output (1 A while off, 2 A while on): the same analytic
     # period (measured error 2.0e-5 at 100 steps per period, θ = 0.5)
     period = hysteretic_period()
-    waves = circuit_from(netlist.format(h=period / 100, stop=10 * period)).transient(theta=0.5)
+    # (θ's period error at 100 steps per period: pinned to θ)
+    waves = circuit_from(netlist.format(h=period / 100, stop=10 * period)).transient(theta=0.5,
+                                                                                     method="theta")
     closings = waves.switchings(name, True)
     assert closings.size == 9
     assert abs(np.diff(closings).mean() - period) / period < 1e-4

@@ -26,7 +26,7 @@ def driven_pair(h: float, stop: float, theta: float = 1.0):
     """
     netlist = (f"V1 in 0 {V}\nR1 in p {R1}\nL1 p 0 {L1}\nL2 s 0 {L2}\nR2 s 0 {R2}\n"
                f"K1 L1 L2 {K}\n.tran {h} {stop} uic")
-    waves = circuit_from(netlist).transient(theta=theta)
+    waves = circuit_from(netlist).transient(theta=theta, method="theta")  # θ's recurrence, pinned
     return waves, np.column_stack([waves["i(l1)"], waves["i(l2)"]])
 
 
@@ -100,15 +100,16 @@ def test_lossless_lc_k_lc_conserves_energy_with_the_trapezoidal_rule():
         return (0.5 * ca * waves["v(a)"] ** 2 + 0.5 * cb * waves["v(b)"] ** 2
                 + 0.5 * np.einsum("ti,ij,tj->t", i, lm, i))
 
-    trapezoidal = energy(circuit.transient(theta=0.5))
+    # (the trapezoidal rule's and implicit Euler's energies: pinned to θ)
+    trapezoidal = energy(circuit.transient(theta=0.5, method="theta"))
     assert trapezoidal[0] == pytest.approx(0.5 * ca, rel=1e-12)
     assert trapezoidal[1] < trapezoidal[0]  # the implicit Euler first step
     np.testing.assert_allclose(trapezoidal[1:], trapezoidal[1], rtol=1e-11)
     # the energy really moves between the tanks (the coupling is active)
-    waves = circuit.transient(theta=0.5)
+    waves = circuit.transient(theta=0.5, method="theta")
     assert (0.5 * cb * waves["v(b)"] ** 2).max() > 0.1 * trapezoidal[1]
     # implicit Euler dissipates monotonically
-    euler = energy(circuit.transient(theta=1.0))
+    euler = energy(circuit.transient(theta=1.0, method="theta"))
     assert np.all(np.diff(euler) <= 1e-18)
     assert euler[-1] < 0.99 * euler[1]
 

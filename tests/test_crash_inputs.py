@@ -218,11 +218,13 @@ def test_a_face_singular_only_by_scaling_costs_no_linear_program_per_step(monkey
     monkeypatch.setattr(enumeration, "_face_lp", lambda *args, **kw: calls.append(1) or face_lp(*args, **kw))
     monkeypatch.setattr(enumeration, "_VERDICTS", {})
     text = BUCK.replace("L1 sw out 100u", "L1 sw out 1k").replace("Rload out 0 5\n", "")
-    waves = circuitnsds.read_netlist(text.replace(".tran 0.1u 2m", ".tran 0.1u 20u")).transient()
+    # (the θ-method's step solver and its face LPs: pinned to θ)
+    waves = circuitnsds.read_netlist(text.replace(".tran 0.1u 2m", ".tran 0.1u 20u")).transient(
+        method="theta")
     # two LPs per distinct face (are its free unknowns determined?), not three per step
     assert 0 < len(calls) <= 8
     calls.clear()
-    circuitnsds.read_netlist(text.replace(".tran 0.1u 2m", ".tran 0.1u 60u")).transient()
+    circuitnsds.read_netlist(text.replace(".tran 0.1u 2m", ".tran 0.1u 60u")).transient(method="theta")
     assert not calls  # the same faces, known
     on = np.asarray(waves["v(gate)"]) > 2.6  # (at 2.5 V exactly the switch is still open)
     # the switch closed: sw at the input; the inductor's current (nA) never reaches the diode's

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 import circuitnsds
 from circuitnsds.engine.events import MAX_EVENTS_PER_STEP, regula_falsi
 from circuitnsds.errors import SimulationError
-from tests.conftest import NETLISTS, circuit_from
+from tests.conftest import NETLISTS, circuit_from, pinned
 from tests.device_checks import assert_device_laws
 
 # --- hysteretic buck: a W switch on the inductor current between two thresholds -------------
@@ -51,7 +51,9 @@ Vout out 0 {VOUT}
 
 def period_error(steps_per_period: int, theta: float) -> float:
     period = hysteretic_period()
-    waves = circuit_from(hysteretic_buck(period / steps_per_period, 10 * period)).transient(theta=theta)
+    # (θ's period error and its order: pinned to θ)
+    waves = circuit_from(hysteretic_buck(period / steps_per_period, 10 * period)).transient(theta=theta,
+                                                                                           method="theta")
     closings = waves.switchings("w1", True)
     # it closes at t = 0 (i = 0 < 1 A: the state at the start, not an event), then once a period
     assert closings.size == 9
@@ -69,7 +71,8 @@ def test_hysteretic_buck_switches_at_the_analytic_frequency():
 
 def test_hysteretic_buck_thresholds_are_met_at_the_events():
     period = hysteretic_period()
-    waves = circuit_from(hysteretic_buck(period / 100, 5 * period)).transient(theta=0.5)
+    # (θ's split steps and their impulses: pinned to θ)
+    waves = circuit_from(hysteretic_buck(period / 100, 5 * period)).transient(theta=0.5, method="theta")
     current = waves["i(l1)"]
     assert current[waves.time > period].max() < I_HIGH + 1e-9   # never beyond the band
     assert current[waves.time > period].min() > I_LOW - 1e-9
@@ -197,28 +200,34 @@ def test_event_location_costs_a_few_solves_per_switching():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         period = hysteretic_period()
-        waves = circuit_from(hysteretic_buck(period / 100, 20 * period)).transient()
+        # (θ's event solves and mapped steps: pinned to θ)
+        waves = circuit_from(hysteretic_buck(period / 100, 20 * period)).transient(method="theta")
     assert waves.stats["events"] == 38                 # 2 per period but the closing at t = 0
     assert waves.stats["event_solves"] < 12 * waves.stats["events"]
     assert waves.stats["mapped_steps"] > 0.8 * waves.stats["steps"]   # the fast path is kept
 
 
-def test_command_line_writes_the_events_and_the_plot_marks_them(tmp_path, monkeypatch):
+@pytest.mark.parametrize("method", ["theta", "auto"])
+def test_command_line_writes_the_events_and_the_plot_marks_them(tmp_path, monkeypatch, method):
     from matplotlib.figure import Figure
 
     from circuitnsds.cli.main import main
     from circuitnsds.output.plot import draw
 
     netlist = tmp_path / "pwm.cir"
-    netlist.write_text("pwm\n" + pwm_buck(T / 100, 3 * T) + "\n.end\n")
+    text = pinned("pwm\n" + pwm_buck(T / 100, 3 * T) + "\n.end\n", method)
+    netlist.write_text(text)
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(netlist), "-q", "--events", "events.csv"]) == 0
     lines = (tmp_path / "events.csv").read_text().splitlines()
     assert lines[0] == "time,element,state"
     rows = [line.split(",") for line in lines[1:]]
-    assert [(e, s) for _, e, s in rows] == [("s1", "0"), ("s1", "1")] * 3
-    assert float(rows[0][0]) == pytest.approx(CONTROL * RISE, abs=1e-4 * T)
-    waves = circuit_from(pwm_buck(T / 100, 3 * T)).transient()
+    switch = [row for row in rows if row[1] == "s1"]
+    assert [(e, s) for _, e, s in switch] == [("s1", "0"), ("s1", "1")] * 3
+    assert float(switch[0][0]) == pytest.approx(CONTROL * RISE, abs=1e-4 * T)
+    # the θ-method lists the switches' events, the exact integrator the diode's too
+    assert {e for _, e, _ in rows} == ({"s1"} if method == "theta" else {"s1", "d1"})
+    waves = circuitnsds.read_netlist(text).transient()
     figure = Figure()
     draw(figure, waves, ["v(sw)"], events=True)
     (axis,) = figure.axes
@@ -240,7 +249,8 @@ def test_events_file_keeps_the_switchings_with_every_and_a_window(tmp_path):
         assert main([*base, *extra]) == 0
         rows = (tmp_path / "e.csv").read_text().splitlines()
         assert rows[0] == "time,element,state"
-        return [(round(float(t) * 1e9), s) for t, _, s in (row.split(",") for row in rows[1:])]
+        # (s1's rows; the exact integrator, which auto takes, lists the diode's events too)
+        return [(round(float(t) * 1e9), s) for t, e, s in (row.split(",") for row in rows[1:]) if e == "s1"]
 
     every = [(5, "1"), (5005, "0"), (10005, "1"), (15005, "0")]  # ns
     assert switchings() == every

@@ -134,7 +134,7 @@ def test_theta_converges_to_the_exact_buck_at_first_order():
     circuit, mlcs, run = _exact_on_grid(BUCK, 0.3e-3, 0.1e-6)
     differences = []
     for step in (1e-7, 1e-8):
-        theta = circuit.transient(step=step, stop=0.3e-3)
+        theta = circuit.transient(step=step, stop=0.3e-3, method="theta")  # (θ, whatever the default)
         for signal in ("v(out)", "i(l1)"):
             reference = np.interp(run.times, theta.time, theta[signal])
             differences.append(np.max(np.abs(run.y[:, mlcs.unknowns.index(signal)] - reference)))
@@ -256,7 +256,7 @@ def test_the_voltage_mode_buck_runs_exactly_and_theta_converges_to_it():
     assert sum(e.name == "s1" and e.kind == "close" for e in run.events) >= 3  # the reference ramps up from 0
     differences = []
     for step in (1e-8, 1e-9):
-        theta = circuit.transient(step=step, stop=40e-6)
+        theta = circuit.transient(step=step, stop=40e-6, method="theta")  # (θ, whatever the default)
         for signal in ("v(out)", "i(l1)"):
             reference = np.interp(run.times, theta.time, theta[signal])
             differences.append(np.max(np.abs(run.y[:, mlcs.unknowns.index(signal)] - reference)))

@@ -121,7 +121,7 @@ def test_theta_converges_at_first_order_to_the_exact_stepper():
     exact = _exact(NETLISTS / "buck_converter.cir", step=0.1e-6, stop=0.3e-3)
     differences = []
     for step in (1e-7, 1e-8):
-        theta = circuit.transient(step=step, stop=0.3e-3)
+        theta = circuit.transient(step=step, stop=0.3e-3, method="theta")  # (θ, whatever the default)
         differences.append([np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                             for name in ("v(out)", "i(l1)")])
     coarse, fine = np.array(differences)
@@ -170,7 +170,7 @@ def test_a_capacitor_held_to_a_source_by_a_diode_goes_to_theta_and_back():
         waves = circuitnsds.read_netlist(PEAK).transient(method="exact")
     assert waves.stats["handoffs"] >= 2 and 0 < waves.stats["theta_steps"] < waves.time.size / 2
     t, vc = waves.time, np.asarray(waves["v(c)"])
-    theta = circuitnsds.read_netlist(PEAK).transient()
+    theta = circuitnsds.read_netlist(PEAK).transient(method="theta")
     conducting = np.asarray(theta.impulse("d1")) > 0
     # while it conducts, v(c) is the source's value at the point (θ's algebraic rows)
     assert np.max(np.abs(vc[conducting] - 5 * np.sin(2e3 * math.pi * t[conducting]))) < 1e-9
@@ -210,16 +210,27 @@ def test_exact_refuses_smooth_relations_naming_them():
                                              "piecewise linear")
 
 
-def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys):
+@pytest.mark.parametrize("default", ["theta", "auto"])
+def test_info_says_which_method_a_run_would_use_and_why(tmp_path, capsys, monkeypatch, default):
+    from circuitnsds.engine import stepper
     from tests.test_info import run_info
 
+    monkeypatch.setattr(stepper, "DEFAULT_STEPPER", default)  # (either default, the words of each)
     auto = (NETLISTS / "buck_converter.cir").read_text().replace(".end", ".options method=auto\n.end")
     _, out, _ = run_info(tmp_path, capsys, auto)
     assert ("method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
             "(method=auto: the circuit is piecewise linear and its sources have closed forms)") in out
     _, out, _ = run_info(tmp_path, capsys, path=NETLISTS / "buck_converter.cir")
     assert ("method:    the θ-method (the default; .options method=auto would integrate this circuit "
-            "exactly, its switching instants located, slower to start)\n") in out
+            "exactly, its switching instants located, slower to start)\n" if default == "theta" else
+            "method:    exact, event-driven (.tran TSTEP sets the rows reported, not the accuracy) "
+            "(the default, method=auto: the circuit is piecewise linear and its sources have closed "
+            "forms)\n") in out
+    if default == "auto":  # θ where the exact integrator cannot run the circuit, and why
+        am = "am\nV1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n"
+        _, out, _ = run_info(tmp_path, capsys, am)
+        assert ("method:    the θ-method (the default, method=auto: the exact integrator cannot run "
+                "it: its source(s) v1 (AM) have no closed form it integrates") in out
     _, out, _ = run_info(tmp_path, capsys, _ladder(210).replace(".end", ".options method=auto\n.end"))
     assert re.search(r"method:    the θ-method \(method=auto: the exact integrator cannot run it: it has "
                      r"2\d\d unknowns and 0 pairs, more than the 200", out)
@@ -246,7 +257,7 @@ def test_theta_converges_at_first_order_to_the_exact_flyback():
     circuit = circuitnsds.read_netlist(FLYBACK)
     differences = []
     for step in (2e-9, 1e-9):
-        theta = circuit.transient(step=step, stop=30e-6)
+        theta = circuit.transient(step=step, stop=30e-6, method="theta")  # (θ, whatever the default)
         differences.append([np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                             for name in ("v(clamp)", "v(out)", "i(lp)", "i(ls)")])
     coarse, fine = np.array(differences)
@@ -281,10 +292,43 @@ def test_the_interval_charges_are_the_integral_and_add_up(terms, a, width, split
 
 def test_the_run_summary_says_the_theta_method_ran(tmp_path, capsys):
     from circuitnsds.cli.main import main
+    from tests.conftest import pinned_copy
 
+    netlist = str(pinned_copy(NETLISTS / "buck_converter.cir", tmp_path))  # (θ named)
+    assert main(["run", netlist, "--stop", "2u", "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: \d+ θ-method steps in ", err) and "method=" not in err
+
+
+def test_the_run_summary_says_which_method_the_default_auto_took_and_why(tmp_path, capsys,
+                                                                        monkeypatch):
+    """With auto the default, the summary line says which stepper ran and why; no note (every
+    run of the default would carry one), unless the exact loop handed a stretch to θ."""
+    from circuitnsds.analyses import transient
+    from circuitnsds.cli.main import main
+    from circuitnsds.engine import stepper
+
+    for module in (stepper, transient):
+        monkeypatch.setattr(module, "DEFAULT_STEPPER", "auto")
     netlist = str(NETLISTS / "buck_converter.cir")
     assert main(["run", netlist, "--stop", "2u", "-o", str(tmp_path / "out.csv")]) == 0
-    assert re.search(r"circuitnsds: \d+ θ-method steps in ", capsys.readouterr().err)
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: \d+ rows from \d+ exact segments \(\d+ events located\) in .*; "
+                     r"method=auto \(the default\): the circuit is piecewise linear and its sources "
+                     r"have closed forms; .tran TSTEP sets the rows reported, not the accuracy", err)
+    assert "note:" not in err
+    am = tmp_path / "am.cir"
+    am.write_text("am\nV1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    assert main(["run", str(am), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert re.search(r"circuitnsds: 1000 θ-method steps in .*; method=auto \(the default\): the "
+                     r"exact integrator cannot run it: its source\(s\) v1 \(AM\) have no closed form", err)
+    assert "note:" not in err
+    peak = tmp_path / "peak.cir"  # a hand-off to θ is still noted
+    peak.write_text(PEAK)
+    assert main(["run", str(peak), "-o", str(tmp_path / "out.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "stretch(es) of the exact integration handed to the θ-method, the first at t = 0 s" in err
 
 
 def test_the_run_summary_counts_rows_segments_and_events(tmp_path, capsys):
@@ -325,7 +369,7 @@ def test_the_three_phase_inverter_runs_exactly_and_theta_converges_to_it():
     for step in (1e-7, 1e-8):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RunNote)
-            theta = circuit.transient(step=step, stop=0.4e-3)
+            theta = circuit.transient(step=step, stop=0.4e-3, method="theta")  # (θ, whatever the default)
         differences.append(max(np.max(np.abs(np.interp(exact.time, theta.time, theta[name]) - exact[name]))
                                / np.max(np.abs(exact[name])) for name in ("i(lab)", "i(lbc)")))
     coarse, fine = differences
@@ -345,3 +389,74 @@ def test_a_zener_regulator_on_a_ramp_from_zero_breaks_down_at_its_closed_form_in
     np.testing.assert_allclose(waves["v(out)"], np.minimum(2000 * t / 1.1, 5.1), rtol=1e-9, atol=1e-12)
     assert [(e.element, e.state) for e in waves.events] == [("dz1.reverse", True)]
     assert waves.events[0].time == pytest.approx(2.805e-3, rel=1e-12)
+
+
+# ---------------------------------------------------------------- what auto may give the exact loop
+
+
+@pytest.mark.parametrize(("body", "words"), [
+    ("V1 a 0 AM(1 0 1k 10 0)\nR1 a 0 1", r"its source\(s\) v1 \(AM\) have no closed form"),
+    ("V1 a 0 SFFM(0 1 1k 2 100)\nR1 a 0 1", r"its source\(s\) v1 \(SFFM\) have no closed form"),
+    # a resistor stepping in time: switches that follow a PWL alone (the exact loop's event
+    # functions saw no control: i(r1) was 0 after t = 0 instead of 1 A, then 0.5 A)
+    ("V1 a 0 1\nR1 a 0 {time < 1m ? 1 : 2}", r"its switch\(es\) r1#1, r1#2 follow a source's time "
+                                               r"function without a circuit quantity"),
+])
+def test_auto_takes_theta_where_the_exact_loop_has_no_closed_form(body, words):
+    circuit = circuitnsds.read_netlist(f"refused\n{body}\n.tran 10u 3m\n.end\n")
+    chosen, why = choose_stepper("auto", circuit.mlcs())
+    assert chosen.name == "theta" and re.search(words, why)
+    with pytest.raises(circuitnsds.CircuitError, match=r"'exact' cannot run this circuit: " + words):
+        circuit.transient(method="exact")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RunNote)
+        waves = circuit.transient(method="auto")
+    if "time <" in body:  # the θ-method's answer: 1 A before the corner, 0.5 A after it
+        t = waves.time
+        np.testing.assert_allclose(waves["i(r1)"][t <= 1e-3], 1.0, rtol=1e-9)
+        np.testing.assert_allclose(waves["i(r1)"][t > 1e-3 + 1e-9], 0.5, rtol=1e-9)
+
+
+UNSTABLE = ("unstable\nI1 0 a pulse(0 1m 0 1u 1u 1m 1)\nC1 a 0 1u\nR1 a 0 2k\nG1 a 0 a 0 -1m\n"
+            ".tran 1m 3\n.end\n")
+
+
+@pytest.mark.parametrize("signals", [None, ["v(a)"]])
+def test_an_exact_state_that_overflows_stops_the_run_with_the_rows_before_it(signals):
+    # v' = 500 v + i/C: after the first pulse (1 mA, 1 µs edges, 1 ms wide) v = K e^{500 t} with
+    # K = ∫ 1000·p(s) e^{-500 s} ds (the pulse at 1 s adds e^-500 of that), beyond the largest
+    # double at 1.4199 s; the first grid point after it is 1.421 s. Before, the exact loop wrote
+    # NaN from there on, and the run ended as if nothing had happened.
+    def shape(s: float) -> float:
+        return min(s / 1e-6, 1.0) if s < 1.001e-3 else max(1.0 - (s - 1.001e-3) / 1e-6, 0.0)
+
+    weight = quad(lambda s: 1e3 * shape(s) * math.exp(-500 * s), 0, 1.002e-3, points=[1e-6, 1.001e-3],
+                  epsabs=0, epsrel=1e-12)[0]
+    with pytest.raises(circuitnsds.SimulationError, match=r"the state is not finite at t = ") as caught:
+        circuitnsds.read_netlist(UNSTABLE).transient(method="exact", signals=signals)
+    error = caught.value
+    overflow = (math.log(1.7976931348623157e308) - math.log(weight)) / 500
+    assert overflow < error.time <= overflow + 1e-3
+    assert error.cause == circuitnsds.SimulationError.STATE_NOT_FINITE
+    assert "the circuit is unstable" in error.hint
+    partial = error.partial
+    assert partial.time[-1] < error.time and np.isfinite(partial["v(a)"]).all()
+    t = partial.time[partial.time > 2e-3]
+    np.testing.assert_allclose(partial["v(a)"][partial.time > 2e-3],
+                               np.exp(500 * t + math.log(weight)), rtol=1e-6)
+
+
+def test_a_step_without_solution_in_a_theta_stretch_keeps_the_rows_before_it():
+    # a negative resistance across an ideal diode: the exact loop hands the stretch to θ, whose
+    # step at 10.1 ms has no solution; the rows of the part before the stretch are kept (before:
+    # the error held only the stretch's one row)
+    netlist = ("negative resistance drives an ideal diode\nI1 0 a sin(0 1m 50)\nD1 a 0 d\nR1 a 0 2k\n"
+               "G1 a 0 a 0 -1m\n.model d D\n.tran 100u 40m\n.end\n")
+    with pytest.raises(circuitnsds.SimulationError, match=r"has no solution with ideal devices") as caught:
+        circuitnsds.read_netlist(netlist).transient(method="exact")
+    error = caught.value
+    assert error.time == pytest.approx(10.1e-3)
+    partial = error.partial
+    assert partial.time.size == 101 and partial.time[-1] == pytest.approx(10e-3)
+    # v(a) = -2k · i: the diode blocks while the source current is positive (Roff's 1e-12 S aside)
+    np.testing.assert_allclose(partial["v(a)"], -2.0 * np.sin(2 * np.pi * 50 * partial.time), atol=1e-8)

@@ -36,8 +36,10 @@ def _package_files_since(started: float) -> list[Path]:
 
 def test_a_compiled_run_writes_nothing_in_the_package():
     started = time.time() - 1.0  # file systems with coarse timestamps
+    # (θ's compiled mode loops and their cache: pinned to θ)
     waves = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir").transient(stop=50e-6,
-                                                                                stepping="compiled")
+                                                                                stepping="compiled",
+                                                                                method="theta")
     assert waves.stats["mapped_steps"] > 0
     # the loops' caches are where jit says, outside the package
     root = jit.cache_root()
@@ -84,7 +86,8 @@ def test_no_writable_folder_means_no_cache(monkeypatch):
 
 def test_a_short_run_does_not_load_numba():
     code = ("import sys, circuitnsds; from tests.conftest import NETLISTS\n"
-            "w = circuitnsds.read_netlist(NETLISTS / 'bridge_rectifier.cir').transient()\n"
+            # (θ's C loop loads no numba; the exact integrator's loop is numba's: pinned to θ)
+            "w = circuitnsds.read_netlist(NETLISTS / 'bridge_rectifier.cir').transient(method='theta')\n"
             "assert w.stats['mapped_steps'] > 1000\n"
             "print('numba' in sys.modules)")
     root = Path(__file__).resolve().parents[1]
@@ -107,7 +110,8 @@ def test_the_warmup_compiles_the_signature_a_run_uses(monkeypatch, dense):
     if not dense:
         monkeypatch.setattr(integrate, "DENSE_MAP_LIMIT", 0)
     for netlist in ("buck_converter.cir", "diode_clamp.cir"):
-        waves = circuitnsds.read_netlist(NETLISTS / netlist).transient(stop=20e-6, stepping="compiled")
+        waves = circuitnsds.read_netlist(NETLISTS / netlist).transient(stop=20e-6, stepping="compiled",
+                                                                      method="theta")  # θ's loops
         assert waves.stats["mapped_steps"] > 0
     assert len(loop.signatures) == 1, loop.signatures
 

@@ -35,7 +35,7 @@ def rc_sine_error(h: float, theta: float) -> float:
     R, C, f = 1e3, 1e-6, 200.0
     tau, w = R * C, 2 * math.pi * f
     waves = circuit_from(f"V1 in 0 SIN(0 1 {f})\nR1 in out {R}\nC1 out 0 {C}\n"
-                         f".tran {h} 5m uic").transient(theta=theta)
+                         f".tran {h} 5m uic").transient(theta=theta, method="theta")  # θ's order, pinned
     t = waves.time
     wt = w * tau
     exact = (np.sin(w * t) - wt * np.cos(w * t) + wt * np.exp(-t / tau)) / (1 + wt**2)

@@ -28,16 +28,16 @@ def ladder(sections: int, stop: float) -> str:
 
 def test_ladder_paths_agree_with_one_lemke_mlcp_per_step(monkeypatch):
     circuit = circuitnsds.read_netlist(ladder(60, 3e-3))
-    fast = circuit.transient()
+    fast = circuit.transient(method="theta")  # (θ's three stepping paths and counters: pinned)
     stats = fast.stats
     assert circuit.mlcs().n + circuit.mlcs().m > circuitnsds.engine.integrate.DENSE_MAP_LIMIT  # sparse maps
     assert stats["mlcp_steps"] >= 3  # the diodes block and conduct again: mode changes
     assert stats["pivoting_solves"] >= 2  # found by pivoting, not Lemke
     assert stats["mapped_steps"] > 0.9 * stats["steps"]
-    numpy_loop = circuit.transient(stepping="numpy")
+    numpy_loop = circuit.transient(stepping="numpy", method="theta")
     with monkeypatch.context() as patch:  # no maps, no pivoting: Lemke for every step
         patch.setattr(circuitnsds.solvers.mlcp, "PIVOTING_MIN_PAIRS", 10**9)
-        lemke = circuit.transient(stepping="mlcp")
+        lemke = circuit.transient(stepping="mlcp", method="theta")
     assert lemke.stats["mlcp_steps"] == lemke.stats["steps"]
     for other in (numpy_loop, lemke):
         for name in ("v(n1)", "v(n30)", "v(n60)", "i(d1)", "i(d60)"):

@@ -14,7 +14,7 @@ import circuitnsds
 from circuitnsds.cli.main import main
 from circuitnsds.output import csvfile
 from circuitnsds.output.files import atomic_path
-from tests.conftest import NETLISTS
+from tests.conftest import NETLISTS, pinned, pinned_copy
 
 RC = "rc\nV1 in 0 1\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 1m\n.end\n"
 
@@ -145,7 +145,7 @@ def test_atomic_path_writes_devices_directly():
 
 
 def test_dash_reads_stdin_and_writes_stdout(capsys, monkeypatch):
-    monkeypatch.setattr("sys.stdin", io.StringIO(RC))
+    monkeypatch.setattr("sys.stdin", io.StringIO(pinned(RC)))  # (implicit Euler's values: θ)
     assert main(["run", "-", "-q", "--signals", "v(out)", "--uic"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "time,v(out)"
@@ -234,7 +234,8 @@ def test_with_the_csv_on_stdout_every_report_goes_to_stderr(tmp_path, capsys):
 def test_ctrl_c_writes_the_partial_results_and_exits_130(tmp_path, capsys, monkeypatch):
     from circuitnsds.engine import integrate as engine
 
-    netlist = NETLISTS / "half_wave_rectifier.cir"
+    # (the interruption comes from θ's step: pinned to θ)
+    netlist = pinned_copy(NETLISTS / "half_wave_rectifier.cir", tmp_path)
     calls = {"n": 0}
     original = engine.GridStepping.solve_step
 

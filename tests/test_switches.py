@@ -103,7 +103,9 @@ def test_hysteresis_on_a_triangle_switches_exactly_at_vt_plus_vh_and_vt_minus_vh
     h = 70e-6
     body = divider("Vc c 0 PWL(0 0 1m 5 2m 0 3m 5 4m 0)", "VT=2.3 VH=0.4 RON=10 ROFF=1meg",
                    extra=f".tran {h} 4m")
-    waves = circuit_from(body).transient()
+    # (θ's grid: each crossing a point, the switch changing in the step after it; the exact
+    # integrator locates the instant, to 1e-12 of it, on either side of the point: pinned)
+    waves = circuit_from(body).transient(method="theta")
     t = waves.time
     crossings = [(0.54e-3, 1.62e-3), (2.54e-3, 3.62e-3)]
     for instant in np.ravel(crossings):
@@ -117,7 +119,7 @@ def test_hysteresis_on_a_triangle_switches_exactly_at_vt_plus_vh_and_vt_minus_vh
     v_open, _ = open_values(1e6)
     np.testing.assert_allclose(waves["v(a)"], np.where(expected, v_closed, v_open), rtol=1e-12)
     # without hysteresis (VH = 0) both transitions happen at 2.3 V: 0.46 ms and 1.54 ms
-    plain = circuit_from(body.replace("VH=0.4", "VH=0")).transient()
+    plain = circuit_from(body.replace("VH=0.4", "VH=0")).transient(method="theta")
     tp = plain.time
     first = tp[np.argmax(closed_steps(plain))]
     assert tp[np.searchsorted(tp, 0.46e-3 - 1e-15)] == pytest.approx(0.46e-3, abs=1e-15)
@@ -158,7 +160,7 @@ def test_sine_driven_switch_changes_within_half_a_step_of_the_crossing():
     # VT = 2.5 V upwards at 1/12 ms and downwards at 5/12 ms (then every 1 ms).
     h = 30e-6
     body = divider("Vc c 0 SIN(0 5 1k)", "VT=2.5 RON=10 ROFF=1meg", extra=f".tran {h} 2m")
-    waves = circuit_from(body).transient()
+    waves = circuit_from(body).transient(method="theta")  # (θ's rule: the step's middle, pinned)
     t = waves.time
     middle = 0.5 * (t[1:] + t[:-1])
     np.testing.assert_array_equal(closed_steps(waves)[1:], 5 * np.sin(2 * np.pi * 1e3 * middle) > 2.5)
@@ -220,7 +222,9 @@ S1 a 0 c 0 sw
 .model sw SW(VT=3 RON=1 ROFF=1meg)
 .tran {h} 1m uic
 """
-    waves = circuit_from(body).transient()
+    # (the crossing of θ's trajectory, interpolated in its step: pinned to θ; the exact
+    # integrator's is rc·ln(10/7) itself)
+    waves = circuit_from(body).transient(method="theta")
     t = waves.time
     closed = waves["i(s1)"] > 1e-3
     np.testing.assert_array_equal(closed, replay_hysteresis(waves["v(c)"], 3.0, 3.0, False))
@@ -273,11 +277,12 @@ S1 x 0 x 0 sw
 
 
 def _run_paths(circuit, monkeypatch, stop, theta=1.0):
-    results = {path: circuit.transient(stop=stop, theta=theta, stepping=path)
+    # (the θ-method's stepping paths: pinned to θ)
+    results = {path: circuit.transient(stop=stop, theta=theta, stepping=path, method="theta")
                for path in ("compiled", "numpy", "mlcp")}
     with monkeypatch.context() as patch:  # no dense step maps
         patch.setattr(circuitnsds.engine.integrate, "DENSE_MAP_LIMIT", 0)
-        results["no dense map"] = circuit.transient(stop=stop, theta=theta)
+        results["no dense map"] = circuit.transient(stop=stop, theta=theta, method="theta")
     return results
 
 
@@ -351,7 +356,7 @@ def test_negative_hysteresis_is_taken_as_its_magnitude_with_a_warning():
 
 def _buck_error(step: float, theta: float, reference) -> float:
     circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
-    waves = circuit.transient(step=step, stop=0.4e-3, theta=theta)
+    waves = circuit.transient(step=step, stop=0.4e-3, theta=theta, method="theta")  # θ's order
     t_ref, v_ref = reference
     return float(np.max(np.abs(np.interp(t_ref, waves.time, waves["v(out)"]) - v_ref)))
 
@@ -363,7 +368,7 @@ def test_converter_convergence_order(theta, order):
     4 (θ = 0.5, whose step after each switching is an implicit Euler restart, an O(h²) local
     error at a fixed number of instants)."""
     circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
-    fine = circuit.transient(step=0.1e-6 / 16, stop=0.4e-3, theta=theta)
+    fine = circuit.transient(step=0.1e-6 / 16, stop=0.4e-3, theta=theta, method="theta")
     reference = (fine.time, fine["v(out)"])
     errors = [_buck_error(h, theta, reference) for h in (0.2e-6, 0.1e-6)]
     ratio = errors[0] / errors[1]
@@ -421,5 +426,5 @@ def test_converter_stays_in_the_mode_loop(theta):
     only the first periods (and the start-up transient) solve MLCPs. A regression here (an
     MLCP at every switching) once made the benchmark 6x slower with the same waveforms."""
     circuit = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
-    stats = circuit.transient(theta=theta).stats
+    stats = circuit.transient(theta=theta, method="theta").stats  # (θ's mode loop, pinned)
     assert stats["mlcp_steps"] < 0.005 * stats["steps"], stats

@@ -10,7 +10,7 @@ from tests.conftest import circuit_from
 
 def test_rc_discharge_matches_implicit_euler_exactly_and_the_exponential():
     R, C, h = 1e3, 1e-6, 1e-5
-    waves = circuit_from(f"C1 a 0 {C} ic=1\nR1 a 0 {R}\n.tran {h} 5m uic").transient()
+    waves = circuit_from(f"C1 a 0 {C} ic=1\nR1 a 0 {R}\n.tran {h} 5m uic").transient(method="theta")  # (θ's)
     v = waves["v(a)"]
     k = np.arange(v.size)
     np.testing.assert_allclose(v, (1 / (1 + h / (R * C))) ** k, rtol=1e-12)
@@ -20,7 +20,8 @@ def test_rc_discharge_matches_implicit_euler_exactly_and_the_exponential():
 
 def test_rl_step_response():
     R, L, V, h = 10.0, 1e-2, 5.0, 1e-5
-    waves = circuit_from(f"V1 a 0 {V}\nR1 a b {R}\nL1 b 0 {L}\n.tran {h} 5m uic").transient()
+    # (implicit Euler's recurrence: pinned to θ)
+    waves = circuit_from(f"V1 a 0 {V}\nR1 a b {R}\nL1 b 0 {L}\n.tran {h} 5m uic").transient(method="theta")
     i = waves["i(l1)"]
     expected = V / R * (1 - np.exp(-waves.time * R / L))
     assert np.max(np.abs(i - expected)) < 0.01 * V / R

@@ -130,15 +130,19 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
     else:
         from circuitnsds.engine.small_signal import periodic_response
 
-        if pss.maps is None:
-            found = ("through smooth nonlinear elements (finite-difference shooting)" if mlcs.smooth
-                     else "on the exact map (.options method=exact)")
-            hint = ("ac around the operating point (--around op) linearises the smooth elements"
-                    if mlcs.smooth else "run the ac with .options method=theta (its step maps)")
-            raise CircuitError(f"ac around a periodic steady state found {found} is not built "
-                               "yet: it has no step maps", where=circuit.file, hint=hint)
-        _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
-        values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
+        if pss.exact is not None:  # on the exact orbit: closed forms and saltations
+            from circuitnsds.engine.exact.small_signal import periodic_response as exact_response
+
+            values = exact_response(pss.exact, inputs, frequencies, Y_out.toarray(), L_out.toarray())
+        elif pss.maps is None:
+            raise CircuitError("ac around a periodic steady state found through smooth nonlinear "
+                               "elements (finite-difference shooting) is not built yet: it has no "
+                               "step maps", where=circuit.file,
+                               hint="ac around the operating point (--around op) linearises the "
+                               "smooth elements")
+        else:
+            _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
+            values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
     return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
 

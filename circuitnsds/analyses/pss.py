@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -45,6 +46,9 @@ from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
 from circuitnsds.system.stimuli import Am, Dc, Pulse, Pwl, Sawtooth, Sffm, Sin
+
+if TYPE_CHECKING:
+    from circuitnsds.engine.exact.small_signal import ExactPeriod
 from circuitnsds.units import format_si
 
 DEFAULT_POINTS = 1000
@@ -129,6 +133,8 @@ class PSSResult:
     when it is the finite-difference one (smooth nonlinear elements), else 0."""
     shooting: str = ""
     """How the period map and its Jacobian were found when not by the affine step maps."""
+    exact: ExactPeriod | None = field(default=None, repr=False)
+    """On the exact map: the orbit's period as segments (what ``ac`` around it needs)."""
 
     @property
     def decay_rate(self) -> float:

@@ -6,7 +6,8 @@ exact stepper.
 
 The monodromy and multipliers are given in the state unknowns (:func:`state_unknowns`),
 like the θ shooting's; the means of the unknowns over the period are the closed-form
-integrals (``PSSResult.means``). There are no step maps: ``ac`` around it is refused.
+integrals (``PSSResult.means``). There are no step maps: ``ac`` around it takes the orbit's
+segments (``PSSResult.exact``, :mod:`circuitnsds.engine.exact.small_signal`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,9 @@ from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.exact.mode import StateCoordinates
-from circuitnsds.engine.exact.periodic import periodic_orbit
+from circuitnsds.engine.exact.periodic import period_map, periodic_orbit
+from circuitnsds.engine.exact.run import ExactSystem
+from circuitnsds.engine.exact.small_signal import ExactPeriod
 from circuitnsds.engine.exact.stepper import ExactStepper
 from circuitnsds.engine.step_maps import state_unknowns
 from circuitnsds.engine.stepper import StartState
@@ -47,6 +50,11 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     except ArithmeticError as exc:
         raise SimulationError(str(exc), where=circuit.file, hint="run the pss with .options "
                               "method=theta (the θ shooting falls back to transient periods)") from None
+    system = ExactSystem(mlcs)
+    t0 = float(grid[0])
+    segments = period_map(system, t0, period, orbit.x, orbit.active, orbit.closed)[3]
+    taus = np.array([min(s.tau, t0 + period - s.t) for s in segments])
+    exact = ExactPeriod(system, segments, taus, t0, period, orbit.monodromy)
     recorder = TrajectoryRecorder()
     drive(ExactStepper(mlcs), grid, StartState(orbit.y, None, None, orbit.active,
                                                np.array(orbit.closed, bool)), recorder)
@@ -70,5 +78,6 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
                        iterations=len(orbit.residuals) - 1, residual=orbit.residuals[-1],
                        relative_residual=orbit.residuals[-1] / scale, monodromy=monodromy,
                        multipliers=multipliers, history=[r / scale for r in orbit.residuals],
-                       maps=None, mlcs=mlcs, means=dict(zip(mlcs.unknowns, orbit.means.tolist())))
+                       maps=None, mlcs=mlcs, means=dict(zip(mlcs.unknowns, orbit.means.tolist())),
+                       exact=exact)
     return result

@@ -290,8 +290,9 @@ def _run_transient(
             raise
         if owned:
             _report(observers)
-        _note_method(circuit, stepper)
-        return kept.result()
+        result = kept.result()
+        _note_method(circuit, stepper, result.stats)
+        return result
     recorder = TrajectoryRecorder()
     try:
         drive(stepper, grid, state, Observed(recorder, mlcs, observers), progress=progress)
@@ -319,7 +320,7 @@ def _run_transient(
     waves.flux_impulses = {name: flux[first:] for name, flux in fluxes.items()}
     if owned:
         _report(observers)
-    _note_method(circuit, stepper)
+    _note_method(circuit, stepper, waves.stats)
     return waves if signals is None else _drained(waves.select(signals), sink)
 
 
@@ -337,6 +338,7 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
             f"{' ...' if len(mlcs.smooth) > 6 else ''}: smooth nonlinear element(s); the run is "
             f"integrated by the Newton stepper (method={SMOOTH_STEPPER}: Newton–Josephy on each "
             "step, step length by truncation error)"), stacklevel=3)
+    by_default = name is None
     name = DEFAULT_STEPPER if name is None else name
     hint = ".options method=NAME in the netlist, method= in Python"
     try:
@@ -352,14 +354,29 @@ def _stepper(circuit: Circuit, mlcs, method: str | None, **settings) -> Stepper:
     except ValueError as exc:  # (settings the stepper refuses)
         raise CircuitError(str(exc), where=circuit.file, hint=hint) from None
     stepper.why = why
+    stepper.by_default = by_default
     return stepper
 
 
-def _note_method(circuit: Circuit, stepper: Stepper) -> None:
+def _note_method(circuit: Circuit, stepper: Stepper, stats: dict) -> None:
     """Say which stepper ran unless it is the θ-method named or by default: the exact
     integrator (whose rows are exact at every ``TSTEP``: the step sets the rows reported, not
-    the accuracy; and its hand-offs to θ), or θ chosen by ``auto`` (and why)."""
+    the accuracy; and its hand-offs to θ), or θ chosen by ``auto`` (and why).
+
+    A choice :data:`~circuitnsds.engine.stepper.DEFAULT_STEPPER` made (``auto``) is no note
+    (every run of the default would carry one): its words go to ``stats["method"]``, which
+    the run summary prints; the exact integrator's hand-offs to θ are still noted."""
     why = getattr(stepper, "why", None)
+    if why is not None and getattr(stepper, "by_default", False):
+        stats["method"] = why.replace("method=auto", "method=auto (the default)", 1) + (
+            "; .tran TSTEP sets the rows reported, not the accuracy" if stepper.name == "exact" else "")
+        handoffs = getattr(stepper, "handoffs", [])
+        if handoffs:
+            first, cause = handoffs[0]
+            warnings.warn(RunNote(
+                f"{circuit.file}: {len(handoffs)} stretch(es) of the exact integration handed to "
+                f"the θ-method, the first at t = {first:.6g} s ({cause})"), stacklevel=3)
+        return
     if stepper.name != "exact":
         if why is not None:
             what = "the Newton stepper" if stepper.name == SMOOTH_STEPPER else "the θ-method"

@@ -440,7 +440,8 @@ def _run(args: argparse.Namespace) -> int:
             + (f" and {int(stats['theta_steps'])} θ steps" if stats.get("theta_steps") else ""))
     return _finish(args, circuit, waves, f"{done} in {stats['seconds']:.3g} s "
                    f"({stats['unknowns']} unknowns, {stats['pairs']} complementarity pairs); "
-                   f"max residual {residual:.1e}{newton_summary(stats)}", stream, thermal)
+                   f"max residual {residual:.1e}{newton_summary(stats)}"
+                   f"{'; ' + stats['method'] if stats.get('method') else ''}", stream, thermal)
 
 
 def _csv_stream(args: argparse.Namespace, kept: list[str] | None):

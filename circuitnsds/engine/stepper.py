@@ -183,8 +183,12 @@ def choose_stepper(name: str, mlcs: MLCS) -> tuple[type[Stepper], str | None]:
 
 
 def default_note(mlcs: MLCS) -> str:
-    """Why a run without ``.options method`` takes :data:`DEFAULT_STEPPER`, and what ``auto``
-    would do for ``mlcs`` (words for ``info``)."""
+    """Why a run without ``.options method`` takes the stepper it takes (words for ``info``):
+    with :data:`DEFAULT_STEPPER` ``auto``, the choice and its reason; with a stepper named
+    there, what ``auto`` would do for ``mlcs``."""
+    if DEFAULT_STEPPER == AUTO:
+        _, why = choose_stepper(AUTO, mlcs)
+        return str(why).replace("method=auto", "the default, method=auto", 1)
     reason = stepper_class("exact").unsuited(mlcs)
     if reason is not None:
         return f"the default; the exact integrator cannot run it: {reason}"

@@ -96,10 +96,13 @@ def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights
         for i in range(y_size.shape[0]):
             summed += rows_y[mode, k, i] * y_size[i]
         slope = 0.0
+        terms_size = 0.0
         for j in range(count):
             slope += (slope_weights[mode, j] * table[j, k]).real
+            terms_size += abs(table[j, k])
         tolerances[k] = (RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed
-                         + abs(slope) * TIME_ULPS * _ulp(instant) + 1e-300)
+                         + abs(slope) * TIME_ULPS * _ulp(instant) + SUM_ULPS * EPSILON * terms_size
+                         + 1e-300)
 
 
 def _violated(table, powers, exponents, count, k, tolerance):

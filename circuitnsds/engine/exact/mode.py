@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from circuitnsds.engine.exact.exppoly import ExpPoly, response
+from circuitnsds.solvers.pencil import pencil_eigen
 
 
 class NotIndexOne(Exception):
@@ -61,11 +62,9 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     25.6 mΩ instead of its switch's 20 mΩ. The pencil keeps 1e-12 where ``F`` has 1e12, so
     its slow eigenvalues are accurate; its ``r`` finite ones are the eigenvalues of ``F``
     (an index-1 mode), the others infinite (``β = 0``)."""
-    from scipy.linalg import eig
-
     E_bar = np.zeros_like(A_bar)
     E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
-    (alpha, beta), vectors = eig(A_bar, E_bar, homogeneous_eigvals=True)
+    alpha, beta, vectors = pencil_eigen(A_bar, E_bar)
     r = coordinates.rank
     finite = np.argsort(-np.abs(beta) / np.maximum(np.abs(alpha), 1e-300), kind="stable")[:r]
     W = coordinates.V1.T @ vectors[:n, finite]
@@ -100,11 +99,20 @@ class ModeDynamics:
         k = act.size
         self.active = np.asarray(active, dtype=bool).copy()
         self.n = n
-        A_bar = np.block([[A, B[:, act]], [C[act], D[np.ix_(act, act)]]])
-        T1 = np.vstack([coordinates.V1, np.zeros((k, r))])
-        T2 = np.block([[coordinates.V2, np.zeros((n, k))], [np.zeros((k, n - r)), np.eye(k)]])
-        R1 = np.hstack([coordinates.U1.T, np.zeros((r, k))])
-        R2 = np.block([[coordinates.U2.T, np.zeros((n - r, k))], [np.zeros((k, n)), np.eye(k)]])
+        # (assembled in place: np.block's bookkeeping was a tenth of a mode's cost)
+        A_bar = np.empty((n + k, n + k))
+        A_bar[:n, :n], A_bar[:n, n:] = A, B[:, act]
+        A_bar[n:, :n], A_bar[n:, n:] = C[act], D[np.ix_(act, act)]
+        T1 = np.zeros((n + k, r))
+        T1[:n] = coordinates.V1
+        T2 = np.zeros((n + k, n - r + k))
+        T2[:n, :n - r] = coordinates.V2
+        T2[n:, n - r:] = np.eye(k)
+        R1 = np.zeros((r, n + k))
+        R1[:, :n] = coordinates.U1.T
+        R2 = np.zeros((n - r + k, n + k))
+        R2[:n - r, :n] = coordinates.U2.T
+        R2[n - r:, n:] = np.eye(k)
         N = R2 @ A_bar @ T2
         solve = _algebraic_solve(N, R2) if N.size else np.zeros((0, n + k))
         self.P = T1 - T2 @ solve @ A_bar @ T1

@@ -24,6 +24,8 @@ class ModeTables:
         self.columns = system.m + len(system.mlcs.switches)
         self.inputs = system.coordinates.rank + sources.powers.size * len(system.mlcs.stimuli) + 1
         self.known = 0
+        self.built_seen = 0
+        """How many of the system's built modes :meth:`add_all_built` has gone through."""
         self.index: dict[tuple, int] = {}
         self._allocate(8, 1)
 
@@ -97,6 +99,9 @@ class ModeTables:
         return i
 
     def add_all_built(self) -> None:
-        """Every mode the system has built (the flips Python went through) joins."""
-        for active, closed in list(self.system.built_modes()):
+        """Every mode the system has built (the flips Python went through) joins: those built
+        since the last call (the system's list only grows)."""
+        built = self.system.built_modes()
+        for active, closed in built[self.built_seen:]:
             self.add(np.array(active, bool), closed)
+        self.built_seen = len(built)

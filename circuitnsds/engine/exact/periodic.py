@@ -7,10 +7,12 @@ the run's segments of the segment's flow ``e^{F τ}`` (its mode's eigenbasis) an
 segment ended by an event whose instant moves with the state (a diode's current or voltage
 reaching 0, a switch's control its threshold), the saltation matrix
 
-    S = I + (f⁺ − f⁻) ∇gᵀ / (∇g · f⁻),
+    S = I + (f⁺ − f⁻) ∇gᵀ / ġ⁻,
 
 ``f⁻``, ``f⁺`` the state's derivative just before and after the instant, ``∇g`` the event
-function's gradient in the state (``rows P``) [#saltation]_. A source's corner has a fixed
+function's gradient in the state (``rows P``), ``ġ⁻ = ∇g · f⁻ + ∂g/∂t`` its whole rate of
+change before the instant (a PWM comparator's ramp moves ``g`` without the state)
+[#saltation]_. A source's corner has a fixed
 instant: ``S = I``; so, in effect, has a diode's natural turn-off (its current reaches 0
 smoothly: ``f⁺ = f⁻``). Where the derivative jumps at a moving instant (a peak-current
 comparator opening the switch) ``S`` is what makes ``Φ`` the map's derivative: without it
@@ -86,13 +88,15 @@ def period_map(system: ExactSystem, t0: float, period: float, x: np.ndarray, act
 
 
 def _saltation(system: ExactSystem, before: Segment, after: Segment, n: int) -> np.ndarray:
-    """``S = I + (f⁺ − f⁻) ∇gᵀ / (∇g · f⁻)`` at the event ending ``before``."""
+    """``S = I + (f⁺ − f⁻) ∇gᵀ / ġ⁻`` at the event ending ``before``."""
     V1t = system.coordinates.V1.T
     rows = system.event_rows(before.mode, before.closed)
     gradient = rows[before.ended_by] @ before.mode.P  # ∂g/∂x
     f_minus = V1t @ before.z.derivative()(before.tau)[:n]
     f_plus = V1t @ after.z.derivative()(0.0)[:n]
-    rate = float(gradient @ f_minus)
+    # the event function's whole rate, ∇g·f⁻ + ∂g/∂t: a PWM comparator's ramp moves g by
+    # itself (∇g·f⁻ alone made the voltage-mode loop's Jacobian wrong and Newton stall)
+    rate = float(before.functions.table.derivative()(before.tau)[before.ended_by])
     if rate == 0.0:
         return np.eye(V1t.shape[0])
     return np.eye(V1t.shape[0]) + np.outer(f_plus - f_minus, gradient) / rate

@@ -44,7 +44,7 @@ class SolutionMap:
         self.state_size = r
         self.size = size
         self.z_map = K.reshape(terms * size, inputs)
-        table = np.einsum("tsi,cs->tci", K, rows)
+        table = np.matmul(rows, K)                 # (terms, columns, inputs): rows · K per term
         table[0, :, -1] += constants               # the constants join the term τ^0 e^{0τ}
         self.columns = rows.shape[0]
         self.table_map = table.reshape(terms * self.columns, inputs)

@@ -42,9 +42,11 @@ import numpy as np
 from circuitnsds.engine.events import SwitchEvent
 from circuitnsds.engine.exact.mode import NotIndexOne
 from circuitnsds.engine.exact.run import Chattering, ExactRun, ExactSystem, LoopState, run_exact
+from circuitnsds.engine.exact.sources import supported
 from circuitnsds.engine.integrate import STEPPINGS, Segments, Trajectory, integrate, trajectory_bytes
 from circuitnsds.engine.step_system import check_theta
 from circuitnsds.engine.stepper import StartState, Stepper
+from circuitnsds.errors import SimulationError
 from circuitnsds.system.mlcs import MLCS
 
 HANDOFF_STEPS = 16
@@ -92,6 +94,18 @@ class ExactStepper(Stepper):
         if mlcs.n + mlcs.m > MAX_UNKNOWNS:
             return (f"it has {mlcs.n} unknowns and {mlcs.m} pairs, more than the {MAX_UNKNOWNS} "
                     "the exact integrator's dense modes take")
+        blind = [switch.name for switch in mlcs.switches if not switch.control]
+        if blind:  # (a resistor stepping in time: its windows' switches follow a PWL alone)
+            return (f"its switch(es) {', '.join(blind[:5])}{' ...' if len(blind) > 5 else ''} "
+                    "follow a source's time function without a circuit quantity, which its "
+                    "event functions do not see")
+        if not supported(mlcs.stimuli):  # (AM, SFFM, a sawtooth: no closed-form piece)
+            kinds = sorted({type(s).__name__.upper() for s in mlcs.stimuli if not supported([s])})
+            owners = [owner or "?" for owner, s in zip(mlcs.stimulus_owners or [""] * len(mlcs.stimuli),
+                                                       mlcs.stimuli) if not supported([s])]
+            return (f"its source(s) {', '.join(owners[:5])}{' ...' if len(owners) > 5 else ''} "
+                    f"({', '.join(kinds)}) have no closed form it integrates (it takes DC, PULSE, "
+                    "PWL, SIN and EXP)")
         return None
 
     def begin(self, grid: np.ndarray, *, parts: bool) -> None:
@@ -128,6 +142,7 @@ class ExactStepper(Stepper):
             except (Chattering, NotIndexOne) as exc:
                 run = exc.run
                 out.take(run, row)
+                out.check_finite(row + 1, row + run.rows)
                 # (the stepper's own record, not the part's: a run in parts doubles alike)
                 failed_at_once = run.rows <= 1 and self.handoffs != []
                 self.handoff_steps = 2 * self.handoff_steps if failed_at_once else HANDOFF_STEPS
@@ -137,6 +152,7 @@ class ExactStepper(Stepper):
                 self.theta_until = offset + row + self.handoff_steps
                 continue
             out.take(run, row)
+            out.check_finite(row + 1, row + run.rows)
             self.state = run.state
             row = count - 1
             if progress is not None:
@@ -152,9 +168,16 @@ class ExactStepper(Stepper):
         # (one stepping state for every stretch, placed at the stretch's steps of the whole
         # grid: a stretch cut by a part's end is then the stretch in one call, bit for bit)
         self.theta_segments.offset = offset + row
-        part = integrate(self.mlcs, out.grid[row:last + 1], out.y[row], None, out.current[row],
-                         out.active[row], out.switches[row], theta=self.theta, tol=self.tol,
-                         stepping=self.loop, continued=True, segments=self.theta_segments)
+        try:
+            part = integrate(self.mlcs, out.grid[row:last + 1], out.y[row], None, out.current[row],
+                             out.active[row], out.switches[row], theta=self.theta, tol=self.tol,
+                             stepping=self.loop, continued=True, segments=self.theta_segments)
+        except (SimulationError, KeyboardInterrupt) as exc:  # the part's rows before it, kept
+            done = getattr(exc, "trajectory", None)
+            if done is not None:
+                out.take_theta(done, row)
+                exc.trajectory = out.trajectory(row + done.time.size)
+            raise
         out.take_theta(part, row)
         if last + offset >= self.theta_until:
             self.theta_until = None
@@ -228,7 +251,40 @@ class _Rows:
         self.stats["theta_steps"] += part.time.size - 1
         self.stats["events"] += len(part.events)
 
-    def trajectory(self) -> Trajectory:
+    def check_finite(self, first: int, end: int) -> None:
+        """Raise at the first of the rows ``first .. end - 1`` whose state is not finite (an
+        unstable mode's exponential overflows: NaN or an infinity, never a silent result),
+        with the trajectory of the rows before it.
+
+        Raises:
+            SimulationError: ``cause`` :attr:`~SimulationError.STATE_NOT_FINITE`.
+        """
+        bad = ~np.isfinite(self.y[first:end]).all(axis=1)
+        if bad.any():
+            k = first + int(np.argmax(bad))
+            error = _non_finite(self.mlcs, self.grid, self.y, k)
+            error.trajectory = self.trajectory(k)
+            raise error
+
+    def trajectory(self, end: int | None = None) -> Trajectory:
+        """The part's trajectory, or its rows before ``end`` (a failure's)."""
         self.events.sort(key=lambda event: event.time)
-        return Trajectory(self.grid, self.y, self.current, self.impulse, self.residual, self.active,
-                          self.switches, self.stats, self.events, self.tails)
+        if end is None:
+            return Trajectory(self.grid, self.y, self.current, self.impulse, self.residual,
+                              self.active, self.switches, self.stats, self.events, self.tails)
+        last = float(self.grid[end - 1])
+        return Trajectory(self.grid[:end], self.y[:end], self.current[:end], self.impulse[:end],
+                          self.residual[:end], self.active[:end], self.switches[:end],
+                          dict(self.stats, steps=end - 1),
+                          [event for event in self.events if event.time <= last],
+                          {k: tail for k, tail in self.tails.items() if k < end})
+
+
+def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
+    """The error for grid point ``k`` [index into ``grid``, s], whose state holds NaN or an
+    infinity, worded as the θ-method's (``integrate._non_finite``)."""
+    bad = np.flatnonzero(~np.isfinite(y[k]))
+    names = ", ".join(f"{mlcs.unknowns[j]} = {y[k, j]}" for j in bad[:4])
+    return SimulationError(
+        f"the state is not finite at t = {grid[k]:.6g} s ({names}{', ...' if bad.size > 4 else ''})",
+        where=f"t = {grid[k]:.6g} s", time=float(grid[k]), cause=SimulationError.STATE_NOT_FINITE)
