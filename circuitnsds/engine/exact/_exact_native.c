@@ -413,13 +413,14 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
         double summed = 0.0;
         for (int64_t i = 0; i < L->n; i++)
             summed += ry[i] * y_size[i];
-        double slope = 0.0;
+        double slope = 0.0, terms_size = 0.0;
         for (int64_t j = 0; j < count; j++) {
             cplx product = cmul(L->slope_weights[mode * L->T + j], table[j * columns + k]);
             slope += product.re;
+            terms_size += csize(table[j * columns + k].re, table[j * columns + k].im);
         }
         tolerances[k] = RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed + fabs(slope) * TIME_ULPS * ulp_of(instant)
-                        + 1e-300;
+                        + SUM_ULPS * EPSILON * terms_size + 1e-300;
     }
 }
 
