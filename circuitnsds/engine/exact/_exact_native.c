@@ -546,7 +546,7 @@ typedef struct {
         *kept_im2;
     cplx *moments, *inputs, *table;
     int64_t *pairs, *seen, *next_slot;
-    uint8_t *wanted;
+    uint8_t *wanted, *conjugate;
     int64_t top_power;
 } Rows;
 
@@ -781,6 +781,8 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         for (int64_t j = 0; j < count; j++) {
             R->nu_re[j] = exponents[j].re;
             R->nu_im[j] = exponents[j].im;
+            R->conjugate[j] = j > 0 && exponents[j].im != 0.0 && exponents[j].re == exponents[j - 1].re
+                              && exponents[j].im == -exponents[j - 1].im;
             R->kept_w[j] = -1.0;
             R->kept_w2[2 * j] = -1.0;
             R->kept_w2[2 * j + 1] = -1.0;
@@ -826,7 +828,12 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
                     R->at_re[j] = 1.0;
                     R->at_im[j] = 0.0;
                 }
-                grown(R->nu_re[j], R->nu_im[j], local, &R->growth_re[j], &R->growth_im[j]);
+                if (R->conjugate[j]) { /* e^{ν̄τ} = conj e^{ντ}: exp, cos even, sin odd, bit for bit */
+                    R->growth_re[j] = R->growth_re[j - 1];
+                    R->growth_im[j] = -R->growth_im[j - 1];
+                } else {
+                    grown(R->nu_re[j], R->nu_im[j], local, &R->growth_re[j], &R->growth_im[j]);
+                }
             }
             for (int64_t i = 0; i < width; i++)
                 values[i] = 0.0;
@@ -999,7 +1006,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     double *d = calloc(doubles, sizeof(double));
     cplx *c = calloc(complexes, sizeof(cplx));
     int64_t *ints = calloc((size_t)(L.m + MAX_MODE_CHANGES + 3 * T + 1), sizeof(int64_t));
-    uint8_t *wanted = calloc((size_t)L.columns + 1, 1);
+    uint8_t *wanted = calloc((size_t)(L.columns + T + 1), 1);
     Search *search = malloc(sizeof(Search));
     int64_t status = OUT_OF_MEMORY;
     if (d && c && ints && wanted && search) {
@@ -1035,6 +1042,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         search->dp = ints + L.m + MAX_MODE_CHANGES;
         R.next_slot = ints + L.m + MAX_MODE_CHANGES + 2 * T;
         R.wanted = wanted;
+        R.conjugate = wanted + L.columns;
         status = run(&L, &R, search);
     }
     free(d);
