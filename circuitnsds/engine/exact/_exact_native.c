@@ -98,15 +98,17 @@ static double value_at(const cplx *c, const int64_t *p, const cplx *nu, int64_t 
 }
 
 /* first_event._bound: a lower bound of Re Σ c_j τ^p_j e^{ν_j τ} on [a, b]. */
-static double bound(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b) {
+static double bound(const cplx *c, const double *sizes, const int64_t *p, const cplx *nu, const double *speeds,
+                    int64_t terms, double a, double b) {
+    /* (sizes[j] = |c_j|, speeds[j] = |ν_j|: computed once per search, not per interval) */
     double width = b - a, fast = 0.0, bend = 0.0, g0 = 0.0, g1 = 0.0;
     for (int64_t j = 0; j < terms; j++) {
-        double size = csize(c[j].re, c[j].im);
+        double size = sizes[j];
         if (size == 0.0)
             continue;
         int64_t q = p[j];
         double growth = exp(fmax(nu[j].re * a, nu[j].re * b));
-        double speed = csize(nu[j].re, nu[j].im);
+        double speed = speeds[j];
         if (speed * width > 1.0) {
             fast += size * ipow(b, q) * growth;
             continue;
@@ -163,6 +165,7 @@ static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t te
 /* Scratch of the search: the derivative's terms (2 terms per term) and the interval stack. */
 typedef struct {
     cplx *dc, *dnu, *column;
+    double *d_sizes, *d_speeds, *sizes, *speeds; /* |dc|, |dnu| (2 terms each); |column|, |ν| */
     int64_t *dp;
     double starts[MAX_STACK], ends[MAX_STACK];
     int64_t depths[MAX_STACK];
@@ -181,6 +184,11 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
         s->dp[terms + j] = p[j] > 1 ? p[j] - 1 : 0;
         s->dnu[terms + j] = nu[j];
     }
+    for (int64_t j = 0; j < 2 * terms; j++) {
+        s->d_sizes[j] = csize(s->dc[j].re, s->dc[j].im);
+        s->d_speeds[j] = csize(s->dnu[j].re, s->dnu[j].im);
+    }
+    const double *sizes = s->sizes, *speeds = s->speeds; /* (the column's, set by the caller) */
     s->starts[0] = 0.0;
     s->ends[0] = horizon;
     s->depths[0] = 0;
@@ -192,10 +200,10 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
         top -= 1;
         double a = s->starts[top], b = s->ends[top];
         int64_t depth = s->depths[top];
-        if (bound(c, p, nu, terms, a, b) > -tol)
+        if (bound(c, sizes, p, nu, speeds, terms, a, b) > -tol)
             continue;
         double gb = value_at(c, p, nu, terms, b);
-        if (gb < -tol && bound(s->dc, s->dp, s->dnu, 2 * terms, a, b) > 0.0)
+        if (gb < -tol && bound(s->dc, s->d_sizes, s->dp, s->dnu, s->d_speeds, 2 * terms, a, b) > 0.0)
             return refine(c, p, nu, terms, a, b);
         if (b - a <= resolution || depth >= MAX_DEPTH) {
             if (gb < -tol)
@@ -214,11 +222,19 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
     return -1.0;
 }
 
-/* Column k of a table (terms, columns) into s->column. */
+/* Column k of a table (terms, columns) into s->column, its terms' sizes into s->sizes. */
 static const cplx *column_of(Search *s, const cplx *table, int64_t terms, int64_t columns, int64_t k) {
-    for (int64_t j = 0; j < terms; j++)
+    for (int64_t j = 0; j < terms; j++) {
         s->column[j] = table[j * columns + k];
+        s->sizes[j] = csize(s->column[j].re, s->column[j].im);
+    }
     return s->column;
+}
+
+/* The exponents' sizes |ν_j| into s->speeds. */
+static void speeds_of(Search *s, const cplx *exponents, int64_t terms) {
+    for (int64_t j = 0; j < terms; j++)
+        s->speeds[j] = csize(exponents[j].re, exponents[j].im);
 }
 
 /* first_event._first_event: (τ, column) of the earliest root over the columns in (0, horizon];
@@ -228,9 +244,10 @@ static double first_event(Search *s, const cplx *table, int64_t terms, int64_t c
     double best = horizon;
     *column = -1;
     double resolution = RESOLUTION * fmax(horizon, 1e-300);
+    speeds_of(s, exponents, terms);
     for (int64_t k = 0; k < columns; k++) {
         const cplx *c = column_of(s, table, terms, columns, k);
-        if (bound(c, powers, exponents, terms, 0.0, best) > -tolerances[k])
+        if (bound(c, s->sizes, powers, exponents, s->speeds, terms, 0.0, best) > -tolerances[k])
             continue;
         double root = first_root(s, c, powers, exponents, terms, best, tolerances[k], resolution);
         if (root == UNRESOLVED) {
@@ -250,6 +267,7 @@ static double crossed_within_tolerance(Search *s, const cplx *table, int64_t ter
                                        const int64_t *powers, const cplx *exponents, const double *tolerances,
                                        double tau, int64_t *column, double horizon) {
     double resolution = RESOLUTION * fmax(horizon, 1e-300);
+    speeds_of(s, exponents, terms);
     for (int64_t k = 0; k < columns; k++) {
         const cplx *c = column_of(s, table, terms, columns, k);
         if (value_at(c, powers, exponents, terms, tau) < 0.0
@@ -270,13 +288,18 @@ EXPORT double circuitnsds_first_event(const cplx *table, int64_t terms, int64_t 
                                       int64_t *column) {
     Search *s = malloc(sizeof(Search));
     cplx *work = malloc(sizeof(cplx) * (size_t)(5 * terms + 1));
+    double *sizes = malloc(sizeof(double) * (size_t)(6 * terms + 1));
     int64_t *dp = malloc(sizeof(int64_t) * (size_t)(2 * terms + 1));
     double tau = 0.0;
     *column = -3;
-    if (s && work && dp) {
+    if (s && work && sizes && dp) {
         s->dc = work;
         s->dnu = work + 2 * terms;
         s->column = work + 4 * terms;
+        s->d_sizes = sizes;
+        s->d_speeds = sizes + 2 * terms;
+        s->sizes = sizes + 4 * terms;
+        s->speeds = sizes + 5 * terms;
         s->dp = dp;
         tau = first_event(s, table, terms, columns, powers, exponents, tolerances, horizon, column);
         if (*column != -2)
@@ -285,6 +308,7 @@ EXPORT double circuitnsds_first_event(const cplx *table, int64_t terms, int64_t 
     }
     free(s);
     free(work);
+    free(sizes);
     free(dp);
     return tau;
 }
@@ -1001,7 +1025,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         top_power = L.powers[i] > top_power ? L.powers[i] : top_power;
     Rows R;
     R.top_power = top_power;
-    size_t doubles = (size_t)(15 * T + width + 2 * T * width + 3 * L.n + L.columns);
+    size_t doubles = (size_t)(21 * T + width + 2 * T * width + 3 * L.n + L.columns);
     size_t complexes = (size_t)(T * (top_power + 1) + L.I + T * L.columns + 5 * T + 1);
     double *d = calloc(doubles, sizeof(double));
     cplx *c = calloc(complexes, sizeof(cplx));
@@ -1029,7 +1053,11 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         R.tolerances = next; next += L.columns;
         R.kept_w2 = next; next += 2 * T;
         R.kept_re2 = next; next += 2 * T;
-        R.kept_im2 = next;
+        R.kept_im2 = next; next += 2 * T;
+        search->d_sizes = next; next += 2 * T;
+        search->d_speeds = next; next += 2 * T;
+        search->sizes = next; next += T;
+        search->speeds = next;
         cplx *cn = c;
         R.moments = cn; cn += T * (top_power + 1);
         R.inputs = cn; cn += L.I;
