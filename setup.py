@@ -10,7 +10,8 @@ from pathlib import Path
 
 from setuptools import Extension, setup
 
-NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/output/_floattext_native",
+NATIVE = ("circuitnsds/engine/_dense_native", "circuitnsds/engine/exact/_exact_native",
+          "circuitnsds/output/_floattext_native",
           "circuitnsds/output/_raster_native", "circuitnsds/solvers/_lu_native")
 """The C sources (without .c), each built into a library beside it."""
 

@@ -16,8 +16,12 @@ found so far, so a later column costs nothing once an earlier root is known.
 
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import numpy as np
 
+from circuitnsds import native
 from circuitnsds.jit import jit
 
 MAX_DEPTH = 200
@@ -195,3 +199,37 @@ def _crossed_within_tolerance(table, powers, exponents, tolerances, tau, column,
 
 crossed_within_tolerance = jit(_crossed_within_tolerance)
 """Compiled :func:`_crossed_within_tolerance` (the Python function without numba)."""
+
+
+@functools.cache
+def _native_search():
+    """The C search's function (``_exact_native.c``'s ``circuitnsds_first_event``), or ``None``."""
+    return native.function("engine/exact/_exact_native", "circuitnsds_first_event",
+                           [ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p,
+                            ctypes.c_void_p, ctypes.c_double, ctypes.c_void_p], ctypes.c_double)
+
+
+def native_first_event(table: np.ndarray, powers: np.ndarray, exponents: np.ndarray, tolerances: np.ndarray,
+                       horizon: float) -> tuple[float, int] | None:
+    """:func:`_first_event` then :func:`_crossed_within_tolerance` (relative resolution 1e-13, as
+    the loop has them) by the C loop's search: ``(τ [s], column)`` (``column`` -1: none before
+    ``horizon``; -2: the search gave up), or ``None`` when the C library is not loaded. The C
+    loop calls its search itself; this is for tests and comparisons. ``table``: ``(terms,
+    columns)`` complex coefficients; ``powers``, ``exponents`` [1/s]: per term."""
+    function = _native_search()
+    if function is None:
+        return None
+    table = np.ascontiguousarray(table, dtype=np.complex128)
+    powers = np.ascontiguousarray(powers, dtype=np.int64)
+    exponents = np.ascontiguousarray(exponents, dtype=np.complex128)
+    tolerances = np.ascontiguousarray(tolerances, dtype=np.float64)
+    terms, columns = table.shape
+    if powers.shape != (terms,) or exponents.shape != (terms,) or tolerances.shape != (columns,):
+        raise ValueError("native_first_event: powers and exponents need one entry per term, tolerances "
+                         "one per column")
+    column = np.zeros(1, np.int64)
+    tau = function(table.ctypes.data, terms, columns, powers.ctypes.data, exponents.ctypes.data,
+                   tolerances.ctypes.data, float(horizon), column.ctypes.data)
+    if column[0] == -3:
+        raise MemoryError("the C first-event search could not allocate its scratch")
+    return float(tau), int(column[0])

@@ -22,7 +22,16 @@ row (:class:`.run.ExactRun`): the mode of the segment the row ends, each pair's 
 the interval ending at the row (the closed-form integral, :mod:`.charge`'s formulas), and
 the unknowns at the start of the last segment inside a row's interval (its ``tails``).
 Every row is computed from the exponentials at its own time, nothing carried from the
-row before: a run in parts is then the run in one part, bit for bit.
+row before (but the previous row's ``e^{νa}`` for the charge, a value of the same formula):
+a run in parts, whose parts start at any row, is then the run in one part, bit for bit.
+A term with a real exponent (most of a converter's) is summed in real arithmetic; the charge
+of a term with ``p = 0`` is ``e^{νa} expm1(νw)/ν`` (:func:`_charge`).
+
+The same loop is C (``_exact_native.c``), which :func:`.run.run_exact` calls when it was
+built; this one runs compiled by numba without the library (``CIRCUITNSDS_NATIVE=0``). The
+two give the same numbers bit for bit on the bundled netlists (``tests/test_exact_native.py``;
+the C loop also skips the inputs a term's map multiplies by 0, which changes no sum). Edit
+the two together.
 """
 
 from __future__ import annotations
@@ -147,19 +156,29 @@ def _find(bits, known, wanted):
     return -1
 
 
-def _grown(nu, tau):
-    """``e^{ν τ}``: 1 for ``ν = 0`` (constants and ramps), one real exponential for a real
-    ``ν`` (most modes), the complex one otherwise (a pure function of ``ν`` and ``τ``: a run in
-    parts computes every row as the run in one part)."""
-    if nu.imag == 0.0:
-        if nu.real == 0.0:
-            return 1.0 + 0j
-        return np.exp(nu.real * tau) + 0j
-    return np.exp(nu * tau)
+def _grown(nu_re, nu_im, tau):
+    """``e^{ν τ}`` as ``(real part, imaginary part)``: 1 for ``ν = 0`` (constants and ramps),
+    one real exponential for a real ``ν`` (most modes), ``e^{Re ν τ}`` times the cosine and
+    sine of ``Im ν τ`` otherwise (the C loop's arithmetic, op for op; a pure function of ``ν``
+    and ``τ``: a run in parts computes every row as the run in one part)."""
+    if nu_im == 0.0:
+        if nu_re == 0.0:
+            return 1.0, 0.0
+        return np.exp(nu_re * tau), 0.0
+    size = np.exp(nu_re * tau)
+    return size * np.cos(nu_im * tau), size * np.sin(nu_im * tau)
+
+
+def _size(re, im):
+    """``|re + i im|``: ``|re|`` when ``im = 0`` (most terms), else ``hypot``."""
+    if im == 0.0:
+        return abs(re)
+    return np.hypot(re, im)
 
 
 def _moments(nu, p, w, out):
-    """``J_q(w) = ∫_0^w s^q e^{νs} ds`` for ``q = 0..p`` into ``out`` (:mod:`.charge`)."""
+    """``J_q(w) = ∫_0^w s^q e^{νs} ds`` for ``q = 0..p`` into ``out`` (:mod:`.charge`; only for
+    the terms with ``p >= 1``, resonances and ramps: :func:`_integral` has ``p = 0``'s)."""
     nw = nu * w
     if nu == 0:
         for q in range(p + 1):
@@ -181,30 +200,86 @@ def _moments(nu, p, w, out):
             out[q] = (w ** q * grown - q * out[q - 1]) / nu
 
 
-def _charge(z, n, active, powers, exponents, count, a, b, at_a, moments, widths, out):
-    """``out[i] += ∫_a^b λ_i dτ`` for each active pair ``i`` of the segment's ``z``;
-    ``at_a[j] = e^{ν_j a}``; ``moments``/``widths``: each term's ``J_q`` of the last width
-    (reused while the width is the same)."""
+def _integral(nu_re, nu_im, p, a, w, at_re, at_im, j, kept_w, moments):
+    """``∫_a^{a+w} τ^p e^{ντ} dτ`` [s] for a term with ``p >= 1`` (resonances and ramps) as
+    ``(real part, imaginary part)``, with ``e^{νa} = at_re + i at_im``: ``e^{νa} Σ_q C(p, q)
+    a^{p−q} J_q(w)`` (:mod:`.charge`), the ``J_q`` (:func:`_moments`) kept in ``moments[j]``
+    while ``kept_w[j, 0]`` is ``w``. (``p = 0``, most terms, is :func:`_charge`'s.)"""
+    if kept_w[j, 0] != w:
+        _moments(complex(nu_re, nu_im), p, w, moments[j])
+        kept_w[j, 0] = w
+    weight_re = 0.0
+    weight_im = 0.0
+    binomial = 1.0
+    for q in range(p + 1):
+        factor = binomial * a ** (p - q)
+        weight_re += factor * moments[j, q].real
+        weight_im += factor * moments[j, q].imag
+        binomial = binomial * (p - q) / (q + 1)
+    return weight_re * at_re - weight_im * at_im, weight_re * at_im + weight_im * at_re
+
+
+def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b, at_re, at_im, kept_w,
+            kept_re, kept_im, next_slot, moments, integral_re, integral_im, out):
+    """``out[i] += ∫_a^b λ_i dτ`` for each active pair ``i = pairs[:pair_count]`` of the
+    segment's ``z`` (its real and imaginary parts ``z_re``, ``z_im``); ``e^{ν_j a} = at_re[j] +
+    i at_im[j]``. A term with ``p = 0`` integrates to ``e^{νa} expm1(νw)/ν`` (``w = b − a``;
+    ``w`` for ``ν = 0``; a real ``ν``, most terms, in real arithmetic; a complex one with
+    ``expm1(x + iy) = (expm1(x) cos y − 2 sin²(y/2)) + i e^x sin y``), ``expm1(νw)/ν`` kept for
+    the last two widths in ``kept_re[j, slot], kept_im[j, slot]`` (``kept_w[j, slot]`` the
+    width, ``next_slot[j]`` the one to replace: a uniform grid's rows differ in width by an ulp
+    or two, two values most often; a pure function of ``ν`` and ``w``, so the run in parts is
+    the run in one part); ``p >= 1``: :func:`_integral`. ``integral_re``, ``integral_im``:
+    scratch (terms)."""
+    if pair_count == 0:
+        return
     w = b - a
     for j in range(count):
-        p = powers[j]
-        if widths[j] != w:
-            _moments(exponents[j], p, w, moments[j])
-            widths[j] = w
-    for i in range(out.shape[0]):
-        if not active[i]:
+        nr = nu_re[j]
+        ni = nu_im[j]
+        if powers[j] != 0:
+            integral_re[j], integral_im[j] = _integral(nr, ni, powers[j], a, w, at_re[j], at_im[j], j, kept_w,
+                                                       moments)
             continue
+        if ni == 0.0 and nr == 0.0:
+            integral_re[j] = w
+            integral_im[j] = 0.0
+            continue
+        # (written here, not in a function: a numba call per term and row passing arrays
+        # cost more than the rows' arithmetic)
+        slot = 0 if kept_w[j, 0] == w else 1 if kept_w[j, 1] == w else -1
+        if slot < 0:
+            slot = next_slot[j]
+            next_slot[j] = 1 - slot
+            if ni == 0.0:
+                kept_re[j, slot] = np.expm1(nr * w) / nr
+                kept_im[j, slot] = 0.0
+            else:
+                x = nr * w
+                y = ni * w
+                half = np.sin(0.5 * y)
+                e_re = np.expm1(x) * np.cos(y) - 2.0 * half * half
+                e_im = np.exp(x) * np.sin(y)
+                size = nr * nr + ni * ni
+                kept_re[j, slot] = (e_re * nr + e_im * ni) / size
+                kept_im[j, slot] = (e_im * nr - e_re * ni) / size
+            kept_w[j, slot] = w
+        q_re = kept_re[j, slot]
+        q_im = kept_im[j, slot]
+        if ni == 0.0:
+            integral_re[j] = at_re[j] * q_re
+            integral_im[j] = 0.0
+        else:
+            integral_re[j] = at_re[j] * q_re - at_im[j] * q_im
+            integral_im[j] = at_re[j] * q_im + at_im[j] * q_re
+    for k in range(pair_count):
+        i = pairs[k]
         total = 0.0
         for j in range(count):
-            p = powers[j]
-            weight = 0j
-            binomial = 1.0
-            for q in range(p + 1):
-                weight += binomial * a ** (p - q) * moments[j, q]
-                binomial = binomial * (p - q) / (q + 1)
-            weight *= at_a[j]
-            c = z[j, n + i]
-            total += c.real * weight.real - c.imag * weight.imag
+            if nu_im[j] == 0.0:
+                total += z_re[j, n + i] * integral_re[j]
+            else:
+                total += z_re[j, n + i] * integral_re[j] - z_im[j, n + i] * integral_im[j]
         out[i] += total
 
 
@@ -238,11 +313,25 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
     forcing = np.zeros(n)
     wanted = np.zeros(columns, np.bool_)
     seen = np.zeros(MAX_MODE_CHANGES, np.int64)
-    weights = np.zeros(terms_max, np.complex128)
-    growth = np.zeros(terms_max, np.complex128)
-    at_a = np.zeros(terms_max, np.complex128)
+    nu_re = np.zeros(terms_max)
+    nu_im = np.zeros(terms_max)
+    growth_re = np.zeros(terms_max)
+    growth_im = np.zeros(terms_max)
+    at_re = np.zeros(terms_max)
+    at_im = np.zeros(terms_max)
+    integral_re = np.zeros(terms_max)
+    integral_im = np.zeros(terms_max)
+    kept_w = np.full((terms_max, 2), -1.0)
+    kept_re = np.zeros((terms_max, 2))
+    kept_im = np.zeros((terms_max, 2))
+    next_slot = np.zeros(terms_max, np.int64)
     moments = np.zeros((terms_max, top_power + 1), np.complex128)
-    widths = np.full(terms_max, -1.0)
+    pairs = np.zeros(m, np.int64)
+    values = np.zeros(n + m)
+    z_re = np.zeros((terms_max, n + m))
+    z_im = np.zeros((terms_max, n + m))
+    y_end = np.zeros(n)
+    size_end = np.zeros(n)
     t = clock[0]
     k, mode, chosen, row, events, segments, stalled, quiet, tails = (
         counters[0], counters[1], counters[2], counters[3], counters[4], counters[5], counters[6],
@@ -328,44 +417,80 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
                                                  tolerances, tau, ended_by, horizon, 1e-13)
         segments += 1
         stop_at = t + tau
-        z = np.zeros((count, n + m), np.complex128)
+        pair_count = 0
+        for i in range(m):
+            if bits[mode, i]:
+                pairs[pair_count] = i
+                pair_count += 1
         for j in range(count):
-            for i in range(n + m):
-                total = 0j
+            nu_re[j] = exponents[mode, j].real
+            nu_im[j] = exponents[mode, j].imag
+            kept_w[j, 0] = -1.0  # (what _integral keeps is this mode's terms')
+            kept_w[j, 1] = -1.0
+            next_slot[j] = 0
+        # z = [y; λ] per term (real and imaginary parts); the pairs' columns only when a row
+        # or a row's charge needs them (most of an inverter's segments hold no row)
+        size = n + m if row < rows_total and (times[row] <= stop_at or (tau > 0 and pair_count > 0)) else n
+        real_inputs = True
+        for q in range(inputs.shape[0]):
+            real_inputs = real_inputs and inputs[q].imag == 0.0
+        for j in range(count):
+            for i in range(size):
+                total_re = 0.0
+                total_im = 0.0
                 line = j * (n + m) + i
-                for q in range(inputs.shape[0]):
-                    total += z_map[mode, line, q] * inputs[q]
-                z[j, i] = total
-        active = bits[mode, :m]
-        widths[:] = -1.0  # (the moments are this mode's terms')
+                if real_inputs:
+                    for q in range(inputs.shape[0]):
+                        total_re += z_map[mode, line, q].real * inputs[q].real
+                        total_im += z_map[mode, line, q].imag * inputs[q].real
+                else:
+                    for q in range(inputs.shape[0]):
+                        value = z_map[mode, line, q] * inputs[q]
+                        total_re += value.real
+                        total_im += value.imag
+                z_re[j, i] = total_re
+                z_im[j, i] = total_im
         first_row = True
         while row < rows_total and times[row] <= stop_at:
             local = times[row] - t
             begin = max(times[row - 1] - t, 0.0)
-            if first_row and begin > 0.0:
-                for j in range(count):
-                    at_a[j] = _grown(exponents[mode, j], begin)
-            elif first_row:
-                at_a[:count] = 1.0
-            else:
-                at_a[:count] = growth[:count]
             for j in range(count):
-                growth[j] = _grown(exponents[mode, j], local)
-                weights[j] = growth[j] * local ** powers[mode, j] if powers[mode, j] else growth[j]
-            for i in range(n + m):
-                value = 0.0
-                for j in range(count):
-                    value += z[j, i].real * weights[j].real - z[j, i].imag * weights[j].imag
-                if i < n:
-                    y_out[row, i] = value
+                if not first_row:
+                    at_re[j] = growth_re[j]
+                    at_im[j] = growth_im[j]
+                elif begin > 0.0:
+                    at_re[j], at_im[j] = _grown(nu_re[j], nu_im[j], begin)
                 else:
-                    l_out[row, i - n] = value
+                    at_re[j] = 1.0
+                    at_im[j] = 0.0
+                growth_re[j], growth_im[j] = _grown(nu_re[j], nu_im[j], local)
+            for i in range(n + m):
+                values[i] = 0.0
+            for j in range(count):
+                p = powers[mode, j]
+                w_re = growth_re[j]
+                w_im = growth_im[j]
+                if p:
+                    power = local ** p
+                    w_re *= power
+                    w_im *= power
+                if nu_im[j] == 0.0:
+                    for i in range(n + m):
+                        values[i] += z_re[j, i] * w_re
+                else:
+                    for i in range(n + m):
+                        values[i] += z_re[j, i] * w_re - z_im[j, i] * w_im
+            for i in range(n):
+                y_out[row, i] = values[i]
+            for i in range(m):
+                l_out[row, i] = values[n + i]
             for c in range(m):
                 row_active[row, c] = bits[mode, c]
             for c in range(columns - m):
                 row_closed[row, c] = bits[mode, m + c]
-            _charge(z, n, active, powers[mode], exponents[mode], count, begin, local, at_a, moments,
-                    widths, charges[row])
+            _charge(z_re, z_im, n, pairs, pair_count, powers[mode], nu_re, nu_im, count, begin, local,
+                    at_re, at_im, kept_w, kept_re, kept_im, next_slot, moments, integral_re, integral_im,
+                    charges[row])
             if first_row and times[row - 1] < t:  # the row's interval holds this segment's start
                 tail_row[tails] = row
                 tail_dt[tails] = local
@@ -373,30 +498,37 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
                     value = 0.0
                     for j in range(count):
                         if powers[mode, j] == 0:
-                            value += z[j, i].real
+                            value += z_re[j, i]
                     tail_y[tails, i] = value
                 tails += 1
             first_row = False
             row += 1
         if row < rows_total and tau > 0:  # the next row's interval holds this segment's end
             begin = max(times[row - 1] - t, 0.0)
-            if tau > begin:
+            if tau > begin and pair_count > 0:
                 for j in range(count):
-                    at_a[j] = _grown(exponents[mode, j], begin)
-                _charge(z, n, active, powers[mode], exponents[mode], count, begin, tau, at_a, moments,
-                        widths, charges[row])
+                    at_re[j], at_im[j] = _grown(nu_re[j], nu_im[j], begin)
+                _charge(z_re, z_im, n, pairs, pair_count, powers[mode], nu_re, nu_im, count, begin, tau,
+                        at_re, at_im, kept_w, kept_re, kept_im, next_slot, moments, integral_re,
+                        integral_im, charges[row])
         if row >= rows_total:  # (the state stays at this segment's start, to resume from)
             mode = previous
             quiet = quiet_here
             break
-        y_end = np.zeros(n)
-        size_end = np.zeros(n)
+        for i in range(n):
+            y_end[i] = 0.0
+            size_end[i] = 0.0
         for j in range(count):
-            weight = tau ** powers[mode, j] * np.exp(exponents[mode, j] * tau)
-            magnitude = abs(weight)
+            w_re, w_im = _grown(nu_re[j], nu_im[j], tau)
+            p = powers[mode, j]
+            if p:
+                power = tau ** p
+                w_re *= power
+                w_im *= power
+            magnitude = _size(w_re, w_im)
             for i in range(n):
-                y_end[i] += (z[j, i] * weight).real
-                size_end[i] += abs(z[j, i]) * magnitude
+                y_end[i] += z_re[j, i] * w_re - z_im[j, i] * w_im
+                size_end[i] += _size(z_re[j, i], z_im[j, i]) * magnitude
         for i in range(x.shape[0]):
             total = 0.0
             for q in range(n):
@@ -422,7 +554,9 @@ _functions = jit(_functions)
 _violated = jit(_violated)
 _find = jit(_find)
 _grown = jit(_grown)
+_size = jit(_size)
 _moments = jit(_moments)
+_integral = jit(_integral)
 _charge = jit(_charge)
 exact_loop = jit(_exact_loop)
 """Compiled :func:`_exact_loop` (the Python function without numba)."""

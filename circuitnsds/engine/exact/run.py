@@ -7,21 +7,25 @@ piece's end); write the output rows that fall before it; at the event choose the
 (:func:`choose_mode`) and go on. Nothing is approximated between events: the error is the
 round-off of the closed forms and of the located instants.
 
-:func:`run_exact` runs that loop compiled (:mod:`.loop`) over the modes met so far, Python
-choosing the mode only where the loop meets one it does not know (and enumerating when the
-flipping cycles); :func:`run_python` is the same loop in Python: what runs without numba,
-when a run records its segments (the period map's derivative needs them as objects), and
-the reference a test holds the compiled loop to.
+:func:`run_exact` runs that loop compiled (:mod:`.loop`; in C, ``_exact_native.c``, when it
+was built, else by numba) over the modes met so far, Python choosing the mode only where the
+loop meets one it does not know (and enumerating when the flipping cycles); :func:`run_python`
+is the same loop in Python: what runs without either, when a run records its segments (the
+period map's derivative needs them as objects), and the reference a test holds the compiled
+loop to.
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import itertools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from circuitnsds import native
 from circuitnsds.engine.exact.charge import interval_integrals
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.first_event import crossed_within_tolerance, first_event
@@ -409,14 +413,70 @@ def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
     return worst
 
 
+# The C loop (_exact_native.c): the order of its arguments' entries (its A_*, S_* enums)
+NATIVE_ARRAYS = ("clock", "counters", "x", "y_size", "sources_now", "widened", "corners",
+                 "source_coefficients", "source_exponents", "source_powers", "partner", "s_matrix", "bits",
+                 "z_map", "table_map", "powers", "exponents", "terms", "slope_weights", "rows_p", "rows_q",
+                 "rows_y", "rows_c", "v1t", "times", "y_out", "l_out", "charges", "row_active", "row_closed",
+                 "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y", "spans",
+                 "spans_known")
+"""The arrays whose addresses the C loop takes, in its order (each C-contiguous, of the dtype
+:data:`_NATIVE_DTYPES` gives, float64 otherwise)."""
+NATIVE_SIZES = ("n", "m", "columns", "states", "source_terms", "signals", "corners", "known", "terms_max",
+                "inputs", "rows", "event_capacity", "tail_capacity")
+"""The integers the C loop takes, in its order."""
+_NATIVE_DTYPES = {"counters": np.int64, "sources_now": np.complex128, "source_coefficients": np.complex128,
+                  "source_exponents": np.complex128, "source_powers": np.int64, "partner": np.int64,
+                  "bits": np.bool_, "z_map": np.complex128, "table_map": np.complex128, "powers": np.int64,
+                  "exponents": np.complex128, "terms": np.int64, "slope_weights": np.complex128,
+                  "row_active": np.bool_, "row_closed": np.bool_, "event_index": np.int64,
+                  "event_on": np.bool_, "tail_row": np.int64, "spans": np.int64, "spans_known": np.int64}
+_WRITTEN = frozenset({"clock", "counters", "x", "y_size", "sources_now", "widened", "y_out", "l_out",
+                      "charges", "row_active", "row_closed", "event_times", "event_index", "event_on",
+                      "tail_row", "tail_dt", "tail_y", "spans", "spans_known"})
+OUT_OF_MEMORY = 4
+"""What the C loop returns when it could not allocate its scratch (nothing done)."""
+
+
+@functools.cache
+def native_loop():
+    """The C loop's function (``int64 circuitnsds_exact_loop(void **arrays, int64 *sizes)``), or
+    ``None``: not built, or disabled (:mod:`circuitnsds.native`)."""
+    return native.function("engine/exact/_exact_native", "circuitnsds_exact_loop",
+                           [ctypes.c_void_p, ctypes.c_void_p], ctypes.c_int64)
+
+
+def _native_call(function, arrays: dict[str, np.ndarray], sizes: tuple[int, ...]) -> int:
+    """One call of the C loop on ``arrays`` (named as :data:`NATIVE_ARRAYS`): each checked for
+    its dtype and contiguity (a read-only one laid out otherwise is converted; one the loop
+    writes must be as it needs: ``run_exact`` makes them so)."""
+    addresses = np.zeros(len(NATIVE_ARRAYS), dtype=np.uintp)
+    keep = []
+    for i, name in enumerate(NATIVE_ARRAYS):
+        array = arrays[name]
+        dtype = _NATIVE_DTYPES.get(name, np.float64)
+        if array.dtype != dtype or not array.flags.c_contiguous or not array.flags.aligned:
+            if name in _WRITTEN:
+                raise ValueError(f"the exact C loop's array {name} is not a C-contiguous {np.dtype(dtype)}")
+            array = np.ascontiguousarray(array, dtype=dtype)
+            keep.append(array)
+        addresses[i] = array.ctypes.data
+    size_array = np.array(sizes, dtype=np.int64)
+    status = int(function(addresses.ctypes.data, size_array.ctypes.data))
+    if status == OUT_OF_MEMORY:
+        raise MemoryError("the exact integrator's C loop could not allocate its scratch")
+    return status
+
+
 def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
               closed0: tuple[bool, ...], *, resume: LoopState | None = None,
               system: ExactSystem | None = None, stop: float | None = None,
               record: list[Segment] | None = None) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0]`` (0 unless resumed) to ``times[-1]``,
-    writing a row at each of ``times``: in the compiled loop (:mod:`.loop`) over the modes
-    met so far, Python choosing the mode only where the loop meets one it does not know;
-    in Python (:func:`run_python`, the same arithmetic to round-off) without numba or when
+    writing a row at each of ``times``: in the compiled loop (:mod:`.loop`: the C library's
+    when built, :func:`native_loop`, else numba's) over the modes met so far, Python choosing
+    the mode only where the loop meets one it does not know;
+    in Python (:func:`run_python`, the same arithmetic to round-off) without either or when
     ``record`` asks for the segments.
 
     ``resume``: the loop state to go on from (``y0`` is then row 0 only, and ``times[0]`` is
@@ -429,7 +489,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     Raises:
         Chattering, NotIndexOne: with ``run`` (the rows written before) and ``time`` set.
     """
-    if not AVAILABLE or record is not None:
+    function = native_loop()
+    if (function is None and not AVAILABLE) or record is not None:
         return run_python(mlcs, times, y0, active0, closed0, resume=resume, system=system, stop=stop,
                           record=record)
     system = ExactSystem(mlcs) if system is None else system
@@ -459,6 +520,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     event_times = np.zeros(capacity)
     event_index, event_on = np.zeros(capacity, np.int64), np.zeros(capacity, bool)
     tail_row, tail_dt, tail_y = np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros((capacity, n))
+    spans, spans_known = np.zeros((0, 0, 4), np.int64), np.zeros(1, np.int64)  # (the C loop's)
 
     def state() -> LoopState:
         active, closed = tables.mode_of(int(counters[1]))
@@ -501,13 +563,34 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         except NotIndexOne:  # (a mode without state equations to start from: Python leaves it)
             choose(np.asarray(resume.active, bool), tuple(resume.closed))
         while True:
-            status = exact_loop(clock, counters, x, y_size, sources_now, widened, sources.corners,
-                                sources.coefficients, sources.exponents, sources.powers, sources.partner,
-                                system.S, tables.bits, tables.known, tables.z_map, tables.table_map,
-                                tables.powers, tables.exponents, tables.terms, tables.slope_weights,
-                                tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c, v1t, times, Y,
-                                L, charges, row_active, row_closed, event_times, event_index, event_on,
-                                tail_row, tail_dt, tail_y)
+            if function is not None:
+                shape = (tables.bits.shape[0], tables.powers.shape[1], 4)
+                if spans.shape != shape:  # (the tables grew: their modes' spans are found again)
+                    spans, spans_known[0] = np.zeros(shape, np.int64), 0
+                status = _native_call(function, {
+                    "clock": clock, "counters": counters, "x": x, "y_size": y_size,
+                    "sources_now": sources_now, "widened": widened, "corners": sources.corners,
+                    "source_coefficients": sources.coefficients, "source_exponents": sources.exponents,
+                    "source_powers": sources.powers, "partner": sources.partner, "s_matrix": system.S,
+                    "bits": tables.bits, "z_map": tables.z_map, "table_map": tables.table_map,
+                    "powers": tables.powers, "exponents": tables.exponents, "terms": tables.terms,
+                    "slope_weights": tables.slope_weights, "rows_p": tables.rows_p, "rows_q": tables.rows_q,
+                    "rows_y": tables.rows_y, "rows_c": tables.rows_c, "v1t": v1t, "times": times, "y_out": Y,
+                    "l_out": L, "charges": charges, "row_active": row_active, "row_closed": row_closed,
+                    "event_times": event_times, "event_index": event_index, "event_on": event_on,
+                    "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y, "spans": spans,
+                    "spans_known": spans_known},
+                    (n, m, tables.columns, x.size, sources.coefficients.shape[1],
+                     sources.coefficients.shape[2], sources.corners.size, tables.known,
+                     tables.powers.shape[1], tables.inputs, count, capacity, capacity))
+            else:
+                status = exact_loop(clock, counters, x, y_size, sources_now, widened, sources.corners,
+                                    sources.coefficients, sources.exponents, sources.powers, sources.partner,
+                                    system.S, tables.bits, tables.known, tables.z_map, tables.table_map,
+                                    tables.powers, tables.exponents, tables.terms, tables.slope_weights,
+                                    tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c, v1t, times, Y,
+                                    L, charges, row_active, row_closed, event_times, event_index, event_on,
+                                    tail_row, tail_dt, tail_y)
             if status == FINISHED:
                 break
             if status == STALLED:
