@@ -471,7 +471,8 @@ def _native_call(function, arrays: dict[str, np.ndarray], sizes: tuple[int, ...]
 def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray,
               closed0: tuple[bool, ...], *, resume: LoopState | None = None,
               system: ExactSystem | None = None, stop: float | None = None,
-              record: list[Segment] | None = None) -> ExactRun:
+              record: list[Segment] | None = None,
+              out: tuple[np.ndarray, ...] | None = None) -> ExactRun:
     """Integrate exactly from ``y0`` at ``times[0]`` (0 unless resumed) to ``times[-1]``,
     writing a row at each of ``times``: in the compiled loop (:mod:`.loop`: the C library's
     when built, :func:`native_loop`, else numba's) over the modes met so far, Python choosing
@@ -484,7 +485,9 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     tables cached); ``stop`` [s]: the end of the whole run when this is a part of it (the
     sources' pieces end at their corners or there, as in the whole run); ``record``: a list
     that gets each segment computed (:class:`Segment`: what the period map's derivative
-    needs).
+    needs); ``out``: the arrays ``(y, currents, charges, active, closed)`` to write the rows
+    into (C-contiguous, ``len(times)`` rows or more: the stepper's own, which saves a copy
+    of every row; the Python path ignores it).
 
     Raises:
         Chattering, NotIndexOne: with ``run`` (the rows written before) and ``time`` set.
@@ -498,8 +501,12 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     sources, tables = system.tables(float(times[-1]) if stop is None else stop)
     n, m, w = system.n, system.m, len(closed0)
     count = len(times)
-    Y, L, charges = np.zeros((count, n)), np.zeros((count, m)), np.zeros((count, m))
-    row_active, row_closed = np.zeros((count, m), bool), np.zeros((count, w), bool)
+    if out is None:
+        Y, L, charges = np.zeros((count, n)), np.zeros((count, m)), np.zeros((count, m))
+        row_active, row_closed = np.zeros((count, m), bool), np.zeros((count, w), bool)
+    else:  # (the caller's rows, C-contiguous, at least count of them: written in place)
+        Y, L, charges, row_active, row_closed = (array[:count] for array in out)
+        charges[1:] = 0.0  # (summed into)
     Y[0] = y0
     row_active[0], row_closed[0] = active0, closed0
     if resume is None:

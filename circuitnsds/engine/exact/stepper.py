@@ -138,7 +138,7 @@ class ExactStepper(Stepper):
             try:
                 run = run_exact(mlcs, grid[row:], out.y[row], out.active[row],
                                 tuple(out.switches[row]), resume=self.state, system=self.system,
-                                stop=float(self.whole[-1]))
+                                stop=float(self.whole[-1]), out=out.views(row))
             except (Chattering, NotIndexOne) as exc:
                 run = exc.run
                 out.take(run, row)
@@ -223,14 +223,20 @@ class _Rows:
         self.stats: dict[str, float] = {"exact_segments": 0, "events": 0, "handoffs": 0,
                                         "theta_steps": 0}
 
+    def views(self, row: int) -> tuple[np.ndarray, ...]:
+        """The part's arrays from ``row`` on, for :func:`~.run.run_exact` to write into."""
+        return self.y[row:], self.current[row:], self.impulse[row:], self.active[row:], self.switches[row:]
+
     def take(self, run: ExactRun, row: int) -> None:
-        """The rows ``1 .. run.rows - 1`` of an exact run started at ``row``."""
+        """The rows ``1 .. run.rows - 1`` of an exact run started at ``row`` (copied unless the
+        run wrote them in place: :meth:`views`)."""
         end = row + run.rows
-        for name in ("y", "currents", "charges", "active", "closed"):
-            source = getattr(run, name)[1:run.rows]
-            target = {"currents": self.current, "charges": self.impulse, "closed": self.switches,
-                      "y": self.y, "active": self.active}[name]
-            target[row + 1:end] = source
+        if not np.shares_memory(run.y, self.y):
+            for name in ("y", "currents", "charges", "active", "closed"):
+                source = getattr(run, name)[1:run.rows]
+                target = {"currents": self.current, "charges": self.impulse, "closed": self.switches,
+                          "y": self.y, "active": self.active}[name]
+                target[row + 1:end] = source
         self.tails.update({row + k: tail for k, tail in run.tails.items() if k < run.rows})
         for event in run.events:
             self.events.append(SwitchEvent(event.time, event.name, event.kind in ("on", "close")))
@@ -259,6 +265,8 @@ class _Rows:
         Raises:
             SimulationError: ``cause`` :attr:`~SimulationError.STATE_NOT_FINITE`.
         """
+        if np.isfinite(np.add.reduce(self.y[first:end], axis=None)):
+            return  # (one pass: a NaN or an infinity makes the sum so, an overflowing sum is checked)
         bad = ~np.isfinite(self.y[first:end]).all(axis=1)
         if bad.any():
             k = first + int(np.argmax(bad))
