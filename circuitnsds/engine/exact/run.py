@@ -22,6 +22,7 @@ import functools
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -71,12 +72,14 @@ class Chattering(Exception):
     """No consistent mode was found at an instant (a sliding mode or a latch that does not settle)."""
 
 
-@dataclass
-class ExactEvent:
+class ExactEvent(NamedTuple):
+    """A located event: ``time`` [s], the pair's or switch's name, and ``kind``: ``"on"``/
+    ``"off"`` for a pair (conducting/blocking), ``"close"``/``"open"`` for a switch. (A named
+    tuple: a long run makes one per event, 60,000 in the 100 ms buck.)"""
+
     time: float
     name: str
     kind: str
-    """``"on"``/``"off"`` for a pair (conducting/blocking), ``"close"``/``"open"`` for a switch."""
 
 
 @dataclass
@@ -537,9 +540,12 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         names = list(mlcs.pairs) + [switch.name for switch in mlcs.switches]
         kinds = [("off", "on")] * m + [("open", "close")] * w
         used = int(counters[4])
-        events = [ExactEvent(t, names[c], kinds[c][on]) for t, c, on in
-                  zip(event_times[:used].tolist(), event_index[:used].tolist(), event_on[:used].tolist())]
-        tails = {int(r): (tail_y[i].copy(), float(tail_dt[i])) for i, r in enumerate(tail_row[:counters[8]])}
+        columns, ons = event_index[:used].tolist(), event_on[:used].tolist()
+        events = list(map(ExactEvent, event_times[:used].tolist(), [names[c] for c in columns],
+                          [kinds[c][on] for c, on in zip(columns, ons)]))
+        written = int(counters[8])
+        rows_y = tail_y[:written].copy()  # (one copy; each tail a view of its row)
+        tails = dict(zip(tail_row[:written].tolist(), zip(rows_y, tail_dt[:written].tolist())))
         return ExactRun(times, Y, L, events, int(counters[5]), row_active, row_closed, charges, tails,
                         state(), int(counters[3]))
 

@@ -238,8 +238,8 @@ class _Rows:
                           "y": self.y, "active": self.active}[name]
                 target[row + 1:end] = source
         self.tails.update({row + k: tail for k, tail in run.tails.items() if k < run.rows})
-        for event in run.events:
-            self.events.append(SwitchEvent(event.time, event.name, event.kind in ("on", "close")))
+        self.events.extend([SwitchEvent(time, name, kind in ("on", "close"))
+                            for time, name, kind in run.events])
         self.stats["exact_segments"] += run.segments
         self.stats["events"] += len(run.events)
 
