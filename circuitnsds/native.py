@@ -1,9 +1,11 @@
 """The package's C code: compiled when the package is installed, loaded with ctypes.
 
 Hot loops exist in C as well as in Python (:mod:`circuitnsds.engine.dense_loop`'s
-table loop, :mod:`circuitnsds.output.floattext`'s CSV formatter, the dense LU of
-:mod:`circuitnsds.solvers.linalg` and Lemke's pivoting of :mod:`circuitnsds.solvers.lemke`,
-which share one library). ``pip install`` compiles
+table loop, the exact integrator's event loop and first-event search of
+:mod:`circuitnsds.engine.exact.loop` and :mod:`circuitnsds.engine.exact.first_event`
+(``engine/exact/_exact_native.c``), :mod:`circuitnsds.output.floattext`'s CSV formatter,
+the dense LU of :mod:`circuitnsds.solvers.linalg` and Lemke's pivoting of
+:mod:`circuitnsds.solvers.lemke`, which share one library). ``pip install`` compiles
 each ``<name>.c`` next to its module into a shared library ``<name><EXT_SUFFIX>`` (see
 ``setup.py``; the build is optional: without a C compiler the install goes on and the
 loops run compiled by numba, or in Python). The libraries use no Python API: they take
