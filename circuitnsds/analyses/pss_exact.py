@@ -1,5 +1,5 @@
 """The periodic steady state on the exact period map (``.options method=exact``; ``auto`` and
-the default keep the θ shooting, whose step maps ``ac`` needs): the orbit by Newton with the exact monodromy
+the default keep the θ shooting): the orbit by Newton with the exact monodromy
 (:func:`~circuitnsds.engine.exact.periodic.periodic_orbit`: saltation at every located
 event, no quantised instants, no implicit-Euler error), shown on the period's grid by the
 exact stepper.
