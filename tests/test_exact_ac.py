@@ -26,6 +26,23 @@ def _read(text: str):
         return circuitnsds.read_netlist(text)
 
 
+def _injected_response(injected, settled, frequency: float, amplitude: float, *, settle: float,
+                       window: float, step: float = 0.02e-6) -> complex:
+    """v(out)'s complex amplitude per unit of the ``a·sin(ωt)`` injected into ``injected``, from
+    an exact transient started on the orbit of ``settled`` (its pss on the exact map): its
+    fundamental over ``window`` [s] after ``settle`` [s] (the trapezoid rule on rows ``step``
+    apart)."""
+    mlcs = injected.mlcs()
+    times = np.arange(round((settle + window) / step) + 1) * step
+    first = settled.exact.segments[0]
+    run = run_exact(mlcs, times, first.z(0.0)[:mlcs.n].real, first.mode.active, first.closed)
+    out = run.y[:, mlcs.unknowns.index("v(out)")]
+    inside = times >= settle - 1e-12
+    coefficient = np.trapezoid(out[inside] * np.exp(-2j * np.pi * frequency * times[inside]),
+                               times[inside]) / window
+    return 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
+
+
 def test_phi_functions_are_continuous_through_their_series():
     # φ₁(w) = (e^w − 1)/w and φ₂(w) = (e^w − 1 − w)/w² from their series below |w| = 0.5 and
     # their closed forms above: both sides of the switch-over agree, and the limits at 0 hold
@@ -86,16 +103,7 @@ def test_a_dcm_boosts_line_to_output_is_the_sine_injections(frequency):
     response = circuit.ac("vin", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
     amplitude = 0.01
     injected = _read(base.replace("Vin in 0 DC 12", f"Vin in 0 SIN(12 {amplitude} {frequency})"))
-    mlcs = injected.mlcs()
-    settle, window, step = 3e-3, 3e-3, 0.02e-6
-    times = np.arange(round((settle + window) / step) + 1) * step
-    first = settled.exact.segments[0]
-    run = run_exact(mlcs, times, first.z(0.0)[:mlcs.n].real, first.mode.active, first.closed)
-    out = run.y[:, mlcs.unknowns.index("v(out)")]
-    inside = times >= settle - 1e-12
-    coefficient = np.trapezoid(out[inside] * np.exp(-2j * np.pi * frequency * times[inside]),
-                               times[inside]) / window
-    injection = 2 * coefficient / (-1j * amplitude)  # a·sin(ωt) = Re(−j a e^{jωt})
+    injection = _injected_response(injected, settled, frequency, amplitude, settle=3e-3, window=3e-3)
     assert abs(20 * np.log10(abs(response / injection))) < 2e-3
     assert abs(np.degrees(np.angle(response / injection))) < 0.02
 
@@ -112,15 +120,6 @@ def test_a_closed_loops_reference_to_output_is_the_sine_injections(frequency):
     response = circuit.ac("vref", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
     amplitude = 0.005
     injected = _read(base.replace("Vref ref 0 DC 3", f"Vref ref 0 SIN(3 {amplitude} {frequency})"))
-    mlcs = injected.mlcs()
-    settle, window, step = 2e-3, 2e-3, 0.02e-6
-    times = np.arange(round((settle + window) / step) + 1) * step
-    first = settled.exact.segments[0]
-    run = run_exact(mlcs, times, first.z(0.0)[:mlcs.n].real, first.mode.active, first.closed)
-    out = run.y[:, mlcs.unknowns.index("v(out)")]
-    inside = times >= settle - 1e-12
-    coefficient = np.trapezoid(out[inside] * np.exp(-2j * np.pi * frequency * times[inside]),
-                               times[inside]) / window
-    injection = 2 * coefficient / (-1j * amplitude)
+    injection = _injected_response(injected, settled, frequency, amplitude, settle=2e-3, window=2e-3)
     assert abs(20 * np.log10(abs(response / injection))) < 5e-3
     assert abs(np.degrees(np.angle(response / injection))) < 0.05

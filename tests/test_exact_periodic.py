@@ -14,6 +14,19 @@ from tests.conftest import NETLISTS
 BENCHMARKS = NETLISTS.parent / "benchmarks" / "netlists"
 
 
+def _finite_difference_monodromy(mlcs, orbit, period: float = 10e-6) -> np.ndarray:
+    """The period map's derivative at the orbit by forward differences (1e-6 of each state)."""
+    system = ExactSystem(mlcs)
+    base = period_map(system, 0.0, period, orbit.x, orbit.active, orbit.closed)[0]
+    differences = np.zeros_like(orbit.monodromy)
+    for j in range(orbit.x.size):
+        step = np.zeros(orbit.x.size)
+        step[j] = 1e-6 * max(1.0, abs(orbit.x[j]))
+        moved = period_map(system, 0.0, period, orbit.x + step, orbit.active, orbit.closed)[0]
+        differences[:, j] = (moved - base) / step[j]
+    return differences
+
+
 def _orbit(path):
     circuit = circuitnsds.read_netlist(path)
     mlcs = circuit.mlcs()
@@ -41,14 +54,7 @@ def test_the_monodromy_is_the_derivative_of_the_period_map_with_saltation():
     orbit = periodic_orbit(mlcs, 0.0, 10e-6, start.y, np.zeros(mlcs.m, bool), tuple(start.switches),
                            warm_periods=20)
     assert orbit.residuals[-1] < 1e-12
-    system = ExactSystem(mlcs)
-    base = period_map(system, 0.0, 10e-6, orbit.x, orbit.active, orbit.closed)[0]
-    differences = np.zeros_like(orbit.monodromy)
-    for j in range(orbit.x.size):
-        step = np.zeros(orbit.x.size)
-        step[j] = 1e-6 * max(1.0, abs(orbit.x[j]))
-        moved = period_map(system, 0.0, 10e-6, orbit.x + step, orbit.active, orbit.closed)[0]
-        differences[:, j] = (moved - base) / step[j]
+    differences = _finite_difference_monodromy(mlcs, orbit)
     assert np.max(np.abs(differences - orbit.monodromy)) < 1e-4 * np.max(np.abs(orbit.monodromy))
     # above 50 % duty without slope compensation the period-1 orbit is unstable (the
     # subharmonic instability of peak-current control): a multiplier outside the unit circle
@@ -103,12 +109,5 @@ def test_a_ramp_comparators_saltation_counts_the_ramps_own_slope():
     orbit = periodic_orbit(mlcs, 0.0, 10e-6, start.y, np.zeros(mlcs.m, bool), tuple(start.switches),
                            warm_periods=5)
     assert orbit.residuals[-1] < 1e-12 and len(orbit.residuals) <= 6
-    system = ExactSystem(mlcs)
-    base = period_map(system, 0.0, 10e-6, orbit.x, orbit.active, orbit.closed)[0]
-    differences = np.zeros_like(orbit.monodromy)
-    for j in range(orbit.x.size):
-        step = np.zeros(orbit.x.size)
-        step[j] = 1e-6 * max(1.0, abs(orbit.x[j]))
-        moved = period_map(system, 0.0, 10e-6, orbit.x + step, orbit.active, orbit.closed)[0]
-        differences[:, j] = (moved - base) / step[j]
+    differences = _finite_difference_monodromy(mlcs, orbit)
     assert np.max(np.abs(differences - orbit.monodromy)) < 1e-6 * np.max(np.abs(orbit.monodromy))
