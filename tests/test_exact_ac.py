@@ -123,3 +123,17 @@ def test_a_closed_loops_reference_to_output_is_the_sine_injections(frequency):
     injection = _injected_response(injected, settled, frequency, amplitude, settle=2e-3, window=2e-3)
     assert abs(20 * np.log10(abs(response / injection))) < 5e-3
     assert abs(np.degrees(np.angle(response / injection))) < 0.05
+
+
+def test_ac_around_an_exact_orbit_warns_of_a_diode_at_its_threshold():
+    # tests/test_ac.py's DEGENERATE circuit (no capacitor or inductor: the exact pss of a
+    # circuit without state was a ValueError traceback): D0 blocks at exactly 0 V for half
+    # the period, so the response to a current into n1 is one-sided there. The exact orbit
+    # has no step maps to tell whether the perturbation moves it, so it is warned about
+    from tests.test_ac import DEGENERATE
+
+    circuit = _read(DEGENERATE.replace(".end", ".options method=exact\n.end"))
+    settled = circuit.pss(step=2e-6)
+    assert settled.exact is not None
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"d0 .*neither current nor voltage"):
+        circuit.ac("iinj", "v(n1)", [0.75 / settled.period], pss=settled)

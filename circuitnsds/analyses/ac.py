@@ -133,6 +133,7 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
         if pss.exact is not None:  # on the exact orbit: closed forms and saltations
             from circuitnsds.engine.exact.small_signal import periodic_response as exact_response
 
+            _warn_one_sided(circuit, mlcs, pss.exact.rows)
             values = exact_response(pss.exact, inputs, frequencies, Y_out.toarray(), L_out.toarray())
         elif pss.maps is None:
             raise CircuitError("ac around a periodic steady state found through smooth nonlinear "
@@ -141,7 +142,10 @@ def run_ac(circuit: Circuit, spec: AcSpec | None, input: str | None, outputs, fr
                                hint="ac around the operating point (--around op) linearises the "
                                "smooth elements")
         else:
-            _warn_one_sided(circuit, mlcs, pss.maps, inputs, frequencies)
+            from circuitnsds.engine.small_signal import one_sided_pairs
+
+            _warn_one_sided(circuit, mlcs, pss.maps.trajectory, lambda C, D, neither: one_sided_pairs(
+                pss.maps, inputs, frequencies, C, D, neither))
             values = periodic_response(pss.maps, inputs, frequencies, Y_out, L_out)
     transfer = {name.lower(): values[:, j] for j, name in enumerate(outputs)}
     return ACResult(frequencies, (input or "ac").lower(), transfer, around, pss)
@@ -190,16 +194,18 @@ ONE_SIDED_SHARE = 0.01
 threshold for a step or two, where a sine crosses zero on the grid, changes little)."""
 
 
-def _warn_one_sided(circuit: Circuit, mlcs, maps, inputs: np.ndarray, frequencies: np.ndarray) -> None:
+def _warn_one_sided(circuit: Circuit, mlcs, trajectory, moved=None) -> None:
     """Warn about each complementarity pair that, over more than :data:`ONE_SIDED_SHARE` of
-    the period, carries neither current nor voltage in the periodic steady state (a diode
-    blocking at exactly 0 V, its node held there by the rest of the circuit) while the
-    small-signal response would move it (:func:`~circuitnsds.engine.small_signal.one_sided_pairs`):
-    there a perturbation of one sign turns it on and of the other does not, so the response
-    is not linear and the transfer function (the modes kept) is not what a small sine gives."""
-    from circuitnsds.engine.small_signal import one_sided_pairs
+    the period's rows (``trajectory``: the settled period), carries neither current nor
+    voltage in the periodic steady state (a diode blocking at exactly 0 V, its node held there
+    by the rest of the circuit) while the small-signal response would move it: there a
+    perturbation of one sign turns it on and of the other does not, so the response is not
+    linear and the transfer function (the modes kept) is not what a small sine gives.
 
-    trajectory = maps.trajectory
+    ``moved(C, D, neither)``: per pair, the rows where the response moves it
+    (:func:`~circuitnsds.engine.small_signal.one_sided_pairs` on the θ step maps); without it
+    (around the exact orbit, which has no step maps) every such row counts, and the warning
+    says the response may move them."""
     if not mlcs.pairs:
         return
     current = np.asarray(trajectory.current[1:], dtype=float)
@@ -211,16 +217,18 @@ def _warn_one_sided(circuit: Circuit, mlcs, maps, inputs: np.ndarray, frequencie
                & (np.abs(current) <= DEGENERATE * current_scale))
     if neither.sum(axis=0).max(initial=0) <= ONE_SIDED_SHARE * neither.shape[0]:
         return
-    counts = one_sided_pairs(maps, inputs, frequencies, C, D, neither)
+    counts = neither.sum(axis=0) if moved is None else moved(C, D, neither)
     found = [f"{mlcs.pairs[j]} ({counts[j]} of {neither.shape[0]} steps)"
              for j in np.flatnonzero(counts > ONE_SIDED_SHARE * neither.shape[0])]
     if found:
         import warnings
 
+        effect = ("and the perturbation moves them" if moved is not None else
+                  "and wherever the perturbation moves them")
         warnings.warn(CircuitWarning(
             f"{circuit.file}: small-signal AC around the periodic steady state: "
             f"{', '.join(found)} carry neither current nor voltage there, at the threshold of "
-            "conducting, and the perturbation moves them: one sign turns them on, the other does "
+            f"conducting, {effect}: one sign turns them on, the other does "
             "not, so the response is not linear and the transfer function shown (each kept in "
             "its state) is not what a small sine gives; give the node a defined bias (a "
             "resistor to a source) or check with a sine-injection transient"), stacklevel=4)

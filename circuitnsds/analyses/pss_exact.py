@@ -54,12 +54,12 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     t0 = float(grid[0])
     segments = period_map(system, t0, period, orbit.x, orbit.active, orbit.closed)[3]
     taus = np.array([min(s.tau, t0 + period - s.t) for s in segments])
-    exact = ExactPeriod(system, segments, taus, t0, period, orbit.monodromy)
     recorder = TrajectoryRecorder()
     drive(ExactStepper(mlcs), grid, StartState(orbit.y, None, None, orbit.active,
                                                np.array(orbit.closed, bool)), recorder)
     run = recorder.trajectory
     run.y[0], run.current[0] = run.y[-1], run.current[-1]  # (t0 and t0 + T: one instant)
+    exact = ExactPeriod(system, segments, taus, t0, period, orbit.monodromy, run)
     waves = trajectory_waveforms(circuit, mlcs, run, run.time[0], run.time[-1], periodic=True)
     waves.stats.update(analysis="pss", iterations=len(orbit.residuals) - 1)
     state = state_unknowns(mlcs)

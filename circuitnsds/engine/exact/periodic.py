@@ -119,9 +119,9 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
     residuals = []
     for _ in range(MAX_ITERATIONS):
         x_end, monodromy, means, _, run = period_map(system, t0, period, x, active, closed)
-        residual = float(np.max(np.abs(x_end - x)))
+        residual = float(np.max(np.abs(x_end - x), initial=0.0))  # (no state: 0)
         residuals.append(residual)
-        if residual <= TOLERANCE * max(float(np.max(np.abs(x))), 1e-3):
+        if residual <= TOLERANCE * max(float(np.max(np.abs(x), initial=0.0)), 1e-3):
             return ExactOrbit(x, system.coordinates.V1 @ x, monodromy, residuals, means, active,
                               closed)
         x = x + np.linalg.solve(np.eye(x.size) - monodromy, x_end - x)

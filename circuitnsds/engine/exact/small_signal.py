@@ -50,7 +50,8 @@ SERIES_TERMS = 22
 @dataclass
 class ExactPeriod:
     """One period of the exact orbit: the system, its segments in order from ``t0`` (the last
-    one cut at ``t0 + period``: ``taus``), the monodromy ``Φ`` in the state coordinates ``x``."""
+    one cut at ``t0 + period``: ``taus``), the monodromy ``Φ`` in the state coordinates ``x``,
+    and the orbit's rows on the period's grid (a :class:`~circuitnsds.engine.integrate.Trajectory`)."""
 
     system: ExactSystem
     segments: list[Segment]
@@ -58,6 +59,7 @@ class ExactPeriod:
     t0: float
     period: float
     monodromy: np.ndarray
+    rows: object = None
 
 
 def phi1(w: np.ndarray) -> np.ndarray:
