@@ -263,13 +263,17 @@ class ExactSystem:
         the modes met (kept with the system: the parts of one run share them)."""
         if stop not in self._tables:
             sources = SourceTable(self.mlcs.stimuli, stop)
-            self.sources_used = sources.used
-            self.horizon = float(np.max(np.diff(sources.corners), initial=0.0))
+            self._use(sources)  # (before the tables: they build the maps of the modes met)
             self._tables[stop] = (sources, ModeTables(self, sources))
         sources, tables = self._tables[stop]
+        self._use(sources)
+        return sources, tables
+
+    def _use(self, sources: SourceTable) -> None:
+        """Solution maps from now on are for ``sources``' pieces (:attr:`sources_used`,
+        :attr:`horizon`)."""
         self.sources_used = sources.used
         self.horizon = float(np.max(np.diff(sources.corners), initial=0.0))
-        return sources, tables
 
     def event_row_data(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> tuple:
         """``(rows, constants, |rows P|, |rows Q|, |rows P V1ᵀ|)`` of :meth:`event_functions`

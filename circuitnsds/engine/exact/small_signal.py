@@ -34,11 +34,16 @@ warping, and a DCM diode's turn-off instant moves continuously with the perturba
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from circuitnsds.engine.exact.run import ExactSystem, Segment
+
+if TYPE_CHECKING:
+    from circuitnsds.engine.integrate import Trajectory
 
 SERIES_BELOW = 0.5
 """``|w|`` under which ``φ₁``, ``φ₂`` are summed as series (above, the closed forms lose at most
@@ -59,7 +64,7 @@ class ExactPeriod:
     t0: float
     period: float
     monodromy: np.ndarray
-    rows: object = None
+    rows: Trajectory | None = None
 
 
 def phi1(w: np.ndarray) -> np.ndarray:
@@ -87,7 +92,7 @@ def phi2(w: np.ndarray) -> np.ndarray:
 def _series(w: np.ndarray, order: int) -> np.ndarray:
     """``Σ_k w^k / (k + order)!``."""
     total = np.zeros_like(w)
-    term = np.full_like(w, 1.0 / np.prod(np.arange(1, order + 1)))
+    term = np.full_like(w, 1.0 / math.factorial(order))
     for k in range(SERIES_TERMS):
         total += term
         term = term * w / (k + order + 1)
