@@ -46,6 +46,8 @@ from circuitnsds.circuit.elements.smooth.junctions import (
 )
 from circuitnsds.circuit.elements.smooth.terminals import (
     TerminalMap,
+    add_branches,
+    add_resistors,
     difference_gradient,
     scattered_evaluator,
 )
@@ -381,17 +383,8 @@ def bjt_terminal_values(bjt: Bjt, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
         drop = v[B] - v[BI]
         current = drop / rbb
         gradient = _difference(B, BI, 1.0) / rbb - current / rbb * (rbb_vbe * d_be + rbb_vbc * d_bc)
-        f[B] += current
-        f[BI] -= current
-        jacobian[B] += gradient
-        jacobian[BI] -= gradient
-    for outer, inner, resistance in ((C, CI, model.rc), (E, EI, model.re)):
-        if resistance:
-            conductance = _difference(outer, inner, 1.0 / resistance)
-            f[outer] += conductance @ v
-            f[inner] -= conductance @ v
-            jacobian[outer] += conductance
-            jacobian[inner] -= conductance
+        add_branches(f, jacobian, ((B, BI, current, gradient),))
+    add_resistors(f, jacobian, v, ((C, CI, model.rc), (E, EI, model.re)))
     substrate_node = BI if model.lateral else CI
     leak = bjt.gmin * (v[S] - v[substrate_node])
     f[S] += leak
@@ -405,13 +398,8 @@ def bjt_terminal_values(bjt: Bjt, v: np.ndarray) -> tuple[np.ndarray, np.ndarray
         vbx = float(d_bx @ v)
         qbe, qbe_vbe, qbe_vbc = emitter_charge(model, dc, vbe, vbc)
         qbc, qbc_vbc, qbx, qbx_vbx = collector_charges(model, dc, vbc, vbx)
-        for plus, minus, value, gradient in (
-                (BI, EI, qbe, qbe_vbe * d_be + qbe_vbc * d_bc),
-                (BI, CI, qbc, qbc_vbc * d_bc), (B, CI, qbx, qbx_vbx * d_bx)):
-            q[plus] += sign * value
-            q[minus] -= sign * value
-            q_jacobian[plus] += sign * gradient
-            q_jacobian[minus] -= sign * gradient
+        add_branches(q, q_jacobian, ((BI, EI, qbe, qbe_vbe * d_be + qbe_vbc * d_bc),
+                                     (BI, CI, qbc, qbc_vbc * d_bc), (B, CI, qbx, qbx_vbx * d_bx)), sign)
         substrate = _difference(S, substrate_node, model.cjs)  # q = CJS·(v_s − v_c'), linear
         q[S] += substrate @ v
         q[substrate_node] -= substrate @ v

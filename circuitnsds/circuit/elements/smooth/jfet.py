@@ -38,6 +38,8 @@ from circuitnsds.circuit.elements.smooth.junctions import (
 )
 from circuitnsds.circuit.elements.smooth.terminals import (
     TerminalMap,
+    add_branches,
+    add_resistors,
     difference_gradient,
     scattered_evaluator,
 )
@@ -184,20 +186,9 @@ def jfet_terminal_values(jfet: Jfet, v: np.ndarray) -> tuple[np.ndarray, np.ndar
     drain, drain_vgs, drain_vgd = drain_current(model, vgs, vgd)
     f = np.zeros(5)
     jacobian = np.zeros((5, 5))
-    for plus, minus, value, gradient in (
-            (G, SI, igs, ggs * d_gs), (G, DI, igd, ggd * d_gd),
-            (DI, SI, drain, drain_vgs * d_gs + drain_vgd * d_gd)):
-        f[plus] += sign * value
-        f[minus] -= sign * value
-        jacobian[plus] += sign * gradient
-        jacobian[minus] -= sign * gradient
-    for outer, inner, resistance in ((D, DI, model.rd), (S, SI, model.rs)):
-        if resistance:
-            conductance = _difference(outer, inner, 1.0 / resistance)
-            f[outer] += conductance @ v
-            f[inner] -= conductance @ v
-            jacobian[outer] += conductance
-            jacobian[inner] -= conductance
+    add_branches(f, jacobian, ((G, SI, igs, ggs * d_gs), (G, DI, igd, ggd * d_gd),
+                               (DI, SI, drain, drain_vgs * d_gs + drain_vgd * d_gd)), sign)
+    add_resistors(f, jacobian, v, ((D, DI, model.rd), (S, SI, model.rs)))
     q = np.zeros(5)
     q_jacobian = np.zeros((5, 5))
     fc = min(model.fc, 0.95)

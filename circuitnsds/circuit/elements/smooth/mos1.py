@@ -42,6 +42,8 @@ from circuitnsds.circuit.elements.smooth.junctions import (
 )
 from circuitnsds.circuit.elements.smooth.terminals import (
     TerminalMap,
+    add_branches,
+    add_resistors,
     difference_gradient,
     scattered_evaluator,
 )
@@ -210,20 +212,9 @@ def mos1_terminal_values(mosfet: Mos1, v: np.ndarray) -> tuple[np.ndarray, np.nd
     ibd, gbd = bulk_junction(vbd, model.is_, vt, gmin)
     f = np.zeros(6)
     jacobian = np.zeros((6, 6))
-    for plus, minus, value, gradient in (
-            (DI, SI, drain, by_gs * d_gs + by_ds * d_ds + by_bs * d_bs),
-            (B, SI, ibs, gbs * d_bs), (B, DI, ibd, gbd * d_bd)):
-        f[plus] += sign * value
-        f[minus] -= sign * value
-        jacobian[plus] += sign * gradient
-        jacobian[minus] -= sign * gradient
-    for outer, inner, resistance in ((D, DI, model.rd), (S, SI, model.rs)):
-        if resistance:
-            conductance = _difference(outer, inner, 1.0 / resistance)
-            f[outer] += conductance @ v
-            f[inner] -= conductance @ v
-            jacobian[outer] += conductance
-            jacobian[inner] -= conductance
+    add_branches(f, jacobian, ((DI, SI, drain, by_gs * d_gs + by_ds * d_ds + by_bs * d_bs),
+                               (B, SI, ibs, gbs * d_bs), (B, DI, ibd, gbd * d_bd)), sign)
+    add_resistors(f, jacobian, v, ((D, DI, model.rd), (S, SI, model.rs)))
     q = np.zeros(6)
     q_jacobian = np.zeros((6, 6))
     if model.has_charges:

@@ -65,3 +65,28 @@ def difference_gradient(size: int, plus: int, minus: int, sign: float) -> np.nda
     gradient[plus] += sign
     gradient[minus] -= sign
     return gradient
+
+
+def add_branches(values: np.ndarray, jacobian: np.ndarray, branches, sign: float = 1.0) -> None:
+    """Stamp each branch ``(plus, minus, value, gradient)``: ``sign·value`` (a current [A] or a
+    charge [C]) leaves terminal ``plus`` and enters ``minus`` (``values[plus] += sign·value``,
+    ``values[minus] −= sign·value``), its gradient over the terminal voltages likewise into
+    the rows of ``jacobian``."""
+    for plus, minus, value, gradient in branches:
+        values[plus] += sign * value
+        values[minus] -= sign * value
+        jacobian[plus] += sign * gradient
+        jacobian[minus] -= sign * gradient
+
+
+def add_resistors(values: np.ndarray, jacobian: np.ndarray, v: np.ndarray, resistors) -> None:
+    """Stamp each linear resistor ``(plus, minus, resistance [Ω])`` whose resistance is not 0
+    (0: the terminals are one node, left to the device's own mapping): the current
+    ``(v[plus] − v[minus])/R`` from ``plus`` to ``minus`` and its constant gradient."""
+    for plus, minus, resistance in resistors:
+        if resistance:
+            conductance = difference_gradient(values.size, plus, minus, 1.0 / resistance)
+            values[plus] += conductance @ v
+            values[minus] -= conductance @ v
+            jacobian[plus] += conductance
+            jacobian[minus] -= conductance

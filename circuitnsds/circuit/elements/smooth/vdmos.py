@@ -43,6 +43,8 @@ from circuitnsds.circuit.elements.smooth.junctions import (
 )
 from circuitnsds.circuit.elements.smooth.terminals import (
     TerminalMap,
+    add_branches,
+    add_resistors,
     difference_gradient,
     scattered_evaluator,
 )
@@ -226,20 +228,10 @@ def vdmos_terminal_values(mosfet: Vdmos, v: np.ndarray) -> tuple[np.ndarray, np.
     diode, diode_slope = body_diode_current(model, vbody, vt, breakdown, mosfet.gmin)
     f = np.zeros(7)
     jacobian = np.zeros((7, 7))
-    for plus, minus, value, gradient in ((DI, SI, drain, by_vgs * d_gs + by_vds * d_ds),
-                                         (BD, D, diode, diode_slope * d_body)):
-        f[plus] += sign * value
-        f[minus] -= sign * value
-        jacobian[plus] += sign * gradient
-        jacobian[minus] -= sign * gradient
-    for plus, minus, resistance in ((D, DI, model.rd), (G, GI, model.rg), (S, SI, model.rs),
-                                    (S, BD, model.diode.rs), (D, S, model.shunt)):
-        if resistance:
-            conductance = _difference(plus, minus, 1.0 / resistance)
-            f[plus] += conductance @ v
-            f[minus] -= conductance @ v
-            jacobian[plus] += conductance
-            jacobian[minus] -= conductance
+    add_branches(f, jacobian, ((DI, SI, drain, by_vgs * d_gs + by_vds * d_ds),
+                               (BD, D, diode, diode_slope * d_body)), sign)
+    add_resistors(f, jacobian, v, ((D, DI, model.rd), (G, GI, model.rg), (S, SI, model.rs),
+                                   (S, BD, model.diode.rs), (D, S, model.shunt)))
     q = np.zeros(7)
     q_jacobian = np.zeros((7, 7))
     if model.has_charges:
