@@ -118,7 +118,7 @@ def test_the_c_loop_is_the_numba_loop_and_the_python_loop(monkeypatch, path, sto
     _assert_same_run(native, compiled)
     python = run.run_python(*arguments)
     assert native.segments == python.segments
-    assert [(e.name, e.kind) for e in native.events] == [(e.name, e.kind) for e in python.events]
+    assert [(e.element, e.state) for e in native.events] == [(e.element, e.state) for e in python.events]
     scale = np.abs(python.y).max(axis=0) + 1e-12
     assert np.max(np.abs(native.y - python.y) / scale) < python_tolerance
     largest = np.abs(python.currents).max(initial=0)

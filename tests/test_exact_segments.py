@@ -95,7 +95,7 @@ def test_an_rc_triggered_switch_closes_at_its_closed_form_instant():
     run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
     tau = 1e-3  # R1·C1
     (event,) = run.events
-    assert event.name == "s1" and event.kind == "close"
+    assert event.element == "s1" and event.state
     assert event.time == pytest.approx(tau * math.log(2), rel=1e-8)   # v(c) = 5 V
     vc = run.y[:, mlcs.unknowns.index("v(c)")]
     assert np.max(np.abs(vc - 10 * (1 - np.exp(-times / tau)))) < 1e-12
@@ -118,14 +118,14 @@ def test_the_buck_switches_at_instants_the_time_cannot_resolve_from_the_last_one
     # (open). At 490.005 µs the crossing lies closer to the segment's start than one ulp of
     # the time: the loop used to find it there again and again without advancing.
     circuit, mlcs, run = _exact_on_grid(BUCK, 0.6e-3, 0.1e-6)
-    closes = np.array([e.time for e in run.events if e.name == "s1" and e.kind == "close"])
-    opens = np.array([e.time for e in run.events if e.name == "s1" and e.kind == "open"])
+    closes = np.array([e.time for e in run.events if e.element == "s1" and e.state])
+    opens = np.array([e.time for e in run.events if e.element == "s1" and not e.state])
     periods = np.arange(60) * 10e-6
     # within 4e-9 of the 5 ns from the edge's start (measured 1e-9: v(gate) comes through a
     # system whose conductances span RON = 10 mΩ to ROFF = 1 GΩ)
     assert np.max(np.abs(closes - (periods + 5e-9))) < 2e-17
     assert np.max(np.abs(opens - (periods + 5.005e-6))) < 2e-17
-    assert sum(e.name == "d1" and e.kind == "on" for e in run.events) == 60
+    assert sum(e.element == "d1" and e.state for e in run.events) == 60
 
 
 def test_theta_converges_to_the_exact_buck_at_first_order():
@@ -162,7 +162,7 @@ def test_a_discharging_inductor_turns_its_diode_off_at_the_closed_form_instant()
     state = uic_state(circuit, mlcs)
     times = np.arange(1001) * 1e-6
     run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
-    assert [(e.name, e.kind) for e in run.events] == [("d1", "on"), ("d1", "off")]
+    assert [(e.element, e.state) for e in run.events] == [("d1", True), ("d1", False)]
     t_off = 1e-3 * (2 - 5 / 1e3) / 5
     assert run.events[1].time == pytest.approx(t_off, rel=1e-9)
     # then L1 discharges into R1 (and the blocking diode's 1 TΩ from 5 V: 5 pA) alone:
@@ -205,10 +205,10 @@ def test_a_full_wave_bridge_switches_at_its_closed_form_instants():
     for k in range(4):
         first, second = ("d1", "d4") if k % 2 == 0 else ("d2", "d3")
         start = k * half
-        expected += [(start, second, "on"), (start + onset, first, "on"),
-                     (start + half - onset, first, "off"), (start + half, second, "off")]
+        expected += [(start, second, True), (start + onset, first, True),
+                     (start + half - onset, first, False), (start + half, second, False)]
     expected = sorted(e for e in expected if e[0] < 0.04)
-    got = sorted((e.time, e.name, e.kind) for e in run.events)
+    got = sorted((e.time, e.element, e.state) for e in run.events)
     assert [(name, kind) for _, name, kind in got] == [(name, kind) for _, name, kind in expected]
     assert np.max(np.abs(np.array([t for t, *_ in got]) - [t for t, *_ in expected])) < 1e-16
 
@@ -253,7 +253,7 @@ def test_the_voltage_mode_buck_runs_exactly_and_theta_converges_to_it():
     state = uic_state(circuit, mlcs)
     times = np.arange(401) * 0.1e-6
     run = run_exact(mlcs, times, state.y, np.zeros(mlcs.m, bool), tuple(state.switches))
-    assert sum(e.name == "s1" and e.kind == "close" for e in run.events) >= 3  # the reference ramps up from 0
+    assert sum(e.element == "s1" and e.state for e in run.events) >= 3  # the reference ramps up from 0
     differences = []
     for step in (1e-8, 1e-9):
         theta = circuit.transient(step=step, stop=40e-6, method="theta")  # (θ, whatever the default)
@@ -342,7 +342,7 @@ def test_the_compiled_loop_runs_the_python_loop(netlist, stop):
     compiled = run_exact(mlcs, times, state.y, active, tuple(state.switches))
     python = run_python(mlcs, times, state.y, active, tuple(state.switches))
     assert compiled.segments == python.segments
-    assert [(e.name, e.kind) for e in compiled.events] == [(e.name, e.kind) for e in python.events]
+    assert [(e.element, e.state) for e in compiled.events] == [(e.element, e.state) for e in python.events]
     assert np.allclose([e.time for e in compiled.events], [e.time for e in python.events], rtol=1e-8,
                        atol=0)
     scale = np.abs(python.y).max(axis=0) + 1e-12

@@ -39,7 +39,11 @@ class FastModeWatch:
 
     def observe(self, mlcs, trajectory, first: int) -> None:
         """Tally the new rows' modes (the initial state left out) and the part's longest step
-        (``first`` = 1: row 0 is the previous part's last, the step into row 1 is new)."""
+        (``first`` = 1: row 0 is the previous part's last, the step into row 1 is new). A part
+        the exact integrator made alone is left out: it follows every mode exactly, whatever
+        the rows' spacing (its θ hand-offs' parts are watched whole)."""
+        if trajectory.stats.get("exact_segments") and not trajectory.stats.get("theta_steps"):
+            return
         new = max(first, 1)
         self.tally.add(trajectory.switches[new:], trajectory.active[new:])
         if trajectory.time.size > 1:

@@ -3,10 +3,13 @@
 
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.circuit.elements import Capacitor
+from circuitnsds.engine.events import event_time
 from circuitnsds.output.waveforms import LazySignals, Waveforms
 from circuitnsds.system.output_rows import output_values, signal_terms
 
@@ -86,5 +89,5 @@ def trajectory_waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop:
     return Waveforms(time=time, signals=LazySignals([*mlcs.output_names, *capacitors], signal),
                      impulses=LazySignals(pairs_of, impulse_of), residual=trajectory.residual[first:],
                      title=circuit.title,
-                     stats=stats, events=[event for event in trajectory.events
-                                          if event.time >= trajectory.time[first]])
+                     stats=stats, events=trajectory.events[bisect.bisect_left(
+                         trajectory.events, trajectory.time[first], key=event_time):])

@@ -25,6 +25,7 @@ This module knows nothing about circuits: it takes the function ``g`` and the na
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -49,6 +50,10 @@ class SwitchEvent(NamedTuple):
     time: float
     element: str
     state: bool
+
+
+event_time = operator.attrgetter("time")
+"""An event's ``time`` [s]: the key of a list of events in time order (``bisect``'s, ``sort``'s)."""
 
 
 def regula_falsi(g: Callable[[float], float], a: float, b: float, ga: float, gb: float,

@@ -22,11 +22,11 @@ import functools
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
 from circuitnsds import native
+from circuitnsds.engine.events import SwitchEvent
 from circuitnsds.engine.exact.charge import interval_integrals
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.first_event import crossed_within_tolerance, first_event
@@ -70,16 +70,6 @@ opening: −9.7 pA against a tolerance of 5.5 pA) starts at that current, not at
 
 class Chattering(Exception):
     """No consistent mode was found at an instant (a sliding mode or a latch that does not settle)."""
-
-
-class ExactEvent(NamedTuple):
-    """A located event: ``time`` [s], the pair's or switch's name, and ``kind``: ``"on"``/
-    ``"off"`` for a pair (conducting/blocking), ``"close"``/``"open"`` for a switch. (A named
-    tuple: a long run makes one per event, 60,000 in the 100 ms buck.)"""
-
-    time: float
-    name: str
-    kind: str
 
 
 @dataclass
@@ -133,7 +123,7 @@ class ExactRun:
     times: np.ndarray
     y: np.ndarray
     currents: np.ndarray
-    events: list[ExactEvent] = field(default_factory=list)
+    events: list[SwitchEvent] = field(default_factory=list)
     segments: int = 0
     active: np.ndarray | None = None
     closed: np.ndarray | None = None
@@ -542,11 +532,9 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
 
     def result() -> ExactRun:
         names = list(mlcs.pairs) + [switch.name for switch in mlcs.switches]
-        kinds = [("off", "on")] * m + [("open", "close")] * w
         used = int(counters[4])
-        columns, ons = event_index[:used].tolist(), event_on[:used].tolist()
-        events = list(map(ExactEvent, event_times[:used].tolist(), [names[c] for c in columns],
-                          [kinds[c][on] for c, on in zip(columns, ons)]))
+        events = list(map(SwitchEvent, event_times[:used].tolist(),
+                          [names[c] for c in event_index[:used].tolist()], event_on[:used].tolist()))
         written = int(counters[8])
         rows_y = tail_y[:written].copy()  # (one copy; each tail a view of its row)
         tails = dict(zip(tail_row[:written].tolist(), zip(rows_y, tail_dt[:written].tolist())))
@@ -652,7 +640,7 @@ def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarra
     active = np.asarray(resume.active, dtype=bool).copy()
     closed = tuple(resume.closed)
     quiet = resume.announced
-    events: list[ExactEvent] = []
+    events: list[SwitchEvent] = []
     segments = 0
     stalled = 0
     state = resume
@@ -666,10 +654,9 @@ def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarra
                                                                y_size, t)
             if not quiet:
                 for j in np.flatnonzero(new_active != active):
-                    events.append(ExactEvent(t, mlcs.pairs[j], "on" if new_active[j] else "off"))
+                    events.append(SwitchEvent(t, mlcs.pairs[j], bool(new_active[j])))
                 for k in (k for k in range(len(closed)) if new_closed[k] != closed[k]):
-                    events.append(ExactEvent(t, mlcs.switches[k].name,
-                                             "close" if new_closed[k] else "open"))
+                    events.append(SwitchEvent(t, mlcs.switches[k].name, bool(new_closed[k])))
             quiet = False
             active, closed = new_active, new_closed
             mode = system.mode(active, closed)
