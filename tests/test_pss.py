@@ -14,6 +14,7 @@ import circuitnsds
 from circuitnsds.engine.integrate import integrate
 from circuitnsds.engine.step_maps import StepMapper
 from circuitnsds.engine.timegrid import time_grid
+from circuitnsds.errors import RunNote
 from tests.device_checks import assert_device_laws
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
@@ -403,3 +404,43 @@ def test_a_period_or_warm_up_needing_too_many_steps_is_an_error_not_a_crash(tmp_
                    str(tmp_path / "p.csv"), "--warmup", "1000000000"])
     err = capsys.readouterr().err
     assert status == 1 and "half_wave_rectifier.cir: 1e+12 steps requested (limit 5e+07)" in err
+
+
+PEAK_DETECTOR = """peak detector: an ideal diode charging a capacitor straight from a sine
+V1 in 0 SIN(0 5 1k)
+D1 in c dideal
+C1 c 0 1u
+R1 c 0 10k
+.model dideal D
+.options method={method}
+.end
+"""
+
+
+def test_an_exact_period_map_that_stops_is_an_error_and_auto_takes_the_theta_shooting():
+    # While D1 conducts, C1 sits across V1 (index 2: no state equations), which the exact
+    # period map cannot cross (a transient hands it to θ). With method=exact that is an
+    # error naming the instant and the cause (it was an internal error, a traceback's
+    # class name); with method=auto the θ shooting takes the pss, noted, and gives what
+    # method=theta gives.
+    exact = circuitnsds.read_netlist(PEAK_DETECTOR.format(method="exact"))
+    with pytest.raises(circuitnsds.SimulationError, match=r"exact period map stopped at t = 0 s: a mode "
+                       r"without state equations") as raised:
+        exact.pss()
+    assert "method=theta" in raised.value.hint
+    with pytest.warns(RunNote, match=r"method=auto: the periodic steady state on the exact "
+                      r"period map failed .*θ shooting's instead"):
+        auto = circuitnsds.read_netlist(PEAK_DETECTOR.format(method="auto")).pss()
+    theta = circuitnsds.read_netlist(PEAK_DETECTOR.format(method="theta")).pss()
+    assert np.array_equal(auto.waveforms["v(c)"], theta.waveforms["v(c)"])
+    assert auto.means is None and auto.maps is not None  # (the θ shooting's result)
+
+
+def test_auto_shoots_on_the_exact_period_map_where_the_circuit_qualifies():
+    # The bundled boost under method=auto: the exact map's orbit (its closed-form means), the
+    # same orbit as method=exact's, bit for bit.
+    text = (NETLISTS / "boost_converter.cir").read_text()
+    auto = circuitnsds.read_netlist(text.replace(".end", ".options method=auto\n.end")).pss()
+    exact = circuitnsds.read_netlist(text.replace(".end", ".options method=exact\n.end")).pss()
+    assert auto.means is not None and auto.exact is not None
+    assert np.array_equal(auto.means, exact.means)

@@ -18,6 +18,7 @@ again (:data:`FALLBACK_ROUNDS` times, the transient doubling each time).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -38,10 +39,10 @@ from circuitnsds.engine.driver import drive
 from circuitnsds.engine.integrate import Trajectory, trajectory_bytes
 from circuitnsds.engine.newton_stepper import NewtonStepper
 from circuitnsds.engine.step_maps import StepMapper, StepMaps
-from circuitnsds.engine.stepper import StartState, stepper_class
+from circuitnsds.engine.stepper import AUTO, DEFAULT_STEPPER, StartState, stepper_class
 from circuitnsds.engine.theta_stepper import ThetaStepper
 from circuitnsds.engine.timegrid import time_grid
-from circuitnsds.errors import CircuitError, CircuitWarning, SimulationError
+from circuitnsds.errors import CircuitError, CircuitWarning, RunNote, SimulationError
 from circuitnsds.output.waveforms import Waveforms
 from circuitnsds.specs import PssSpec, SourceDefaults
 from circuitnsds.system.mlcs import MLCS
@@ -282,8 +283,6 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
                            f"{theta:g}", where=circuit.file,
                            hint=f"{why}; compare it with a transient at theta = 1")
     if circuit.options.get("theta", 1.0) != 1.0:
-        import warnings
-
         warnings.warn(CircuitWarning(
             f"{circuit.file}: .options theta={circuit.options['theta']:g} applies to the transient; "
             f"the periodic steady state uses implicit Euler (theta = 1): {why}"), stacklevel=3)
@@ -369,12 +368,22 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
                 y, active, switches = run.y[-1].copy(), run.active[-1].copy(), run.switches[-1].copy()
             result = SmoothShooter(circuit, mlcs, grid, period, tol).solve(y, active, switches,
                                                                              max_iterations)
-        elif _exact_map(circuit, mlcs):
+        elif (period_map := _period_map(circuit, mlcs)) != "theta":
             from circuitnsds.analyses.pss_exact import exact_pss
 
+            start_y = y
             if charge is not None:  # (initial conditions y cannot express: one step of θ first)
-                y = _plain_transient(mlcs, grid[:2], StartState(y, charge, None, active, switches)).y[0]
-            result = exact_pss(circuit, mlcs, grid, period, y, active, switches)
+                start_y = _plain_transient(mlcs, grid[:2], StartState(y, charge, None, active, switches)).y[0]
+            try:
+                result = exact_pss(circuit, mlcs, grid, period, start_y, active, switches)
+            except SimulationError as exc:
+                if period_map == "exact":
+                    raise
+                warnings.warn(RunNote(
+                    f"{circuit.file}: method=auto: the periodic steady state on the exact period map "
+                    f"failed ({exc.message}); it is the θ shooting's instead"), stacklevel=2)
+                result = _Shooter(circuit, mlcs, grid, period, tol).solve(y, charge, active, switches,
+                                                                          max_iterations)
         else:
             shooter = _Shooter(circuit, mlcs, grid, period, tol)
             result = shooter.solve(y, charge, active, switches, max_iterations)
@@ -385,17 +394,23 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
     return result
 
 
-def _exact_map(circuit: Circuit, mlcs: MLCS) -> bool:
-    """Whether ``.options method=exact`` puts the periodic steady state on the exact period
-    map (``auto`` and the default keep the θ shooting: ``ac`` needs its step maps, and its
-    fallback to transient periods is not built for the exact map yet)."""
-    if str(circuit.options.get("method", "")).strip().lower() != "exact":
-        return False
-    reason = stepper_class("exact").unsuited(mlcs)
-    if reason is not None:
+def _period_map(circuit: Circuit, mlcs: MLCS) -> str:
+    """The period map the shooting takes, by ``.options method`` (or, without it, the
+    default, :data:`~circuitnsds.engine.stepper.DEFAULT_STEPPER`): ``"exact"`` for
+    ``method=exact`` (the exact integrator's map; an error if it cannot run the circuit),
+    ``"auto"`` for ``method=auto`` where the exact integrator can run the circuit (its map,
+    the θ shooting with its transient fallbacks where Newton on it fails), ``"theta"``
+    otherwise (the θ-method's step maps).
+
+    Raises:
+        CircuitError: ``method=exact`` on a circuit the exact integrator cannot run.
+    """
+    name = str(circuit.options.get("method", DEFAULT_STEPPER)).strip().lower()
+    reason = stepper_class("exact").unsuited(mlcs) if name in ("exact", AUTO) else "not asked"
+    if name == "exact" and reason is not None:
         raise CircuitError(f"the integration method 'exact' cannot run this circuit: {reason}",
                            where=circuit.file, hint=".options method=theta")
-    return True
+    return name if reason is None else "theta"
 
 
 def _plain_transient(mlcs: MLCS, grid: np.ndarray, start: StartState) -> Trajectory:
@@ -596,7 +611,6 @@ class _Shooter:
                 "nearly undamped mode at its resonance (a harmonic of the period): add the "
                 "damping the real circuit has (an inductor's or capacitor's series resistance), "
                 "or run a transient to see the growth")
-        import warnings
 
         warnings.warn(CircuitWarning(
             f"{self.circuit.file}: {what} ({stepped / gap:.2g} times the circuit's); a smaller "
@@ -608,8 +622,6 @@ class _Shooter:
         multipliers = np.linalg.eigvals(phi) if phi.size else np.zeros(0)
         multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
         if multipliers.size:
-            import warnings
-
             phi_values, vectors = np.linalg.eig(phi)
             closest = int(np.argmin(np.abs(1.0 - phi_values)))
             if abs(1.0 - phi_values[closest]) < SINGULAR:

@@ -1,5 +1,6 @@
-"""The periodic steady state on the exact period map (``.options method=exact``; ``auto`` and
-the default keep the θ shooting): the orbit by Newton with the exact monodromy
+"""The periodic steady state on the exact period map (``.options method=exact``, and
+``method=auto`` where the exact integrator can run the circuit: there, where Newton on this
+map fails, the θ shooting instead): the orbit by Newton with the exact monodromy
 (:func:`~circuitnsds.engine.exact.periodic.periodic_orbit`: saltation at every located
 event, no quantised instants, no implicit-Euler error), shown on the period's grid by the
 exact stepper.
@@ -20,11 +21,11 @@ from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.driver import drive
-from circuitnsds.engine.exact.mode import StateCoordinates
+from circuitnsds.engine.exact.mode import NotIndexOne, StateCoordinates
 from circuitnsds.engine.exact.periodic import period_map, periodic_orbit
-from circuitnsds.engine.exact.run import ExactSystem
+from circuitnsds.engine.exact.run import Chattering, ExactSystem
 from circuitnsds.engine.exact.small_signal import ExactPeriod
-from circuitnsds.engine.exact.stepper import ExactStepper
+from circuitnsds.engine.exact.stepper import HANDOFF_CAUSES, ExactStepper
 from circuitnsds.engine.step_maps import state_unknowns
 from circuitnsds.engine.stepper import StartState
 from circuitnsds.errors import CircuitWarning, SimulationError
@@ -45,11 +46,14 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     active = np.zeros(mlcs.m, bool) if active is None else np.asarray(active, bool)
     closed = tuple(bool(s) for s in (switches if switches is not None
                                      else [s.initially_on for s in mlcs.switches]))
+    hint = "run the pss with .options method=theta (the θ shooting falls back to transient periods)"
     try:
         orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed)
     except ArithmeticError as exc:
-        raise SimulationError(str(exc), where=circuit.file, hint="run the pss with .options "
-                              "method=theta (the θ shooting falls back to transient periods)") from None
+        raise SimulationError(str(exc), where=circuit.file, hint=hint) from None
+    except (Chattering, NotIndexOne) as exc:  # (a transient hands such a stretch to θ; a period map cannot)
+        raise SimulationError(f"the exact period map stopped at t = {exc.time:.6g} s: "
+                              f"{HANDOFF_CAUSES[type(exc)]}", where=circuit.file, hint=hint) from None
     system = ExactSystem(mlcs)
     t0 = float(grid[0])
     segments = period_map(system, t0, period, orbit.x, orbit.active, orbit.closed)[3]
