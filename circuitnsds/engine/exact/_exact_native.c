@@ -448,7 +448,8 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
     }
 }
 
-/* loop._violated: function k negative at 0, or zero and decreasing (to the second derivative). */
+/* loop._violated: function k negative at 0, or zero and decreasing (to the second derivative) by more
+ * than its round-off. */
 static int violated(const cplx *table, int64_t columns, const int64_t *powers, const cplx *exponents, int64_t count,
                     int64_t k, double tolerance) {
     double value = 0.0;
@@ -479,7 +480,7 @@ static int violated(const cplx *table, int64_t columns, const int64_t *powers, c
     }
     double tolerance1 = RELATIVE_TOL * size1 + 1e-300;
     if (d1 < -tolerance1)
-        return 1;
+        return !(d2 > RELATIVE_TOL * size2 && value - d1 * d1 / (2.0 * d2) >= -tolerance);
     if (fabs(d1) <= tolerance1)
         return d2 < -(RELATIVE_TOL * size2 + 1e-300);
     return 0;

@@ -107,7 +107,7 @@ def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights
 
 def _violated(table, powers, exponents, count, k, tolerance):
     """Whether function ``k`` is negative at 0, or zero and decreasing (to the second
-    derivative): :func:`.run._violations`."""
+    derivative) by more than its round-off: :func:`.run._violations`."""
     value = 0.0
     for j in range(count):
         if powers[j] == 0:
@@ -137,7 +137,7 @@ def _violated(table, powers, exponents, count, k, tolerance):
             d2 += 2 * c.real
     tolerance1 = RELATIVE_TOL * size1 + 1e-300
     if d1 < -tolerance1:
-        return True
+        return not (d2 > RELATIVE_TOL * size2 and value - d1 * d1 / (2.0 * d2) >= -tolerance)
     if abs(d1) <= tolerance1:
         return d2 < -(RELATIVE_TOL * size2 + 1e-300)
     return False

@@ -314,7 +314,13 @@ def _tolerance(g: ExpPoly) -> float:
 
 def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
-    second derivative): the mode cannot hold just after the instant."""
+    second derivative): the mode cannot hold just after the instant. A zero function whose
+    slope is negative but whose curvature turns it back up within its own round-off (the
+    parabola's dip ``g − g'²/(2g'')`` above ``−tol``) is not violated: a winding's diode
+    turning on while the open-circuit voltage still rises (a flyback's output diode with a
+    leakage inductance) has a current starting at −117 A/s that turns up at 1.2e16 A/s², a
+    dip of 0.5 pA against a round-off of 1.3 pA over 19 fs; flipping it back and forth
+    found no mode. (The loop's certified search catches any deeper dip as an event.)"""
     bad = []
     values = functions.table(0.0)
     for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
@@ -325,7 +331,10 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
             d1 = functions.function(k).derivative()
             slope = float(d1(0.0)[0])
             if slope < -_tolerance(d1):
-                bad.append((kind, index))
+                d2 = d1.derivative()
+                curvature = float(d2(0.0)[0])
+                if not (curvature > _tolerance(d2) and value - slope * slope / (2.0 * curvature) >= -tol):
+                    bad.append((kind, index))
             elif abs(slope) <= _tolerance(d1):
                 d2 = d1.derivative()
                 if float(d2(0.0)[0]) < -_tolerance(d2):
