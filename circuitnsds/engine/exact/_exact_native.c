@@ -357,7 +357,58 @@ typedef struct {
     int64_t *tail_row;
     double *tail_dt, *tail_y;
     int64_t *spans, *spans_known;
+    /* each mode's nonzero entries (listed), built when the mode is first met in a call: the
+     * event table's lines (T·columns over I inputs), then rows_q's and rows_y's (columns
+     * lines over n each); listed[mode] < 0 until then (sparse_lines) */
+    int64_t *listed, *first;
+    int32_t *entries;
+    int64_t entries_used, entries_capacity;
 } Exact;
+
+enum { SPARSE_OK = 0, SPARSE_FAILED = 1 };
+
+/* The nonzero entries of `lines` lines of `width` values (complex when `complex_values`) into
+ * L->entries (their indices), L->first[start + line] the first of line `line` (one past the
+ * last line: the end). Returns SPARSE_FAILED when the list could not grow. */
+static int list_nonzero(Exact *L, const void *values, int complex_values, int64_t lines, int64_t width,
+                        int64_t start) {
+    for (int64_t line = 0; line < lines; line++) {
+        L->first[start + line] = L->entries_used;
+        if (L->entries_used + width > L->entries_capacity) {
+            int64_t capacity = 2 * L->entries_capacity + width + 1024;
+            int32_t *grown = realloc(L->entries, sizeof(int32_t) * (size_t)capacity);
+            if (!grown)
+                return SPARSE_FAILED;
+            L->entries = grown;
+            L->entries_capacity = capacity;
+        }
+        for (int64_t i = 0; i < width; i++) {
+            int nonzero = complex_values ? (((const cplx *)values)[line * width + i].re != 0.0
+                                            || ((const cplx *)values)[line * width + i].im != 0.0)
+                                         : ((const double *)values)[line * width + i] != 0.0;
+            if (nonzero)
+                L->entries[L->entries_used++] = (int32_t)i;
+        }
+    }
+    L->first[start + lines] = L->entries_used;
+    return SPARSE_OK;
+}
+
+/* Mode `mode`'s lists (L->listed[mode] the index in L->first of its first line), built on first
+ * use. A zero entry adds ±0 to a sum that is never -0 (it starts at +0, and x + (-x) is +0):
+ * summing the nonzero entries alone gives the numba loop's sums bit for bit. */
+static int sparse_lines(Exact *L, int64_t mode) {
+    if (L->listed[mode] >= 0)
+        return SPARSE_OK;
+    const int64_t T = L->T, columns = L->columns, per_mode = T * columns + 2 * columns + 1;
+    int64_t start = mode * per_mode;
+    if (list_nonzero(L, L->table_map + mode * (T * columns) * L->I, 1, T * columns, L->I, start)
+        || list_nonzero(L, L->rows_q + mode * columns * L->n, 0, columns, L->n, start + T * columns)
+        || list_nonzero(L, L->rows_y + mode * columns * L->n, 0, columns, L->n, start + T * columns + columns))
+        return SPARSE_FAILED;
+    L->listed[mode] = start;
+    return SPARSE_OK;
+}
 
 /* Each known mode's terms' spans of inputs (spans (M, T, 4): [lo, hi) of the z map's inputs
  * that are not 0 for some unknown, then the event table's), computed once per mode (the
@@ -408,23 +459,28 @@ static void shifted(const Exact *L, int64_t k, double delta) {
 
 static inline double ulp_of(double t) { return EPSILON * fmax(fabs(t), 1e-300); }
 
-/* loop._functions: the mode's event functions (table (T, columns)) and their round-off. */
+/* loop._functions: the mode's event functions (table (T, columns)) and their round-off, over the
+ * mode's nonzero map entries and rows (sparse_lines, built by the caller). */
 static void functions(const Exact *L, int64_t mode, const cplx *inputs, const double *x, const double *y_size, const double *forcing, double instant, cplx *table,
                       double *tolerances) {
     int64_t count = L->terms[mode], columns = L->columns, I = L->I;
     const cplx *map = L->table_map + mode * (L->T * columns) * I;
+    const int64_t *first = L->first + L->listed[mode];
+    const int32_t *entries = L->entries;
     for (int64_t j = 0; j < count; j++)
         for (int64_t k = 0; k < columns; k++) {
-            const cplx *line = map + (j * columns + k) * I;
+            const int64_t line_index = j * columns + k;
+            const cplx *line = map + line_index * I;
             cplx total = {0.0, 0.0};
-            const int64_t *span = L->spans + (mode * L->T + j) * 4;
-            for (int64_t i = span[2]; i < span[3]; i++) { /* (outside, the map's inputs are 0) */
+            for (int64_t e = first[line_index]; e < first[line_index + 1]; e++) {
+                int32_t i = entries[e];
                 cplx product = cmul(line[i], inputs[i]);
                 total.re += product.re;
                 total.im += product.im;
             }
             table[j * columns + k] = total;
         }
+    const int64_t *first_q = first + L->T * columns, *first_y = first_q + columns;
     for (int64_t k = 0; k < columns; k++) {
         double scale = L->rows_c[mode * columns + k];
         const double *rp = L->rows_p + (mode * columns + k) * L->r;
@@ -432,11 +488,11 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
         const double *ry = L->rows_y + (mode * columns + k) * L->n;
         for (int64_t i = 0; i < L->r; i++)
             scale += rp[i] * fabs(x[i]);
-        for (int64_t i = 0; i < L->n; i++)
-            scale += rq[i] * forcing[i];
+        for (int64_t e = first_q[k]; e < first_q[k + 1]; e++)
+            scale += rq[entries[e]] * forcing[entries[e]];
         double summed = 0.0;
-        for (int64_t i = 0; i < L->n; i++)
-            summed += ry[i] * y_size[i];
+        for (int64_t e = first_y[k]; e < first_y[k + 1]; e++)
+            summed += ry[entries[e]] * y_size[entries[e]];
         double slope = 0.0, terms_size = 0.0;
         for (int64_t j = 0; j < count; j++) {
             cplx product = cmul(L->slope_weights[mode * L->T + j], table[j * columns + k]);
@@ -739,6 +795,10 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         int from_python = chosen == 1;
         int64_t changes = 0;
         for (;;) {
+            if (sparse_lines(L, mode) != SPARSE_OK) {
+                status = OUT_OF_MEMORY;
+                break;
+            }
             functions(L, mode, inputs, x, y_size, forcing, t, table, tolerances);
             if (chosen == 1)
                 break;
@@ -963,7 +1023,8 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
 }
 
 /* loop._exact_loop: `arrays` the addresses (A_*), `sizes` the integers (S_*); returns the
- * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated, nothing done). */
+ * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated: nothing done, or,
+ * when a mode's list of nonzero entries could not grow, the state at that segment's start). */
 EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes) {
     Exact L;
     L.n = sizes[S_N];
@@ -1018,6 +1079,14 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.spans = arrays[A_SPANS];
     L.spans_known = arrays[A_SPANS_KNOWN];
     find_spans(&L);
+    const int64_t per_mode = L.T * L.columns + 2 * L.columns + 1;
+    L.listed = malloc(sizeof(int64_t) * (size_t)(L.known + 1));
+    L.first = malloc(sizeof(int64_t) * (size_t)(L.known * per_mode + 1));
+    L.entries = NULL;
+    L.entries_used = 0;
+    L.entries_capacity = 0;
+    for (int64_t mode = 0; L.listed && mode < L.known; mode++)
+        L.listed[mode] = -1;
 
     const int64_t T = L.T, width = L.n + L.m;
     int64_t top_power = 0;
@@ -1033,7 +1102,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     uint8_t *wanted = calloc((size_t)(L.columns + T + 1), 1);
     Search *search = malloc(sizeof(Search));
     int64_t status = OUT_OF_MEMORY;
-    if (d && c && ints && wanted && search) {
+    if (d && c && ints && wanted && search && L.listed && L.first) {
         double *next = d;
         R.nu_re = next; next += T;
         R.nu_im = next; next += T;
@@ -1078,5 +1147,8 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     free(ints);
     free(wanted);
     free(search);
+    free(L.listed);
+    free(L.first);
+    free(L.entries);
     return status;
 }
