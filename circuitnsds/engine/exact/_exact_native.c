@@ -190,9 +190,11 @@ static void prepare(Search *s, const cplx *nu, int64_t terms, double a, double b
     s->prepared_b = b;
 }
 
-/* The sums of first_event._bound over terms (c, sizes, p) of exponents ν on the prepared [a, b]. */
+/* The sums of first_event._bound over terms (c, sizes, p) of exponents ν on the prepared [a, b]:
+ * the fast terms' magnitudes, the slow terms' g, g', g'' at a and bounds of |g''| (bend) and
+ * |g'''| (third) on [a, b]. */
 typedef struct {
-    double fast, bend, g0, g1;
+    double fast, bend, third, g0, g1, g2;
 } Sums;
 
 static void accumulate(Sums *t, const Search *s, const cplx *c, const double *sizes, const int64_t *p,
@@ -211,28 +213,64 @@ static void accumulate(Sums *t, const Search *s, const cplx *c, const double *si
         }
         t->bend += size * growth * (speed * speed * ipow(b, q) + 2 * q * speed * ipow(b, q > 1 ? q - 1 : 0)
                                     + q * (q - 1) * ipow(b, q > 2 ? q - 2 : 0));
+        t->third += size * growth * (speed * speed * speed * ipow(b, q) + 3 * q * speed * speed * ipow(b, q > 1 ? q - 1 : 0)
+                                     + 3 * q * (q - 1) * speed * ipow(b, q > 2 ? q - 2 : 0)
+                                     + q * (q - 1) * (q - 2) * ipow(b, q > 3 ? q - 3 : 0));
         cplx at_a = s->at_a[j];
         double power = ipow(a, q);
         double lowered = q > 0 ? q * ipow(a, q > 1 ? q - 1 : 0) : 0.0;
+        double lowered2 = q > 1 ? q * (q - 1) * ipow(a, q > 2 ? q - 2 : 0) : 0.0;
         cplx scaled = cscale(c[j], power);
         t->g0 += scaled.re * at_a.re - scaled.im * at_a.im;
         cplx slope = {lowered + nu[j].re * power, nu[j].im * power};
         cplx d = cmul(c[j], slope);
         t->g1 += d.re * at_a.re - d.im * at_a.im;
+        /* d²/dτ² τ^q e^{ντ} = (ν (ν τ^q + 2 q τ^{q-1}) + q (q-1) τ^{q-2}) e^{ντ} */
+        cplx inner = {nu[j].re * power + 2 * lowered, nu[j].im * power};
+        cplx curve = cmul(nu[j], inner);
+        curve.re += lowered2;
+        cplx d2 = cmul(c[j], curve);
+        t->g2 += d2.re * at_a.re - d2.im * at_a.im;
     }
 }
 
-/* first_event._bound from the sums over [a, b] (b - a = width). */
+/* first_event._lowest: the least over s in [0, width] of the slow terms' cubic Taylor model
+ * g0 + g1 s + g2 s²/2 - third s³/6 (its ends and its local minimum, the smaller zero of its
+ * slope g1 + g2 s - third s²/2, or the parabola's vertex when third = 0). */
+static inline double lowest(double g0, double g1, double g2, double third, double width) {
+    double end = g0 + g1 * width + g2 * width * width / 2 - third * width * width * width / 6;
+    double low = g0 < end ? g0 : end;
+    double s = -1.0;
+    if (third > 0.0) {
+        double discriminant = g2 * g2 + 2 * third * g1;
+        if (discriminant > 0.0) {
+            double root = sqrt(discriminant);
+            s = g2 > 0.0 ? -2 * g1 / (g2 + root) : (g2 - root) / third; /* (no cancellation) */
+        }
+    } else if (g2 > 0.0) {
+        s = -g1 / g2;
+    }
+    if (s > 0.0 && s < width) {
+        double inside = g0 + g1 * s + g2 * s * s / 2 - third * s * s * s / 6;
+        low = low < inside ? low : inside;
+    }
+    return low;
+}
+
+/* first_event._bound from the sums over [a, b] (b - a = width): the better of the second-order
+ * bound (g'' >= -bend) and the third-order one (g''' >= -third), less the fast terms. */
 static inline double bound_of(const Sums *t, double width) {
     double curved = t->g0 + t->g1 * width - t->bend * width * width / 2;
-    return (t->g0 < curved ? t->g0 : curved) - t->fast;
+    double second = t->g0 < curved ? t->g0 : curved;
+    double cubic = lowest(t->g0, t->g1, t->g2, t->third, width);
+    return (second > cubic ? second : cubic) - t->fast;
 }
 
 /* first_event._bound: a lower bound of Re Σ c_j τ^p_j e^{ν_j τ} on [a, b] (the column's sizes in
  * s->sizes). */
 static double bound(Search *s, const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b) {
     prepare(s, nu, terms, a, b);
-    Sums t = {0.0, 0.0, 0.0, 0.0};
+    Sums t = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     accumulate(&t, s, c, s->sizes, p, nu, terms, a, b);
     return bound_of(&t, b - a);
 }
@@ -241,7 +279,7 @@ static double bound(Search *s, const cplx *c, const int64_t *p, const cplx *nu, 
  * the factors prepared for g's bound on the same interval. */
 static double slope_bound(Search *s, const cplx *nu, int64_t terms, double a, double b) {
     prepare(s, nu, terms, a, b);
-    Sums t = {0.0, 0.0, 0.0, 0.0};
+    Sums t = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     accumulate(&t, s, s->dc, s->d_sizes, s->dp, nu, terms, a, b);
     accumulate(&t, s, s->dc + terms, s->d_sizes + terms, s->dp + terms, nu, terms, a, b);
     return bound_of(&t, b - a);
