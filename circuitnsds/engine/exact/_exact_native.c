@@ -86,12 +86,21 @@ static inline double ipow(double x, int64_t p) {
 
 /* ---------------------------------------------------------------- the first-event search */
 
-/* first_event._value: Re Σ c_j τ^p_j e^{ν_j τ}. */
+/* first_event._value: Re Σ c_j τ^p_j e^{ν_j τ} (e^{0} = 1 and a conjugate's e^{ν̄τ}, the conjugate
+ * of its partner's, without exp, cos and sin: the same bits). */
 static double value_at(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double tau) {
     double total = 0.0;
+    cplx grown = {1.0, 0.0};
     for (int64_t j = 0; j < terms; j++) {
         cplx scaled = cscale(c[j], ipow(tau, p[j]));
-        cplx grown = cexp_(nu[j].re * tau, nu[j].im * tau);
+        if (j > 0 && nu[j].im != 0.0 && nu[j].re == nu[j - 1].re && nu[j].im == -nu[j - 1].im) {
+            grown.im = -grown.im; /* (grown is still the partner's) */
+        } else if (nu[j].re == 0.0 && nu[j].im == 0.0) {
+            grown.re = 1.0;
+            grown.im = 0.0;
+        } else {
+            grown = cexp_(nu[j].re * tau, nu[j].im * tau);
+        }
         total += scaled.re * grown.re - scaled.im * grown.im;
     }
     return total;
@@ -211,12 +220,25 @@ static void accumulate(Sums *t, const Search *s, const cplx *c, const double *si
             t->fast += size * ipow(b, q) * growth;
             continue;
         }
+        cplx at_a = s->at_a[j];
+        if (q == 0) { /* (most terms: the general lines below with their powers 1 and 0) */
+            t->bend += size * growth * (speed * speed);
+            t->third += size * growth * (speed * speed * speed);
+            t->g0 += c[j].re * at_a.re - c[j].im * at_a.im;
+            cplx slope = {0.0 + nu[j].re, nu[j].im}; /* (0.0 + : -0 as +0, as the general line has it) */
+            cplx d = cmul(c[j], slope);
+            t->g1 += d.re * at_a.re - d.im * at_a.im;
+            cplx curve = cmul(nu[j], slope);
+            curve.re += 0.0;
+            cplx d2 = cmul(c[j], curve);
+            t->g2 += d2.re * at_a.re - d2.im * at_a.im;
+            continue;
+        }
         t->bend += size * growth * (speed * speed * ipow(b, q) + 2 * q * speed * ipow(b, q > 1 ? q - 1 : 0)
                                     + q * (q - 1) * ipow(b, q > 2 ? q - 2 : 0));
         t->third += size * growth * (speed * speed * speed * ipow(b, q) + 3 * q * speed * speed * ipow(b, q > 1 ? q - 1 : 0)
                                      + 3 * q * (q - 1) * speed * ipow(b, q > 2 ? q - 2 : 0)
                                      + q * (q - 1) * (q - 2) * ipow(b, q > 3 ? q - 3 : 0));
-        cplx at_a = s->at_a[j];
         double power = ipow(a, q);
         double lowered = q > 0 ? q * ipow(a, q > 1 ? q - 1 : 0) : 0.0;
         double lowered2 = q > 1 ? q * (q - 1) * ipow(a, q > 2 ? q - 2 : 0) : 0.0;
