@@ -11,9 +11,9 @@ control's distance from the threshold it would cross). The search for its first 
   ``g_s(a) + g_s'(a)(τ-a) - M (τ-a)²/2`` with ``M`` an upper bound of ``|g_s''|`` on ``[a, b]``
   and ``g_s(a) + g_s'(a)(τ-a) + g_s''(a)(τ-a)²/2 - M₃ (τ-a)³/6`` with ``M₃`` one of
   ``|g_s'''|`` (its least on ``[a, b]``: the ends and the cubic's local minimum), which
-  clears an interval where the function is convex (a ring's trough, a PWM comparison's
-  parabola-like approach) in one step where the first would halve it until ``M`` is
-  below the slope;
+  clears a convex stretch (a ring's trough) whole where the first halves it until
+  ``M (b-a)`` is below the slope (intervals visited per segment: 27.7 -> 19.0 on the DCM
+  boost of ``benchmarks/``, 7.3 -> 3.7 on the three-phase inverter);
 * a *fast* term (a quickly decaying or oscillating one) enters by its largest magnitude on
   ``[a, b]``, ``|c| b^p e^{max(Re ν a, Re ν b)}``.
 
