@@ -44,7 +44,8 @@ def _lowest(g0: np.ndarray, g1: np.ndarray, g2: np.ndarray, third: np.ndarray, w
     with np.errstate(divide="ignore", invalid="ignore"):
         discriminant = g2 * g2 + 2 * third * g1
         root = np.sqrt(np.maximum(discriminant, 0.0))
-        cubic = np.where(discriminant > 0.0, np.where(g2 > 0.0, -2 * g1 / (g2 + root), (g2 - root) / third), -1.0)
+        smaller = np.where(g2 > 0.0, -2 * g1 / (g2 + root), (g2 - root) / third)
+        cubic = np.where(discriminant > 0.0, smaller, -1.0)
         s = np.where(third > 0.0, cubic, np.where(g2 > 0.0, -g1 / g2, -1.0))
     inside = (s > 0.0) & (s < width)
     s = np.where(inside, s, 0.0)
