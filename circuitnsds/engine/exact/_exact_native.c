@@ -118,7 +118,7 @@ typedef struct {
     int64_t *dp;
     uint8_t *conjugate;                  /* ν_j is the conjugate of ν_{j-1} */
     double prepared_a, prepared_b;       /* the interval growth and at_a hold (NaN: none) */
-    double starts[MAX_STACK], ends[MAX_STACK];
+    double starts[MAX_STACK], ends[MAX_STACK], end_values[MAX_STACK]; /* (g(end), NaN: not known) */
     int64_t depths[MAX_STACK];
 } Search;
 
@@ -307,9 +307,11 @@ static double slope_bound(Search *s, const cplx *nu, int64_t terms, double a, do
     return bound_of(&t, b - a);
 }
 
-/* first_event._refine: the root in [a, b] (g(a) >= 0 > g(b)) to a few ulps, Illinois. */
-static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b) {
-    double ga = value_at(c, p, nu, terms, a), gb = value_at(c, p, nu, terms, b);
+/* first_event._refine: the root in [a, b] (g(a) >= 0 > g(b)) to a few ulps, Illinois (gb: g(b),
+ * known to the caller). */
+static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b,
+                     double gb) {
+    double ga = value_at(c, p, nu, terms, a);
     if (ga <= 0.0)
         return a;
     if (gb >= 0.0)
@@ -357,6 +359,7 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
         s->d_sizes[j] = csize(s->dc[j].re, s->dc[j].im);
     s->starts[0] = 0.0;
     s->ends[0] = horizon;
+    s->end_values[0] = NAN;
     s->depths[0] = 0;
     int64_t top = 1, visits = 0;
     while (top > 0) {
@@ -364,24 +367,27 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
         if (visits > MAX_VISITS)
             return UNRESOLVED;
         top -= 1;
-        double a = s->starts[top], b = s->ends[top];
+        double a = s->starts[top], b = s->ends[top], known = s->end_values[top];
         int64_t depth = s->depths[top];
         if (bound(s, c, p, nu, terms, a, b) > -tol)
             continue;
-        double gb = value_at(c, p, nu, terms, b);
+        /* (a right half ends where its interval did: its g(b) is the one computed there) */
+        double gb = isnan(known) ? value_at(c, p, nu, terms, b) : known;
         if (gb < -tol && slope_bound(s, nu, terms, a, b) > 0.0)
-            return refine(c, p, nu, terms, a, b);
+            return refine(c, p, nu, terms, a, b, gb);
         if (b - a <= resolution || depth >= MAX_DEPTH) {
             if (gb < -tol)
-                return refine(c, p, nu, terms, a, b);
+                return refine(c, p, nu, terms, a, b, gb);
             continue;
         }
         double m = 0.5 * (a + b);
         s->starts[top] = m;
         s->ends[top] = b;
+        s->end_values[top] = gb;
         s->depths[top] = depth + 1;
         s->starts[top + 1] = a;
         s->ends[top + 1] = m;
+        s->end_values[top + 1] = NAN;
         s->depths[top + 1] = depth + 1;
         top += 2;
     }
