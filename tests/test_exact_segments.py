@@ -241,6 +241,71 @@ def test_the_table_bound_is_below_every_column_and_merging_keeps_the_function(te
     assert np.all(bounds <= values.min(axis=0) + 1e-9 * (1 + np.abs(values).max()))
 
 
+_term3 = st.tuples(_coefficient, _coefficient, st.integers(0, 3), st.floats(-3e4, 3e3, allow_subnormal=False),
+                  st.sampled_from([0.0, 0.0, 300.0, 5e3, 3e4]))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_term3, min_size=1, max_size=5), st.floats(-3.0, 3.0), st.floats(0, 2e-3),
+       st.floats(1e-7, 2e-3))
+def test_the_compiled_bound_is_below_the_function_sampled_densely(terms, offset, a, width):
+    # the search's own bound (first_event._bound: the better of the second- and third-order
+    # Taylor bounds of the slow terms, less the fast terms' magnitudes), on a real function
+    # (conjugate pairs for the oscillating terms), against 4001 samples of [a, b]; powers up
+    # to 3, so every term of the third-derivative bound counts
+    from circuitnsds.engine.exact.first_event import _bound
+
+    coefficients, powers, exponents = [offset], [0], [0j]
+    for re0, im0, p, decay, omega in terms:
+        for sign in ((1, -1) if omega else (1,)):
+            coefficients.append(complex(re0, sign * im0 if omega else 0))
+            powers.append(p)
+            exponents.append(complex(decay, sign * omega))
+    c, p, nu = np.array(coefficients), np.array(powers, np.int64), np.array(exponents)
+    b = a + width
+    samples = np.linspace(a, b, 4001)
+    values = (c[None, :] * samples[:, None] ** p * np.exp(np.outer(samples, nu))).real.sum(axis=1)
+    scale = np.abs(c).sum() * np.exp(max(0.0, nu.real.max()) * b) * max(1.0, b) ** 3
+    assert _bound(c, p, nu, a, b) <= values.min() + 1e-12 * scale
+
+
+def test_the_third_order_bound_clears_a_trough_the_second_order_one_halves():
+    # 1 - cos(ωτ) + ε τ (a ring's trough at τ = 0, the DCM boost's diode): on [0, 1/ω] its
+    # second derivative is ω² > 0, so the cubic model g'' (0) τ²/2 - ω³ τ³/6 stays above 0,
+    # while the second-order bound ε w - ω² w²/2 is negative until w < 2ε/ω²
+    from circuitnsds.engine.exact.first_event import _bound
+    from circuitnsds.engine.exact.roots import _lower_bound
+
+    omega, epsilon = 2 * math.pi * 5e6, 1e-3
+    c = np.array([1.0, -0.5, -0.5, epsilon], complex)
+    p = np.array([0, 0, 0, 1], np.int64)
+    nu = np.array([0, 1j * omega, -1j * omega, 0])
+    width = 1.0 / omega
+    assert _bound(c, p, nu, 0.0, width) >= -1e-15
+    assert _lower_bound(ExpPoly(c[:, None], p, nu), 0.0, width) >= -1e-15
+    # the second-order bound alone, as the search had it: far below zero over the same interval
+    assert -(omega**2) * width**2 / 2 + epsilon * width < -0.4
+
+
+@pytest.mark.parametrize("centre", [0.3, 0.5, 0.7])
+def test_the_third_order_bound_takes_the_cubic_at_its_inside_minimum(centre):
+    # 1 - cos(ω(τ - τ*)) on [0, w], ωw = 0.3, τ* inside: the cubic model's least is at its local
+    # minimum near τ*, not at an end; it must stay below the function's least, 0 at τ*, and
+    # close to it (the remainder ω³w³/6 = 0.0045); the model read anywhere else than at that
+    # minimum (e.g. at 1.5 times it) is above 0 and this fails
+    from circuitnsds.engine.exact.first_event import _bound
+    from circuitnsds.engine.exact.roots import _lower_bound
+
+    omega = 2 * math.pi * 5e6
+    width = 0.3 / omega
+    shift = np.exp(-1j * omega * centre * width)
+    c = np.array([1.0, -0.5 * shift, -0.5 * np.conj(shift)], complex)
+    p = np.zeros(3, np.int64)
+    nu = np.array([0, 1j * omega, -1j * omega])
+    for bound in (_bound(c, p, nu, 0.0, width), _lower_bound(ExpPoly(c[:, None], p, nu), 0.0, width)):
+        assert -0.0046 <= bound <= 1e-15
+
+
 VOLTAGE_MODE = str(Path(__file__).parent.parent / "netlists" / "buck_voltage_mode.cir")
 
 

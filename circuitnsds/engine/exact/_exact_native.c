@@ -86,51 +86,232 @@ static inline double ipow(double x, int64_t p) {
 
 /* ---------------------------------------------------------------- the first-event search */
 
-/* first_event._value: Re Σ c_j τ^p_j e^{ν_j τ}. */
+/* first_event._value: Re Σ c_j τ^p_j e^{ν_j τ} (e^{0} = 1 and a conjugate's e^{ν̄τ}, the conjugate
+ * of its partner's, without exp, cos and sin: the same bits). */
 static double value_at(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double tau) {
     double total = 0.0;
+    cplx grown = {1.0, 0.0};
     for (int64_t j = 0; j < terms; j++) {
         cplx scaled = cscale(c[j], ipow(tau, p[j]));
-        cplx grown = cexp_(nu[j].re * tau, nu[j].im * tau);
+        if (j > 0 && nu[j].im != 0.0 && nu[j].re == nu[j - 1].re && nu[j].im == -nu[j - 1].im) {
+            grown.im = -grown.im; /* (grown is still the partner's) */
+        } else if (nu[j].re == 0.0 && nu[j].im == 0.0) {
+            grown.re = 1.0;
+            grown.im = 0.0;
+        } else {
+            grown = cexp_(nu[j].re * tau, nu[j].im * tau);
+        }
         total += scaled.re * grown.re - scaled.im * grown.im;
     }
     return total;
 }
 
-/* first_event._bound: a lower bound of Re Σ c_j τ^p_j e^{ν_j τ} on [a, b]. */
-static double bound(const cplx *c, const double *sizes, const int64_t *p, const cplx *nu, const double *speeds,
-                    int64_t terms, double a, double b) {
-    /* (sizes[j] = |c_j|, speeds[j] = |ν_j|: computed once per search, not per interval) */
-    double width = b - a, fast = 0.0, bend = 0.0, g0 = 0.0, g1 = 0.0;
+/* Scratch of the search (search_init: one block for a table of up to `terms` terms and
+ * `columns` columns): the derivative's terms (2 per term), the column searched, the terms'
+ * factors over the interval last prepared, and the interval stack. */
+typedef struct {
+    void *block;
+    cplx *dc, *column, *at_a, *at_t;     /* -c ν, -c p (2 terms per term); e^{ν_j a}; e^{ν_j τ} */
+    double *d_sizes, *sizes, *speeds;    /* |dc|; the column's |c_j|; |ν_j| */
+    double *table_sizes;                 /* |c_jk| of the table (terms, columns): search_sizes or the loop's functions() */
+    double *growth, *at_key, *power_t;   /* e^{max(Re ν a, Re ν b)}; the a of at_a (NaN: none); τ^p_j */
+    int64_t *dp;
+    uint8_t *conjugate;                  /* ν_j is the conjugate of ν_{j-1} */
+    double prepared_a, prepared_b;       /* the interval growth and at_a hold (NaN: none) */
+    double starts[MAX_STACK], ends[MAX_STACK], end_values[MAX_STACK]; /* (g(end), NaN: not known) */
+    int64_t depths[MAX_STACK];
+} Search;
+
+/* The search's scratch for tables of up to `terms` terms and `columns` columns; 0 when it could
+ * not be allocated (then search_free is still called). */
+static int search_init(Search *s, int64_t terms, int64_t columns) {
+    size_t complexes = (size_t)(6 * terms + 1), doubles = (size_t)(8 * terms + terms * columns + 1);
+    size_t ints = (size_t)(2 * terms + 1);
+    s->block = malloc(sizeof(cplx) * complexes + sizeof(double) * doubles + sizeof(int64_t) * ints
+                      + (size_t)terms + 1);
+    if (!s->block)
+        return 0;
+    cplx *c = s->block;
+    s->dc = c; c += 2 * terms;
+    s->column = c; c += terms;
+    s->at_a = c; c += terms;
+    s->at_t = c;
+    double *d = (double *)((cplx *)s->block + complexes);
+    s->d_sizes = d; d += 2 * terms;
+    s->sizes = d; d += terms;
+    s->speeds = d; d += terms;
+    s->growth = d; d += terms;
+    s->at_key = d; d += terms;
+    s->power_t = d; d += terms;
+    s->table_sizes = d;
+    s->dp = (int64_t *)((double *)((cplx *)s->block + complexes) + doubles);
+    s->conjugate = (uint8_t *)(s->dp + ints);
+    return 1;
+}
+
+static void search_free(Search *s) { free(s->block); }
+
+/* A segment's terms: their |ν_j| (s->speeds), which is a conjugate of the one before, and no
+ * factor prepared yet (every search of the segment takes these exponents). */
+static void search_terms(Search *s, const cplx *exponents, int64_t terms) {
+    for (int64_t j = 0; j < terms; j++) {
+        s->speeds[j] = csize(exponents[j].re, exponents[j].im);
+        s->conjugate[j] = j > 0 && exponents[j].im != 0.0 && exponents[j].re == exponents[j - 1].re
+                          && exponents[j].im == -exponents[j - 1].im;
+        s->at_key[j] = NAN;
+    }
+    s->prepared_a = NAN;
+    s->prepared_b = NAN;
+}
+
+/* |c_jk| of a table (terms, columns) into s->table_sizes (the loop has them from functions()). */
+static void search_sizes(Search *s, const cplx *table, int64_t terms, int64_t columns) {
+    for (int64_t i = 0; i < terms * columns; i++)
+        s->table_sizes[i] = csize(table[i].re, table[i].im);
+}
+
+/* The terms' factors over [a, b] that every column's bound and the derivative's share, the same
+ * values first_event._bound computes term by term: growth_j = e^{max(Re ν_j a, Re ν_j b)} (1 for
+ * Re ν_j = 0: e^{±0}) and, for a slow term (|ν_j| (b - a) <= 1), e^{ν_j a}, kept while a stays
+ * (a left half starts where its interval did; the columns' bounds over [0, best] all start at
+ * 0); a conjugate's e^{ν̄a} is the conjugate of its partner's (exp, cos even, sin odd: the same
+ * bits, as the rows have it). */
+static void prepare(Search *s, const cplx *nu, int64_t terms, double a, double b) {
+    if (a == s->prepared_a && b == s->prepared_b)
+        return;
+    double width = b - a;
+    for (int64_t j = 0; j < terms; j++) {
+        s->growth[j] = nu[j].re == 0.0 ? 1.0 : exp(fmax(nu[j].re * a, nu[j].re * b));
+        if (s->speeds[j] * width > 1.0 || s->at_key[j] == a)
+            continue;
+        if (s->conjugate[j] && s->at_key[j - 1] == a) {
+            s->at_a[j].re = s->at_a[j - 1].re;
+            s->at_a[j].im = -s->at_a[j - 1].im;
+        } else if (nu[j].re == 0.0 && nu[j].im == 0.0) {
+            s->at_a[j].re = 1.0; /* (cexp_(±0, ±0): e^{±0} = 1) */
+            s->at_a[j].im = 0.0;
+        } else {
+            s->at_a[j] = cexp_(nu[j].re * a, nu[j].im * a);
+        }
+        s->at_key[j] = a;
+    }
+    s->prepared_a = a;
+    s->prepared_b = b;
+}
+
+/* The sums of first_event._bound over terms (c, sizes, p) of exponents ν on the prepared [a, b]:
+ * the fast terms' magnitudes, the slow terms' g, g', g'' at a and bounds of |g''| (bend) and
+ * |g'''| (third) on [a, b]. */
+typedef struct {
+    double fast, bend, third, g0, g1, g2;
+} Sums;
+
+static void accumulate(Sums *t, const Search *s, const cplx *c, const double *sizes, const int64_t *p,
+                       const cplx *nu, int64_t terms, double a, double b) {
+    double width = b - a;
     for (int64_t j = 0; j < terms; j++) {
         double size = sizes[j];
         if (size == 0.0)
             continue;
         int64_t q = p[j];
-        double growth = exp(fmax(nu[j].re * a, nu[j].re * b));
-        double speed = speeds[j];
+        double growth = s->growth[j];
+        double speed = s->speeds[j];
         if (speed * width > 1.0) {
-            fast += size * ipow(b, q) * growth;
+            t->fast += size * ipow(b, q) * growth;
             continue;
         }
-        bend += size * growth * (speed * speed * ipow(b, q) + 2 * q * speed * ipow(b, q > 1 ? q - 1 : 0)
-                                 + q * (q - 1) * ipow(b, q > 2 ? q - 2 : 0));
-        cplx at_a = cexp_(nu[j].re * a, nu[j].im * a);
+        cplx at_a = s->at_a[j];
+        if (q == 0) { /* (most terms: the general lines below with their powers 1 and 0) */
+            t->bend += size * growth * (speed * speed);
+            t->third += size * growth * (speed * speed * speed);
+            t->g0 += c[j].re * at_a.re - c[j].im * at_a.im;
+            cplx slope = {0.0 + nu[j].re, nu[j].im}; /* (0.0 + : -0 as +0, as the general line has it) */
+            cplx d = cmul(c[j], slope);
+            t->g1 += d.re * at_a.re - d.im * at_a.im;
+            cplx curve = cmul(nu[j], slope);
+            curve.re += 0.0;
+            cplx d2 = cmul(c[j], curve);
+            t->g2 += d2.re * at_a.re - d2.im * at_a.im;
+            continue;
+        }
+        t->bend += size * growth * (speed * speed * ipow(b, q) + 2 * q * speed * ipow(b, q > 1 ? q - 1 : 0)
+                                    + q * (q - 1) * ipow(b, q > 2 ? q - 2 : 0));
+        t->third += size * growth * (speed * speed * speed * ipow(b, q) + 3 * q * speed * speed * ipow(b, q > 1 ? q - 1 : 0)
+                                     + 3 * q * (q - 1) * speed * ipow(b, q > 2 ? q - 2 : 0)
+                                     + q * (q - 1) * (q - 2) * ipow(b, q > 3 ? q - 3 : 0));
         double power = ipow(a, q);
         double lowered = q > 0 ? q * ipow(a, q > 1 ? q - 1 : 0) : 0.0;
+        double lowered2 = q > 1 ? q * (q - 1) * ipow(a, q > 2 ? q - 2 : 0) : 0.0;
         cplx scaled = cscale(c[j], power);
-        g0 += scaled.re * at_a.re - scaled.im * at_a.im;
+        t->g0 += scaled.re * at_a.re - scaled.im * at_a.im;
         cplx slope = {lowered + nu[j].re * power, nu[j].im * power};
         cplx d = cmul(c[j], slope);
-        g1 += d.re * at_a.re - d.im * at_a.im;
+        t->g1 += d.re * at_a.re - d.im * at_a.im;
+        /* d²/dτ² τ^q e^{ντ} = (ν (ν τ^q + 2 q τ^{q-1}) + q (q-1) τ^{q-2}) e^{ντ} */
+        cplx inner = {nu[j].re * power + 2 * lowered, nu[j].im * power};
+        cplx curve = cmul(nu[j], inner);
+        curve.re += lowered2;
+        cplx d2 = cmul(c[j], curve);
+        t->g2 += d2.re * at_a.re - d2.im * at_a.im;
     }
-    double curved = g0 + g1 * width - bend * width * width / 2;
-    return (g0 < curved ? g0 : curved) - fast;
 }
 
-/* first_event._refine: the root in [a, b] (g(a) >= 0 > g(b)) to a few ulps, Illinois. */
-static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b) {
-    double ga = value_at(c, p, nu, terms, a), gb = value_at(c, p, nu, terms, b);
+/* first_event._lowest: the least over s in [0, width] of the slow terms' cubic Taylor model
+ * g0 + g1 s + g2 s²/2 - third s³/6 (its ends and its local minimum, the smaller zero of its
+ * slope g1 + g2 s - third s²/2, or the parabola's vertex when third = 0). */
+static inline double lowest(double g0, double g1, double g2, double third, double width) {
+    double end = g0 + g1 * width + g2 * width * width / 2 - third * width * width * width / 6;
+    double low = g0 < end ? g0 : end;
+    double s = -1.0;
+    if (third > 0.0) {
+        double discriminant = g2 * g2 + 2 * third * g1;
+        if (discriminant > 0.0) {
+            double root = sqrt(discriminant);
+            s = g2 > 0.0 ? -2 * g1 / (g2 + root) : (g2 - root) / third; /* (no cancellation) */
+        }
+    } else if (g2 > 0.0) {
+        s = -g1 / g2;
+    }
+    if (s > 0.0 && s < width) {
+        double inside = g0 + g1 * s + g2 * s * s / 2 - third * s * s * s / 6;
+        low = low < inside ? low : inside;
+    }
+    return low;
+}
+
+/* first_event._bound from the sums over [a, b] (b - a = width): the better of the second-order
+ * bound (g'' >= -bend) and the third-order one (g''' >= -third), less the fast terms. */
+static inline double bound_of(const Sums *t, double width) {
+    double curved = t->g0 + t->g1 * width - t->bend * width * width / 2;
+    double second = t->g0 < curved ? t->g0 : curved;
+    double cubic = lowest(t->g0, t->g1, t->g2, t->third, width);
+    return (second > cubic ? second : cubic) - t->fast;
+}
+
+/* first_event._bound: a lower bound of Re Σ c_j τ^p_j e^{ν_j τ} on [a, b] (the column's sizes in
+ * s->sizes). */
+static double bound(Search *s, const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b) {
+    prepare(s, nu, terms, a, b);
+    Sums t = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    accumulate(&t, s, c, s->sizes, p, nu, terms, a, b);
+    return bound_of(&t, b - a);
+}
+
+/* first_event._bound of -g' (terms -c ν τ^p e^{ντ}, then -c p τ^{p-1} e^{ντ}) on [a, b], over
+ * the factors prepared for g's bound on the same interval. */
+static double slope_bound(Search *s, const cplx *nu, int64_t terms, double a, double b) {
+    prepare(s, nu, terms, a, b);
+    Sums t = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    accumulate(&t, s, s->dc, s->d_sizes, s->dp, nu, terms, a, b);
+    accumulate(&t, s, s->dc + terms, s->d_sizes + terms, s->dp + terms, nu, terms, a, b);
+    return bound_of(&t, b - a);
+}
+
+/* first_event._refine: the root in [a, b] (g(a) >= 0 > g(b)) to a few ulps, Illinois (gb: g(b),
+ * known to the caller). */
+static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t terms, double a, double b,
+                     double gb) {
+    double ga = value_at(c, p, nu, terms, a);
     if (ga <= 0.0)
         return a;
     if (gb >= 0.0)
@@ -162,35 +343,23 @@ static double refine(const cplx *c, const int64_t *p, const cplx *nu, int64_t te
     return b;
 }
 
-/* Scratch of the search: the derivative's terms (2 terms per term) and the interval stack. */
-typedef struct {
-    cplx *dc, *dnu, *column;
-    double *d_sizes, *d_speeds, *sizes, *speeds; /* |dc|, |dnu| (2 terms each); |column|, |ν| */
-    int64_t *dp;
-    double starts[MAX_STACK], ends[MAX_STACK];
-    int64_t depths[MAX_STACK];
-} Search;
-
-/* first_event._first_root: the first τ in (0, horizon] where the function goes below -tol, or
- * -1 when none, UNRESOLVED when the search gave up (MAX_VISITS). */
+/* first_event._first_root: the first τ in (0, horizon] where the function (the column in
+ * s->column, its sizes in s->sizes) goes below -tol, or -1 when none, UNRESOLVED when the
+ * search gave up (MAX_VISITS). */
 static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx *nu, int64_t terms,
                          double horizon, double tol, double resolution) {
     for (int64_t j = 0; j < terms; j++) {
         cplx minus = {-c[j].re, -c[j].im};
         s->dc[j] = cmul(minus, nu[j]);
         s->dp[j] = p[j];
-        s->dnu[j] = nu[j];
         s->dc[terms + j] = cscale(minus, (double)p[j]);
         s->dp[terms + j] = p[j] > 1 ? p[j] - 1 : 0;
-        s->dnu[terms + j] = nu[j];
     }
-    for (int64_t j = 0; j < 2 * terms; j++) {
+    for (int64_t j = 0; j < 2 * terms; j++)
         s->d_sizes[j] = csize(s->dc[j].re, s->dc[j].im);
-        s->d_speeds[j] = csize(s->dnu[j].re, s->dnu[j].im);
-    }
-    const double *sizes = s->sizes, *speeds = s->speeds; /* (the column's, set by the caller) */
     s->starts[0] = 0.0;
     s->ends[0] = horizon;
+    s->end_values[0] = NAN;
     s->depths[0] = 0;
     int64_t top = 1, visits = 0;
     while (top > 0) {
@@ -198,24 +367,27 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
         if (visits > MAX_VISITS)
             return UNRESOLVED;
         top -= 1;
-        double a = s->starts[top], b = s->ends[top];
+        double a = s->starts[top], b = s->ends[top], known = s->end_values[top];
         int64_t depth = s->depths[top];
-        if (bound(c, sizes, p, nu, speeds, terms, a, b) > -tol)
+        if (bound(s, c, p, nu, terms, a, b) > -tol)
             continue;
-        double gb = value_at(c, p, nu, terms, b);
-        if (gb < -tol && bound(s->dc, s->d_sizes, s->dp, s->dnu, s->d_speeds, 2 * terms, a, b) > 0.0)
-            return refine(c, p, nu, terms, a, b);
+        /* (a right half ends where its interval did: its g(b) is the one computed there) */
+        double gb = isnan(known) ? value_at(c, p, nu, terms, b) : known;
+        if (gb < -tol && slope_bound(s, nu, terms, a, b) > 0.0)
+            return refine(c, p, nu, terms, a, b, gb);
         if (b - a <= resolution || depth >= MAX_DEPTH) {
             if (gb < -tol)
-                return refine(c, p, nu, terms, a, b);
+                return refine(c, p, nu, terms, a, b, gb);
             continue;
         }
         double m = 0.5 * (a + b);
         s->starts[top] = m;
         s->ends[top] = b;
+        s->end_values[top] = gb;
         s->depths[top] = depth + 1;
         s->starts[top + 1] = a;
         s->ends[top + 1] = m;
+        s->end_values[top + 1] = NAN;
         s->depths[top + 1] = depth + 1;
         top += 2;
     }
@@ -226,28 +398,22 @@ static double first_root(Search *s, const cplx *c, const int64_t *p, const cplx 
 static const cplx *column_of(Search *s, const cplx *table, int64_t terms, int64_t columns, int64_t k) {
     for (int64_t j = 0; j < terms; j++) {
         s->column[j] = table[j * columns + k];
-        s->sizes[j] = csize(s->column[j].re, s->column[j].im);
+        s->sizes[j] = s->table_sizes[j * columns + k];
     }
     return s->column;
 }
 
-/* The exponents' sizes |ν_j| into s->speeds. */
-static void speeds_of(Search *s, const cplx *exponents, int64_t terms) {
-    for (int64_t j = 0; j < terms; j++)
-        s->speeds[j] = csize(exponents[j].re, exponents[j].im);
-}
-
 /* first_event._first_event: (τ, column) of the earliest root over the columns in (0, horizon];
- * (horizon, -1) when none; (0, -2) when a search gave up. */
+ * (horizon, -1) when none; (0, -2) when a search gave up. (search_terms and the table's sizes
+ * first.) */
 static double first_event(Search *s, const cplx *table, int64_t terms, int64_t columns, const int64_t *powers,
                           const cplx *exponents, const double *tolerances, double horizon, int64_t *column) {
     double best = horizon;
     *column = -1;
     double resolution = RESOLUTION * fmax(horizon, 1e-300);
-    speeds_of(s, exponents, terms);
     for (int64_t k = 0; k < columns; k++) {
         const cplx *c = column_of(s, table, terms, columns, k);
-        if (bound(c, s->sizes, powers, exponents, s->speeds, terms, 0.0, best) > -tolerances[k])
+        if (bound(s, c, powers, exponents, terms, 0.0, best) > -tolerances[k])
             continue;
         double root = first_root(s, c, powers, exponents, terms, best, tolerances[k], resolution);
         if (root == UNRESOLVED) {
@@ -262,20 +428,59 @@ static double first_event(Search *s, const cplx *table, int64_t terms, int64_t c
     return best;
 }
 
-/* first_event._crossed_within_tolerance. */
+/* e^{ν_j τ} and τ^p_j into s->at_t, s->power_t: value_at's factors, shared by the columns. */
+static void factors_at(Search *s, const int64_t *p, const cplx *nu, int64_t terms, double tau) {
+    for (int64_t j = 0; j < terms; j++) {
+        s->power_t[j] = ipow(tau, p[j]);
+        if (s->conjugate[j]) {
+            s->at_t[j].re = s->at_t[j - 1].re;
+            s->at_t[j].im = -s->at_t[j - 1].im;
+        } else {
+            s->at_t[j] = cexp_(nu[j].re * tau, nu[j].im * tau);
+        }
+    }
+}
+
+/* value_at of column k of the table from factors_at's factors (the same operations). */
+static double column_value(const Search *s, const cplx *table, int64_t terms, int64_t columns, int64_t k) {
+    double total = 0.0;
+    for (int64_t j = 0; j < terms; j++) {
+        cplx scaled = cscale(table[j * columns + k], s->power_t[j]);
+        total += scaled.re * s->at_t[j].re - scaled.im * s->at_t[j].im;
+    }
+    return total;
+}
+
+/* first_event._crossed_within_tolerance. (After first_event: its search_terms and sizes.) */
 static double crossed_within_tolerance(Search *s, const cplx *table, int64_t terms, int64_t columns,
                                        const int64_t *powers, const cplx *exponents, const double *tolerances,
                                        double tau, int64_t *column, double horizon) {
     double resolution = RESOLUTION * fmax(horizon, 1e-300);
-    speeds_of(s, exponents, terms);
+    double at_zero[64];
+    int64_t known = columns < 64 ? columns : 0; /* (the values at 0 of the first 64 columns at once) */
+    if (known) {
+        factors_at(s, powers, exponents, terms, 0.0);
+        for (int64_t k = 0; k < known; k++)
+            at_zero[k] = column_value(s, table, terms, columns, k);
+    }
+    factors_at(s, powers, exponents, terms, tau);
     for (int64_t k = 0; k < columns; k++) {
-        const cplx *c = column_of(s, table, terms, columns, k);
-        if (value_at(c, powers, exponents, terms, tau) < 0.0
-            && value_at(c, powers, exponents, terms, 0.0) > tolerances[k]) {
+        if (!(column_value(s, table, terms, columns, k) < 0.0))
+            continue;
+        double start;
+        if (k < known) {
+            start = at_zero[k];
+        } else {
+            const cplx *c = column_of(s, table, terms, columns, k);
+            start = value_at(c, powers, exponents, terms, 0.0);
+        }
+        if (start > tolerances[k]) {
+            const cplx *c = column_of(s, table, terms, columns, k);
             double root = first_root(s, c, powers, exponents, terms, tau, 0.0, resolution);
             if (root >= 0.0 && root < tau) {
                 tau = root;
                 *column = k;
+                factors_at(s, powers, exponents, terms, tau);
             }
         }
     }
@@ -287,29 +492,19 @@ EXPORT double circuitnsds_first_event(const cplx *table, int64_t terms, int64_t 
                                       const cplx *exponents, const double *tolerances, double horizon,
                                       int64_t *column) {
     Search *s = malloc(sizeof(Search));
-    cplx *work = malloc(sizeof(cplx) * (size_t)(5 * terms + 1));
-    double *sizes = malloc(sizeof(double) * (size_t)(6 * terms + 1));
-    int64_t *dp = malloc(sizeof(int64_t) * (size_t)(2 * terms + 1));
     double tau = 0.0;
     *column = -3;
-    if (s && work && sizes && dp) {
-        s->dc = work;
-        s->dnu = work + 2 * terms;
-        s->column = work + 4 * terms;
-        s->d_sizes = sizes;
-        s->d_speeds = sizes + 2 * terms;
-        s->sizes = sizes + 4 * terms;
-        s->speeds = sizes + 5 * terms;
-        s->dp = dp;
+    if (s && search_init(s, terms, columns)) {
+        search_terms(s, exponents, terms);
+        search_sizes(s, table, terms, columns);
         tau = first_event(s, table, terms, columns, powers, exponents, tolerances, horizon, column);
         if (*column != -2)
             tau = crossed_within_tolerance(s, table, terms, columns, powers, exponents, tolerances, tau,
                                            column, horizon);
     }
+    if (s)
+        search_free(s);
     free(s);
-    free(work);
-    free(sizes);
-    free(dp);
     return tau;
 }
 
@@ -357,7 +552,58 @@ typedef struct {
     int64_t *tail_row;
     double *tail_dt, *tail_y;
     int64_t *spans, *spans_known;
+    /* each mode's nonzero entries (listed), built when the mode is first met in a call: the
+     * event table's lines (T·columns over I inputs), then rows_q's and rows_y's (columns
+     * lines over n each); listed[mode] < 0 until then (sparse_lines) */
+    int64_t *listed, *first;
+    int32_t *entries;
+    int64_t entries_used, entries_capacity;
 } Exact;
+
+enum { SPARSE_OK = 0, SPARSE_FAILED = 1 };
+
+/* The nonzero entries of `lines` lines of `width` values (complex when `complex_values`) into
+ * L->entries (their indices), L->first[start + line] the first of line `line` (one past the
+ * last line: the end). Returns SPARSE_FAILED when the list could not grow. */
+static int list_nonzero(Exact *L, const void *values, int complex_values, int64_t lines, int64_t width,
+                        int64_t start) {
+    for (int64_t line = 0; line < lines; line++) {
+        L->first[start + line] = L->entries_used;
+        if (L->entries_used + width > L->entries_capacity) {
+            int64_t capacity = 2 * L->entries_capacity + width + 1024;
+            int32_t *grown = realloc(L->entries, sizeof(int32_t) * (size_t)capacity);
+            if (!grown)
+                return SPARSE_FAILED;
+            L->entries = grown;
+            L->entries_capacity = capacity;
+        }
+        for (int64_t i = 0; i < width; i++) {
+            int nonzero = complex_values ? (((const cplx *)values)[line * width + i].re != 0.0
+                                            || ((const cplx *)values)[line * width + i].im != 0.0)
+                                         : ((const double *)values)[line * width + i] != 0.0;
+            if (nonzero)
+                L->entries[L->entries_used++] = (int32_t)i;
+        }
+    }
+    L->first[start + lines] = L->entries_used;
+    return SPARSE_OK;
+}
+
+/* Mode `mode`'s lists (L->listed[mode] the index in L->first of its first line), built on first
+ * use. A zero entry adds ±0 to a sum that is never -0 (it starts at +0, and x + (-x) is +0):
+ * summing the nonzero entries alone gives the numba loop's sums bit for bit. */
+static int sparse_lines(Exact *L, int64_t mode) {
+    if (L->listed[mode] >= 0)
+        return SPARSE_OK;
+    const int64_t T = L->T, columns = L->columns, per_mode = T * columns + 2 * columns + 1;
+    int64_t start = mode * per_mode;
+    if (list_nonzero(L, L->table_map + mode * (T * columns) * L->I, 1, T * columns, L->I, start)
+        || list_nonzero(L, L->rows_q + mode * columns * L->n, 0, columns, L->n, start + T * columns)
+        || list_nonzero(L, L->rows_y + mode * columns * L->n, 0, columns, L->n, start + T * columns + columns))
+        return SPARSE_FAILED;
+    L->listed[mode] = start;
+    return SPARSE_OK;
+}
 
 /* Each known mode's terms' spans of inputs (spans (M, T, 4): [lo, hi) of the z map's inputs
  * that are not 0 for some unknown, then the event table's), computed once per mode (the
@@ -408,23 +654,28 @@ static void shifted(const Exact *L, int64_t k, double delta) {
 
 static inline double ulp_of(double t) { return EPSILON * fmax(fabs(t), 1e-300); }
 
-/* loop._functions: the mode's event functions (table (T, columns)) and their round-off. */
+/* loop._functions: the mode's event functions (table (T, columns)) and their round-off, over the
+ * mode's nonzero map entries and rows (sparse_lines, built by the caller). */
 static void functions(const Exact *L, int64_t mode, const cplx *inputs, const double *x, const double *y_size, const double *forcing, double instant, cplx *table,
-                      double *tolerances) {
+                      double *tolerances, double *sizes) {
     int64_t count = L->terms[mode], columns = L->columns, I = L->I;
     const cplx *map = L->table_map + mode * (L->T * columns) * I;
+    const int64_t *first = L->first + L->listed[mode];
+    const int32_t *entries = L->entries;
     for (int64_t j = 0; j < count; j++)
         for (int64_t k = 0; k < columns; k++) {
-            const cplx *line = map + (j * columns + k) * I;
+            const int64_t line_index = j * columns + k;
+            const cplx *line = map + line_index * I;
             cplx total = {0.0, 0.0};
-            const int64_t *span = L->spans + (mode * L->T + j) * 4;
-            for (int64_t i = span[2]; i < span[3]; i++) { /* (outside, the map's inputs are 0) */
+            for (int64_t e = first[line_index]; e < first[line_index + 1]; e++) {
+                int32_t i = entries[e];
                 cplx product = cmul(line[i], inputs[i]);
                 total.re += product.re;
                 total.im += product.im;
             }
             table[j * columns + k] = total;
         }
+    const int64_t *first_q = first + L->T * columns, *first_y = first_q + columns;
     for (int64_t k = 0; k < columns; k++) {
         double scale = L->rows_c[mode * columns + k];
         const double *rp = L->rows_p + (mode * columns + k) * L->r;
@@ -432,16 +683,17 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
         const double *ry = L->rows_y + (mode * columns + k) * L->n;
         for (int64_t i = 0; i < L->r; i++)
             scale += rp[i] * fabs(x[i]);
-        for (int64_t i = 0; i < L->n; i++)
-            scale += rq[i] * forcing[i];
+        for (int64_t e = first_q[k]; e < first_q[k + 1]; e++)
+            scale += rq[entries[e]] * forcing[entries[e]];
         double summed = 0.0;
-        for (int64_t i = 0; i < L->n; i++)
-            summed += ry[i] * y_size[i];
+        for (int64_t e = first_y[k]; e < first_y[k + 1]; e++)
+            summed += ry[entries[e]] * y_size[entries[e]];
         double slope = 0.0, terms_size = 0.0;
         for (int64_t j = 0; j < count; j++) {
             cplx product = cmul(L->slope_weights[mode * L->T + j], table[j * columns + k]);
             slope += product.re;
-            terms_size += csize(table[j * columns + k].re, table[j * columns + k].im);
+            sizes[j * columns + k] = csize(table[j * columns + k].re, table[j * columns + k].im);
+            terms_size += sizes[j * columns + k];
         }
         tolerances[k] = RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed + fabs(slope) * TIME_ULPS * ulp_of(instant)
                         + SUM_ULPS * EPSILON * terms_size + 1e-300;
@@ -740,7 +992,11 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         int from_python = chosen == 1;
         int64_t changes = 0;
         for (;;) {
-            functions(L, mode, inputs, x, y_size, forcing, t, table, tolerances);
+            if (sparse_lines(L, mode) != SPARSE_OK) {
+                status = OUT_OF_MEMORY;
+                break;
+            }
+            functions(L, mode, inputs, x, y_size, forcing, t, table, tolerances, search->table_sizes);
             if (chosen == 1)
                 break;
             int any_bad = 0;
@@ -790,6 +1046,7 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         const cplx *exponents = L->exponents + mode * T;
         double horizon = end - t;
         int64_t ended_by;
+        search_terms(search, exponents, count); /* (the table's sizes: functions()) */
         double tau = first_event(search, table, count, columns, powers, exponents, tolerances, horizon, &ended_by);
         if (ended_by == -2) {
             status = STALLED;
@@ -964,7 +1221,8 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
 }
 
 /* loop._exact_loop: `arrays` the addresses (A_*), `sizes` the integers (S_*); returns the
- * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated, nothing done). */
+ * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated: nothing done, or,
+ * when a mode's list of nonzero entries could not grow, the state at that segment's start). */
 EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes) {
     Exact L;
     L.n = sizes[S_N];
@@ -1019,6 +1277,14 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.spans = arrays[A_SPANS];
     L.spans_known = arrays[A_SPANS_KNOWN];
     find_spans(&L);
+    const int64_t per_mode = L.T * L.columns + 2 * L.columns + 1;
+    L.listed = malloc(sizeof(int64_t) * (size_t)(L.known + 1));
+    L.first = malloc(sizeof(int64_t) * (size_t)(L.known * per_mode + 1));
+    L.entries = NULL;
+    L.entries_used = 0;
+    L.entries_capacity = 0;
+    for (int64_t mode = 0; L.listed && mode < L.known; mode++)
+        L.listed[mode] = -1;
 
     const int64_t T = L.T, width = L.n + L.m;
     int64_t top_power = 0;
@@ -1026,15 +1292,16 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         top_power = L.powers[i] > top_power ? L.powers[i] : top_power;
     Rows R;
     R.top_power = top_power;
-    size_t doubles = (size_t)(21 * T + width + 2 * T * width + 3 * L.n + L.columns);
-    size_t complexes = (size_t)(T * (top_power + 1) + L.I + T * L.columns + 5 * T + 1);
+    size_t doubles = (size_t)(15 * T + width + 2 * T * width + 3 * L.n + L.columns);
+    size_t complexes = (size_t)(T * (top_power + 1) + L.I + T * L.columns + 1);
     double *d = calloc(doubles, sizeof(double));
     cplx *c = calloc(complexes, sizeof(cplx));
-    int64_t *ints = calloc((size_t)(L.m + MAX_MODE_CHANGES + 3 * T + 1), sizeof(int64_t));
+    int64_t *ints = calloc((size_t)(L.m + MAX_MODE_CHANGES + T + 1), sizeof(int64_t));
     uint8_t *wanted = calloc((size_t)(L.columns + T + 1), 1);
     Search *search = malloc(sizeof(Search));
+    int searching = search && search_init(search, T, L.columns);
     int64_t status = OUT_OF_MEMORY;
-    if (d && c && ints && wanted && search) {
+    if (d && c && ints && wanted && searching && L.listed && L.first) {
         double *next = d;
         R.nu_re = next; next += T;
         R.nu_im = next; next += T;
@@ -1054,22 +1321,14 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         R.tolerances = next; next += L.columns;
         R.kept_w2 = next; next += 2 * T;
         R.kept_re2 = next; next += 2 * T;
-        R.kept_im2 = next; next += 2 * T;
-        search->d_sizes = next; next += 2 * T;
-        search->d_speeds = next; next += 2 * T;
-        search->sizes = next; next += T;
-        search->speeds = next;
+        R.kept_im2 = next;
         cplx *cn = c;
         R.moments = cn; cn += T * (top_power + 1);
         R.inputs = cn; cn += L.I;
-        R.table = cn; cn += T * L.columns;
-        search->dc = cn; cn += 2 * T;
-        search->dnu = cn; cn += 2 * T;
-        search->column = cn;
+        R.table = cn;
         R.pairs = ints;
         R.seen = ints + L.m;
-        search->dp = ints + L.m + MAX_MODE_CHANGES;
-        R.next_slot = ints + L.m + MAX_MODE_CHANGES + 2 * T;
+        R.next_slot = ints + L.m + MAX_MODE_CHANGES;
         R.wanted = wanted;
         R.conjugate = wanted + L.columns;
         status = run(&L, &R, search);
@@ -1078,6 +1337,11 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     free(c);
     free(ints);
     free(wanted);
+    if (search)
+        search_free(search);
     free(search);
+    free(L.listed);
+    free(L.first);
+    free(L.entries);
     return status;
 }

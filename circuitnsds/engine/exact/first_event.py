@@ -47,13 +47,37 @@ def _value(c, p, nu, tau):
     return total
 
 
+def _lowest(g0, g1, g2, third, width):
+    """The least over ``s`` in ``[0, width]`` of the cubic Taylor model ``g0 + g1 s + g2 s²/2 -
+    third s³/6``: its ends and its local minimum, the smaller zero of its slope ``g1 + g2 s -
+    third s²/2`` (written without cancellation), or the parabola's vertex when ``third = 0``."""
+    end = g0 + g1 * width + g2 * width * width / 2 - third * width * width * width / 6
+    low = g0 if g0 < end else end
+    s = -1.0
+    if third > 0.0:
+        discriminant = g2 * g2 + 2 * third * g1
+        if discriminant > 0.0:
+            root = np.sqrt(discriminant)
+            s = -2 * g1 / (g2 + root) if g2 > 0.0 else (g2 - root) / third
+    elif g2 > 0.0:
+        s = -g1 / g2
+    if s > 0.0 and s < width:
+        inside = g0 + g1 * s + g2 * s * s / 2 - third * s * s * s / 6
+        low = low if low < inside else inside
+    return low
+
+
 def _bound(c, p, nu, a, b):
-    """A lower bound of ``Re Σ c_j τ^p_j e^{ν_j τ}`` on ``[a, b]`` (:func:`.roots.lower_bounds`)."""
+    """A lower bound of ``Re Σ c_j τ^p_j e^{ν_j τ}`` on ``[a, b]`` (:func:`.roots.lower_bounds`):
+    the better of the slow terms' second-order Taylor bound (``g'' >= -bend``) and third-order
+    one (``g''' >= -third``), less the fast terms' magnitudes."""
     width = b - a
     fast = 0.0
     bend = 0.0
+    third = 0.0
     g0 = 0.0
     g1 = 0.0
+    g2 = 0.0
     for j in range(c.shape[0]):
         size = abs(c[j])
         if size == 0.0:
@@ -66,12 +90,21 @@ def _bound(c, p, nu, a, b):
             continue
         bend += size * growth * (speed * speed * b ** q + 2 * q * speed * b ** max(q - 1, 0)
                                  + q * (q - 1) * b ** max(q - 2, 0))
+        third += size * growth * (speed * speed * speed * b ** q + 3 * q * speed * speed * b ** max(q - 1, 0)
+                                  + 3 * q * (q - 1) * speed * b ** max(q - 2, 0)
+                                  + q * (q - 1) * (q - 2) * b ** max(q - 3, 0))
         at_a = np.exp(nu[j] * a)
         power = a ** q
         lowered = q * a ** max(q - 1, 0) if q > 0 else 0.0
+        lowered2 = q * (q - 1) * a ** max(q - 2, 0) if q > 1 else 0.0
         g0 += (c[j] * power * at_a).real
         g1 += (c[j] * (lowered + nu[j] * power) * at_a).real
-    return min(g0, g0 + g1 * width - bend * width * width / 2) - fast
+        # d²/dτ² τ^q e^{ντ} = (ν (ν τ^q + 2 q τ^{q-1}) + q (q-1) τ^{q-2}) e^{ντ}
+        g2 += (c[j] * (nu[j] * (nu[j] * power + 2 * lowered) + lowered2) * at_a).real
+    curved = g0 + g1 * width - bend * width * width / 2
+    second = g0 if g0 < curved else curved
+    cubic = _lowest(g0, g1, g2, third, width)
+    return (second if second > cubic else cubic) - fast
 
 
 def _refine(c, p, nu, a, b):
@@ -171,6 +204,7 @@ def _first_event(table, powers, exponents, tolerances, horizon, relative_resolut
 
 
 _value = jit(_value)
+_lowest = jit(_lowest)
 _bound = jit(_bound)
 _refine = jit(_refine)
 _first_root = jit(_first_root)
