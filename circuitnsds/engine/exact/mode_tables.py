@@ -13,6 +13,13 @@ import numpy as np
 
 from circuitnsds.engine.exact.source_table import SourceTable
 
+INITIAL_CAPACITY = 32
+"""Modes the arrays hold before they first grow (then doubled). Growing copies every known
+mode's maps: from 8, the three-phase inverter's 116 modes copied them four times, and each
+mode that brought one more term copied them all again (terms grow by half at least, padded
+with zeros the loop does not read: it reads ``terms`` of each mode). ``np.zeros`` leaves the
+pages of unused rows unallocated."""
+
 
 class ModeTables:
     """Arrays of :mod:`.loop` for the modes of ``system`` (an :class:`.run.ExactSystem`)."""
@@ -27,7 +34,7 @@ class ModeTables:
         self.built_seen = 0
         """How many of the system's built modes :meth:`add_all_built` has gone through."""
         self.index: dict[tuple, int] = {}
-        self._allocate(8, 1)
+        self._allocate(INITIAL_CAPACITY, 1)
 
     def _allocate(self, capacity: int, terms: int) -> None:
         old = getattr(self, "bits", None)
@@ -74,17 +81,17 @@ class ModeTables:
                                      len(system.mlcs.stimuli))
         terms = linear.powers.size
         n, m, c = self.n, self.m, self.columns
-        if self.known == self.bits.shape[0] or terms > self.powers.shape[1]:
+        held = self.powers.shape[1]
+        if self.known == self.bits.shape[0] or terms > held:
             self._allocate(2 * self.bits.shape[0] if self.known == self.bits.shape[0] else self.bits.shape[0],
-                           max(terms, self.powers.shape[1]))
+                           held if terms <= held else max(terms, held + held // 2))
         i = self.known
         self.bits[i, :m] = key[0]
         self.bits[i, m:] = key[1]
         z = linear.z_map.reshape(terms, linear.size, self.inputs)
-        wide = np.zeros((terms, n + m, self.inputs), complex)
+        wide = self.z_map[i, :terms * (n + m)].reshape(terms, n + m, self.inputs)  # (a view, written)
         wide[:, :n] = z[:, :n]
         wide[:, n + mode.active_index] = z[:, n:]
-        self.z_map[i, :terms * (n + m)] = wide.reshape(terms * (n + m), self.inputs)
         self.table_map[i, :terms * c] = linear.table_map
         self.powers[i, :terms] = linear.powers
         self.exponents[i, :terms] = linear.exponents
