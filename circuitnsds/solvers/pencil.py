@@ -22,6 +22,9 @@ import numpy as np
 __all__ = ["balancing", "pencil_eigen"]
 
 _FLAPACK: list[ModuleType | None] = []
+_LWORK: dict[int, int] = {}
+"""dggev's optimal workspace per order of the pencil (LAPACK's query: ``ilaenv``'s block
+sizes, which depend on the order alone)."""
 
 
 def _flapack() -> ModuleType | None:
@@ -100,8 +103,10 @@ def _eigen(lapack: ModuleType | None, A: np.ndarray, B: np.ndarray
         return alpha, beta, vectors
     # the optimal workspace first (as scipy.linalg.eig asks for it: the blocked QR steps
     # then round as scipy's)
-    query = lapack.dggev(A, B, compute_vl=0, compute_vr=1, lwork=-1)
-    lwork = max(int(query[-2][0]), 8 * A.shape[0], 1)
+    lwork = _LWORK.get(A.shape[0])
+    if lwork is None:  # (it depends on the order only: asked once per order)
+        query = lapack.dggev(A, B, compute_vl=0, compute_vr=1, lwork=-1)
+        lwork = _LWORK[A.shape[0]] = max(int(query[-2][0]), 8 * A.shape[0], 1)
     alphar, alphai, beta, _, vr, _, info = lapack.dggev(A, B, compute_vl=0, compute_vr=1, lwork=lwork)
     if info != 0:
         raise np.linalg.LinAlgError(f"the QZ algorithm (LAPACK dggev) failed: info = {info}")

@@ -101,6 +101,13 @@ def _near_terms(delta: complex, p: int, horizon: float) -> list[tuple[int, compl
             return terms
 
 
+ONE_BY_ONE = 64
+"""Modes times inputs up to which :func:`_affine_pieces` goes one term at a time: there
+numpy's fixed cost per call exceeds the Python steps it saves (the three-phase inverter's
+3 states and 9 inputs: 0.11 ms one by one, 0.2 ms at once; the RF multiplier's 12 and 17:
+0.8 ms one by one, 0.55 ms at once)."""
+
+
 def _affine_pieces(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
                    used: np.ndarray, horizon: float = 0.0) -> tuple[np.ndarray, list]:
     """``(K, keys)`` in closed form for sources of powers 0 and 1 (every piece the run's
@@ -116,9 +123,12 @@ def _affine_pieces(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray
     one :func:`numpy.add.at`, which adds in the order given: the order in which the terms
     were added one by one (an input's direct part, then its modes in order), so ``K`` is the
     same to the bit. (One Python step per mode and input made three quarters of the map's
-    cost: 0.14 ms of a mode of the three-phase inverter, 1.2 ms of the RF multiplier's.) An
-    input with a mode near resonance takes the one-by-one path (:func:`_near_terms`)."""
+    cost of the RF multiplier's maps.) An input with a mode near resonance takes the
+    one-by-one path (:func:`_near_terms`); so does a mode of few states and inputs
+    (:data:`ONE_BY_ONE`)."""
     r = mode.V1t.shape[0]
+    if mode.eigenvalues.size * (r + int(np.count_nonzero(used)) + 1) <= ONE_BY_ONE:
+        return _affine_pieces_one_by_one(mode, powers, exponents, sources, used, horizon)
     size = mode.P.shape[0]
     terms_in = len(powers)
     inputs = r + terms_in * sources + 1
@@ -227,3 +237,58 @@ def _one_mode(one, mode: ModeDynamics, lam: np.ndarray, k: int, c: complex, mu: 
         one((0, mu), z_modal[:, k] * (-c / delta**2), column)
         if not mode.fast[k]:
             one((0, lam[k]), z_modal[:, k] * (c / delta**2), column)
+
+
+def _affine_pieces_one_by_one(mode: ModeDynamics, powers: np.ndarray, exponents: np.ndarray, sources: int,
+                   used: np.ndarray, horizon: float = 0.0) -> tuple[np.ndarray, list]:
+    """:func:`_affine_pieces` one term at a time (what a mode of few states and inputs takes)."""
+    r = mode.V1t.shape[0]
+    size = mode.P.shape[0]
+    terms_in = len(powers)
+    inputs = r + terms_in * sources + 1
+    keys: dict[tuple[int, complex], int] = {(0, 0j): 0}
+    columns: list[tuple[tuple[int, complex], np.ndarray, int]] = []   # (key, z vector, input)
+
+    def add(key, vector, column):
+        keys.setdefault(key, len(keys))
+        columns.append((key, vector, column))
+
+    lam = mode.eigenvalues.astype(complex)
+    z_modal = mode.z_from_modal
+    fast = mode.fast
+    for k in range(lam.size):          # the state: x0 = e_i starts mode k at W⁻¹[k, i]
+        if fast[k]:                    # (gone a femtosecond after the start: mode.FAST_DECAY)
+            continue
+        for i in range(r):
+            add((0, lam[k]), z_modal[:, k] * mode.W_inv[k, i], i)
+    forcings = [(int(powers[t]), complex(exponents[t]), mode.modal_from_sources,
+                 mode.z_from_sources, r + t * sources) for t in range(terms_in)]
+    forcings.append((0, 0j, mode.modal_constant[:, None], mode.z_constant[:, None], inputs - 1))
+    for p, mu, modal, direct, first in forcings:
+        for q in range(modal.shape[1]):
+            column = first + q
+            if column < inputs - 1 and not used[column - r]:
+                continue
+            add((p, mu), direct[:, q], column)
+            for k in range(lam.size):
+                c = modal[k, q]
+                if c == 0:
+                    continue
+                delta = mu - lam[k]
+                if (abs(delta) <= 1e-12 * max(abs(mu), abs(lam[k])) + 1e-300
+                        or 0.0 < abs(delta) * horizon < NEAR_RESONANCE):
+                    for power, weight in _near_terms(delta, p, horizon):
+                        add((power, mu), z_modal[:, k] * (c * weight), column)
+                elif p == 0:
+                    add((0, mu), z_modal[:, k] * (c / delta), column)
+                    if not fast[k]:
+                        add((0, lam[k]), z_modal[:, k] * (-c / delta), column)
+                else:
+                    add((1, mu), z_modal[:, k] * (c / delta), column)
+                    add((0, mu), z_modal[:, k] * (-c / delta**2), column)
+                    if not fast[k]:
+                        add((0, lam[k]), z_modal[:, k] * (c / delta**2), column)
+    K = np.zeros((len(keys), size, inputs), complex)
+    for key, vector, column in columns:
+        K[keys[key], :, column] += vector
+    return K, list(keys)
