@@ -113,12 +113,13 @@ def _eigen(lapack: ModuleType | None, A: np.ndarray, B: np.ndarray
     alpha = alphar + 1j * alphai
     vectors = vr.astype(complex)
     # a complex pair is stored as two real columns: v_j = re + i im, v_{j+1} = its conjugate
-    j = 0
-    while j < alpha.size:
-        if alphai[j] != 0.0 and j + 1 < alpha.size:
+    # (the complex ones only visited: LAPACK stores a pair's two at j and j + 1)
+    after = -1
+    for j in alphai.nonzero()[0].tolist():
+        if j <= after:
+            continue
+        if j + 1 < alpha.size:
             vectors[:, j] = vr[:, j] + 1j * vr[:, j + 1]
             vectors[:, j + 1] = vr[:, j] - 1j * vr[:, j + 1]
-            j += 2
-        else:
-            j += 1
+            after = j + 1
     return alpha, beta, vectors

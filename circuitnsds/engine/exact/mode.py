@@ -19,6 +19,7 @@ diagonalisable to a reasonable condition: the θ-method takes those stretches.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -129,8 +130,11 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     if eigenvalues.size < r:
         eigenvalues, vectors = _finite_eigen(*pencil_eigen(A_bar, E_bar), r)
     W = coordinates.V1.T @ vectors[:n]
+    norms = np.sqrt(np.add.reduce((W.conj() * W).real, axis=0))  # (np.linalg.norm's, inlined)
+    if norms.all():
+        return eigenvalues, W / norms
     with np.errstate(divide="ignore", invalid="ignore"):
-        return eigenvalues, W / np.linalg.norm(W, axis=0)
+        return eigenvalues, W / norms
 
 
 def _finite_eigen(alpha: np.ndarray, beta: np.ndarray, vectors: np.ndarray, r: int
@@ -138,10 +142,16 @@ def _finite_eigen(alpha: np.ndarray, beta: np.ndarray, vectors: np.ndarray, r: i
     """The (at most ``r``) finite eigenvalues ``α/β`` of a pencil, the nearest to finite
     first, and their vectors."""
     ratio = np.abs(beta) / np.maximum(np.abs(alpha), 1e-300)
-    order = np.argsort(-ratio, kind="stable")[:r]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = alpha[order] / beta[order]
-    finite = np.isfinite(values) & (np.abs(beta[order]) > 0)
+    order = (-ratio).argsort(kind="stable")[:r]
+    chosen = beta[order]
+    if chosen.all():
+        values = alpha[order] / chosen
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            values = alpha[order] / chosen
+    finite = np.isfinite(values) & (np.abs(chosen) > 0)
+    if finite.all():
+        return values, vectors[:, order]
     return values[finite], vectors[:, order[finite]]
 
 
@@ -168,19 +178,18 @@ def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     values (a third of a mode's cost: the inverter's 116 modes spent 12 ms on them); only
     above it are they computed, and decide as they did. The solve is the same call as
     before: the maps are the same to the bit."""
-    rows = np.abs(N).max(axis=1)
+    rows = np.maximum.reduce(np.abs(N), axis=1)
     rows[rows == 0] = 1.0
     scaled = N / rows[:, None]
-    columns = np.abs(scaled).max(axis=0)
+    columns = np.maximum.reduce(np.abs(scaled), axis=0)
     columns[columns == 0] = 1.0
     scaled /= columns[None, :]
     try:
         solved = np.linalg.solve(scaled, rhs / rows[:, None])
     except np.linalg.LinAlgError:  # (exactly singular: a condition of infinity)
         raise NotIndexOne("the mode's algebraic equations are singular (index 2)") from None
-    with np.errstate(all="ignore"):
-        inverse = (solved @ rhs.T) * rows[None, :]
-        bound = np.linalg.norm(scaled) * np.linalg.norm(inverse)
+    inverse = (solved @ rhs.T) * rows[None, :]
+    bound = math.sqrt(np.vdot(scaled, scaled)) * math.sqrt(np.vdot(inverse, inverse))
     if not bound <= SINGULAR / SURE and np.linalg.cond(scaled) > SINGULAR:
         raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
     return solved / columns[:, None]
@@ -196,9 +205,9 @@ class ModeDynamics:
     def __init__(self, coordinates: StateCoordinates, A: np.ndarray, B: np.ndarray, C: np.ndarray,
                  D: np.ndarray, e: np.ndarray, S: np.ndarray, active: np.ndarray):
         n, r = A.shape[0], coordinates.rank
-        act = np.flatnonzero(active)
+        self.active = np.array(active, dtype=bool)
+        act = self.active.nonzero()[0]
         k = act.size
-        self.active = np.asarray(active, dtype=bool).copy()
         self.n = n
         # (assembled in place: np.block's bookkeeping was a tenth of a mode's cost)
         A_bar = np.empty((n + k, n + k))
@@ -215,8 +224,9 @@ class ModeDynamics:
         self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + blocks.identity))
         if r:
             eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
-            keep = np.isfinite(eigenvalues) & np.all(np.isfinite(W), axis=0)
-            eigenvalues, W = eigenvalues[keep], W[:, keep]
+            keep = np.isfinite(eigenvalues) & np.isfinite(W).all(axis=0)
+            if not keep.all():
+                eigenvalues, W = eigenvalues[keep], W[:, keep]
             if eigenvalues.size < r:
                 # the pencil has fewer than r finite eigenvalues to working precision (a fast
                 # mode's β at round-off): the fastest of F's complete them
@@ -230,8 +240,7 @@ class ModeDynamics:
                 W_inv = np.linalg.inv(W)
             except np.linalg.LinAlgError:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable") from None
-            with np.errstate(all="ignore"):
-                bound = np.linalg.norm(W) * np.linalg.norm(W_inv)
+            bound = math.sqrt(np.vdot(W, W).real) * math.sqrt(np.vdot(W_inv, W_inv).real)
             if not bound <= DEFECTIVE / SURE and np.linalg.cond(W) > DEFECTIVE:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
             self.eigenvalues, self.W, self.W_inv = eigenvalues, W, W_inv
@@ -250,8 +259,13 @@ class ModeDynamics:
         # the modes that are gone a femtosecond after any instant (module docstring of
         # solution_map) and what of P persists after them
         self.fast = self.eigenvalues.real < -FAST_DECAY if self.eigenvalues.size else np.zeros(0, bool)
-        slow = ~self.fast
-        self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real if r else self.P
+        if not r:
+            self.P_persistent = self.P
+        elif self.fast.any():
+            slow = ~self.fast
+            self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real
+        else:  # (the same product: every mode slow)
+            self.P_persistent = (self.z_from_modal @ self.W_inv).real
         self.z_from_sources = self.Q[:, :n] @ S
         self.z_constant = self.Q[:, n:] @ self.e_active
 

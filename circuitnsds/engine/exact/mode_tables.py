@@ -14,11 +14,17 @@ import numpy as np
 from circuitnsds.engine.exact.source_table import SourceTable
 
 INITIAL_CAPACITY = 32
-"""Modes the arrays hold before they first grow (then doubled). Growing copies every known
-mode's maps: from 8, the three-phase inverter's 116 modes copied them four times, and each
-mode that brought one more term copied them all again (terms grow by half at least, padded
-with zeros the loop does not read: it reads ``terms`` of each mode). ``np.zeros`` leaves the
-pages of unused rows unallocated."""
+"""Modes the arrays hold at least before they first grow (then doubled). Growing copies
+every known mode's maps: from 8, the three-phase inverter's 116 modes copied them four
+times, and each mode that brought one more term copied them all again (terms grow by half
+at least, padded with zeros the loop does not read: it reads ``terms`` of each mode).
+``np.zeros`` leaves the pages of unused rows unallocated, so the first mode sizes the
+arrays for up to :data:`INITIAL_BYTES` of maps, and for the terms a mode can have without
+a resonance (``1 + r + 2 J``: the constant, the state's modes, each source term and its
+ramp's partner)."""
+INITIAL_BYTES = 1 << 26
+"""[bytes] The maps the arrays are first sized for (64 MiB, of address space until used)."""
+MAXIMUM_INITIAL_CAPACITY = 512
 
 
 class ModeTables:
@@ -34,6 +40,7 @@ class ModeTables:
         self.built_seen = 0
         """How many of the system's built modes :meth:`add_all_built` has gone through."""
         self.index: dict[tuple, int] = {}
+        self._sized = False
         self._allocate(INITIAL_CAPACITY, 1)
 
     def _allocate(self, capacity: int, terms: int) -> None:
@@ -71,7 +78,7 @@ class ModeTables:
 
     def add(self, active: np.ndarray, closed: tuple[bool, ...]) -> int:
         """The index of the mode (added when new)."""
-        key = (tuple(bool(a) for a in active), tuple(closed))
+        key = (tuple(np.asarray(active, bool).tolist()), tuple(closed))
         if key in self.index:
             return self.index[key]
         system, sources = self.system, self.sources
@@ -82,6 +89,12 @@ class ModeTables:
         terms = linear.powers.size
         n, m, c = self.n, self.m, self.columns
         held = self.powers.shape[1]
+        if not self.known and not self._sized:  # (the first mode: sized as INITIAL_CAPACITY says)
+            self._sized = True
+            held = max(terms, 1 + system.coordinates.rank + 2 * sources.powers.size)
+            per_mode = 16 * held * (n + m + c) * self.inputs
+            capacity = max(INITIAL_CAPACITY, min(MAXIMUM_INITIAL_CAPACITY, INITIAL_BYTES // per_mode))
+            self._allocate(capacity, held)
         if self.known == self.bits.shape[0] or terms > held:
             self._allocate(2 * self.bits.shape[0] if self.known == self.bits.shape[0] else self.bits.shape[0],
                            held if terms <= held else max(terms, held + held // 2))

@@ -45,6 +45,8 @@ TIME_ULPS = 4.0
 """Ulps of the absolute time within which an instant is known (see
 :meth:`ExactSystem.event_functions`)."""
 
+EPSILON = float(np.finfo(float).eps)
+
 RELATIVE_TOL = 1e-12
 """Relative round-off of an event function: it counts as negative below ``-tol`` (see
 :meth:`ExactSystem.event_functions`)."""
@@ -175,6 +177,8 @@ class ExactSystem:
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
         self._maps: dict[tuple, SolutionMap] = {}
+        self._quick_maps: dict[tuple, tuple] = {}
+        self._labels: dict[int, tuple] = {}
         self._tables: dict[float, tuple[SourceTable, ModeTables]] = {}
         self.sources_used: np.ndarray | None = None
         """``(terms, sources)``: the source coefficients a run's pieces can have nonzero
@@ -191,7 +195,7 @@ class ExactSystem:
         return vector
 
     def mode(self, active: np.ndarray, closed: tuple[bool, ...]) -> ModeDynamics:
-        key = (tuple(bool(a) for a in active), closed)
+        key = (tuple(np.asarray(active, bool).tolist()), closed)
         if key not in self._modes:
             if closed not in self._system_matrices:
                 self._system_matrices[closed] = self.mlcs.system_matrix(closed).toarray()
@@ -225,25 +229,38 @@ class ExactSystem:
         phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.abs(x) + rows_Q @ phi0 + np.abs(constants)
         slopes = np.abs((linear.slope_weights @ table).real)
-        summed = SUM_ULPS * np.finfo(float).eps * (rows_Y @ y_size)
+        summed = SUM_ULPS * EPSILON * (rows_Y @ y_size)
         resolution = slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
         # g(0) is the sum of the table's terms at τ = 0, which may be far larger than g: a mode
         # of the voltage-mode buck's limited amplifier (gain 1e4) at its start gives its switch's
         # control 0 V as terms of 4e7 V whose sum came out at -1.8e-9 V, and the mode was
         # refused on that sign (changed by one ulp of an eigenvector)
-        terms = SUM_ULPS * np.finfo(float).eps * np.abs(table).sum(axis=0)
+        terms = SUM_ULPS * EPSILON * np.abs(table).sum(axis=0)
         tolerances = RELATIVE_TOL * scale + summed + resolution + terms + 1e-300
         # terms that vanish in every column are left out (a bound multiplies their size by
         # their growth, and 0·∞ is not a number)
-        keep = np.any(table != 0, axis=1)
-        labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
-        return z, EventFunctions(ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep]),
-                                 tolerances, labels)
+        keep = (table != 0).any(axis=1)
+        labels = self._labels.get(len(closed))
+        if labels is None:
+            labels = self._labels[len(closed)] = tuple(
+                [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))])
+        if keep.all():  # (the same arrays: nothing to leave out)
+            table_poly = ExpPoly(table, linear.powers, linear.exponents)
+        else:
+            table_poly = ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep])
+        return z, EventFunctions(table_poly, tolerances, list(labels))
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
                      powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
         """The mode's :class:`~.solution_map.SolutionMap` for sources of the structure
         ``(powers, exponents)`` over ``columns`` sources (cached)."""
+        # (first by the arrays' identities, which the run's own pieces share: its source table's;
+        # the entry holds them, so their ids are not reused while it is there)
+        quick = (id(mode), id(powers), id(exponents), id(self.sources_used), columns, self.horizon)
+        known = self._quick_maps.get(quick)
+        if (known is not None and known[0] is powers and known[1] is exponents
+                and known[2] is self.sources_used):
+            return known[3]
         used = self.sources_used if self.sources_used is not None and self.sources_used.shape == (
             powers.size, columns) else None
         key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes(),
@@ -252,6 +269,7 @@ class ExactSystem:
         if linear is None:
             linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used, self.horizon)
             self._maps[key] = linear
+        self._quick_maps[quick] = (powers, exponents, self.sources_used, linear)
         return linear
 
     def built_modes(self) -> list[tuple[tuple[bool, ...], tuple[bool, ...]]]:
@@ -296,11 +314,10 @@ class ExactSystem:
         rows = np.zeros((self.m + len(closed), n + act.size))
         constants = np.zeros(self.m + len(closed))
         signs = np.ones(self.m + len(closed))
-        for position, j in enumerate(act):
-            rows[j, n + position] = 1.0
-        inactive = np.flatnonzero(~mode.active)
+        rows[act, n + np.arange(act.size)] = 1.0
+        inactive = (~mode.active).nonzero()[0]
         rows[inactive, :n] = self.C[inactive]
-        rows[np.ix_(inactive, n + np.arange(act.size))] = self.D[np.ix_(inactive, act)]
+        rows[inactive, n:] = self.D[inactive][:, act]
         constants[inactive] = self.e[inactive]
         for index, (switch, control) in enumerate(zip(self.mlcs.switches, self.controls)):
             r = self.m + index
