@@ -205,7 +205,7 @@ class ExactSystem:
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
                         sources: ExpPoly, y_size: np.ndarray,
-                        instant: float = 0.0) -> tuple[ExpPoly, EventFunctions]:
+                        instant: float = 0.0, solution: bool = True) -> tuple[ExpPoly | None, EventFunctions]:
         """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and the
         event function ``g`` with its round-off ``tol`` of every pair and switch: ``g >= 0``
         while the mode holds (a conducting pair's current, a blocking pair's ``w``, a switch
@@ -216,6 +216,9 @@ class ExactSystem:
         from which ``x`` was taken, whose round-off ``x`` carries (a located instant's state
         comes from a sum of large terms; :data:`SUM_ULPS`).
 
+        ``solution``: false leaves ``z`` out (``None``): the compiled loop's mode choice
+        needs the functions only.
+
         ``instant`` [s]: the absolute time of ``τ = 0``. It is a double, so the instant itself
         is known only to :data:`TIME_ULPS` ulps of it: ``tol`` also holds ``|g'(0)|`` times that
         (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
@@ -224,7 +227,7 @@ class ExactSystem:
         rows, constants, rows_P, rows_Q, rows_Y = self._event_rows(mode, closed)
         linear = self.solution_map(mode, rows, constants, sources.powers, sources.exponents, sources.size)
         inputs = linear.inputs(x, sources.coefficients)
-        z = linear.solution(inputs)
+        z = linear.solution(inputs) if solution else None
         table = linear.table(inputs)
         phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.abs(x) + rows_Q @ phi0 + np.abs(constants)
@@ -334,38 +337,55 @@ class ExactSystem:
         return cached
 
 
-def _tolerance(g: ExpPoly) -> float:
-    """Round-off of a derivative of an event function: its terms' magnitudes at 0."""
-    return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
-
-
 def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
     second derivative): the mode cannot hold just after the instant."""
     bad = []
-    values = functions.table(0.0)
+    table = functions.table
+    values = table(0.0)
     for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if value < -tol:
             bad.append((kind, index))
             continue
         if value <= tol:
-            d1 = functions.function(k).derivative()
-            slope = float(d1(0.0)[0])
-            if slope < -_tolerance(d1):
+            column = table.coefficients[:, k]
+            keep = column != 0
+            d1 = _derivative(column[keep, None], table.powers[keep], table.exponents[keep])
+            slope, slope_tol = _at_zero(*d1)
+            if slope < -slope_tol:
                 bad.append((kind, index))
-            elif abs(slope) <= _tolerance(d1):
-                d2 = d1.derivative()
-                if float(d2(0.0)[0]) < -_tolerance(d2):
+            elif abs(slope) <= slope_tol:
+                curvature, curvature_tol = _at_zero(*_derivative(*d1))
+                if curvature < -curvature_tol:
                     bad.append((kind, index))
     return bad
 
 
+def _derivative(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray) -> tuple:
+    """:meth:`.ExpPoly.derivative` on the arrays ``(coefficients (terms, 1), powers,
+    exponents)`` (the same operations, without the objects: :func:`_violations` takes
+    one or two per event)."""
+    lowered = powers > 0
+    return (np.concatenate([coefficients * exponents[:, None],
+                            coefficients[lowered] * powers[lowered, None]]),
+            np.concatenate([powers, powers[lowered] - 1]), np.concatenate([exponents, exponents[lowered]]))
+
+
+def _at_zero(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray) -> tuple[float, float]:
+    """The scalar function's value at ``τ = 0`` (as :meth:`.ExpPoly.__call__`) and its
+    round-off: :data:`RELATIVE_TOL` of its terms' magnitudes there."""
+    weights = 0.0 ** powers * np.exp(exponents * 0.0)
+    return (float((weights @ coefficients).real[0]),
+            RELATIVE_TOL * float(np.sum(np.abs(coefficients))) + 1e-300)
+
+
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
-                sources: ExpPoly, y_size: np.ndarray, instant: float):
+                sources: ExpPoly, y_size: np.ndarray, instant: float, solution: bool = True):
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
     enumerated. Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
-    and its event functions (:meth:`ExactSystem.event_functions`)."""
+    (``None`` unless ``solution``: the compiled loop's choice does not need it) and its event
+    functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -380,7 +400,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         except NotIndexOne as exc:  # (a trial on the way; the enumeration skips it)
             singular = exc
             break
-        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant)
+        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant, solution)
         bad = _violations(functions)
         if not bad:
             return active, closed, z, functions
@@ -405,7 +425,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         except NotIndexOne as exc:
             singular = exc
             continue
-        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant)
+        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant, solution)
         bad = _violations(functions)
         if not bad:
             return trial, closed, z, functions
@@ -575,7 +595,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         reported, the loop told to take it."""
         t = float(clock[0])
         piece = ExpPoly(sources.piece(int(counters[0]), t).coefficients, sources.powers, sources.exponents)
-        new_active, new_closed, _, functions = choose_mode(system, active, closed, x, piece, y_size, t)
+        new_active, new_closed, _, functions = choose_mode(system, active, closed, x, piece, y_size, t,
+                                                           solution=False)
         if not counters[7]:
             before = np.concatenate([active, closed])
             after = np.concatenate([new_active, new_closed])

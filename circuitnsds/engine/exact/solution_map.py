@@ -247,11 +247,16 @@ def _affine_pieces_one_by_one(mode: ModeDynamics, powers: np.ndarray, exponents:
     terms_in = len(powers)
     inputs = r + terms_in * sources + 1
     keys: dict[tuple[int, complex], int] = {(0, 0j): 0}
-    columns: list[tuple[tuple[int, complex], np.ndarray, int]] = []   # (key, z vector, input)
+    # the terms' indices, inputs and vectors in the order added (summed by one add.at, which
+    # adds in that order)
+    at_term: list[int] = []
+    at_input: list[int] = []
+    vectors: list[np.ndarray] = []
 
     def add(key, vector, column):
-        keys.setdefault(key, len(keys))
-        columns.append((key, vector, column))
+        at_term.append(keys.setdefault(key, len(keys)))
+        at_input.append(column)
+        vectors.append(vector)
 
     lam = mode.eigenvalues.astype(complex)
     z_modal = mode.z_from_modal
@@ -259,8 +264,10 @@ def _affine_pieces_one_by_one(mode: ModeDynamics, powers: np.ndarray, exponents:
     for k in range(lam.size):          # the state: x0 = e_i starts mode k at W⁻¹[k, i]
         if fast[k]:                    # (gone a femtosecond after the start: mode.FAST_DECAY)
             continue
-        for i in range(r):
-            add((0, lam[k]), z_modal[:, k] * mode.W_inv[k, i], i)
+        term = keys.setdefault((0, lam[k]), len(keys))
+        at_term += [term] * r
+        at_input += range(r)
+        vectors += list(z_modal[:, k][None, :] * mode.W_inv[k, :, None])
     forcings = [(int(powers[t]), complex(exponents[t]), mode.modal_from_sources,
                  mode.z_from_sources, r + t * sources) for t in range(terms_in)]
     forcings.append((0, 0j, mode.modal_constant[:, None], mode.z_constant[:, None], inputs - 1))
@@ -289,6 +296,6 @@ def _affine_pieces_one_by_one(mode: ModeDynamics, powers: np.ndarray, exponents:
                     if not fast[k]:
                         add((0, lam[k]), z_modal[:, k] * (c / delta**2), column)
     K = np.zeros((len(keys), size, inputs), complex)
-    for key, vector, column in columns:
-        K[keys[key], :, column] += vector
+    if vectors:
+        np.add.at(K, (np.array(at_term), slice(None), np.array(at_input)), np.array(vectors))
     return K, list(keys)
