@@ -273,7 +273,10 @@ class ModeDynamics:
         """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes
         summed to make ``φ(0)``, whose round-off it carries."""
         at_zero = sources.coefficients[sources.powers == 0]
-        return np.concatenate([np.abs(at_zero @ self.S.T).sum(axis=0), np.abs(self.e_active)])
+        size = np.empty(self.S.shape[0] + self.e_active.size)
+        np.add.reduce(np.abs(at_zero @ self.S.T), axis=0, out=size[:self.S.shape[0]])
+        np.abs(self.e_active, out=size[self.S.shape[0]:])
+        return size
 
     def solution(self, x0: np.ndarray, sources: ExpPoly) -> ExpPoly:
         """``z(τ) = [y(τ); λ_a(τ)]`` from the state ``x0`` at ``τ = 0`` for the sources' piece

@@ -238,7 +238,7 @@ class ExactSystem:
         # of the voltage-mode buck's limited amplifier (gain 1e4) at its start gives its switch's
         # control 0 V as terms of 4e7 V whose sum came out at -1.8e-9 V, and the mode was
         # refused on that sign (changed by one ulp of an eigenvector)
-        terms = SUM_ULPS * EPSILON * np.abs(table).sum(axis=0)
+        terms = SUM_ULPS * EPSILON * np.add.reduce(np.abs(table), axis=0)
         tolerances = RELATIVE_TOL * scale + summed + resolution + terms + 1e-300
         # terms that vanish in every column are left out (a bound multiplies their size by
         # their growth, and 0·∞ is not a number)
