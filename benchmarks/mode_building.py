@@ -8,7 +8,8 @@ inclusive: a function's time holds its callees'; a function called inside itself
 ``building`` is the time inside ``run.choose_mode`` and ``ModeTables.add`` (outermost calls):
 everything Python does when the compiled loop meets a mode it does not know. The table gives
 the median of ``--repeats`` runs (each in a fresh :class:`ExactSystem`: nothing is cached
-across runs but imports), and ms per mode built.
+across runs but imports; the least too: on a shared machine the least is the steadier), and
+ms per mode built.
 
 ``--count`` runs once more with :func:`sys.setprofile` counting the calls into numpy's C
 functions and numpy's Python functions made inside the building (per mode built).
@@ -211,9 +212,10 @@ def main() -> None:
             building = statistics.median(r[0].building for r in runs)
             total = statistics.median(r[2] for r in runs)
             summary = next((line for line in runs[0][3].splitlines() if "exact segments" in line), "")
+            least = min(r[0].building for r in runs)
             print(f"== {label}: {built} modes built; building {building:.3f} s "
-                  f"({1e3 * building / max(built, 1):.2f} ms/mode) of the command's {total:.3f} s "
-                  f"thread CPU (medians of {args.repeats})")
+                  f"({1e3 * building / max(built, 1):.2f} ms/mode; least {least:.3f} s) of the command's "
+                  f"{total:.3f} s thread CPU (medians of {args.repeats})")
             print(f"   {summary.strip()}")
             for name in [t[0] for t in targets()]:
                 seconds = statistics.median(r[0].seconds.get(name, 0.0) for r in runs)
