@@ -13,15 +13,16 @@ import numpy as np
 
 from circuitnsds.engine.exact.source_table import SourceTable
 
-INITIAL_CAPACITY = 32
+INITIAL_CAPACITY = 8
 """Modes the arrays hold at least before they first grow (then doubled). Growing copies
 every known mode's maps: from 8, the three-phase inverter's 116 modes copied them four
 times, and each mode that brought one more term copied them all again (terms grow by half
 at least, padded with zeros the loop does not read: it reads ``terms`` of each mode).
 ``np.zeros`` leaves the pages of unused rows unallocated, so the first mode sizes the
-arrays for up to :data:`INITIAL_BYTES` of maps, and for the terms a mode can have without
-a resonance (``1 + r + 2 J``: the constant, the state's modes, each source term and its
-ramp's partner)."""
+arrays for up to :data:`INITIAL_BYTES` of maps (the inverter's 200 KB a mode: 338 modes;
+a circuit whose maps take more than 8 MB a mode starts at 8, as before), and for the terms
+a mode can have without a resonance (``1 + r + 2 J``: the constant, the state's modes, each
+source term and its ramp's partner)."""
 INITIAL_BYTES = 1 << 26
 """[bytes] The maps the arrays are first sized for (64 MiB, of address space until used)."""
 MAXIMUM_INITIAL_CAPACITY = 512
