@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from circuitnsds.solvers.pencil import _flapack, pencil_eigen
+from circuitnsds.solvers.pencil import _flapack, _numpy_dggev, pencil_eigen
 
 
 def _pencils(seed: int, size: int, singular: int) -> tuple[np.ndarray, np.ndarray]:
@@ -76,6 +76,7 @@ def test_scipy_fallback_gives_the_same_eigenvalues(monkeypatch):
     A, B = _pencils(7, 6, 2)
     alpha, beta, _ = pencil_eigen(A, B)
     monkeypatch.setattr(pencil, "_FLAPACK", [None])
+    monkeypatch.setattr(pencil, "_NUMPY_DGGEV", [None])
     alpha2, beta2, vectors2 = pencil_eigen(A, B)
     finite = np.abs(beta) > 1e-12
     assert np.allclose(np.sort_complex(alpha[finite] / beta[finite]),
@@ -119,3 +120,38 @@ def test_the_blocked_transformer_bridges_slow_modes_are_its_closed_forms():
     slow = np.sort(mode.eigenvalues.real)[::-1][:2]
     assert np.allclose(slow, [-0.1, -10.0], rtol=1e-6)
     assert mode.eigenvalues.real.min() < -1e16
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.integers(1, 12), st.integers(0, 4), st.booleans())
+def test_numpys_dggev_gives_scipys_bits(seed, size, singular, balance):
+    # the LAPACK numpy is linked with (ctypes) and scipy's _flapack: the same routine, the same
+    # workspace, the same results (to the bit with numpy 2.4 / scipy 1.17's OpenBLAS builds, what
+    # kept the exact modes' values; to round-off asserted, as other builds may round otherwise)
+    import circuitnsds.solvers.pencil as pencil
+
+    if _numpy_dggev() is None or _flapack() is None:
+        import pytest
+
+        pytest.skip("this numpy has no OpenBLAS library of its own to call")
+    A, B = _pencils(seed, size, min(singular, size - 1))
+    ours = pencil_eigen(A, B, balance=balance)
+    saved = pencil._NUMPY_DGGEV[:]
+    pencil._NUMPY_DGGEV[:] = [None]
+    try:
+        theirs = pencil_eigen(A, B, balance=balance)
+    finally:
+        pencil._NUMPY_DGGEV[:] = saved
+    for mine, scipys in zip(ours, theirs):
+        scale = max(1.0, float(np.max(np.abs(scipys))))
+        np.testing.assert_allclose(mine, scipys, rtol=1e-10, atol=1e-12 * scale)
+
+
+def test_an_exact_mode_loads_no_second_lapack():
+    # numpy's own LAPACK is in the process already; scipy's (13 ms of CPU to load) is not needed
+    code = ("import sys, numpy as np; from circuitnsds.solvers.pencil import _numpy_dggev, pencil_eigen; "
+            "pencil_eigen(np.eye(3), np.diag([1.0, 2.0, 0.0]), balance=False); "
+            "print(_numpy_dggev() is not None, 'scipy.linalg._flapack' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    found, loaded = done.stdout.split()
+    assert loaded == ("False" if found == "True" else "True")

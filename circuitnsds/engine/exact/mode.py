@@ -19,7 +19,8 @@ diagonalisable to a reasonable condition: the θ-method takes those stretches.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,6 +51,7 @@ class StateCoordinates:
     V1: np.ndarray
     V2: np.ndarray
     sigma: np.ndarray
+    _blocks: dict = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def of(cls, E: np.ndarray) -> StateCoordinates:
@@ -60,6 +62,46 @@ class StateCoordinates:
     @property
     def rank(self) -> int:
         return self.sigma.size
+
+    def blocks(self, k: int) -> ModeBlocks:
+        """The matrices of a mode with ``k`` active pairs that do not depend on which
+        (:class:`ModeBlocks`), made once per ``k``."""
+        blocks = self._blocks.get(k)
+        if blocks is None:
+            blocks = self._blocks[k] = ModeBlocks.of(self, k)
+        return blocks
+
+
+@dataclass(frozen=True)
+class ModeBlocks:
+    """For modes of ``k`` active pairs (``z = [y; λ_a]``, ``n + k`` unknowns): ``T1``/``T2`` the
+    differential/algebraic coordinates of ``z``, ``R1``/``R2`` those of the equations,
+    ``E_bar`` the pencil's ``diag(E, 0)``, ``identity`` ``I_{n+k}`` (module docstring)."""
+
+    T1: np.ndarray
+    T2: np.ndarray
+    R1: np.ndarray
+    R2: np.ndarray
+    E_bar: np.ndarray
+    identity: np.ndarray
+    inv_sigma: np.ndarray
+
+    @classmethod
+    def of(cls, coordinates: StateCoordinates, k: int) -> ModeBlocks:
+        n, r = coordinates.U1.shape[0], coordinates.rank
+        T1 = np.zeros((n + k, r))
+        T1[:n] = coordinates.V1
+        T2 = np.zeros((n + k, n - r + k))
+        T2[:n, :n - r] = coordinates.V2
+        T2[n:, n - r:] = np.eye(k)
+        R1 = np.zeros((r, n + k))
+        R1[:, :n] = coordinates.U1.T
+        R2 = np.zeros((n - r + k, n + k))
+        R2[:n - r, :n] = coordinates.U2.T
+        R2[n - r:, n:] = np.eye(k)
+        E_bar = np.zeros((n + k, n + k))
+        E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
+        return cls(T1, T2, R1, R2, E_bar, np.eye(n + k), 1.0 / coordinates.sigma)
 
 
 def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: int):
@@ -82,15 +124,17 @@ def _pencil_eigen(coordinates: StateCoordinates, A_bar: np.ndarray, n: int, k: i
     missing fast ones from ``F``, whose largest eigenvalues are accurate relative to their size
     (its slow ones are not). Balancing every mode moved well-conditioned ones by ulps, enough
     to change a degenerate start's choice of mode (the voltage-mode buck at 0 V everywhere)."""
-    E_bar = np.zeros_like(A_bar)
-    E_bar[:n, :n] = (coordinates.U1 * coordinates.sigma) @ coordinates.V1.T
+    E_bar = coordinates.blocks(k).E_bar
     r = coordinates.rank
     eigenvalues, vectors = _finite_eigen(*pencil_eigen(A_bar, E_bar, balance=False), r)
     if eigenvalues.size < r:
         eigenvalues, vectors = _finite_eigen(*pencil_eigen(A_bar, E_bar), r)
     W = coordinates.V1.T @ vectors[:n]
+    norms = np.sqrt(np.add.reduce((W.conj() * W).real, axis=0))  # (np.linalg.norm's, inlined)
+    if norms.all():
+        return eigenvalues, W / norms
     with np.errstate(divide="ignore", invalid="ignore"):
-        return eigenvalues, W / np.linalg.norm(W, axis=0)
+        return eigenvalues, W / norms
 
 
 def _finite_eigen(alpha: np.ndarray, beta: np.ndarray, vectors: np.ndarray, r: int
@@ -98,11 +142,26 @@ def _finite_eigen(alpha: np.ndarray, beta: np.ndarray, vectors: np.ndarray, r: i
     """The (at most ``r``) finite eigenvalues ``α/β`` of a pencil, the nearest to finite
     first, and their vectors."""
     ratio = np.abs(beta) / np.maximum(np.abs(alpha), 1e-300)
-    order = np.argsort(-ratio, kind="stable")[:r]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        values = alpha[order] / beta[order]
-    finite = np.isfinite(values) & (np.abs(beta[order]) > 0)
+    order = (-ratio).argsort(kind="stable")[:r]
+    chosen = beta[order]
+    if chosen.all():
+        values = alpha[order] / chosen
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            values = alpha[order] / chosen
+    finite = np.isfinite(values) & (np.abs(chosen) > 0)
+    if finite.all():
+        return values, vectors[:, order]
     return values[finite], vectors[:, order[finite]]
+
+
+SINGULAR = 1e13
+"""The 2-norm condition of a mode's equilibrated algebraic block above which the mode is
+index 2 (:func:`_algebraic_solve`)."""
+SURE = 10.0
+"""Margin of the cheap bounds of a condition (:func:`_algebraic_solve`, :class:`ModeDynamics`)
+below which the singular values are not computed: a bound within a factor ``SURE`` of its
+threshold is decided by the singular values as before."""
 
 
 def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -110,16 +169,34 @@ def _algebraic_solve(N: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     is singular. Singular is judged on ``N`` equilibrated (rows, then columns, scaled to a
     largest entry of 1): the rank does not change, but the scale of the circuit's values
     does not count against it (an open switch's 1e-9 S beside an amplifier's gain of 1e4 is
-    a condition of 1e13 unscaled, 10 scaled)."""
-    rows = np.abs(N).max(axis=1)
+    a condition of 1e13 unscaled, 10 scaled).
+
+    ``rhs`` is the mode's ``R2`` (orthonormal rows: ``R2 R2ᵀ = I``), so the solution also gives
+    the scaled block's inverse, ``S⁻¹ = X R2ᵀ diag(rows)`` (``X`` the scaled solve), one
+    product; its Frobenius condition bounds the 2-norm one from above (``κ₂ <= κ_F``), so a
+    mode whose ``κ_F`` is below :data:`SINGULAR` / :data:`SURE` is index 1 without the singular
+    values (a third of a mode's cost: the inverter's 116 modes spent 12 ms on them); only
+    above it are they computed, and decide as they did. The solve is the same call as
+    before: the maps are the same to the bit."""
+    rows = np.maximum.reduce(np.abs(N), axis=1)
     rows[rows == 0] = 1.0
     scaled = N / rows[:, None]
-    columns = np.abs(scaled).max(axis=0)
+    columns = np.maximum.reduce(np.abs(scaled), axis=0)
     columns[columns == 0] = 1.0
     scaled /= columns[None, :]
-    if np.linalg.cond(scaled) > 1e13:
+    try:
+        solved = np.linalg.solve(scaled, rhs / rows[:, None])
+    except np.linalg.LinAlgError:  # (exactly singular: a condition of infinity)
+        raise NotIndexOne("the mode's algebraic equations are singular (index 2)") from None
+    inverse = (solved @ rhs.T) * rows[None, :]
+    bound = math.sqrt(np.vdot(scaled, scaled)) * math.sqrt(np.vdot(inverse, inverse))
+    if not bound <= SINGULAR / SURE and np.linalg.cond(scaled) > SINGULAR:
         raise NotIndexOne("the mode's algebraic equations are singular (index 2)")
-    return np.linalg.solve(scaled, rhs / rows[:, None]) / columns[:, None]
+    return solved / columns[:, None]
+
+
+DEFECTIVE = 1e10
+"""The condition of a mode's eigenvectors above which ``F`` counts as not diagonalisable."""
 
 
 class ModeDynamics:
@@ -128,35 +205,28 @@ class ModeDynamics:
     def __init__(self, coordinates: StateCoordinates, A: np.ndarray, B: np.ndarray, C: np.ndarray,
                  D: np.ndarray, e: np.ndarray, S: np.ndarray, active: np.ndarray):
         n, r = A.shape[0], coordinates.rank
-        act = np.flatnonzero(active)
+        self.active = np.array(active, dtype=bool)
+        act = self.active.nonzero()[0]
         k = act.size
-        self.active = np.asarray(active, dtype=bool).copy()
         self.n = n
         # (assembled in place: np.block's bookkeeping was a tenth of a mode's cost)
         A_bar = np.empty((n + k, n + k))
         A_bar[:n, :n], A_bar[:n, n:] = A, B[:, act]
-        A_bar[n:, :n], A_bar[n:, n:] = C[act], D[np.ix_(act, act)]
-        T1 = np.zeros((n + k, r))
-        T1[:n] = coordinates.V1
-        T2 = np.zeros((n + k, n - r + k))
-        T2[:n, :n - r] = coordinates.V2
-        T2[n:, n - r:] = np.eye(k)
-        R1 = np.zeros((r, n + k))
-        R1[:, :n] = coordinates.U1.T
-        R2 = np.zeros((n - r + k, n + k))
-        R2[:n - r, :n] = coordinates.U2.T
-        R2[n - r:, n:] = np.eye(k)
+        A_bar[n:, :n], A_bar[n:, n:] = C[act], D[act][:, act]
+        blocks = coordinates.blocks(k)  # (T1, T2, R1, R2: the same for every mode of k pairs)
+        T1, T2, R1, R2 = blocks.T1, blocks.T2, blocks.R1, blocks.R2
         N = R2 @ A_bar @ T2
         solve = _algebraic_solve(N, R2) if N.size else np.zeros((0, n + k))
         self.P = T1 - T2 @ solve @ A_bar @ T1
         self.Q = -T2 @ solve
-        inv_sigma = 1.0 / coordinates.sigma
+        inv_sigma = blocks.inv_sigma
         self.F = inv_sigma[:, None] * (R1 @ A_bar @ self.P)
-        self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + np.eye(n + k)))
+        self.H = inv_sigma[:, None] * (R1 @ (A_bar @ self.Q + blocks.identity))
         if r:
             eigenvalues, W = _pencil_eigen(coordinates, A_bar, n, k)
-            keep = np.isfinite(eigenvalues) & np.all(np.isfinite(W), axis=0)
-            eigenvalues, W = eigenvalues[keep], W[:, keep]
+            keep = np.isfinite(eigenvalues) & np.isfinite(W).all(axis=0)
+            if not keep.all():
+                eigenvalues, W = eigenvalues[keep], W[:, keep]
             if eigenvalues.size < r:
                 # the pencil has fewer than r finite eigenvalues to working precision (a fast
                 # mode's β at round-off): the fastest of F's complete them
@@ -164,9 +234,16 @@ class ModeDynamics:
                 missing = np.argsort(-np.abs(fast), kind="stable")[:r - eigenvalues.size]
                 eigenvalues = np.concatenate([eigenvalues.astype(complex), fast[missing]])
                 W = np.hstack([W.astype(complex), fast_vectors[:, missing]])
-            if np.linalg.cond(W) > 1e10:
+            # κ₂(W) <= κ_F(W) from the inverse needed anyway: the singular values only near
+            # the threshold (SURE)
+            try:
+                W_inv = np.linalg.inv(W)
+            except np.linalg.LinAlgError:
+                raise NotIndexOne("the mode's state matrix is not diagonalisable") from None
+            bound = math.sqrt(np.vdot(W, W).real) * math.sqrt(np.vdot(W_inv, W_inv).real)
+            if not bound <= DEFECTIVE / SURE and np.linalg.cond(W) > DEFECTIVE:
                 raise NotIndexOne("the mode's state matrix is not diagonalisable")
-            self.eigenvalues, self.W, self.W_inv = eigenvalues, W, np.linalg.inv(W)
+            self.eigenvalues, self.W, self.W_inv = eigenvalues, W, W_inv
         else:
             self.eigenvalues = np.zeros(0, complex)
             self.W = self.W_inv = np.zeros((0, 0))
@@ -182,8 +259,13 @@ class ModeDynamics:
         # the modes that are gone a femtosecond after any instant (module docstring of
         # solution_map) and what of P persists after them
         self.fast = self.eigenvalues.real < -FAST_DECAY if self.eigenvalues.size else np.zeros(0, bool)
-        slow = ~self.fast
-        self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real if r else self.P
+        if not r:
+            self.P_persistent = self.P
+        elif self.fast.any():
+            slow = ~self.fast
+            self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real
+        else:  # (the same product: every mode slow)
+            self.P_persistent = (self.z_from_modal @ self.W_inv).real
         self.z_from_sources = self.Q[:, :n] @ S
         self.z_constant = self.Q[:, n:] @ self.e_active
 
@@ -191,7 +273,10 @@ class ModeDynamics:
         """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes
         summed to make ``φ(0)``, whose round-off it carries."""
         at_zero = sources.coefficients[sources.powers == 0]
-        return np.concatenate([np.abs(at_zero @ self.S.T).sum(axis=0), np.abs(self.e_active)])
+        size = np.empty(self.S.shape[0] + self.e_active.size)
+        np.add.reduce(np.abs(at_zero @ self.S.T), axis=0, out=size[:self.S.shape[0]])
+        np.abs(self.e_active, out=size[self.S.shape[0]:])
+        return size
 
     def solution(self, x0: np.ndarray, sources: ExpPoly) -> ExpPoly:
         """``z(τ) = [y(τ); λ_a(τ)]`` from the state ``x0`` at ``τ = 0`` for the sources' piece

@@ -13,6 +13,20 @@ import numpy as np
 
 from circuitnsds.engine.exact.source_table import SourceTable
 
+INITIAL_CAPACITY = 8
+"""Modes the arrays hold at least before they first grow (then doubled). Growing copies
+every known mode's maps: from 8, the three-phase inverter's 116 modes copied them four
+times, and each mode that brought one more term copied them all again (terms grow by half
+at least, padded with zeros the loop does not read: it reads ``terms`` of each mode).
+``np.zeros`` leaves the pages of unused rows unallocated, so the first mode sizes the
+arrays for up to :data:`INITIAL_BYTES` of maps (the inverter's 200 KB a mode: 338 modes;
+a circuit whose maps take more than 8 MB a mode starts at 8, as before), and for the terms
+a mode can have without a resonance (``1 + r + 2 J``: the constant, the state's modes, each
+source term and its ramp's partner)."""
+INITIAL_BYTES = 1 << 26
+"""[bytes] The maps the arrays are first sized for (64 MiB, of address space until used)."""
+MAXIMUM_INITIAL_CAPACITY = 512
+
 
 class ModeTables:
     """Arrays of :mod:`.loop` for the modes of ``system`` (an :class:`.run.ExactSystem`)."""
@@ -27,7 +41,8 @@ class ModeTables:
         self.built_seen = 0
         """How many of the system's built modes :meth:`add_all_built` has gone through."""
         self.index: dict[tuple, int] = {}
-        self._allocate(8, 1)
+        self._sized = False
+        self._allocate(INITIAL_CAPACITY, 1)
 
     def _allocate(self, capacity: int, terms: int) -> None:
         old = getattr(self, "bits", None)
@@ -64,7 +79,7 @@ class ModeTables:
 
     def add(self, active: np.ndarray, closed: tuple[bool, ...]) -> int:
         """The index of the mode (added when new)."""
-        key = (tuple(bool(a) for a in active), tuple(closed))
+        key = (tuple(np.asarray(active, bool).tolist()), tuple(closed))
         if key in self.index:
             return self.index[key]
         system, sources = self.system, self.sources
@@ -74,17 +89,23 @@ class ModeTables:
                                      len(system.mlcs.stimuli))
         terms = linear.powers.size
         n, m, c = self.n, self.m, self.columns
-        if self.known == self.bits.shape[0] or terms > self.powers.shape[1]:
+        held = self.powers.shape[1]
+        if not self.known and not self._sized:  # (the first mode: sized as INITIAL_CAPACITY says)
+            self._sized = True
+            held = max(terms, 1 + system.coordinates.rank + 2 * sources.powers.size)
+            per_mode = 16 * held * (n + m + c) * self.inputs
+            capacity = max(INITIAL_CAPACITY, min(MAXIMUM_INITIAL_CAPACITY, INITIAL_BYTES // per_mode))
+            self._allocate(capacity, held)
+        if self.known == self.bits.shape[0] or terms > held:
             self._allocate(2 * self.bits.shape[0] if self.known == self.bits.shape[0] else self.bits.shape[0],
-                           max(terms, self.powers.shape[1]))
+                           held if terms <= held else max(terms, held + held // 2))
         i = self.known
         self.bits[i, :m] = key[0]
         self.bits[i, m:] = key[1]
         z = linear.z_map.reshape(terms, linear.size, self.inputs)
-        wide = np.zeros((terms, n + m, self.inputs), complex)
+        wide = self.z_map[i, :terms * (n + m)].reshape(terms, n + m, self.inputs)  # (a view, written)
         wide[:, :n] = z[:, :n]
         wide[:, n + mode.active_index] = z[:, n:]
-        self.z_map[i, :terms * (n + m)] = wide.reshape(terms * (n + m), self.inputs)
         self.table_map[i, :terms * c] = linear.table_map
         self.powers[i, :terms] = linear.powers
         self.exponents[i, :terms] = linear.exponents

@@ -45,6 +45,8 @@ TIME_ULPS = 4.0
 """Ulps of the absolute time within which an instant is known (see
 :meth:`ExactSystem.event_functions`)."""
 
+EPSILON = float(np.finfo(float).eps)
+
 RELATIVE_TOL = 1e-12
 """Relative round-off of an event function: it counts as negative below ``-tol`` (see
 :meth:`ExactSystem.event_functions`)."""
@@ -165,6 +167,8 @@ class ExactSystem:
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
         self._maps: dict[tuple, SolutionMap] = {}
+        self._quick_maps: dict[tuple, tuple] = {}
+        self._labels: dict[int, tuple] = {}
         self._tables: dict[float, tuple[SourceTable, ModeTables]] = {}
         self.sources_used: np.ndarray | None = None
         """``(terms, sources)``: the source coefficients a run's pieces can have nonzero
@@ -181,7 +185,7 @@ class ExactSystem:
         return vector
 
     def mode(self, active: np.ndarray, closed: tuple[bool, ...]) -> ModeDynamics:
-        key = (tuple(bool(a) for a in active), closed)
+        key = (tuple(np.asarray(active, bool).tolist()), closed)
         if key not in self._modes:
             if closed not in self._system_matrices:
                 self._system_matrices[closed] = self.mlcs.system_matrix(closed).toarray()
@@ -191,7 +195,7 @@ class ExactSystem:
 
     def event_functions(self, mode: ModeDynamics, closed: tuple[bool, ...], x: np.ndarray,
                         sources: ExpPoly, y_size: np.ndarray,
-                        instant: float = 0.0) -> tuple[ExpPoly, EventFunctions]:
+                        instant: float = 0.0, solution: bool = True) -> tuple[ExpPoly | None, EventFunctions]:
         """The mode's solution ``z(τ)`` from ``x`` (:meth:`ModeDynamics.solution`) and the
         event function ``g`` with its round-off ``tol`` of every pair and switch: ``g >= 0``
         while the mode holds (a conducting pair's current, a blocking pair's ``w``, a switch
@@ -202,6 +206,9 @@ class ExactSystem:
         from which ``x`` was taken, whose round-off ``x`` carries (a located instant's state
         comes from a sum of large terms; :data:`SUM_ULPS`).
 
+        ``solution``: false leaves ``z`` out (``None``): the compiled loop's mode choice
+        needs the functions only.
+
         ``instant`` [s]: the absolute time of ``τ = 0``. It is a double, so the instant itself
         is known only to :data:`TIME_ULPS` ulps of it: ``tol`` also holds ``|g'(0)|`` times that
         (a function crossing zero closer to ``τ = 0`` than the time can resolve is zero *at*
@@ -210,30 +217,43 @@ class ExactSystem:
         rows, constants, rows_P, rows_Q, rows_Y = self._event_rows(mode, closed)
         linear = self.solution_map(mode, rows, constants, sources.powers, sources.exponents, sources.size)
         inputs = linear.inputs(x, sources.coefficients)
-        z = linear.solution(inputs)
+        z = linear.solution(inputs) if solution else None
         table = linear.table(inputs)
         phi0 = mode.forcing_size(sources)
         scale = rows_P @ np.abs(x) + rows_Q @ phi0 + np.abs(constants)
         slopes = np.abs((linear.slope_weights @ table).real)
-        summed = SUM_ULPS * np.finfo(float).eps * (rows_Y @ y_size)
+        summed = SUM_ULPS * EPSILON * (rows_Y @ y_size)
         resolution = slopes * TIME_ULPS * math.ulp(max(abs(instant), 1e-300))
         # g(0) is the sum of the table's terms at τ = 0, which may be far larger than g: a mode
         # of the voltage-mode buck's limited amplifier (gain 1e4) at its start gives its switch's
         # control 0 V as terms of 4e7 V whose sum came out at -1.8e-9 V, and the mode was
         # refused on that sign (changed by one ulp of an eigenvector)
-        terms = SUM_ULPS * np.finfo(float).eps * np.abs(table).sum(axis=0)
+        terms = SUM_ULPS * EPSILON * np.add.reduce(np.abs(table), axis=0)
         tolerances = RELATIVE_TOL * scale + summed + resolution + terms + 1e-300
         # terms that vanish in every column are left out (a bound multiplies their size by
         # their growth, and 0·∞ is not a number)
-        keep = np.any(table != 0, axis=1)
-        labels = [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))]
-        return z, EventFunctions(ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep]),
-                                 tolerances, labels)
+        keep = (table != 0).any(axis=1)
+        labels = self._labels.get(len(closed))
+        if labels is None:
+            labels = self._labels[len(closed)] = tuple(
+                [("pair", k) for k in range(self.m)] + [("switch", k) for k in range(len(closed))])
+        if keep.all():  # (the same arrays: nothing to leave out)
+            table_poly = ExpPoly(table, linear.powers, linear.exponents)
+        else:
+            table_poly = ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep])
+        return z, EventFunctions(table_poly, tolerances, list(labels))
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
                      powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
         """The mode's :class:`~.solution_map.SolutionMap` for sources of the structure
         ``(powers, exponents)`` over ``columns`` sources (cached)."""
+        # (first by the arrays' identities, which the run's own pieces share: its source table's;
+        # the entry holds them, so their ids are not reused while it is there)
+        quick = (id(mode), id(powers), id(exponents), id(self.sources_used), columns, self.horizon)
+        known = self._quick_maps.get(quick)
+        if (known is not None and known[0] is powers and known[1] is exponents
+                and known[2] is self.sources_used):
+            return known[3]
         used = self.sources_used if self.sources_used is not None and self.sources_used.shape == (
             powers.size, columns) else None
         key = (id(mode), powers.tobytes(), exponents.tobytes(), None if used is None else used.tobytes(),
@@ -242,6 +262,7 @@ class ExactSystem:
         if linear is None:
             linear = SolutionMap(mode, powers, exponents, columns, rows, constants, used, self.horizon)
             self._maps[key] = linear
+        self._quick_maps[quick] = (powers, exponents, self.sources_used, linear)
         return linear
 
     def built_modes(self) -> list[tuple[tuple[bool, ...], tuple[bool, ...]]]:
@@ -286,11 +307,10 @@ class ExactSystem:
         rows = np.zeros((self.m + len(closed), n + act.size))
         constants = np.zeros(self.m + len(closed))
         signs = np.ones(self.m + len(closed))
-        for position, j in enumerate(act):
-            rows[j, n + position] = 1.0
-        inactive = np.flatnonzero(~mode.active)
+        rows[act, n + np.arange(act.size)] = 1.0
+        inactive = (~mode.active).nonzero()[0]
         rows[inactive, :n] = self.C[inactive]
-        rows[np.ix_(inactive, n + np.arange(act.size))] = self.D[np.ix_(inactive, act)]
+        rows[inactive, n:] = self.D[inactive][:, act]
         constants[inactive] = self.e[inactive]
         for index, (switch, control) in enumerate(zip(self.mlcs.switches, self.controls)):
             r = self.m + index
@@ -307,11 +327,6 @@ class ExactSystem:
         return cached
 
 
-def _tolerance(g: ExpPoly) -> float:
-    """Round-off of a derivative of an event function: its terms' magnitudes at 0."""
-    return RELATIVE_TOL * float(np.sum(np.abs(g.coefficients))) + 1e-300
-
-
 def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
     second derivative): the mode cannot hold just after the instant. A zero function whose
@@ -322,32 +337,53 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     dip of 0.5 pA against a round-off of 1.3 pA over 19 fs; flipping it back and forth
     found no mode. (The loop's certified search catches any deeper dip as an event.)"""
     bad = []
-    values = functions.table(0.0)
+    table = functions.table
+    values = table(0.0)
     for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if value < -tol:
             bad.append((kind, index))
             continue
         if value <= tol:
-            d1 = functions.function(k).derivative()
-            slope = float(d1(0.0)[0])
-            if slope < -_tolerance(d1):
-                d2 = d1.derivative()
-                curvature = float(d2(0.0)[0])
-                if not (curvature > _tolerance(d2) and value - slope * slope / (2.0 * curvature) >= -tol):
+            column = table.coefficients[:, k]
+            keep = column != 0
+            d1 = _derivative(column[keep, None], table.powers[keep], table.exponents[keep])
+            slope, slope_tol = _at_zero(*d1)
+            if slope < -slope_tol:
+                curvature, curvature_tol = _at_zero(*_derivative(*d1))
+                if not (curvature > curvature_tol and value - slope * slope / (2.0 * curvature) >= -tol):
                     bad.append((kind, index))
-            elif abs(slope) <= _tolerance(d1):
-                d2 = d1.derivative()
-                if float(d2(0.0)[0]) < -_tolerance(d2):
+            elif abs(slope) <= slope_tol:
+                curvature, curvature_tol = _at_zero(*_derivative(*d1))
+                if curvature < -curvature_tol:
                     bad.append((kind, index))
     return bad
 
 
+def _derivative(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray) -> tuple:
+    """:meth:`.ExpPoly.derivative` on the arrays ``(coefficients (terms, 1), powers,
+    exponents)`` (the same operations, without the objects: :func:`_violations` takes
+    one or two per event)."""
+    lowered = powers > 0
+    return (np.concatenate([coefficients * exponents[:, None],
+                            coefficients[lowered] * powers[lowered, None]]),
+            np.concatenate([powers, powers[lowered] - 1]), np.concatenate([exponents, exponents[lowered]]))
+
+
+def _at_zero(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray) -> tuple[float, float]:
+    """The scalar function's value at ``τ = 0`` (as :meth:`.ExpPoly.__call__`) and its
+    round-off: :data:`RELATIVE_TOL` of its terms' magnitudes there."""
+    weights = 0.0 ** powers * np.exp(exponents * 0.0)
+    return (float((weights @ coefficients).real[0]),
+            RELATIVE_TOL * float(np.sum(np.abs(coefficients))) + 1e-300)
+
+
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
-                sources: ExpPoly, y_size: np.ndarray, instant: float):
+                sources: ExpPoly, y_size: np.ndarray, instant: float, solution: bool = True):
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
     enumerated. Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
-    and its event functions (:meth:`ExactSystem.event_functions`)."""
+    (``None`` unless ``solution``: the compiled loop's choice does not need it) and its event
+    functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -362,7 +398,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         except NotIndexOne as exc:  # (a trial on the way; the enumeration skips it)
             singular = exc
             break
-        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant)
+        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant, solution)
         bad = _violations(functions)
         if not bad:
             return active, closed, z, functions
@@ -387,7 +423,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         except NotIndexOne as exc:
             singular = exc
             continue
-        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant)
+        z, functions = system.event_functions(mode, closed, x, sources, y_size, instant, solution)
         bad = _violations(functions)
         if not bad:
             return trial, closed, z, functions
@@ -555,7 +591,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         reported, the loop told to take it."""
         t = float(clock[0])
         piece = ExpPoly(sources.piece(int(counters[0]), t).coefficients, sources.powers, sources.exponents)
-        new_active, new_closed, _, functions = choose_mode(system, active, closed, x, piece, y_size, t)
+        new_active, new_closed, _, functions = choose_mode(system, active, closed, x, piece, y_size, t,
+                                                           solution=False)
         if not counters[7]:
             before = np.concatenate([active, closed])
             after = np.concatenate([new_active, new_closed])
