@@ -1,7 +1,9 @@
-"""What the exact integrator reports on its rows (issue 31, its wrong answers with exit 0):
-a capacitor's current at a row is ``C dv/dt`` at the row's instant, as every other current
-there, so Kirchhoff's current law holds on every row (it was ΔQ/Δt over the interval before
-the row: a switched RC off by 0.045 A where the currents are 0.034 A)."""
+"""The exact integrator's wrong answers with exit 0 (issue 31, docs/method.md "Digital
+parts"), each under ``method=exact``: a capacitor's current at a row is ``C dv/dt`` at the
+row's instant, as every other current there, so Kirchhoff's current law holds on every row
+(it was ΔQ/Δt over the interval before the row: a switched RC off by 0.045 A where the
+currents are 0.034 A); the Zener RLC's Zener holds the capacitor's voltage while sliding
+(it was 2.8e-5 V off)."""
 
 from __future__ import annotations
 
@@ -56,3 +58,17 @@ def test_the_synchronous_buck_s_output_node_balances_on_every_row():
     waves = circuit.transient(method="exact")
     balance = waves["i(l1)"] - waves["i(c1)"] - waves["i(rload)"]
     assert np.abs(balance).max() < 1e-12 * np.abs(waves["i(l1)"]).max()
+
+
+def test_the_zener_rlc_s_zener_holds_the_capacitor_s_voltage_while_sliding():
+    # Acary & Brogliato §1.2: once x1/C lies in [0, Vz] the loop current stays 0 and the
+    # Zener's reverse voltage is the capacitor's (v(n1) − v(n3) = L i' + R i = 0; here gmin
+    # holds the blocked Zener's node: R·i(l1) ≈ 1.5e-13 V). The slow mode's v(n1) was taken
+    # through P, which multiplies i(l1)'s round-off by 1/gmin: 2.8e-5 V off.
+    waves = circuitnsds.read_netlist(NETLISTS / "book_zener_rlc.cir").transient(method="exact")
+    assert waves.stats["handoffs"] == 0
+    sliding = waves.time > 2.0
+    v_cap = np.asarray(waves["v(n3)"])[sliding]
+    assert 0.5 < v_cap.min() and v_cap.max() < 10.0  # (inside the band, away from its ends)
+    assert np.abs(np.asarray(waves["i(l1)"])[sliding]).max() < 1e-11
+    np.testing.assert_allclose(np.asarray(waves["v(n1)"])[sliding], v_cap, rtol=0, atol=1e-12)
