@@ -3,20 +3,15 @@ parts"), each under ``method=exact``: a capacitor's current at a row is ``C dv/d
 row's instant, as every other current there, so Kirchhoff's current law holds on every row
 (it was ΔQ/Δt over the interval before the row: a switched RC off by 0.045 A where the
 currents are 0.034 A); the Zener RLC's Zener holds the capacitor's voltage while sliding
-(it was 2.8e-5 V off); a circuit with an XSPICE latch is refused (it took wrong states)."""
+(it was 2.8e-5 V off)."""
 
 from __future__ import annotations
 
 import math
-import re
-import warnings
 
 import numpy as np
-import pytest
 
 import circuitnsds
-from circuitnsds.engine.stepper import choose_stepper
-from circuitnsds.errors import RunNote
 from tests.conftest import NETLISTS, circuit_from
 
 
@@ -77,44 +72,3 @@ def test_the_zener_rlc_s_zener_holds_the_capacitor_s_voltage_while_sliding():
     assert 0.5 < v_cap.min() and v_cap.max() < 10.0  # (inside the band, away from its ends)
     assert np.abs(np.asarray(waves["i(l1)"])[sliding]).max() < 1e-11
     np.testing.assert_allclose(np.asarray(waves["v(n1)"])[sliding], v_cap, rtol=0, atol=1e-12)
-
-
-DIVIDER = """d_dff clock divider
-Vclk clk 0 PULSE(0 1 0.5u 1n 1n 0.5u 1u)
-Aadc [clk] [dclk] adc
-.model adc adc_bridge(in_low=0.5 in_high=0.5)
-Af nq dclk NULL NULL q nq ff
-.model ff d_dff(ic=1)
-.tran 0.1u 6u
-.end
-"""
-FLIP_FLOP = "Af nq dclk NULL NULL q nq ff\n.model ff d_dff(ic=1)"
-
-
-@pytest.mark.parametrize("part", [FLIP_FLOP, "Al dclk nq dclk NULL NULL q nq lat\n.model lat d_srlatch"])
-def test_a_circuit_with_a_latch_is_refused_by_the_exact_integrator_and_auto_takes_theta(part):
-    # its clock divider took wrong states under method=exact (q 1 0 0 1 1 0 1 0 1 0 1 0 per
-    # half-period slot where the flip-flop gives 1 0 0 1 1 0 0 1 1 0 0 1): refused, never an
-    # exit-0 wrong answer; auto runs θ
-    circuit = circuitnsds.read_netlist(DIVIDER.replace(FLIP_FLOP, part))
-    chosen, why = choose_stepper("auto", circuit.mlcs())
-    assert chosen.name == "theta" and re.search(r"its latch\(es\) a[fl] \(XSPICE d_dff, d_srlatch\)", why)
-    with pytest.raises(circuitnsds.CircuitError, match=r"'exact' cannot run this circuit: its latch"):
-        circuit.transient(method="exact")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        auto = circuit.transient(method="auto")
-        theta = circuit.transient(method="theta")
-    np.testing.assert_array_equal(auto["v(q)"], theta["v(q)"])
-
-
-def test_combinational_parts_are_not_refused():
-    # a gate reads no state of its own: the exact integrator takes it
-    circuit = circuitnsds.read_netlist(DIVIDER.replace(FLIP_FLOP, "Ai dclk q inv\n.model inv d_inverter"))
-    assert choose_stepper("auto", circuit.mlcs())[0].name == "exact"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RunNote)
-        waves = circuit.transient(method="exact")
-    middle = (np.arange(12) + 0.5) * 0.5e-6
-    np.testing.assert_array_equal(np.round(np.interp(middle, waves.time, waves["v(q)"]), 12),
-                                  [1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0])

@@ -66,9 +66,6 @@ class SwitchRelation:
         crossing: the level whose crossings by a source-driven control are put on the time
             grid when it differs from both thresholds (``VT`` of a switch without hysteresis,
             whose thresholds sit a round-off margin above it); ``None`` otherwise.
-        latch: the state of a latch (an XSPICE ``d_dff`` or ``d_srlatch``), which reaches
-            its own control through min/max pairs: the exact integrator refuses it
-            (:meth:`circuitnsds.engine.exact.stepper.ExactStepper.unsuited`).
     """
 
     name: str
@@ -81,7 +78,6 @@ class SwitchRelation:
     off_threshold: float
     initially_on: bool = False
     crossing: float | None = None
-    latch: bool = False
 
     def next_state(self, on: bool, control: float) -> bool:
         """State after seeing ``control``: hysteresis keeps ``on`` between the thresholds."""

@@ -99,8 +99,6 @@ class Select:
         hysteresis: half-width of the band in which the state is kept (0: none).
         initially_on: the state before the operating point (``control > 0`` assumed: a latch's
             initial state; the operating point then follows the control, with hysteresis).
-        latch: the state of a latch (its control reads the state through min/max pairs):
-            :attr:`~circuitnsds.system.mlcs.SwitchRelation.latch`.
     """
 
     control: Affine
@@ -109,7 +107,6 @@ class Select:
     name: str = ""
     hysteresis: float = 0.0
     initially_on: bool = False
-    latch: bool = False
 
 
 def stamp_affine_row(builder: MLCSBuilder, row: int, value: Affine, auxiliary: list[int],
@@ -155,7 +152,7 @@ def _stamp_select(builder: MLCSBuilder, name: str, select: Select, x: int,
         control=tuple(select.control.columns(builder, columns)),
         on_threshold=-select.control.constant + half_band,
         off_threshold=-select.control.constant - half_band,
-        initially_on=select.initially_on, latch=select.latch,
+        initially_on=select.initially_on,
     ))
     builder.output(f"x({select.name})", [(x, 1.0)])
 

@@ -98,12 +98,6 @@ class ExactStepper(Stepper):
         if mlcs.n + mlcs.m > MAX_UNKNOWNS:
             return (f"it has {mlcs.n} unknowns and {mlcs.m} pairs, more than the {MAX_UNKNOWNS} "
                     "the exact integrator's dense modes take")
-        latches = sorted({switch.name.split(".")[0] for switch in mlcs.switches if switch.latch})
-        if latches:  # (docs/method.md "Digital parts")
-            return (f"its latch(es) {', '.join(latches[:5])}{' ...' if len(latches) > 5 else ''} "
-                    "(XSPICE d_dff, d_srlatch) change state together at one instant, and the "
-                    "exact integrator's choice of the states there is not yet the causal one "
-                    "(a clock divider took wrong states)")
         blind = [switch.name for switch in mlcs.switches if not switch.control]
         if blind:  # (a resistor stepping in time: its windows' switches follow a PWL alone)
             return (f"its switch(es) {', '.join(blind[:5])}{' ...' if len(blind) > 5 else ''} "

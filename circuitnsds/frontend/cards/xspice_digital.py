@@ -220,7 +220,7 @@ def _srlatch(reader, model, ports: Ports):
     control = _combine((1.0, _state(1)), (-2.0, _state(2)), (1.0, _state(0)),
                        *_async(set_port, reset_port, 3.0, 5.0), constant=-0.5)
     auxiliaries = [
-        Select(control, ONE, ZERO, name=reader.name, initially_on=model.get("ic") == 1.0, latch=True),
+        Select(control, ONE, ZERO, name=reader.name, initially_on=model.get("ic") == 1.0),
         MinMax("min", enable.level(), s.level()),
         MinMax("min", enable.level(), r.level()),
     ]
@@ -238,9 +238,9 @@ def _dff(reader, model, ports: Ports):
     # x0 = q (slave), x1 = m (master); x2..x4 the master's multiplexer, x5..x7 the slave's
     auxiliaries = [
         Select(_combine((1.0, _state(7)), *forced, constant=-0.5), ONE, ZERO, name=reader.name,
-               initially_on=initial, latch=True),
+               initially_on=initial),
         Select(_combine((1.0, _state(4)), *forced, constant=-0.5), ONE, ZERO,
-               name=f"{reader.name}.master", initially_on=initial, latch=True),
+               name=f"{reader.name}.master", initially_on=initial),
         MinMax("min", data.level(), low),
         MinMax("min", clk.level(), _state(1)),
         MinMax("max", _state(2), _state(3)),
