@@ -3,15 +3,20 @@ parts"), each under ``method=exact``: a capacitor's current at a row is ``C dv/d
 row's instant, as every other current there, so Kirchhoff's current law holds on every row
 (it was ΔQ/Δt over the interval before the row: a switched RC off by 0.045 A where the
 currents are 0.034 A); the Zener RLC's Zener holds the capacitor's voltage while sliding
-(it was 2.8e-5 V off)."""
+(it was 2.8e-5 V off); an XSPICE latch takes the right states (a clock divider took wrong
+ones)."""
 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
+import pytest
 
 import circuitnsds
+from circuitnsds.engine.stepper import choose_stepper
+from circuitnsds.errors import RunNote
 from tests.conftest import NETLISTS, circuit_from
 
 
@@ -72,3 +77,67 @@ def test_the_zener_rlc_s_zener_holds_the_capacitor_s_voltage_while_sliding():
     assert 0.5 < v_cap.min() and v_cap.max() < 10.0  # (inside the band, away from its ends)
     assert np.abs(np.asarray(waves["i(l1)"])[sliding]).max() < 1e-11
     np.testing.assert_allclose(np.asarray(waves["v(n1)"])[sliding], v_cap, rtol=0, atol=1e-12)
+
+
+DIVIDER = """d_dff clock divider
+Vclk clk 0 PULSE(0 1 0.5u 1n 1n 0.5u 1u)
+Aadc [clk] [dclk] adc
+.model adc adc_bridge(in_low=0.5 in_high=0.5)
+Af nq dclk NULL NULL q nq ff
+.model ff d_dff(ic=1)
+.tran 0.1u 6u
+.end
+"""
+FLIP_FLOP = "Af nq dclk NULL NULL q nq ff\n.model ff d_dff(ic=1)"
+
+
+def _sampled(text: str, slots: int, slot: float) -> np.ndarray:
+    """``v(q)`` of the exact run of ``text`` in the middle of each slot [s]."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        waves = circuitnsds.read_netlist(text).transient(method="exact")
+    return np.round(np.interp((np.arange(slots) + 0.5) * slot, waves.time, waves["v(q)"]), 12)
+
+
+def test_a_d_dff_clock_divider_takes_the_right_states():
+    # q toggles at each rising edge (ic = 1: the master takes data 0 while the clock is low
+    # first). At the falling edges q = 1 with the master at 0 is also a fixpoint of the
+    # states' equations at the instant (data is not q at the same instant); the slave read
+    # min(low, q) in its pair's mode of before the edge (= low = 1) and took it: q was
+    # 1 0 0 1 1 0 1 0 1 0 1 0. The pairs settle first now, the states then.
+    assert choose_stepper("auto", circuitnsds.read_netlist(DIVIDER).mlcs())[0].name == "exact"
+    np.testing.assert_array_equal(_sampled(DIVIDER, 12, 0.5e-6), [1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_latches_follow_their_reference_state_machines_under_the_exact_integrator(seed):
+    # the reference state machines of tests/test_xspice_digital.py (written from ngspice's
+    # definitions), on fixed random inputs, run with method=exact
+    from tests.test_xspice_digital import reference_dff, reference_srlatch, run_digital
+
+    rng = np.random.default_rng(seed)
+    s, r, en, set_, reset = (rng.integers(0, 2, 10).tolist() for _ in range(5))
+    parts = "Al ds dr den dset dreset q nq lat\n.model lat d_srlatch\n.options method=exact\n"
+    waves, got = run_digital({"s": s, "r": r, "en": en, "set": set_, "reset": reset}, parts, ["q"])
+    assert waves.stats["exact_segments"] > 0
+    np.testing.assert_array_equal(got["q"], reference_srlatch(s, r, en, set_, reset))
+    d, clk = rng.integers(0, 2, 12).tolist(), rng.integers(0, 2, 12).tolist()
+    for k in range(1, 12):  # (data and clock change in different slots, as there)
+        if d[k] != d[k - 1] and clk[k] != clk[k - 1]:
+            d[k] = d[k - 1]
+    zeros = [0] * 12
+    parts = "Af dd dclk dset dreset q NULL ff\n.model ff d_dff\n.options method=exact\n"
+    waves, got = run_digital({"d": d, "clk": clk, "set": zeros, "reset": zeros}, parts, ["q"])
+    assert waves.stats["exact_segments"] > 0
+    np.testing.assert_array_equal(got["q"], reference_dff(d, clk, zeros, zeros))
+
+
+def test_an_inverter_follows_its_input_under_the_exact_integrator():
+    circuit = circuitnsds.read_netlist(DIVIDER.replace(FLIP_FLOP, "Ai dclk q inv\n.model inv d_inverter"))
+    assert choose_stepper("auto", circuit.mlcs())[0].name == "exact"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RunNote)
+        waves = circuit.transient(method="exact")
+    middle = (np.arange(12) + 0.5) * 0.5e-6
+    np.testing.assert_array_equal(np.round(np.interp(middle, waves.time, waves["v(q)"]), 12),
+                                  [1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0])
