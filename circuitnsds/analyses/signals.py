@@ -36,16 +36,25 @@ def trajectory_waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop:
                   and f"i({e.name})" not in rows}
     exact = getattr(trajectory, "exact_rows", None)
     exact = exact[first:] if exact is not None and exact[first:].any() else None
-    rates: list[np.ndarray] = []  # (the unknowns' rates at the exact rows, computed when first read)
+    if exact is not None and exact[int(np.argmax(exact)):].all():  # (a run's rows after its first)
+        exact = slice(int(np.argmax(exact)), None)  # (views of the rows, not copies)
+    exact_row = np.zeros(time.size, bool)
+    if exact is not None:
+        exact_row[exact] = True
+    rates: dict[str, np.ndarray] = {}  # (each capacitor node's rate at the exact rows, when first read)
 
     def rate(node: str) -> np.ndarray:
         """``dv(node)/dt`` [V/s] at the exact rows."""
-        if not rates:
-            rates.append(state_rates(mlcs, time[exact], y[exact], current[exact],
-                                     trajectory.switches[first:][exact]))
-        if node == "0":
-            return np.zeros(int(exact.sum()))
-        return _row(f"v({node})", rates[0], np.zeros((rates[0].shape[0], current.shape[1])))
+        if not rates:  # (every capacitor node's at once: one pass over the rows)
+            nodes = sorted({n for element in capacitors.values() for n in element.nodes[:2] if n != "0"})
+            terms = {n: signal_terms(mlcs, rows[f"v({n})"]) for n in nodes}
+            columns = sorted({column for n in nodes for source, column, _ in terms[n] if source == 0})
+            values = state_rates(mlcs, time[exact], y[exact], current[exact],
+                                 trajectory.switches[first:][exact], np.array(columns, dtype=int))
+            for n in nodes:  # (v(node) is one unknown: its rate is that column's, weighted)
+                rates[n] = sum(weight * values[:, columns.index(column)]
+                               for source, column, weight in terms[n] if source == 0)
+        return rates[node] if node != "0" else 0.0
 
     def voltage(node: str) -> np.ndarray:
         # (_row, not signal: closures calling each other would be a reference cycle that
@@ -65,7 +74,7 @@ def trajectory_waveforms(circuit: Circuit, mlcs, trajectory, start: float, stop:
             # a point ending a split step holds the state of its last part: the current of
             # that part there (KCL holds with the other currents, which are that part's too)
             for point, (y_start, length) in tails.items():
-                if point >= first:
+                if point >= first and not exact_row[point - first]:
                     flow[point - first] = (charge[point - first] - charge_at(
                         element, y_start[None, :], trajectory.current[point:point + 1])) / length
             if periodic and time.size > 1:
