@@ -95,7 +95,7 @@ def test_the_buck_in_parts_is_the_buck_in_one_part_bit_for_bit():
     parts = _Concatenated()
     drive(ExactStepper(mlcs), grid, start, parts, part_steps=37)
     one = whole.trajectory
-    for name in ("y", "current", "impulse", "active", "switches"):
+    for name in ("y", "current", "impulse", "active", "switches", "exact_rows"):
         np.testing.assert_array_equal(parts.arrays[name], getattr(one, name))
     assert parts.events == one.events
     # the diode turns on as S1 opens (k·10 µs + 5.005 µs) and off as it closes (5 ns later)
@@ -110,7 +110,7 @@ class _Concatenated:
         self.events: list = []
 
     def record(self, trajectory, first):
-        for name in ("y", "current", "impulse", "active", "switches"):
+        for name in ("y", "current", "impulse", "active", "switches", "exact_rows"):
             rows = getattr(trajectory, name)[first:].copy()
             self.arrays[name] = rows if name not in self.arrays else np.concatenate([self.arrays[name], rows])
         self.events += [e for e in trajectory.events if e not in self.events]
@@ -356,7 +356,7 @@ def test_a_run_with_hand_offs_to_theta_in_parts_is_the_run_in_one_part():
     assert whole.trajectory.stats["handoffs"] >= 2
     parts = _Concatenated()
     drive(ExactStepper(mlcs), grid, start, parts, part_steps=7)
-    for name in ("y", "current", "impulse", "active", "switches"):
+    for name in ("y", "current", "impulse", "active", "switches", "exact_rows"):
         np.testing.assert_array_equal(parts.arrays[name], getattr(whole.trajectory, name))
 
 

@@ -63,6 +63,8 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
                                                np.array(orbit.closed, bool)), recorder)
     run = recorder.trajectory
     run.y[0], run.current[0] = run.y[-1], run.current[-1]  # (t0 and t0 + T: one instant)
+    if run.exact_rows is not None:
+        run.exact_rows[0] = run.exact_rows[-1]
     exact = ExactPeriod(system, segments, taus, t0, period, orbit.monodromy, run)
     waves = trajectory_waveforms(circuit, mlcs, run, run.time[0], run.time[-1], periodic=True)
     waves.stats.update(analysis="pss", iterations=len(orbit.residuals) - 1)

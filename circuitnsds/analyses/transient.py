@@ -545,4 +545,5 @@ def _decimated(trajectory, every: float, breakpoints: np.ndarray):
     return replace(trajectory, time=time[index], y=trajectory.y[index],
                    current=trajectory.current[index], impulse=impulse, residual=residual,
                    active=trajectory.active[index], switches=trajectory.switches[index],
-                   tails={}), index
+                   tails={}, exact_rows=None if trajectory.exact_rows is None
+                   else trajectory.exact_rows[index]), index

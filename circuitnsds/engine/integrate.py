@@ -144,6 +144,10 @@ class Trajectory:
         tails: for each point ending a split step, the unknowns at the start of its last
             part and that part's length [s] (what the point's capacitor currents are
             taken over: the point holds that part's state).
+        exact_rows: ``(N,)`` bool, or ``None`` (none): the points that are a closed form at
+            their instant (the exact stepper's), whose capacitor currents are ``C dv/dt``
+            there (:func:`circuitnsds.engine.exact.rates.state_rates`), not ΔQ/Δt of the
+            step into them.
     """
 
     time: np.ndarray
@@ -156,6 +160,7 @@ class Trajectory:
     stats: dict[str, float] = field(default_factory=dict)
     events: list[SwitchEvent] = field(default_factory=list)
     tails: dict[int, tuple[np.ndarray, float]] = field(default_factory=dict)
+    exact_rows: np.ndarray | None = None
 
 
 def integrate(

@@ -999,15 +999,19 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
             functions(L, mode, inputs, x, y_size, forcing, t, table, tolerances, search->table_sizes);
             if (chosen == 1)
                 break;
-            int any_bad = 0;
+            int any_bad = 0, pair_bad = 0;
             for (int64_t c = 0; c < columns; c++) {
                 int bad = violated(table, columns, L->powers + mode * T, L->exponents + mode * T, L->terms[mode], c,
                                    tolerances[c]);
                 R->wanted[c] = (uint8_t)(L->bits[mode * columns + c] != bad);
                 any_bad = any_bad || bad;
+                pair_bad = pair_bad || (bad && c < m);
             }
             if (!any_bad)
                 break;
+            if (pair_bad) /* (the switches flip once the pairs hold: run.choose_mode) */
+                for (int64_t c = m; c < columns; c++)
+                    R->wanted[c] = L->bits[mode * columns + c];
             R->seen[changes] = mode;
             changes += 1;
             int64_t following = find(L, R->wanted);

@@ -2,7 +2,7 @@
 
 Each segment: the sources' piece from the interval table (:mod:`.source_table`), the
 mode's event functions from its cached map (:mod:`.solution_map`), the mode that holds
-(violated pairs and switches flipped, as :func:`.run.choose_mode` does), the first event
+(violated pairs flipped, violated switches once no pair is, as :func:`.run.choose_mode` does), the first event
 (:mod:`.first_event`), the output rows before it and the state at it. Everything a segment
 needs is in arrays indexed by mode; the loop returns to Python (:func:`.run.run_exact`)
 only when a flip leads to a mode it has no map for, when the flipping cycles (the
@@ -372,12 +372,17 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
             if chosen == 1:
                 break
             any_bad = False
+            pair_bad = False
             for c in range(columns):
                 bad = _violated(table, powers[mode], exponents[mode], terms[mode], c, tolerances[c])
                 wanted[c] = bits[mode, c] != bad
                 any_bad = any_bad or bad
+                pair_bad = pair_bad or (bad and c < m)
             if not any_bad:
                 break
+            if pair_bad:  # (the switches flip once the pairs hold: run.choose_mode)
+                for c in range(m, columns):
+                    wanted[c] = bits[mode, c]
             seen[changes] = mode
             changes += 1
             following = _find(bits, known, wanted)

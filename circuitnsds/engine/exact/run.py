@@ -380,10 +380,10 @@ def _at_zero(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray
 def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...], x: np.ndarray,
                 sources: ExpPoly, y_size: np.ndarray, instant: float, solution: bool = True):
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
-    violated pair or switch is flipped, repeatedly; when that cycles, the pairs involved are
-    enumerated. Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
-    (``None`` unless ``solution``: the compiled loop's choice does not need it) and its event
-    functions (:meth:`ExactSystem.event_functions`)."""
+    violated pair is flipped, and each violated switch once no pair is, repeatedly; when that
+    cycles, the pairs involved are enumerated. Returns ``(active, closed, z, functions)``: the
+    mode, its solution from ``x`` (``None`` unless ``solution``: the compiled loop's choice
+    does not need it) and its event functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -402,11 +402,16 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         bad = _violations(functions)
         if not bad:
             return active, closed, z, functions
+        # the pairs first, the switches once they hold: a switch's control read through pairs
+        # in their modes of before the instant is stale (a d_dff's slave read min(low, q) as
+        # low = 1 at the falling clock edge and took the master's place: the states' other
+        # fixpoint, q = 1 with m = 0, since d = not q at the same instant)
+        pairs_bad = any(kind == "pair" for kind, _ in bad)
         states = list(closed)
         for kind, index in bad:
             if kind == "pair":
                 active[index] = not active[index]
-            else:
+            elif not pairs_bad:
                 states[index] = not states[index]
         closed = tuple(states)
     # the flipping cycled (or met a mode that is not index 1): enumerate the pairs it moved

@@ -17,7 +17,10 @@ What a row holds (the contract's :class:`~circuitnsds.engine.integrate.Trajector
 * ``residual``: 0 (the signs of every pair are certified between events, as the θ-stepper's
   mapped steps report 0);
 * ``tails``: a point whose interval holds an event has the unknowns just after the last event
-  in it and the time since (its capacitor currents are taken over that part);
+  in it and the time since (what a θ stretch's capacitor currents are taken over);
+* ``exact_rows``: the points the exact loop wrote (not a θ stretch's, not the first point
+  of a run): their capacitor currents are ``C dv/dt`` at the point
+  (:func:`~.rates.state_rates`), as every other current there is the one at that instant;
 * ``events``: every event, diodes' (``on``/``off``: conducting or blocking) as well as
   switches'.
 
@@ -85,6 +88,7 @@ class ExactStepper(Stepper):
         self.handoff_steps = HANDOFF_STEPS
         self.handoffs: list[tuple[float, str]] = []
         """``(time [s], why)`` of each hand-off to θ in the run so far."""
+        self.last_exact = False  # the last point of the part before: the exact loop's
 
     @classmethod
     def unsuited(cls, mlcs: MLCS) -> str | None:
@@ -116,6 +120,7 @@ class ExactStepper(Stepper):
         self.theta_until = None
         self.handoff_steps = HANDOFF_STEPS
         self.handoffs = []
+        self.last_exact = False
 
     def trajectory_bytes(self, points: int) -> int:
         return trajectory_bytes(self.mlcs, points)
@@ -125,6 +130,7 @@ class ExactStepper(Stepper):
         began = wallclock.perf_counter()
         mlcs, count = self.mlcs, grid.size
         out = _Rows(mlcs, grid, start)
+        out.exact[0] = continued and self.last_exact
         if not continued or self.state is None:
             self.state = self._loop_state(start.y, start.charge, out.active[0], out.switches[0],
                                           float(grid[0]), announced=False)
@@ -159,6 +165,7 @@ class ExactStepper(Stepper):
                 progress(float(grid[-1]), float(grid[-1]))
         out.stats["steps"] = count - 1
         out.stats["seconds"] = wallclock.perf_counter() - began
+        self.last_exact = bool(out.exact[-1])
         return out.trajectory()
 
     def _theta_stretch(self, out: _Rows, row: int, offset: int) -> int:
@@ -213,6 +220,7 @@ class _Rows:
         self.residual = np.zeros(count)
         self.active = np.zeros((count, m), bool)
         self.switches = np.zeros((count, k), bool)
+        self.exact = np.zeros(count, bool)
         self.y[0] = start.y
         if start.current is not None:
             self.current[0] = start.current
@@ -241,6 +249,7 @@ class _Rows:
                           "y": self.y, "active": self.active}[name]
                 target[row + 1:end] = source
         self.tails.update({row + k: tail for k, tail in run.tails.items() if k < run.rows})
+        self.exact[row + 1:end] = True
         self._add_events(run.events)
         self.stats["exact_segments"] += run.segments
         self.stats["events"] += len(run.events)
@@ -262,6 +271,7 @@ class _Rows:
         self.residual[row + 1:end] = part.residual[1:]
         self.active[row + 1:end] = part.active[1:]
         self.switches[row + 1:end] = part.switches[1:]
+        self.exact[row + 1:end] = False
         self.tails.update({row + k: tail for k, tail in part.tails.items() if k > 0})
         self._add_events(part.events)
         self.stats["theta_steps"] += part.time.size - 1
@@ -291,13 +301,14 @@ class _Rows:
             self.in_order = True
         if end is None:
             return Trajectory(self.grid, self.y, self.current, self.impulse, self.residual,
-                              self.active, self.switches, self.stats, self.events, self.tails)
+                              self.active, self.switches, self.stats, self.events, self.tails,
+                              self.exact)
         last = float(self.grid[end - 1])
         return Trajectory(self.grid[:end], self.y[:end], self.current[:end], self.impulse[:end],
                           self.residual[:end], self.active[:end], self.switches[:end],
                           dict(self.stats, steps=end - 1),
                           [event for event in self.events if event.time <= last],
-                          {k: tail for k, tail in self.tails.items() if k < end})
+                          {k: tail for k, tail in self.tails.items() if k < end}, self.exact[:end])
 
 
 def _non_finite(mlcs: MLCS, grid: np.ndarray, y: np.ndarray, k: int) -> SimulationError:
