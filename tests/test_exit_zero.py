@@ -141,6 +141,25 @@ def test_a_step_longer_than_the_circuits_ringing_is_warned_naming_the_pair():
     assert fine["v(b)"].max() == pytest.approx(peak, rel=2e-3)
 
 
+def test_the_exact_integrator_is_not_warned_of_a_ringing_it_follows():
+    # The same series RLC at 100 µs rows under method=exact: its rows are the closed form at
+    # their instants whatever their spacing (the peak 18.55 V falls between rows; the rows
+    # still sample the true ringing, not a damped one), so no warning of a step (before, the
+    # exact run was warned alike; its θ hand-offs' steps are still watched).
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", circuitnsds.CircuitWarning)
+        exact = circuit_from(SERIES_RLC.format(step="100u")).transient(method="exact")
+    t, vb = exact.time[2:], np.asarray(exact["v(b)"])[2:]  # (after the 1 ns edge: a step 0.5 ns late)
+    t = t - 0.5e-9
+    zeta, w0 = 0.05, 1e6
+    wd = w0 * np.sqrt(1 - zeta**2)
+    closed_form = 10 * (1 - np.exp(-zeta * w0 * t) * (np.cos(wd * t) + zeta / np.sqrt(1 - zeta**2)
+                                                      * np.sin(wd * t)))
+    assert np.max(np.abs(vb - closed_form)) < 1e-6
+
+
 def test_a_step_longer_than_a_time_constant_between_switchings_is_warned(netlists):
     # the hysteretic buck's L/R = 50 µs at a 100 µs step switched every 47 µs (analytic 38.1 µs)
     with pytest.warns(RunNote, match=r"the mode of l1 settles with a time "

@@ -39,15 +39,21 @@ class FastModeWatch:
 
     def observe(self, mlcs, trajectory, first: int) -> None:
         """Tally the new rows' modes (the initial state left out) and the part's longest step
-        (``first`` = 1: row 0 is the previous part's last, the step into row 1 is new). A part
-        the exact integrator made alone is left out: it follows every mode exactly, whatever
-        the rows' spacing (its θ hand-offs' parts are watched whole)."""
-        if trajectory.stats.get("exact_segments") and not trajectory.stats.get("theta_steps"):
-            return
+        (``first`` = 1: row 0 is the previous part's last, the step into row 1 is new). The
+        rows the exact integrator wrote (``trajectory.exact_rows``) are left out: it follows
+        every mode exactly, whatever the rows' spacing; its hand-offs' θ steps are watched."""
         new = max(first, 1)
-        self.tally.add(trajectory.switches[new:], trajectory.active[new:])
-        if trajectory.time.size > 1:
-            self.longest = max(self.longest, float(np.diff(trajectory.time).max()))
+        switches, active = trajectory.switches[new:], trajectory.active[new:]
+        steps = np.diff(trajectory.time)[new - 1:]
+        exact = trajectory.exact_rows
+        if exact is not None:
+            stepped = ~exact[new:]
+            if not stepped.any():
+                return
+            switches, active, steps = switches[stepped], active[stepped], steps[stepped]
+        self.tally.add(switches, active)
+        if steps.size:
+            self.longest = max(self.longest, float(steps.max()))
 
     def report(self) -> None:
         if self.longest > 0.0:

@@ -21,6 +21,7 @@ import ctypes
 import functools
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,6 +111,34 @@ class Segment:
     ended_by: int | None
 
 
+class TailTable(Mapping):
+    """An exact run's ``tails`` (:class:`ExactRun`), ``{row: (unknowns, seconds)}``, made from
+    the loop's arrays when first read: the stepper does not read them (its rows' capacitor
+    currents are the instant's, :mod:`circuitnsds.analyses.signals`), and a dictionary of one
+    entry per event was 60,000 tuples in the 100 ms buck."""
+
+    def __init__(self, rows: np.ndarray, seconds: np.ndarray, unknowns: np.ndarray):
+        self._arrays: tuple | None = (rows, seconds, unknowns)
+        self._table: dict[int, tuple[np.ndarray, float]] = {}
+
+    def _made(self) -> dict[int, tuple[np.ndarray, float]]:
+        if self._arrays is not None:
+            rows, seconds, unknowns = self._arrays
+            unknowns = unknowns.copy()  # (one copy; each entry a view of its row)
+            self._table = dict(zip(rows.tolist(), zip(unknowns, seconds.tolist())))
+            self._arrays = None
+        return self._table
+
+    def __getitem__(self, row: int) -> tuple[np.ndarray, float]:
+        return self._made()[row]
+
+    def __iter__(self):
+        return iter(self._made())
+
+    def __len__(self) -> int:
+        return len(self._made())
+
+
 @dataclass
 class ExactRun:
     """Output of :func:`run_exact`: rows on ``times``.
@@ -130,7 +159,7 @@ class ExactRun:
     active: np.ndarray | None = None
     closed: np.ndarray | None = None
     charges: np.ndarray | None = None
-    tails: dict[int, tuple[np.ndarray, float]] = field(default_factory=dict)
+    tails: Mapping[int, tuple[np.ndarray, float]] = field(default_factory=dict)
     state: LoopState | None = None
     rows: int = 0
 
@@ -586,8 +615,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         events = list(map(SwitchEvent, event_times[:used].tolist(),
                           [names[c] for c in event_index[:used].tolist()], event_on[:used].tolist()))
         written = int(counters[8])
-        rows_y = tail_y[:written].copy()  # (one copy; each tail a view of its row)
-        tails = dict(zip(tail_row[:written].tolist(), zip(rows_y, tail_dt[:written].tolist())))
+        tails = TailTable(tail_row[:written], tail_dt[:written], tail_y[:written])
         return ExactRun(times, Y, L, events, int(counters[5]), row_active, row_closed, charges, tails,
                         state(), int(counters[3]))
 

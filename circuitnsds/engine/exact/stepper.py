@@ -16,12 +16,12 @@ What a row holds (the contract's :class:`~circuitnsds.engine.integrate.Trajector
 * ``active``, ``switches``: the mode of the segment the point ends;
 * ``residual``: 0 (the signs of every pair are certified between events, as the θ-stepper's
   mapped steps report 0);
-* ``tails``: a point whose interval holds an event has the unknowns just after the last event
-  in it and the time since (what a θ stretch's capacitor currents are taken over);
+* ``tails``: a θ stretch's split steps' (what their capacitor currents are taken over); none
+  for the exact loop's points (below);
 * ``exact_rows``: the points the exact loop wrote (not a θ stretch's, not the first point
   of a run): their capacitor currents are ``C dv/dt`` at the point
   (:func:`~.rates.state_rates`), as every other current there is the one at that instant;
-* ``events``: every event, diodes' (``on``/``off``: conducting or blocking) as well as
+* ``events``: every event, diodes' (a pair's name; ``state`` true: conducting) as well as
   switches'.
 
 **Hand-off to θ.** Where the loop finds no mode that holds (:class:`~.run.Chattering`: a
@@ -248,8 +248,7 @@ class _Rows:
                 target = {"currents": self.current, "charges": self.impulse, "closed": self.switches,
                           "y": self.y, "active": self.active}[name]
                 target[row + 1:end] = source
-        self.tails.update({row + k: tail for k, tail in run.tails.items() if k < run.rows})
-        self.exact[row + 1:end] = True
+        self.exact[row + 1:end] = True  # (their capacitor currents the instant's: no tails)
         self._add_events(run.events)
         self.stats["exact_segments"] += run.segments
         self.stats["events"] += len(run.events)
