@@ -37,6 +37,7 @@ enum { FINISHED = 0, NEW_MODE = 1, EVENTS_FULL = 2, STALLED = 3, OUT_OF_MEMORY =
 #define RELATIVE_TOL 1e-12
 #define TIME_ULPS 4.0
 #define SUM_ULPS 8.0
+#define FAST_SIGNIFICANT 1e-6
 #define EPSILON 2.220446049250313e-16
 #define SERIES_TERMS 24
 #define MAX_DEPTH 200
@@ -515,7 +516,7 @@ EXPORT double circuitnsds_first_event(const cplx *table, int64_t terms, int64_t 
 enum {
     A_CLOCK, A_COUNTERS, A_X, A_Y_SIZE, A_SOURCES_NOW, A_WIDENED, A_CORNERS, A_SOURCE_COEFFICIENTS,
     A_SOURCE_EXPONENTS, A_SOURCE_POWERS, A_PARTNER, A_S_MATRIX, A_BITS, A_Z_MAP, A_TABLE_MAP, A_POWERS,
-    A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_V1T, A_TIMES, A_Y_OUT,
+    A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_FAST_ROWS, A_V1T, A_TIMES, A_Y_OUT,
     A_L_OUT, A_CHARGES, A_ROW_ACTIVE, A_ROW_CLOSED, A_EVENT_TIMES, A_EVENT_INDEX, A_EVENT_ON, A_TAIL_ROW,
     A_TAIL_DT, A_TAIL_Y, A_SPANS, A_SPANS_KNOWN, A_COUNT_ARRAYS
 };
@@ -543,7 +544,7 @@ typedef struct {
     const cplx *exponents;
     const int64_t *terms;
     const cplx *slope_weights;
-    const double *rows_p, *rows_q, *rows_y, *rows_c, *v1t, *times;
+    const double *rows_p, *rows_q, *rows_y, *rows_c, *fast_rows, *v1t, *times;
     double *y_out, *l_out, *charges;
     uint8_t *row_active, *row_closed;
     double *event_times;
@@ -700,14 +701,27 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
     }
 }
 
-/* loop._violated: function k negative at 0, or zero and decreasing (to the second derivative) by more
+/* loop._fast_offset: what the state's part along the mode's fast modes adds to function c at the
+ * start, where it counts (FAST_SIGNIFICANT), else 0. */
+static double fast_offset(const Exact *L, int64_t mode, int64_t c, const double *x) {
+    const double *row = L->fast_rows + (mode * L->columns + c) * L->r;
+    double total = 0.0, size = 0.0;
+    for (int64_t i = 0; i < L->r; i++) {
+        total += row[i] * x[i];
+        size += fabs(row[i]) * fabs(x[i]);
+    }
+    return fabs(total) > FAST_SIGNIFICANT * size ? total : 0.0;
+}
+
+/* loop._violated: function k (with offset added: fast_offset) negative at 0, or zero and decreasing (to the second derivative) by more
  * than its round-off. */
 static int violated(const cplx *table, int64_t columns, const int64_t *powers, const cplx *exponents, int64_t count,
-                    int64_t k, double tolerance) {
+                    int64_t k, double tolerance, double offset) {
     double value = 0.0;
     for (int64_t j = 0; j < count; j++)
         if (powers[j] == 0)
             value += table[j * columns + k].re;
+    value += offset;
     if (value < -tolerance)
         return 1;
     if (value > tolerance)
@@ -1002,7 +1016,7 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
             int any_bad = 0, pair_bad = 0;
             for (int64_t c = 0; c < columns; c++) {
                 int bad = violated(table, columns, L->powers + mode * T, L->exponents + mode * T, L->terms[mode], c,
-                                   tolerances[c]);
+                                   tolerances[c], fast_offset(L, mode, c, x));
                 R->wanted[c] = (uint8_t)(L->bits[mode * columns + c] != bad);
                 any_bad = any_bad || bad;
                 pair_bad = pair_bad || (bad && c < m);
@@ -1265,6 +1279,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.rows_q = arrays[A_ROWS_Q];
     L.rows_y = arrays[A_ROWS_Y];
     L.rows_c = arrays[A_ROWS_C];
+    L.fast_rows = arrays[A_FAST_ROWS];
     L.v1t = arrays[A_V1T];
     L.times = arrays[A_TIMES];
     L.y_out = arrays[A_Y_OUT];

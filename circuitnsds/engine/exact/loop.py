@@ -47,6 +47,8 @@ MAX_MODE_CHANGES = 64
 RELATIVE_TOL = 1e-12
 TIME_ULPS = 4.0
 SUM_ULPS = 8.0
+FAST_SIGNIFICANT = 1e-6
+""":data:`.run.FAST_SIGNIFICANT` (a state's part along a fast mode that counts at a mode choice)."""
 """As :data:`.run.SUM_ULPS` (the round-off of the unknowns summed at an instant)."""
 EPSILON = float(np.finfo(float).eps)
 SERIES_TERMS = 24
@@ -105,13 +107,27 @@ def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights
                          + 1e-300)
 
 
-def _violated(table, powers, exponents, count, k, tolerance):
-    """Whether function ``k`` is negative at 0, or zero and decreasing (to the second
-    derivative) by more than its round-off: :func:`.run._violations`."""
+def _fast_offset(fast_rows, mode, c, x):
+    """What the state's part along the mode's fast modes adds to function ``c`` at the start,
+    where it counts, else 0: :func:`.run.fast_offsets`."""
+    total = 0.0
+    size = 0.0
+    for i in range(x.shape[0]):
+        a = fast_rows[mode, c, i]
+        total += a * x[i]
+        size += abs(a) * abs(x[i])
+    return total if abs(total) > FAST_SIGNIFICANT * size else 0.0
+
+
+def _violated(table, powers, exponents, count, k, tolerance, offset):
+    """Whether function ``k`` (with ``offset`` added: :func:`_fast_offset`) is negative at 0,
+    or zero and decreasing (to the second derivative) by more than its round-off:
+    :func:`.run._violations`."""
     value = 0.0
     for j in range(count):
         if powers[j] == 0:
             value += table[j, k].real
+    value += offset
     if value < -tolerance:
         return True
     if value > tolerance:
@@ -286,7 +302,7 @@ def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b,
 def _exact_loop(clock, counters, x, y_size, sources_now, widened,
                 corners, source_coefficients, source_exponents, source_powers, partner, s_matrix,
                 bits, known, z_map, table_map, powers, exponents, terms, slope_weights,
-                rows_p, rows_q, rows_y, rows_c, v1t,
+                rows_p, rows_q, rows_y, rows_c, fast_rows, v1t,
                 times, y_out, l_out, charges, row_active, row_closed,
                 event_times, event_index, event_on, tail_row, tail_dt, tail_y):
     """Run from ``clock[0]`` [s] until the row ``times[-1]`` is written (the sources' table
@@ -374,7 +390,8 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
             any_bad = False
             pair_bad = False
             for c in range(columns):
-                bad = _violated(table, powers[mode], exponents[mode], terms[mode], c, tolerances[c])
+                bad = _violated(table, powers[mode], exponents[mode], terms[mode], c, tolerances[c],
+                                _fast_offset(fast_rows, mode, c, x))
                 wanted[c] = bits[mode, c] != bad
                 any_bad = any_bad or bad
                 pair_bad = pair_bad or (bad and c < m)
@@ -556,6 +573,7 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
 _shifted = jit(_shifted)
 _ulp = jit(_ulp)
 _functions = jit(_functions)
+_fast_offset = jit(_fast_offset)
 _violated = jit(_violated)
 _find = jit(_find)
 _grown = jit(_grown)

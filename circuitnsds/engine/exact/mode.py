@@ -315,6 +315,10 @@ class ModeDynamics:
             self.P_persistent = (self.z_from_modal[:, slow] @ self.W_inv[slow]).real
         else:  # (the same product: every mode slow)
             self.P_persistent = (self.z_from_modal @ self.W_inv).real
+        # what the state's part along the fast modes puts in z at the start (round-off, but a
+        # current an opening switch cuts where nothing else takes it: run.fast_offsets)
+        self.fast_P = ((self.z_from_modal[:, self.fast] @ self.W_inv[self.fast]).real
+                       if r and self.fast.any() else None)
         self.z_from_sources = self.Q[:, :n] @ S
         self.z_constant = self.Q[:, n:] @ self.e_active
 

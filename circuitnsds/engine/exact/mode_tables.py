@@ -59,6 +59,7 @@ class ModeTables:
             "rows_q": np.zeros((capacity, c, n)),
             "rows_y": np.zeros((capacity, c, n)),
             "rows_c": np.zeros((capacity, c)),
+            "fast_rows": np.zeros((capacity, c, r)),
         }
         if old is not None:
             for name, array in fresh.items():
@@ -115,6 +116,7 @@ class ModeTables:
         self.rows_q[i] = rows_Q[:, :n]
         self.rows_y[i] = rows_Y
         self.rows_c[i] = rows_Q[:, n:] @ np.abs(mode.e_active) + np.abs(constants)
+        self.fast_rows[i] = system.fast_rows(mode, tuple(closed))
         self.index[key] = i
         self.known += 1
         return i

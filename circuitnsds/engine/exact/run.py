@@ -173,6 +173,14 @@ class EventFunctions:
     tolerances: np.ndarray
     labels: list[tuple[str, int]]
     """``("pair", j)`` or ``("switch", k)`` per column."""
+    offsets: np.ndarray | None = None
+    """What the state's part along the mode's fast modes adds to each function at the start
+    (left out of ``table``: :func:`fast_offsets`), or ``None`` (nothing)."""
+
+    def at_start(self) -> np.ndarray:
+        """Each function's value just after the instant: ``table(0)`` and :attr:`offsets`."""
+        values = self.table(0.0)
+        return values if self.offsets is None else values + self.offsets
 
     def function(self, k: int) -> ExpPoly:
         """Column ``k`` as a scalar ExpPoly, its zero terms dropped."""
@@ -270,7 +278,19 @@ class ExactSystem:
             table_poly = ExpPoly(table, linear.powers, linear.exponents)
         else:
             table_poly = ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep])
-        return z, EventFunctions(table_poly, tolerances, list(labels))
+        offsets = fast_offsets(self.fast_rows(mode, closed), x)
+        return z, EventFunctions(table_poly, tolerances, list(labels), offsets if offsets.any() else None)
+
+    def fast_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
+        """``(columns, r)``: each event function's change per unit of the state along the
+        mode's fast modes, at the start (:func:`fast_offsets`; zeros without fast modes)."""
+        key = (id(mode), "fast")
+        cached = self._rows.get(key)
+        if cached is None:
+            rows = self._event_rows(mode, closed)[0]
+            cached = self._rows[key] = (rows @ mode.fast_P if mode.fast_P is not None
+                                        else np.zeros((rows.shape[0], self.coordinates.rank)))
+        return cached
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
                      powers: np.ndarray, exponents: np.ndarray, columns: int) -> SolutionMap:
@@ -356,6 +376,38 @@ class ExactSystem:
         return cached
 
 
+FAST_SIGNIFICANT = 1e-6
+"""A state's part along a mode faster than :data:`.mode.FAST_DECAY` counts at a mode choice
+where it moves an event function by more than this fraction of the magnitudes that make up
+that move (:func:`fast_offsets`): round-off moves it by 1e-16 of them; an inductor's current
+that an opening switch cuts, with no diode conducting yet to take it, by all of them."""
+
+
+def fast_offsets(fast_rows: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """What the state ``x``'s part along the mode's fast modes adds to each event function at
+    the start (``fast_rows`` of :meth:`ExactSystem.fast_rows`), where it counts
+    (:data:`FAST_SIGNIFICANT`), else 0. A segment's solution leaves those modes out (gone
+    in a femtosecond, :data:`.mode.FAST_DECAY`), but not what they do at the instant: the
+    buck whose switch's model has RON alone opened with 1.02 A in its inductor and its
+    freewheeling diode blocking, the inductor's current went into the open switch's 1e-9 S
+    (a mode of −1.06e16 /s) and vanished from the solution, and the diode never turned on
+    (v(out) 0.38 V instead of 4.8 V). The compiled loops compute the same
+    (``loop._fast_offset``)."""
+    offsets = np.zeros(fast_rows.shape[0])
+    for c in range(fast_rows.shape[0]):
+        offsets[c] = _fast_offset(fast_rows[c], x)
+    return offsets
+
+
+def _fast_offset(row: np.ndarray, x: np.ndarray) -> float:
+    """One column of :func:`fast_offsets`, summed in the compiled loops' order."""
+    total, size = 0.0, 0.0
+    for a, b in zip(row.tolist(), x.tolist()):
+        total += a * b
+        size += abs(a) * abs(b)
+    return total if abs(total) > FAST_SIGNIFICANT * size else 0.0
+
+
 def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     """The event functions that are negative at ``τ = 0``, or zero and decreasing (to the
     second derivative): the mode cannot hold just after the instant. A zero function whose
@@ -367,7 +419,7 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
     found no mode. (The loop's certified search catches any deeper dip as an event.)"""
     bad = []
     table = functions.table
-    values = table(0.0)
+    values = functions.at_start()
     for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if value < -tol:
             bad.append((kind, index))
@@ -466,7 +518,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
             nearest, nearest_excess = (trial, z, functions, bad), excess
     if nearest is not None:  # below a blocking pair's leakage: the mode holds (see LEAKAGE_EXCESS)
         trial, z, functions, bad = nearest
-        values = functions.table(0.0)
+        values = functions.at_start()
         for k, label in enumerate(functions.labels):
             if label in bad:
                 functions.tolerances[k] = max(functions.tolerances[k], 2.0 * abs(values[k]))
@@ -479,7 +531,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
 def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
     """How far below its tolerance the worst violated function of a mode is (its value over
     its tolerance); infinite if one is violated by its slope (it leaves the mode at once)."""
-    values = functions.table(0.0)
+    values = functions.at_start()
     worst = 0.0
     for k, label in enumerate(functions.labels):
         if label in bad:
@@ -493,9 +545,9 @@ def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
 NATIVE_ARRAYS = ("clock", "counters", "x", "y_size", "sources_now", "widened", "corners",
                  "source_coefficients", "source_exponents", "source_powers", "partner", "s_matrix", "bits",
                  "z_map", "table_map", "powers", "exponents", "terms", "slope_weights", "rows_p", "rows_q",
-                 "rows_y", "rows_c", "v1t", "times", "y_out", "l_out", "charges", "row_active", "row_closed",
-                 "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y", "spans",
-                 "spans_known")
+                 "rows_y", "rows_c", "fast_rows", "v1t", "times", "y_out", "l_out", "charges", "row_active",
+                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y",
+                 "spans", "spans_known")
 """The arrays whose addresses the C loop takes, in its order (each C-contiguous, of the dtype
 :data:`_NATIVE_DTYPES` gives, float64 otherwise)."""
 NATIVE_SIZES = ("n", "m", "columns", "states", "source_terms", "signals", "corners", "known", "terms_max",
@@ -659,7 +711,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                     "bits": tables.bits, "z_map": tables.z_map, "table_map": tables.table_map,
                     "powers": tables.powers, "exponents": tables.exponents, "terms": tables.terms,
                     "slope_weights": tables.slope_weights, "rows_p": tables.rows_p, "rows_q": tables.rows_q,
-                    "rows_y": tables.rows_y, "rows_c": tables.rows_c, "v1t": v1t, "times": times, "y_out": Y,
+                    "rows_y": tables.rows_y, "rows_c": tables.rows_c, "fast_rows": tables.fast_rows,
+                    "v1t": v1t, "times": times, "y_out": Y,
                     "l_out": L, "charges": charges, "row_active": row_active, "row_closed": row_closed,
                     "event_times": event_times, "event_index": event_index, "event_on": event_on,
                     "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y, "spans": spans,
@@ -672,9 +725,9 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                                     sources.coefficients, sources.exponents, sources.powers, sources.partner,
                                     system.S, tables.bits, tables.known, tables.z_map, tables.table_map,
                                     tables.powers, tables.exponents, tables.terms, tables.slope_weights,
-                                    tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c, v1t, times, Y,
-                                    L, charges, row_active, row_closed, event_times, event_index, event_on,
-                                    tail_row, tail_dt, tail_y)
+                                    tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c,
+                                    tables.fast_rows, v1t, times, Y, L, charges, row_active, row_closed,
+                                    event_times, event_index, event_on, tail_row, tail_dt, tail_y)
             if status == FINISHED:
                 break
             if status == STALLED:
