@@ -16,6 +16,7 @@ from circuitnsds.engine.step_maps import StepMapper
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import RunNote
 from tests.device_checks import assert_device_laws
+from tests.test_exact_stepper import PEAK
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
 # converters for the periodic steady state only: ngspice cannot run the flyback (Timestep too
@@ -406,15 +407,7 @@ def test_a_period_or_warm_up_needing_too_many_steps_is_an_error_not_a_crash(tmp_
     assert status == 1 and "half_wave_rectifier.cir: 1e+12 steps requested (limit 5e+07)" in err
 
 
-PEAK_DETECTOR = """peak detector: an ideal diode charging a capacitor straight from a sine
-V1 in 0 SIN(0 5 1k)
-D1 in c dideal
-C1 c 0 1u
-R1 c 0 10k
-.model dideal D
-.options method={method}
-.end
-"""
+PEAK_DETECTOR = PEAK.replace(".tran 5u 2.5m", ".options method={method}")
 
 
 def test_an_exact_period_map_that_stops_is_an_error_and_auto_takes_the_theta_shooting():
