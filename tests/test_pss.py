@@ -437,3 +437,18 @@ def test_auto_shoots_on_the_exact_period_map_where_the_circuit_qualifies():
     exact = circuitnsds.read_netlist(text.replace(".end", ".options method=exact\n.end")).pss()
     assert auto.means is not None and auto.exact is not None
     assert np.array_equal(auto.means, exact.means)
+
+
+def test_the_exact_period_map_diagnoses_an_undamped_state_as_the_theta_shooting_does():
+    # an inductor across a square wave of non-zero mean: its current ramps every period, so
+    # I − Φ is singular; under method=exact that was a LinAlgError (an internal error)
+    text = "t\nV1 a 0 PULSE(0 1 0 1u 1u 6u 10u)\nL1 a 0 1m\n.tran 0.1u 1m uic\n.options method=exact\n.end\n"
+    with pytest.raises(circuitnsds.SimulationError, match=r"singular.*i\(l1\) is not damped"):
+        circuitnsds.read_netlist(text).pss()
+    # an undamped LC driven next to its resonance (f0 = 5032.9212 Hz): the exact map has a
+    # periodic solution, 1/|1 − μ| ≈ 6.6e5 times the drive along the tank, which no transient
+    # reaches (|μ| = 1): warned (the θ shooting refuses it, its step's damping setting the size)
+    lc = "t\nV1 in 0 SIN(0 1 5032.92)\nL1 in a 1m\nC1 a 0 1u\n.options method=exact\n.end\n"
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"not attracting, the state along .*v\(a\).* "
+                      r"undamped \(largest Floquet multiplier \|λ\| = 1\)"):
+        circuitnsds.read_netlist(lc).pss()

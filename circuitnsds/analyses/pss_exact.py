@@ -22,7 +22,7 @@ from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.exact.mode import NotIndexOne, StateCoordinates
-from circuitnsds.engine.exact.periodic import period_map, periodic_orbit
+from circuitnsds.engine.exact.periodic import SINGULAR, UndampedPeriod, period_map, periodic_orbit
 from circuitnsds.engine.exact.run import Chattering, ExactSystem
 from circuitnsds.engine.exact.small_signal import ExactPeriod
 from circuitnsds.engine.exact.stepper import HANDOFF_CAUSES, ExactStepper
@@ -30,6 +30,17 @@ from circuitnsds.engine.step_maps import state_unknowns
 from circuitnsds.engine.stepper import StartState
 from circuitnsds.errors import CircuitWarning, SimulationError
 from circuitnsds.system.mlcs import MLCS
+
+MARGINAL = 1e-9
+"""A Floquet multiplier this close to the unit circle or beyond it is warned about: the orbit
+found is then not one a transient settles to (an undamped LC driven near its resonance has an
+exact periodic solution, of 1/|1 − μ| times the drive, which its transient never reaches)."""
+
+
+def _along(mlcs: MLCS, vector: np.ndarray) -> str:
+    """The unknowns that make up most of a vector of state coordinates ``x``."""
+    size = np.abs(StateCoordinates.of(mlcs.E.toarray()).V1 @ vector)
+    return ", ".join(mlcs.unknowns[j] for j in np.argsort(size)[::-1][:3] if size[j] > 0.1 * size.max())
 
 
 def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: np.ndarray,
@@ -49,6 +60,12 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     hint = "run the pss with .options method=theta (the θ shooting falls back to transient periods)"
     try:
         orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed)
+    except UndampedPeriod as exc:
+        from circuitnsds.analyses.pss import UNDAMPED_HINT
+
+        raise SimulationError(f"{exc}: the state along {_along(mlcs, exc.vector)} is not damped over a "
+                              "period, so no Newton step can settle it", where=circuit.file,
+                              hint=UNDAMPED_HINT) from None
     except ArithmeticError as exc:
         raise SimulationError(str(exc), where=circuit.file, hint=hint) from None
     except (Chattering, NotIndexOne) as exc:  # (a transient hands such a stretch to θ; a period map cannot)
@@ -73,11 +90,24 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     monodromy = to_state @ orbit.monodromy @ np.linalg.pinv(to_state)
     multipliers = np.linalg.eigvals(monodromy) if monodromy.size else np.zeros(0)
     multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
-    if multipliers.size and np.abs(multipliers).max() > 1.0:
+    values, vectors = np.linalg.eig(orbit.monodromy) if orbit.monodromy.size else (np.zeros(0), None)
+    closest = int(np.argmin(np.abs(1.0 - values))) if values.size else -1
+    if values.size and abs(1.0 - values[closest]) < SINGULAR:
+        from circuitnsds.analyses.pss import UNDAMPED_HINT
+
         warnings.warn(CircuitWarning(
-            f"{circuit.file}: the periodic solution found is not stable (largest Floquet "
-            f"multiplier |λ| = {np.abs(multipliers).max():.6g} > 1): a transient would not settle "
-            "to it"), stacklevel=4)
+            f"{circuit.file}: the periodic solution is not unique: the state along "
+            f"{_along(mlcs, vectors[:, closest])} is not damped (Floquet multiplier 1), so every "
+            f"value of it repeats and the one shown is the initial state's; {UNDAMPED_HINT}"),
+            stacklevel=4)
+    elif multipliers.size and np.abs(multipliers).max() > 1.0 - MARGINAL:
+        largest = int(np.argmax(np.abs(values)))
+        what = ("not stable" if np.abs(multipliers).max() > 1.0 + MARGINAL else
+                f"not attracting, the state along {_along(mlcs, vectors[:, largest])} undamped")
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution found is {what} (largest Floquet multiplier "
+            f"|λ| = {np.abs(multipliers).max():.6g}): a transient would not settle to it"),
+            stacklevel=4)
     scale = max(float(np.max(np.abs(orbit.x), initial=0.0)), 1e-300)
     result = PSSResult(waveforms=waves, period=period, t0=float(grid[0]),
                        state_names=[mlcs.unknowns[j] for j in state], state=orbit.y[state].copy(),

@@ -37,6 +37,21 @@ from circuitnsds.system.mlcs import MLCS
 TOLERANCE = 1e-12
 """Newton stops when ``‖P(x) − x‖`` is below this fraction of ``‖x‖`` (and 1e-15)."""
 MAX_ITERATIONS = 30
+SINGULAR = 1e-10
+"""A Floquet multiplier closer than this to 1 makes ``I − Φ`` singular (the θ shooting's)."""
+ILL_CONDITIONED = 1e12
+"""Condition number of ``I − Φ`` above which the Newton step is refused (the θ shooting's)."""
+
+
+class UndampedPeriod(ArithmeticError):
+    """``I − Φ`` is singular: the state along ``vector`` (state coordinates ``x``) is not
+    damped over a period (``multiplier``: Φ's eigenvalue closest to 1; ``condition``:
+    ``I − Φ``'s), so no Newton step can settle it."""
+
+    def __init__(self, multiplier: complex, condition: float, vector: np.ndarray):
+        super().__init__(f"I − Φ is singular (Floquet multiplier {multiplier:.12g}, condition "
+                         f"{condition:.3g})")
+        self.multiplier, self.condition, self.vector = multiplier, condition, vector
 
 
 @dataclass
@@ -108,6 +123,8 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
     the map itself).
 
     Raises:
+        UndampedPeriod: ``I − Φ`` is singular at a Newton step (an inductor across a square
+            wave of non-zero mean: its current ramps every period; before, a LinAlgError).
         ArithmeticError: Newton did not converge in :data:`MAX_ITERATIONS`.
     """
     system = ExactSystem(mlcs)
@@ -124,6 +141,12 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
         if residual <= TOLERANCE * max(float(np.max(np.abs(x), initial=0.0)), 1e-3):
             return ExactOrbit(x, system.coordinates.V1 @ x, monodromy, residuals, means, active,
                               closed)
-        x = x + np.linalg.solve(np.eye(x.size) - monodromy, x_end - x)
+        matrix = np.eye(x.size) - monodromy
+        values, vectors = np.linalg.eig(monodromy)
+        closest = int(np.argmin(np.abs(1.0 - values)))
+        condition = float(np.linalg.cond(matrix))
+        if abs(1.0 - values[closest]) < SINGULAR or not condition < ILL_CONDITIONED:
+            raise UndampedPeriod(complex(values[closest]), condition, vectors[:, closest])
+        x = x + np.linalg.solve(matrix, x_end - x)
         active, closed = run.active[-1], tuple(bool(c) for c in run.closed[-1])
     raise ArithmeticError(f"Newton on the exact period map did not converge: residuals {residuals}")
