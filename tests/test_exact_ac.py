@@ -91,21 +91,30 @@ def test_the_pwm_bucks_control_to_output_has_no_integration_lag():
     assert np.max(np.abs(np.degrees(np.angle(ratio[2:])))) < 0.03  # (θ: 0.43° to 1.8°)
 
 
+def _ac_over_injection(base: str, source: str, line: str, sine: str, frequency: float,
+                       amplitude: float, settle: float) -> complex:
+    """The exact orbit's ac from ``source`` to ``v(out)`` over the same ratio measured by
+    ``amplitude`` of sine on it (``line`` of ``base`` replaced by ``sine``, formatted with the
+    amplitude and frequency) in an exact transient from the orbit, over ``settle`` [s] after
+    ``settle`` of start-up."""
+    circuit = _read(base.replace(".end", ".options method=exact\n.end"))
+    settled = circuit.pss()
+    response = circuit.ac(source, "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
+    injected = _read(base.replace(line, sine.format(amplitude=amplitude, frequency=frequency)))
+    injection = _injected_response(injected, settled, frequency, amplitude, settle=settle, window=settle)
+    return response / injection
+
+
 @pytest.mark.parametrize("frequency", [1e3])
 def test_a_dcm_boosts_line_to_output_is_the_sine_injections(frequency):
     # DCM: the diode turns off where the inductor current reaches 0, an instant that moves
     # with the perturbation (the θ-based ac moves it by whole steps: 0.1 dB and 1.6° off here).
     # Reference: 10 mV of sine on Vin in an exact transient from the orbit, its fundamental
     # over whole periods after the start-up (the output pole's RC/2 = 0.25 ms: e^-12 left)
-    base = (BENCHMARKS / "boost_dcm.cir").read_text()
-    circuit = _read(base.replace(".end", ".options method=exact\n.end"))
-    settled = circuit.pss()
-    response = circuit.ac("vin", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
-    amplitude = 0.01
-    injected = _read(base.replace("Vin in 0 DC 12", f"Vin in 0 SIN(12 {amplitude} {frequency})"))
-    injection = _injected_response(injected, settled, frequency, amplitude, settle=3e-3, window=3e-3)
-    assert abs(20 * np.log10(abs(response / injection))) < 2e-3
-    assert abs(np.degrees(np.angle(response / injection))) < 0.02
+    ratio = _ac_over_injection((BENCHMARKS / "boost_dcm.cir").read_text(), "vin", "Vin in 0 DC 12",
+                               "Vin in 0 SIN(12 {amplitude} {frequency})", frequency, 0.01, 3e-3)
+    assert abs(20 * np.log10(abs(ratio))) < 2e-3
+    assert abs(np.degrees(np.angle(ratio))) < 0.02
 
 
 @pytest.mark.parametrize("frequency", [3e3])
@@ -114,15 +123,10 @@ def test_a_closed_loops_reference_to_output_is_the_sine_injections(frequency):
     # at an instant that moves with the state (the saltation) and with the reference (the
     # input's own push on the event function, the only path from the reference: without it
     # the response is 0; without the saltation it is 0.066 dB off)
-    base = buck(loop=True)
-    circuit = _read(base.replace(".end", ".options method=exact\n.end"))
-    settled = circuit.pss()
-    response = circuit.ac("vref", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
-    amplitude = 0.005
-    injected = _read(base.replace("Vref ref 0 DC 3", f"Vref ref 0 SIN(3 {amplitude} {frequency})"))
-    injection = _injected_response(injected, settled, frequency, amplitude, settle=2e-3, window=2e-3)
-    assert abs(20 * np.log10(abs(response / injection))) < 5e-3
-    assert abs(np.degrees(np.angle(response / injection))) < 0.05
+    ratio = _ac_over_injection(buck(loop=True), "vref", "Vref ref 0 DC 3",
+                               "Vref ref 0 SIN(3 {amplitude} {frequency})", frequency, 0.005, 2e-3)
+    assert abs(20 * np.log10(abs(ratio))) < 5e-3
+    assert abs(np.degrees(np.angle(ratio))) < 0.05
 
 
 def test_ac_around_an_exact_orbit_warns_of_a_diode_at_its_threshold():

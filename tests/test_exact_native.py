@@ -40,11 +40,11 @@ from circuitnsds.analyses.operating_point import operating_point, uic_state
 from circuitnsds.analyses.recorders import TrajectoryRecorder
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.exact import loop, run
-from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.first_event import UNRESOLVED, first_event, native_first_event
 from circuitnsds.engine.exact.stepper import ExactStepper
 from circuitnsds.engine.timegrid import time_grid
 from tests.conftest import assert_native_library_current
+from tests.test_exact_segments import drawn_term, two_columns
 
 ROOT = Path(__file__).parents[1]
 NETLISTS = ROOT / "netlists"
@@ -226,26 +226,17 @@ def test_the_loop_stops_as_stalled_when_the_search_gives_up():
     assert (tau, column) == (0.0, -2) and UNRESOLVED < 0
 
 
-_coefficient = st.floats(-3, 3, allow_subnormal=False)
-_term = st.tuples(_coefficient, _coefficient, _coefficient, _coefficient, st.integers(0, 2),
-                  st.floats(-2e3, 5e2, allow_subnormal=False), st.sampled_from([0.0, 0.0, 300.0, 5e3]))
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.lists(_term, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(1e-5, 2e-3))
+@given(st.lists(drawn_term, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(1e-5, 2e-3))
 def test_the_c_search_is_the_first_root_dense_sampling_cannot_beat(terms, offset, horizon):
     # two columns sharing their terms, as a segment's event functions do; the C search's
     # instant: no column is below -tol (beyond its round-off) at any of 19,999 instants inside
     # (0, τ) (a column negative at 0 ends the segment at once: τ = 0), and, when a column ends
     # the segment after 0, that column is at its zero there (to the bound's band); the numba
     # search finds the same instant
-    rows, powers, exponents = [[offset, -offset]], [0], [0j]
-    for re0, im0, re1, im1, p, decay, omega in terms:
-        for sign in ((1, -1) if omega else (1,)):
-            rows.append([complex(re0, sign * im0 if omega else 0), complex(re1, sign * im1 if omega else 0)])
-            powers.append(p)
-            exponents.append(complex(decay, sign * omega))
-    g = ExpPoly(np.array(rows, complex), np.array(powers), np.array(exponents, complex))
+    g = two_columns(terms, offset)
     tolerances = np.array([1e-12, 1e-12])
     found = native_first_event(g.coefficients, g.powers, g.exponents, tolerances, horizon)
     assert found is not None

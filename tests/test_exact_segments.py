@@ -214,13 +214,25 @@ def test_a_full_wave_bridge_switches_at_its_closed_form_instants():
 
 
 _coefficient = st.floats(-3, 3, allow_subnormal=False)  # (a subnormal holds no relative precision)
-_term = st.tuples(_coefficient, _coefficient, _coefficient, _coefficient,
+drawn_term = st.tuples(_coefficient, _coefficient, _coefficient, _coefficient,
                   st.integers(0, 2), st.floats(-2e3, 5e2, allow_subnormal=False),
                   st.sampled_from([0.0, 0.0, 300.0, 5e3]))
 
 
+def two_columns(terms, offset: float) -> ExpPoly:
+    """Two event functions sharing their terms (as a segment's do), from :data:`drawn_term` draws:
+    a constant ``±offset`` and each term, a conjugate pair where it oscillates (real)."""
+    rows, powers, exponents = [[offset, -offset]], [0], [0j]
+    for re0, im0, re1, im1, p, decay, omega in terms:
+        for sign in ((1, -1) if omega else (1,)):
+            rows.append([complex(re0, sign * im0 if omega else 0), complex(re1, sign * im1 if omega else 0)])
+            powers.append(p)
+            exponents.append(complex(decay, sign * omega))
+    return ExpPoly(np.array(rows, complex), np.array(powers), np.array(exponents, complex))
+
+
 @settings(max_examples=60, deadline=None)
-@given(st.lists(_term, min_size=1, max_size=5), st.floats(0, 2e-3), st.floats(1e-6, 2e-3))
+@given(st.lists(drawn_term, min_size=1, max_size=5), st.floats(0, 2e-3), st.floats(1e-6, 2e-3))
 def test_the_table_bound_is_below_every_column_and_merging_keeps_the_function(terms, a, width):
     # two columns sharing the terms (as a segment's event functions do), conjugate pairs for
     # the oscillating terms so each column is real; some terms repeated to be merged
@@ -354,18 +366,12 @@ def test_the_cached_solution_map_is_the_closed_form_solution(state, start, close
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(_term, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(1e-5, 2e-3))
+@given(st.lists(drawn_term, min_size=1, max_size=5), st.floats(-2.0, 2.0), st.floats(1e-5, 2e-3))
 def test_the_compiled_first_event_is_the_certified_first_root(terms, offset, horizon):
     # the compiled search over a table's columns against roots.first_root column by column
     from circuitnsds.engine.exact.first_event import first_event
 
-    rows, powers, exponents = [[offset, -offset]], [0], [0j]
-    for re0, im0, re1, im1, p, decay, omega in terms:
-        for sign in ((1, -1) if omega else (1,)):
-            rows.append([complex(re0, sign * im0 if omega else 0), complex(re1, sign * im1 if omega else 0)])
-            powers.append(p)
-            exponents.append(complex(decay, sign * omega))
-    g = ExpPoly(np.array(rows, complex), np.array(powers), np.array(exponents, complex))
+    g = two_columns(terms, offset)
     tolerances = np.array([1e-12, 1e-12])
     tau, column = first_event(g.coefficients, g.powers.astype(np.int64), g.exponents, tolerances,
                               horizon, 1e-13)
