@@ -116,7 +116,8 @@ class ModeTables:
         self.rows_q[i] = rows_Q[:, :n]
         self.rows_y[i] = rows_Y
         self.rows_c[i] = rows_Q[:, n:] @ np.abs(mode.e_active) + np.abs(constants)
-        self.fast_rows[i] = system.fast_rows(mode, tuple(closed))
+        if mode.fast_P is not None:  # (else zeros: nothing along a fast mode to count)
+            self.fast_rows[i] = system.fast_rows(mode, tuple(closed))
         self.index[key] = i
         self.known += 1
         return i

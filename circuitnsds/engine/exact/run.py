@@ -203,6 +203,7 @@ class ExactSystem:
         self._system_matrices: dict[tuple[bool, ...], np.ndarray] = {}
         self._modes: dict[tuple, ModeDynamics] = {}
         self._rows: dict[int, tuple] = {}
+        self._fast_rows: dict[int, np.ndarray] = {}
         self._maps: dict[tuple, SolutionMap] = {}
         self._quick_maps: dict[tuple, tuple] = {}
         self._labels: dict[int, tuple] = {}
@@ -278,18 +279,17 @@ class ExactSystem:
             table_poly = ExpPoly(table, linear.powers, linear.exponents)
         else:
             table_poly = ExpPoly(table[keep], linear.powers[keep], linear.exponents[keep])
-        offsets = fast_offsets(self.fast_rows(mode, closed), x)
-        return z, EventFunctions(table_poly, tolerances, list(labels), offsets if offsets.any() else None)
+        offsets = fast_offsets(self.fast_rows(mode, closed), x) if mode.fast_P is not None else None
+        return z, EventFunctions(table_poly, tolerances, list(labels), offsets)
 
     def fast_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
         """``(columns, r)``: each event function's change per unit of the state along the
         mode's fast modes, at the start (:func:`fast_offsets`; zeros without fast modes)."""
-        key = (id(mode), "fast")
-        cached = self._rows.get(key)
+        cached = self._fast_rows.get(id(mode))
         if cached is None:
             rows = self._event_rows(mode, closed)[0]
-            cached = self._rows[key] = (rows @ mode.fast_P if mode.fast_P is not None
-                                        else np.zeros((rows.shape[0], self.coordinates.rank)))
+            cached = self._fast_rows[id(mode)] = (rows @ mode.fast_P if mode.fast_P is not None
+                                                  else np.zeros((rows.shape[0], self.coordinates.rank)))
         return cached
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
@@ -393,19 +393,8 @@ def fast_offsets(fast_rows: np.ndarray, x: np.ndarray) -> np.ndarray:
     (a mode of −1.06e16 /s) and vanished from the solution, and the diode never turned on
     (v(out) 0.38 V instead of 4.8 V). The compiled loops compute the same
     (``loop._fast_offset``)."""
-    offsets = np.zeros(fast_rows.shape[0])
-    for c in range(fast_rows.shape[0]):
-        offsets[c] = _fast_offset(fast_rows[c], x)
-    return offsets
-
-
-def _fast_offset(row: np.ndarray, x: np.ndarray) -> float:
-    """One column of :func:`fast_offsets`, summed in the compiled loops' order."""
-    total, size = 0.0, 0.0
-    for a, b in zip(row.tolist(), x.tolist()):
-        total += a * b
-        size += abs(a) * abs(b)
-    return total if abs(total) > FAST_SIGNIFICANT * size else 0.0
+    offsets = fast_rows @ x
+    return np.where(np.abs(offsets) > FAST_SIGNIFICANT * (np.abs(fast_rows) @ np.abs(x)), offsets, 0.0)
 
 
 def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
@@ -429,14 +418,14 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
             keep = column != 0
             d1 = _derivative(column[keep, None], table.powers[keep], table.exponents[keep])
             slope, slope_tol = _at_zero(*d1)
-            if slope < -slope_tol:
-                curvature, curvature_tol = _at_zero(*_derivative(*d1))
+            if slope > slope_tol:
+                continue
+            curvature, curvature_tol = _at_zero(*_derivative(*d1))
+            if slope < -slope_tol:  # (decreasing: unless the curvature turns it back within tol)
                 if not (curvature > curvature_tol and value - slope * slope / (2.0 * curvature) >= -tol):
                     bad.append((kind, index))
-            elif abs(slope) <= slope_tol:
-                curvature, curvature_tol = _at_zero(*_derivative(*d1))
-                if curvature < -curvature_tol:
-                    bad.append((kind, index))
+            elif curvature < -curvature_tol:
+                bad.append((kind, index))
     return bad
 
 
