@@ -518,7 +518,7 @@ enum {
     A_SOURCE_EXPONENTS, A_SOURCE_POWERS, A_PARTNER, A_S_MATRIX, A_BITS, A_Z_MAP, A_TABLE_MAP, A_POWERS,
     A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_FAST_ROWS, A_V1T, A_TIMES, A_Y_OUT,
     A_L_OUT, A_CHARGES, A_ROW_ACTIVE, A_ROW_CLOSED, A_EVENT_TIMES, A_EVENT_INDEX, A_EVENT_ON, A_TAIL_ROW,
-    A_TAIL_DT, A_TAIL_Y, A_SPANS, A_SPANS_KNOWN, A_COUNT_ARRAYS
+    A_TAIL_DT, A_TAIL_Y, A_COUNT_ARRAYS
 };
 
 /* The order of the entries of the `sizes` argument (int64); run.NATIVE_SIZES. */
@@ -552,12 +552,16 @@ typedef struct {
     uint8_t *event_on;
     int64_t *tail_row;
     double *tail_dt, *tail_y;
-    int64_t *spans, *spans_known;
     /* each mode's nonzero entries (listed), built when the mode is first met in a call: the
      * event table's lines (T·columns over I inputs), then rows_q's and rows_y's (columns
-     * lines over n each); listed[mode] < 0 until then (sparse_lines) */
+     * lines over n each), then the z map's (T·(n + m) over I: a few % of its entries are
+     * not 0, as a term of a source's exponent reads only that source's inputs and a mode's
+     * own exponent only the state); listed[mode] < 0 until then (sparse_lines) */
     int64_t *listed, *first;
     int32_t *entries;
+    /* the nonzero entries of S's rows (s_entries[s_first[i]] ... of row i: the sources that
+     * drive unknown i), listed once per call; a zero entry adds ±0 to a sum that is +0 */
+    int64_t *s_first, *s_entries;
     int64_t entries_used, entries_capacity;
 } Exact;
 
@@ -590,47 +594,28 @@ static int list_nonzero(Exact *L, const void *values, int complex_values, int64_
     return SPARSE_OK;
 }
 
+/* The lines of a mode's lists: the event table's, rows_q's, rows_y's, the z map's, and the end. */
+static inline int64_t lines_per_mode(const Exact *L) {
+    return L->T * L->columns + 2 * L->columns + L->T * (L->n + L->m) + 1;
+}
+
 /* Mode `mode`'s lists (L->listed[mode] the index in L->first of its first line), built on first
  * use. A zero entry adds ±0 to a sum that is never -0 (it starts at +0, and x + (-x) is +0):
  * summing the nonzero entries alone gives the numba loop's sums bit for bit. */
 static int sparse_lines(Exact *L, int64_t mode) {
     if (L->listed[mode] >= 0)
         return SPARSE_OK;
-    const int64_t T = L->T, columns = L->columns, per_mode = T * columns + 2 * columns + 1;
-    int64_t start = mode * per_mode;
-    if (list_nonzero(L, L->table_map + mode * (T * columns) * L->I, 1, T * columns, L->I, start)
+    const int64_t T = L->T, count = L->terms[mode], columns = L->columns, width = L->n + L->m;
+    int64_t start = mode * lines_per_mode(L);
+    /* (the mode's own terms only: the lines of terms count .. T are never read) */
+    if (list_nonzero(L, L->table_map + mode * (T * columns) * L->I, 1, count * columns, L->I, start)
         || list_nonzero(L, L->rows_q + mode * columns * L->n, 0, columns, L->n, start + T * columns)
-        || list_nonzero(L, L->rows_y + mode * columns * L->n, 0, columns, L->n, start + T * columns + columns))
+        || list_nonzero(L, L->rows_y + mode * columns * L->n, 0, columns, L->n, start + T * columns + columns)
+        || list_nonzero(L, L->z_map + mode * (T * width) * L->I, 1, count * width, L->I,
+                        start + T * columns + 2 * columns))
         return SPARSE_FAILED;
     L->listed[mode] = start;
     return SPARSE_OK;
-}
-
-/* Each known mode's terms' spans of inputs (spans (M, T, 4): [lo, hi) of the z map's inputs
- * that are not 0 for some unknown, then the event table's), computed once per mode (the
- * caller keeps them between calls; spans_known[0] modes have theirs): a term of a source's
- * exponent reads only that source's inputs, a mode's own exponent only the state. */
-static void find_spans(Exact *L) {
-    const int64_t T = L->T, I = L->I, width = L->n + L->m, columns = L->columns;
-    for (int64_t mode = L->spans_known[0]; mode < L->known; mode++)
-        for (int64_t j = 0; j < T; j++) {
-            int64_t *span = L->spans + (mode * T + j) * 4;
-            for (int which = 0; which < 2; which++) {
-                const int64_t lines = which == 0 ? width : columns;
-                const cplx *map = which == 0 ? L->z_map + (mode * T * width + j * width) * I
-                                             : L->table_map + (mode * T * columns + j * columns) * I;
-                int64_t lo = I, hi = 0;
-                for (int64_t i = 0; i < lines; i++)
-                    for (int64_t q = 0; q < I; q++)
-                        if (map[i * I + q].re != 0.0 || map[i * I + q].im != 0.0) {
-                            lo = q < lo ? q : lo;
-                            hi = q + 1 > hi ? q + 1 : hi;
-                        }
-                span[2 * which] = lo < hi ? lo : 0;
-                span[2 * which + 1] = hi;
-            }
-        }
-    L->spans_known[0] = L->known;
 }
 
 /* loop._shifted: the sources' piece k shifted by delta into L->sources_now. */
@@ -989,8 +974,11 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         for (int64_t j = 0; j < L->J; j++)
             if (L->source_powers[j] == 0)
                 for (int64_t i = 0; i < n; i++) {
+                    if (L->s_first[i] == L->s_first[i + 1])
+                        continue; /* (a row of S without a source: its size stays +0, as numba's) */
                     cplx total = {0.0, 0.0};
-                    for (int64_t s = 0; s < L->S; s++) {
+                    for (int64_t e = L->s_first[i]; e < L->s_first[i + 1]; e++) {
+                        int64_t s = L->s_entries[e];
                         cplx v = L->sources_now[j * L->S + s];
                         double a = L->s_matrix[i * L->S + s];
                         /* (numba: a real times a complex, the real as a + 0i) */
@@ -1091,18 +1079,21 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         /* z = [y; λ] per term; the pairs' columns only when a row or a row's charge needs them */
         int64_t size = row < rows_total && (L->times[row] <= stop_at || (tau > 0 && pair_count > 0)) ? width : n;
         const cplx *z_map = L->z_map + mode * (T * width) * I;
+        const int64_t *first_z = L->first + L->listed[mode] + T * columns + 2 * columns;
         for (int64_t j = 0; j < count; j++)
             for (int64_t i = 0; i < size; i++) {
                 const cplx *line = z_map + (j * width + i) * I;
-                const int64_t *span = L->spans + (mode * T + j) * 4; /* (outside, the map's inputs are 0) */
-                double total_re = 0.0, total_im = 0.0;
+                const int64_t from = first_z[j * width + i], to = first_z[j * width + i + 1];
+                double total_re = 0.0, total_im = 0.0; /* (over the line's nonzero entries: sparse_lines) */
                 if (real_inputs) {
-                    for (int64_t q = span[0]; q < span[1]; q++) {
+                    for (int64_t e = from; e < to; e++) {
+                        int32_t q = L->entries[e];
                         total_re += line[q].re * inputs[q].re;
                         total_im += line[q].im * inputs[q].re;
                     }
                 } else {
-                    for (int64_t q = span[0]; q < span[1]; q++) {
+                    for (int64_t e = from; e < to; e++) {
+                        int32_t q = L->entries[e];
                         cplx value = cmul(line[q], inputs[q]);
                         total_re += value.re;
                         total_im += value.im;
@@ -1293,10 +1284,19 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.tail_row = arrays[A_TAIL_ROW];
     L.tail_dt = arrays[A_TAIL_DT];
     L.tail_y = arrays[A_TAIL_Y];
-    L.spans = arrays[A_SPANS];
-    L.spans_known = arrays[A_SPANS_KNOWN];
-    find_spans(&L);
-    const int64_t per_mode = L.T * L.columns + 2 * L.columns + 1;
+    L.s_first = malloc(sizeof(int64_t) * (size_t)(L.n + 1));
+    L.s_entries = malloc(sizeof(int64_t) * (size_t)(L.n * L.S + 1));
+    if (L.s_first && L.s_entries) {
+        int64_t used = 0;
+        for (int64_t i = 0; i < L.n; i++) {
+            L.s_first[i] = used;
+            for (int64_t s = 0; s < L.S; s++)
+                if (L.s_matrix[i * L.S + s] != 0.0)
+                    L.s_entries[used++] = s;
+        }
+        L.s_first[L.n] = used;
+    }
+    const int64_t per_mode = lines_per_mode(&L);
     L.listed = malloc(sizeof(int64_t) * (size_t)(L.known + 1));
     L.first = malloc(sizeof(int64_t) * (size_t)(L.known * per_mode + 1));
     L.entries = NULL;
@@ -1320,7 +1320,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     Search *search = malloc(sizeof(Search));
     int searching = search && search_init(search, T, L.columns);
     int64_t status = OUT_OF_MEMORY;
-    if (d && c && ints && wanted && searching && L.listed && L.first) {
+    if (d && c && ints && wanted && searching && L.listed && L.first && L.s_first && L.s_entries) {
         double *next = d;
         R.nu_re = next; next += T;
         R.nu_im = next; next += T;
@@ -1362,5 +1362,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     free(L.listed);
     free(L.first);
     free(L.entries);
+    free(L.s_first);
+    free(L.s_entries);
     return status;
 }

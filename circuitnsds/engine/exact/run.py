@@ -535,8 +535,7 @@ NATIVE_ARRAYS = ("clock", "counters", "x", "y_size", "sources_now", "widened", "
                  "source_coefficients", "source_exponents", "source_powers", "partner", "s_matrix", "bits",
                  "z_map", "table_map", "powers", "exponents", "terms", "slope_weights", "rows_p", "rows_q",
                  "rows_y", "rows_c", "fast_rows", "v1t", "times", "y_out", "l_out", "charges", "row_active",
-                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y",
-                 "spans", "spans_known")
+                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y")
 """The arrays whose addresses the C loop takes, in its order (each C-contiguous, of the dtype
 :data:`_NATIVE_DTYPES` gives, float64 otherwise)."""
 NATIVE_SIZES = ("n", "m", "columns", "states", "source_terms", "signals", "corners", "known", "terms_max",
@@ -547,10 +546,10 @@ _NATIVE_DTYPES = {"counters": np.int64, "sources_now": np.complex128, "source_co
                   "bits": np.bool_, "z_map": np.complex128, "table_map": np.complex128, "powers": np.int64,
                   "exponents": np.complex128, "terms": np.int64, "slope_weights": np.complex128,
                   "row_active": np.bool_, "row_closed": np.bool_, "event_index": np.int64,
-                  "event_on": np.bool_, "tail_row": np.int64, "spans": np.int64, "spans_known": np.int64}
+                  "event_on": np.bool_, "tail_row": np.int64}
 _WRITTEN = frozenset({"clock", "counters", "x", "y_size", "sources_now", "widened", "y_out", "l_out",
                       "charges", "row_active", "row_closed", "event_times", "event_index", "event_on",
-                      "tail_row", "tail_dt", "tail_y", "spans", "spans_known"})
+                      "tail_row", "tail_dt", "tail_y"})
 OUT_OF_MEMORY = 4
 """What the C loop returns when it could not allocate its scratch (nothing done)."""
 
@@ -644,7 +643,6 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
     event_times = np.zeros(capacity)
     event_index, event_on = np.zeros(capacity, np.int64), np.zeros(capacity, bool)
     tail_row, tail_dt, tail_y = np.zeros(capacity, np.int64), np.zeros(capacity), np.zeros((capacity, n))
-    spans, spans_known = np.zeros((0, 0, 4), np.int64), np.zeros(1, np.int64)  # (the C loop's)
 
     def state() -> LoopState:
         active, closed = tables.mode_of(int(counters[1]))
@@ -689,9 +687,6 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             choose(np.asarray(resume.active, bool), tuple(resume.closed))
         while True:
             if function is not None:
-                shape = (tables.bits.shape[0], tables.powers.shape[1], 4)
-                if spans.shape != shape:  # (the tables grew: their modes' spans are found again)
-                    spans, spans_known[0] = np.zeros(shape, np.int64), 0
                 status = _native_call(function, {
                     "clock": clock, "counters": counters, "x": x, "y_size": y_size,
                     "sources_now": sources_now, "widened": widened, "corners": sources.corners,
@@ -704,8 +699,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                     "v1t": v1t, "times": times, "y_out": Y,
                     "l_out": L, "charges": charges, "row_active": row_active, "row_closed": row_closed,
                     "event_times": event_times, "event_index": event_index, "event_on": event_on,
-                    "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y, "spans": spans,
-                    "spans_known": spans_known},
+                    "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y},
                     (n, m, tables.columns, x.size, sources.coefficients.shape[1],
                      sources.coefficients.shape[2], sources.corners.size, tables.known,
                      tables.powers.shape[1], tables.inputs, count, capacity, capacity))
