@@ -27,6 +27,14 @@ def test_run_writes_csv_and_png(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().err
 
 
+def test_signals_given_twice_are_both_written(tmp_path):
+    # --signals v(out) --signals i(d1) wrote i(d1) alone (argparse kept the last)
+    csv = tmp_path / "out.csv"
+    assert main(["run", str(NETLISTS / "half_wave_rectifier.cir"), "-o", str(csv), "--signals", "v(out)",
+                 "--signals", "i(d1)", "--step", "1m", "--stop", "20m"]) == 0
+    assert csv.read_text().splitlines()[0] == "time,v(out),i(d1)"
+
+
 def test_default_output_name_and_theta(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(NETLISTS / "diode_clamp.cir"), "--theta", "0.5", "-q"]) == 0

@@ -21,6 +21,7 @@ import warnings
 from pathlib import Path
 
 from circuitnsds.cli.interrupts import described, exit_status, terminations_interrupt
+from circuitnsds.cli.joined import Joined
 from circuitnsds.cli.progress import ProgressBar
 from circuitnsds.errors import (
     CircuitnsdsError,
@@ -101,7 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="relative periodicity tolerance (default: .pss STEADYCOEFF, else 1e-9)")
     pss.add_argument("--max-iterations", type=int, default=None, metavar="N",
                      help="Newton steps before a fallback of transient periods (default: .pss "
-                     "SCITER, else 10)")
+                     "SCITER, else 10; on the exact period map 30)")
     pss.add_argument("--uic", action="store_true",
                      help="start from initial conditions instead of the operating point")
 
@@ -182,8 +183,9 @@ def _add_output_arguments(command: argparse.ArgumentParser) -> None:
                          help='measure on the results, e.g. "mean(v(out))", "ripple(v(out), 80m, '
                          '100m)", "power(rload, period=20m)", "thd(v(in), 50)", or ngspice\'s .meas '
                          'syntax "tran vavg AVG v(out) from=1m to=2m"; repeatable; printed as a table')
-    command.add_argument("--signals", help='comma-separated signals to write, e.g. "v(out),i(l1)" '
-                         "(default: all)")
+    command.add_argument("--signals", action=Joined,
+                         help='comma-separated signals to write, e.g. "v(out),i(l1)" (repeatable; '
+                         "default: all)")
     command.add_argument("--losses", nargs="?", const="", metavar="LOADS",
                          help="print the power balance of every element (sources, switches, diodes "
                          "with their conduction and switching parts, resistors, stored energy, what "
@@ -653,14 +655,6 @@ def _no_rows(names: list[str]):
     from circuitnsds.output.waveforms import Waveforms
 
     return Waveforms(time=np.zeros(0), signals={name: np.zeros(0) for name in names})
-
-
-def _signal_names(text: str) -> list[str]:
-    """``"v(a,b), i(l1)"`` -> ``["v(a,b)", "i(l1)"]`` (commas inside parentheses kept)."""
-    import re
-
-    return [re.sub(r"\s+", "", name).lower()
-            for name in re.findall(r"[a-z]+\s*\([^)]*\)|[^,\s]+", text, re.IGNORECASE)]
 
 
 def _selected(args: argparse.Namespace, waves):

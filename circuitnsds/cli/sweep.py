@@ -12,6 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from circuitnsds.cli.joined import Joined
 from circuitnsds.cli.progress import CountBar
 from circuitnsds.errors import CircuitError
 from circuitnsds.values import parse_value
@@ -70,7 +71,8 @@ def add_sweep_parser(commands) -> None:
                        "value of the next), or histograms for Monte Carlo runs")
     sweep.add_argument("--waveforms", type=Path, metavar="DIR",
                        help="also write each point's waveforms to DIR/point_NNNN.csv")
-    sweep.add_argument("--signals", help='signals written with --waveforms, e.g. "v(out),i(l1)"')
+    sweep.add_argument("--signals", action=Joined,
+                       help='signals written with --waveforms, e.g. "v(out),i(l1)" (repeatable)')
     add_execution_arguments(sweep)
     sweep.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
     sweep.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
