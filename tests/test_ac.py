@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import circuitnsds
+from tests.conftest import pinned
 from tests.sine_injection import injected_response
 
 NETLISTS = Path(__file__).resolve().parent.parent / "netlists"
@@ -78,8 +79,9 @@ def test_linear_ac_agrees_with_ngspice(text, outputs):
 
 def test_periodic_ac_of_a_linear_circuit_is_the_implicit_euler_transfer_function():
     # no switching: around the PSS the response is the discretised circuit's, H(s_d) with
-    # s_d = (1 - e^{-jωh})/h, exactly (and H(jω) as ωh -> 0)
-    circuit = read(RLC.replace("DC 0 AC 1", "SIN(0 1 1k)"))
+    # s_d = (1 - e^{-jωh})/h, exactly (and H(jω) as ωh -> 0): the θ shooting's (the default's
+    # exact map gives H(jω) itself: test_exact_ac.py)
+    circuit = read(pinned(RLC.replace("DC 0 AC 1", "SIN(0 1 1k)")))
     steps = 2000
     h = 1e-3 / steps
     settled = circuit.pss(step=h)
@@ -182,12 +184,13 @@ def test_cli_ac_writes_the_bode_table(tmp_path):
 def test_buck_line_to_output_matches_a_sine_injection_transient(frequency):
     # brute force: Vin + 10 mV·sin(ωt), a transient from the periodic steady state for 5 ms
     # (the injection's start-up decays as 0.99 per switching period), then the DFT of v(out)
-    # over 1 ms (whole periods of the sine and of the switching)
-    circuit = read(BUCK)
+    # over 1 ms (whole periods of the sine and of the switching); the θ shooting's ac against
+    # θ's transient (the exact map's against the exact transient: test_exact_ac.py)
+    circuit = read(pinned(BUCK))
     settled = circuit.pss()
     ours = circuit.ac("vin", "v(out)", [frequency], pss=settled).transfer["v(out)"][0]
     amplitude = 10e-3
-    injected = read(BUCK.replace("Vin in 0 DC 24", f"Vin in 0 SIN(24 {amplitude} {frequency})"))
+    injected = read(pinned(BUCK.replace("Vin in 0 DC 24", f"Vin in 0 SIN(24 {amplitude} {frequency})")))
     theirs = injected_response(injected, settled.maps.trajectory, injected.analyses["tran"].step, frequency,
                                amplitude, settle=5e-3, window=1e-3)
     assert abs(20 * np.log10(abs(ours / theirs))) < 0.2
@@ -249,12 +252,13 @@ def test_ac_around_a_diode_sitting_at_its_threshold_is_warned():
     # when negative (10 Ω). The response is one-sided there, not linear: the sine-injection
     # transient (brute force, either sign of the sine) gives 2.82 Ω at 3.75 kHz where the
     # linearisation around the blocked diode gives 4.95 Ω. That needs a warning, not a number.
-    circuit = read(DEGENERATE)
+    # (The θ shooting's; the exact map's ac warns alike: test_exact_ac.py.)
+    circuit = read(pinned(DEGENERATE))
     settled = circuit.pss(step=2e-6)
     frequency = 0.75 / settled.period
     with pytest.warns(circuitnsds.CircuitWarning, match=r"d0 .*neither current nor voltage"):
         ours = circuit.ac("iinj", "v(n1)", [frequency], pss=settled).transfer["v(n1)"][0]
-    text = DEGENERATE.replace("Iinj 0 n1 DC 0", f"Iinj 0 n1 SIN(0 1u {frequency})")
+    text = pinned(DEGENERATE.replace("Iinj 0 n1 DC 0", f"Iinj 0 n1 SIN(0 1u {frequency})"))
     theirs = injected_response(read(text), settled.maps.trajectory, 2e-6, frequency, 1e-6,
                                settle=2 * settled.period, window=4 * settled.period, signal="v(n1)")
     assert abs(ours - theirs) > 0.2 * abs(theirs)  # what the warning is about

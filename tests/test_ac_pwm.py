@@ -21,7 +21,9 @@ LOOP_GAIN = 0.2  # the closed loop's error amplifier: v(ctrl) = 0.2·(3 V − v(
 GAIN = (RISE + FALL) / PERIOD  # duty per volt of control: the switch is on while v(ctrl) > v(ramp)
 
 
-def buck(control: str = f"DC {VC}", loop: bool = False) -> str:
+def buck(control: str = f"DC {VC}", loop: bool = False, method: str = "theta") -> str:
+    """The PWM buck, run by ``method`` (the θ shooting's located duty cycle and split steps are
+    what this file tests; the exact map's ac of the same buck: test_exact_ac.py)."""
     source = (f"Vref ref 0 DC 3\nE1 ctrl 0 ref out {LOOP_GAIN}" if loop else f"Vc ctrl 0 {control}")
     return f"""PWM buck: S1 closed while v(ctrl) > v(ramp) (as netlists/buck_voltage_mode.cir)
 Vin in 0 DC {VIN}
@@ -35,6 +37,7 @@ Rload out 0 {R}
 .model swmod SW(VT=0 VH=0 RON=1m ROFF=1e9)
 .model dfree D(Ron=1m)
 .tran {STEP} 1m{" uic" if loop else ""}
+.options method={method}
 .end
 """
 

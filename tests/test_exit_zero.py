@@ -127,30 +127,47 @@ C1 b 0 1u
 def test_a_step_longer_than_the_circuits_ringing_is_warned_naming_the_pair():
     # ω0 = 1/√(LC) = 1e6 rad/s, ζ = R/2·√(C/L) = 0.05, so it rings at ω0·√(1-ζ²) (159 kHz,
     # period 6.291 µs) and the step response peaks at 10·(1 + exp(-πζ/√(1-ζ²))) = 18.55 V
-    # (ngspice: 18.44 V). At 100 µs it peaked at 10.0 V, no word.
+    # (ngspice: 18.44 V). At 100 µs implicit Euler peaked at 10.0 V, no word.
     with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz \(period "
                       r"6\.291 µs, damping ratio 0\.05.*Use a step of 314\.\d ns or less"):
-        coarse = circuit_from(SERIES_RLC.format(step="100u")).transient()
+        coarse = circuit_from(SERIES_RLC.format(step="100u")).transient(method="theta")
     assert coarse["v(b)"].max() < 10.5  # (what the warning is about)
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", circuitnsds.CircuitWarning)
-        fine = circuit_from(SERIES_RLC.format(step="50n").replace("1m", "20u")).transient(theta=0.5)
+        fine = circuit_from(SERIES_RLC.format(step="50n").replace("1m", "20u")).transient(
+            theta=0.5, method="theta")
     peak = 10 * (1 + np.exp(-np.pi * 0.05 / np.sqrt(1 - 0.05**2)))
     assert fine["v(b)"].max() == pytest.approx(peak, rel=2e-3)
 
 
-def test_the_exact_integrator_is_not_warned_of_a_ringing_it_follows():
-    # The same series RLC at 100 µs rows under method=exact: its rows are the closed form at
-    # their instants whatever their spacing (the peak 18.55 V falls between rows; the rows
-    # still sample the true ringing, not a damped one), so no warning of a step (before, the
-    # exact run was warned alike; its θ hand-offs' steps are still watched).
+def test_rows_too_far_apart_to_show_a_ringing_are_warned_under_the_default():
+    # the default takes the exact integrator here: each row at 100 µs is exact (the ringing
+    # has decayed by then: v(b) = 10 V), but the 18.55 V peak at 3.2 µs falls between rows;
+    # at TSTEP 50 ns the rows show it, and nothing is said
+    peak = 10 * (1 + np.exp(-np.pi * 0.05 / np.sqrt(1 - 0.05**2)))
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz \(period "
+                      r"6\.291 µs, damping ratio 0\.05\) but the rows are 100 µs apart.*the exact "
+                      r"integrator follows the ringing and each row is exact.*TSTEP of 314\.\d ns"):
+        coarse = circuit_from(SERIES_RLC.format(step="100u")).transient()
+    assert coarse["v(b)"].max() < 10.1  # (what the warning is about: 9.95 V at 100 µs, then 10 V)
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", circuitnsds.CircuitWarning)
+        fine = circuit_from(SERIES_RLC.format(step="50n").replace("1m", "20u")).transient()
+    assert fine["v(b)"].max() == pytest.approx(peak, rel=1e-3)  # (rows 50 ns apart: within 0.1 %)
+
+
+def test_the_exact_integrator_is_warned_of_the_peaks_its_rows_hide_not_of_a_step():
+    # The same series RLC at 100 µs rows under method=exact: its rows are the closed form at
+    # their instants whatever their spacing (the rows sample the true ringing, not a damped
+    # one): the warning says that its peak, 18.55 V, falls between them, not that a step
+    # damps it (as it said before; its θ hand-offs' steps are still watched as θ's)
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"rows are 100 µs apart.*each row is exact") as said:
         exact = circuit_from(SERIES_RLC.format(step="100u")).transient(method="exact")
+    assert not any("implicit Euler" in str(w.message) for w in said)
     t, vb = exact.time[2:], np.asarray(exact["v(b)"])[2:]  # (after the 1 ns edge: a step 0.5 ns late)
     t = t - 0.5e-9
     zeta, w0 = 0.05, 1e6
@@ -164,7 +181,8 @@ def test_a_step_longer_than_a_time_constant_between_switchings_is_warned(netlist
     # the hysteretic buck's L/R = 50 µs at a 100 µs step switched every 47 µs (analytic 38.1 µs)
     with pytest.warns(RunNote, match=r"the mode of l1 settles with a time "
                       r"constant of 50 µs but the step is 100 µs"):
-        circuitnsds.read_netlist(netlists / "buck_hysteretic.cir").transient(step=100e-6, stop=400e-6)
+        circuitnsds.read_netlist(netlists / "buck_hysteretic.cir").transient(step=100e-6, stop=400e-6,
+                                                                             method="theta")
 
 
 def test_a_run_keeping_some_signals_in_parts_is_checked_as_the_whole_run(netlists, monkeypatch):
@@ -173,12 +191,14 @@ def test_a_run_keeping_some_signals_in_parts_is_checked_as_the_whole_run(netlist
     import circuitnsds.analyses.recorders as recorders
 
     monkeypatch.setattr(recorders, "segment_steps", lambda mlcs: 3)
-    with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz"):
-        circuit_from(SERIES_RLC.format(step="100u")).transient(signals=["v(b)"])
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz.*implicit Euler"):
+        circuit_from(SERIES_RLC.format(step="100u")).transient(signals=["v(b)"], method="theta")
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"c1, l1 rings at 159 kHz.*rows are 100 µs"):
+        circuit_from(SERIES_RLC.format(step="100u")).transient(signals=["v(b)"])  # (the default: exact rows)
     with pytest.warns(RunNote, match=r"the mode of l1 settles with a time "
                       r"constant of 50 µs but the step is 100 µs"):
         kept = circuitnsds.read_netlist(netlists / "buck_hysteretic.cir").transient(
-            step=100e-6, stop=400e-6, signals=["i(l1)"])
+            step=100e-6, stop=400e-6, signals=["i(l1)"], method="theta")
     assert kept.time.size == 5
 
 
@@ -188,6 +208,7 @@ LC_DRIVEN = """V1 in 0 SIN(0 1 {f})
 L1 in a 1m
 C1 a 0 1u
 .tran 1u 2m"""
+ON_THETA = "\n.options method=theta"  # (the θ shooting; the default shoots on the exact map)
 
 
 def test_pss_of_an_undamped_lc_driven_at_resonance_is_refused():
@@ -195,7 +216,18 @@ def test_pss_of_an_undamped_lc_driven_at_resonance_is_refused():
     # implicit-Euler damping gave a 'steady state' of 31.7 V at 1 µs, 316 V at 100 ns
     with pytest.raises(circuitnsds.SimulationError, match=r"no periodic steady state to show: "
                        r"along v\(a\) the circuit forgets"):
-        circuit_from(LC_DRIVEN.format(f="5032.92")).pss()
+        circuit_from(LC_DRIVEN.format(f="5032.92") + ON_THETA).pss()
+
+
+def test_exact_pss_of_an_undamped_lc_near_resonance_is_its_forced_response_warned():
+    # on the exact map (the default) 5032.92 Hz is 2.4e-7 below f0 = 5032.9212 Hz: the periodic
+    # solution exists, v(a) = sin(ωt)/(1 - (ω/ω0)²), 2.08 MV, and no transient from rest
+    # reaches it (the tank is undamped: Floquet multipliers on the unit circle): the warning
+    omega, omega0 = 2 * np.pi * 5032.92, 1 / np.sqrt(1e-3 * 1e-6)
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"not attracting, the state along v\(a\)"):
+        result = circuit_from(LC_DRIVEN.format(f="5032.92")).pss()
+    # (the 1 µs rows sample the sine's crest to 1 - cos(ω·0.5 µs) = 1.2e-4)
+    assert result.waveforms["v(a)"].max() == pytest.approx(1 / (1 - (omega / omega0) ** 2), rel=1.3e-4)
 
 
 def test_pss_of_a_half_bridge_driving_an_undamped_lc_at_resonance_is_refused():
@@ -205,18 +237,30 @@ def test_pss_of_a_half_bridge_driving_an_undamped_lc_at_resonance_is_refused():
             "S2 sw 0 0 g swn\nL1 sw a 1m\nC1 a 0 1u\nRb a 0 1e9\n.model sw SW(VT=0.5 RON=1u)\n"
             ".model swn SW(VT=-0.5 RON=1u)\n.tran 1u 2m")
     with pytest.raises(circuitnsds.SimulationError, match="no periodic steady state to show"):
-        circuit_from(body).pss()
+        circuit_from(body + ON_THETA).pss()
+    # the exact map's orbit is the circuit's: 2.1 MV, damped by the 1 GΩ bleeder and the
+    # switches' 1 µΩ alone (|λ| = 1 - 2e-7 per period), which it says
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"attracts only slowly: the state along "
+                      r"v\(a\) comes 2(\.\d)?e-07 .* about 5e\+06 periods \((9\d\d|1e\+03) s\)"):
+        result = circuit_from(body).pss()
+    assert result.waveforms["v(a)"].max() > 1e6
 
 
 def test_pss_of_an_undamped_lc_driven_off_resonance_is_its_forced_response():
-    # at 1 kHz the periodic solution exists and is unique: v(a) = sin(ωt)/(1 - (ω/ω0)²)
+    # at 1 kHz the periodic solution exists and is unique: v(a) = sin(ωt)/(1 - (ω/ω0)²);
+    # implicit Euler's damping makes it attracting (within 1e-5), the exact map's orbit is the
+    # closed form, and not attracting (the tank is undamped), which it says
     import warnings
 
+    omega, omega0 = 2 * np.pi * 1000, 1 / np.sqrt(1e-3 * 1e-6)
+    expected = 1 / (1 - (omega / omega0) ** 2)
     with warnings.catch_warnings():
         warnings.simplefilter("error", circuitnsds.CircuitWarning)
-        result = circuit_from(LC_DRIVEN.format(f="1000")).pss()
-    omega, omega0 = 2 * np.pi * 1000, 1 / np.sqrt(1e-3 * 1e-6)
-    assert result.waveforms["v(a)"].max() == pytest.approx(1 / (1 - (omega / omega0) ** 2), rel=1e-5)
+        result = circuit_from(LC_DRIVEN.format(f="1000") + ON_THETA).pss()
+    assert result.waveforms["v(a)"].max() == pytest.approx(expected, rel=1e-5)
+    with pytest.warns(circuitnsds.CircuitWarning, match=r"not attracting, the state along v\(a\)"):
+        exact = circuit_from(LC_DRIVEN.format(f="1000")).pss()
+    assert exact.waveforms["v(a)"].max() == pytest.approx(expected, rel=1e-12)
 
 
 # --- 11. loops of ideal diodes: the solution is not unique ---------------------------------------
@@ -453,7 +497,7 @@ def test_a_run_of_one_step_longer_than_the_time_constant_is_noted():
     # and the check looked at TSTEP (1 s: 'negligible') instead of the step taken
     with pytest.warns(RunNote, match="the mode of c1 settles with a time constant of 1 ms but "
                       "the step is 1 ms"):
-        circuit_from("V1 in 0 1\nR1 in a 1k\nC1 a 0 1u\n.tran 1 1m uic").transient()
+        circuit_from("V1 in 0 1\nR1 in a 1k\nC1 a 0 1u\n.tran 1 1m uic").transient(method="theta")
 
 
 # --- found by the adversarial trial ---------------------------------------------------------------

@@ -15,6 +15,7 @@ from circuitnsds.engine.integrate import integrate
 from circuitnsds.engine.step_maps import StepMapper
 from circuitnsds.engine.timegrid import time_grid
 from circuitnsds.errors import RunNote
+from tests.conftest import pinned
 from tests.device_checks import assert_device_laws
 from tests.test_exact_stepper import PEAK
 
@@ -39,7 +40,7 @@ def test_rc_square_wave_is_the_closed_form_of_the_implicit_euler_recursion(steps
     # (0, T/2], 0 on the others: v(0) = g^{N/2} (1 - g^{N/2}) / (1 - g^N), and Φ = g^N.
     period = 10e-6
     h = period / steps
-    result = circuitnsds.read_netlist(rc_square(h)).pss()
+    result = circuitnsds.read_netlist(pinned(rc_square(h))).pss()  # (θ's maps: the default is exact)
     g = 1.0 / (1.0 + h / period)
     half = steps // 2
     expected = g**half * (1 - g**half) / (1 - g**steps)
@@ -53,15 +54,36 @@ def test_rc_square_wave_is_the_closed_form_of_the_implicit_euler_recursion(steps
 
 
 def test_rc_square_wave_tends_to_the_continuous_steady_state():
-    # as h -> 0: v(0) = e^{-T/2τ} / (1 + e^{-T/2τ}) (τ = T), with a first-order error
+    # as h -> 0: v(0) = e^{-T/2τ} / (1 + e^{-T/2τ}) (τ = T), with a first-order error (θ)
     exact = math.exp(-0.5) / (1 + math.exp(-0.5))
     errors = []
     for steps in (200, 400, 800):
-        result = circuitnsds.read_netlist(rc_square(10e-6 / steps)).pss()
+        result = circuitnsds.read_netlist(pinned(rc_square(10e-6 / steps))).pss()
         errors.append(abs(result.waveforms["v(out)"][0] - exact))
     assert errors[-1] < 2e-4
     assert errors[0] / errors[1] == pytest.approx(2.0, rel=0.05)
     assert errors[1] / errors[2] == pytest.approx(2.0, rel=0.05)
+
+
+@pytest.mark.parametrize("steps", [4, 20, 800])
+def test_rc_square_wave_on_the_default_exact_map_is_the_continuous_steady_state(steps):
+    # the default (method=auto) shoots on the exact period map: the edges (one step long, as
+    # above) are ramps it integrates in closed form, so at any step v(0) is the continuous
+    # solution of the ramped square wave. From v(0) = v0 over the ramp up (0..h), the top
+    # (h..T/2), the ramp down (T/2..T/2+h) and the bottom: v(T) = v0 by symmetry of the
+    # square wave: v(T/2) = 1 - v0. With τ = T: over a ramp of length h from v_a, the end
+    # is v_a e^{-h/τ} ± (1 - τ/h (1 - e^{-h/τ})) (up: +, from 0 to 1; down: from 1 to 0).
+    period = tau = 10e-6
+    h = period / steps
+    decay = math.exp(-h / tau)
+    ramp = 1 - tau / h * (1 - decay)  # a ramp 0 -> 1 over h from v = 0 ends at this
+    flat = math.exp(-(period / 2 - h) / tau)
+    # v(T/2) = [v0·decay + ramp]·flat + (1 - flat) = 1 - v0
+    v0 = flat * (1 - ramp) / (1 + decay * flat)
+    result = circuitnsds.read_netlist(rc_square(h)).pss()
+    out = result.waveforms["v(out)"]
+    assert out[0] == pytest.approx(v0, rel=1e-10, abs=1e-14)
+    assert result.multipliers == pytest.approx([math.exp(-period / tau)], rel=1e-10)
 
 
 BUCK = """Buck 24 V, 100 kHz, D = 0.5, with switch, diode and inductor resistances
@@ -85,7 +107,7 @@ def test_buck_average_output_is_d_vin_minus_resistive_drops():
     # Vout = D·Vin − I·(D·Ron_s + (1−D)·Ron_d + R_L), I = Vout/R. The discrete steady state
     # satisfies the per-phase averages exactly; what remains is the correlation of the
     # resistive drops with the inductor ripple (~Ron·ΔI²/(12 I) ≈ 1e-5 V here).
-    result = circuitnsds.read_netlist(BUCK).pss()
+    result = circuitnsds.read_netlist(pinned(BUCK)).pss()
     duty, vin, load = 0.5, 24.0, 5.0
     drops = duty * 40e-3 + (1 - duty) * 20e-3 + 50e-3
     expected = duty * vin / (1 + drops / load)
@@ -99,6 +121,19 @@ def test_buck_average_output_is_d_vin_minus_resistive_drops():
     assert mean("i(l1)") == pytest.approx(mean("v(out)") / load, rel=1e-10)  # charge balance on C1
     assert result.iterations <= 3
     assert result.relative_residual < 1e-9
+
+
+def test_buck_average_output_on_the_default_exact_map():
+    # the same relations on the exact period map (the default): the means are the closed-form
+    # integrals over the period (PSSResult.means), so the charge balance on C1 holds to its
+    # Newton tolerance
+    result = circuitnsds.read_netlist(BUCK).pss()
+    duty, vin, load = 0.5, 24.0, 5.0
+    drops = duty * 40e-3 + (1 - duty) * 20e-3 + 50e-3
+    assert result.maps is None and result.exact is not None
+    assert result.means["v(out)"] == pytest.approx(duty * vin / (1 + drops / load), abs=2e-4)
+    assert result.means["i(l1)"] == pytest.approx(result.means["v(out)"] / load, rel=1e-9)
+    assert result.relative_residual < 1e-12
 
 
 def _settled_last_period(circuit, result, step, periods):
@@ -131,7 +166,7 @@ Rload out 0 100
 @pytest.mark.parametrize("name", sorted(CONVERTERS))
 def test_pss_is_the_last_period_of_a_settled_transient(name):
     text, step, periods = CONVERTERS[name]
-    circuit = circuitnsds.read_netlist(text)
+    circuit = circuitnsds.read_netlist(pinned(text))  # (θ's shooting against θ's transient)
     result = circuit.pss(step=step)
     assert result.relative_residual <= 1e-9
     assert result.iterations <= 6
@@ -158,7 +193,7 @@ def test_monodromy_is_the_decay_a_transient_shows():
     # from the periodic state plus a small disturbance δ, the state at the end of period j
     # is x* + Φ^j δ (same mode sequence); its decay rate is -ln|λ_max| / T
     text, step, _ = CONVERTERS["boost_ccm"]
-    circuit = circuitnsds.read_netlist(text)
+    circuit = circuitnsds.read_netlist(pinned(text))  # (θ's step maps)
     result = circuit.pss(step=step)
     mlcs = circuit.mlcs(circuit.analyses["tran"].source_defaults)
     periods = 200
@@ -287,8 +322,9 @@ def test_cli_pss_writes_the_period_and_measures(tmp_path, capsys):
 
 def test_fallback_periods_when_newton_is_capped():
     # the DCM boost needs three Newton steps from its operating point; with one allowed per
-    # round, transient periods are run from the best state and Newton starts again
-    circuit = circuitnsds.read_netlist(CONVERTER_NETLISTS / "boost_dcm.cir")
+    # round, transient periods are run from the best state and Newton starts again (θ's
+    # shooting: the exact map's failure falls back to it, test_exact_pss_that_cannot_settle_...)
+    circuit = circuitnsds.read_netlist(pinned((CONVERTER_NETLISTS / "boost_dcm.cir").read_text()))
     reference = circuit.pss()
     capped = circuit.pss(max_iterations=1)
     assert capped.transient_periods >= 10
@@ -317,7 +353,7 @@ def test_a_fallback_that_cannot_fit_in_memory_is_refused_before_it_runs(monkeypa
     import circuitnsds.analyses.memory as memory
     from circuitnsds.engine.integrate import trajectory_bytes
     from circuitnsds.errors import CircuitError
-    circuit = circuitnsds.read_netlist(CONVERTER_NETLISTS / "boost_dcm.cir")
+    circuit = circuitnsds.read_netlist(pinned((CONVERTER_NETLISTS / "boost_dcm.cir").read_text()))
     reference = circuit.pss()
     per_period = trajectory_bytes(reference.mlcs, reference.waveforms.time.size)
     # 0.8 × available = 6 periods' worth: 4 for the maps fit, 10 + 4 for the fallback do not
@@ -390,6 +426,24 @@ def test_bad_tolerance_iterations_or_warmup_are_errors_and_zero_iterations_is_ob
                    str(tmp_path / "p.csv"), "--max-iterations", "-2"])
     err = capsys.readouterr().err
     assert status == 1 and "half_wave_rectifier.cir: max_iterations = -2 must be 0 or more" in err
+
+
+def test_the_exact_maps_newton_takes_max_iterations_and_tol():
+    # the exact map took neither (30 steps, 1e-12 whatever was asked): max_iterations=0 from
+    # the bridge's operating point, which is not periodic, is an error under method=exact and,
+    # under the default, a note and the θ shooting's transient periods (as above)
+    from circuitnsds.errors import SimulationError
+
+    text = (NETLISTS / "bridge_rectifier.cir").read_text()
+    with pytest.raises(SimulationError, match=r"did not converge in 0 step\(s\): residuals 3\d\d"):
+        circuitnsds.read_netlist(pinned(text, "exact")).pss(max_iterations=0)
+    with pytest.warns(RunNote, match=r"did not converge in 0 step\(s\).*the θ shooting's instead"):
+        result = circuitnsds.read_netlist(text).pss(max_iterations=0)
+    assert result.iterations == 0 and result.transient_periods >= 10
+    # a tolerance tighter than the map's own 1e-12 is met; a looser one keeps 1e-12
+    for tol, bound in ((1e-14, 1e-14), (1e-6, 1e-12)):
+        settled = circuitnsds.read_netlist(pinned(text, "exact")).pss(tol=tol)
+        assert settled.relative_residual <= bound
 
 
 def test_a_period_or_warm_up_needing_too_many_steps_is_an_error_not_a_crash(tmp_path, capsys):

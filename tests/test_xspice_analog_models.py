@@ -13,10 +13,10 @@ from circuitnsds.errors import NetlistError
 from tests.conftest import circuit_from
 
 
-def run(text: str):
+def run(text: str, method: str | None = None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return circuit_from(text).transient()
+        return circuit_from(text).transient(method=method)
 
 
 HYST = """Vin in 0 PWL(0 0 1m 2 2m -1 3m 2)
@@ -104,8 +104,9 @@ def test_hyst_and_d_dt_agree_with_ngspice_39():
 def test_a_winding_on_a_reluctance_is_an_inductor_of_n_squared_over_r():
     # 100 turns on 1e7 A·turn/Wb: L = 100²/1e7 = 1 mH; a 1 V step through 1 Ω:
     # i = 1 A·(1 - exp(-t/1 ms)), the flux N·i/R
-    waves = run("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nAw (2 0) (m 0) w\n.model w lcouple(num_turns=100)\n"
-                "Rm m 0 1e7\n.tran 1u 5m")
+    netlist = ("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nAw (2 0) (m 0) w\n.model w lcouple(num_turns=100)\n"
+               "Rm m 0 1e7\n.tran 1u 5m")
+    waves = run(netlist, method="theta")
     t = waves.time
     current = waves["i(aw)"]  # into l+ (node 2) through the winding, as a V source's
     expected = 1.0 - np.exp(-(t - 1e-9) / 1e-3)
@@ -113,8 +114,16 @@ def test_a_winding_on_a_reluctance_is_an_inductor_of_n_squared_over_r():
     np.testing.assert_allclose(waves["v(m)"], 100 * current, rtol=1e-9, atol=1e-12)  # mmf = N·i
     # the same steps as a 1 mH inductor's (before the sign was fixed the winding was a
     # negative inductance: its current grew without bound)
-    inductor = run("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nL1 2 0 1m\n.tran 1u 5m")
+    inductor = run("V1 1 0 PWL(0 0 1n 1)\nR1 1 2 1\nL1 2 0 1m\n.tran 1u 5m", method="theta")
     np.testing.assert_allclose(current, inductor["i(l1)"], atol=1e-12)
+    # the default (the exact integrator): the closed form of the 1 ns ramp into L/R = 1 ms, to
+    # round-off of the 1 A terms whose difference the first rows are (5e-7 A at 1 ns)
+    exact = run(netlist)
+    tau, ramp, t = 1e-3, 1e-9, exact.time
+    closed = np.where(t <= ramp, t / ramp + tau / ramp * np.expm1(-t / tau),
+                      1.0 - tau / ramp * np.expm1(ramp / tau) * np.exp(-t / tau))
+    np.testing.assert_allclose(exact["i(aw)"], closed, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(exact["v(m)"], 100 * exact["i(aw)"], rtol=1e-9, atol=1e-7)
 
 
 @pytest.mark.ngspice

@@ -36,18 +36,27 @@ class FastModeWatch:
         self.circuit, self.mlcs, self.theta, self.jumps = circuit, mlcs, theta, jumps
         self.tally = ModeTally()
         self.longest = 0.0
+        self.exact_tally = ModeTally()
+        self.widest = 0.0
+        """[s] The widest spacing of rows the exact integrator wrote."""
 
     def observe(self, mlcs, trajectory, first: int) -> None:
         """Tally the new rows' modes (the initial state left out) and the part's longest step
         (``first`` = 1: row 0 is the previous part's last, the step into row 1 is new). The
-        rows the exact integrator wrote (``trajectory.exact_rows``) are left out: it follows
-        every mode exactly, whatever the rows' spacing; its hand-offs' θ steps are watched."""
+        rows the exact integrator wrote (``trajectory.exact_rows``) are tallied apart: it
+        follows every mode exactly, whatever the rows' spacing, but rows too far apart do
+        not show a ringing (:func:`warn_hidden_ringing`); its hand-offs' θ steps are watched
+        as θ's."""
         new = max(first, 1)
         switches, active = trajectory.switches[new:], trajectory.active[new:]
         steps = np.diff(trajectory.time)[new - 1:]
         exact = trajectory.exact_rows
         if exact is not None:
-            stepped = ~exact[new:]
+            written = exact[new:]
+            if written.any():
+                self.exact_tally.add(switches[written], active[written])
+                self.widest = max(self.widest, float(steps[written].max()))
+            stepped = ~written
             if not stepped.any():
                 return
             switches, active, steps = switches[stepped], active[stepped], steps[stepped]
@@ -59,6 +68,8 @@ class FastModeWatch:
         if self.longest > 0.0:
             warn_fast_modes(self.circuit, self.mlcs, self.tally.modes(), self.longest, self.theta,
                             self.jumps)
+        if self.widest > 0.0:
+            warn_hidden_ringing(self.circuit, self.mlcs, self.exact_tally.modes(), self.widest)
 
 
 def warn_fast_modes(circuit: Circuit, mlcs, modes: list[tuple[np.ndarray, np.ndarray]], h: float,
@@ -86,6 +97,24 @@ def warn_fast_modes(circuit: Circuit, mlcs, modes: list[tuple[np.ndarray, np.nda
                 f"{format_si(mode.time_constant, 's')} but the step is {format_si(h, 's')}: its "
                 "transients (and the switching instants that depend on them) are followed only "
                 f"roughly; {advice}"), stacklevel=2)
+
+
+def warn_hidden_ringing(circuit: Circuit, mlcs, modes: list[tuple[np.ndarray, np.ndarray]],
+                        spacing: float) -> None:
+    """Warn about each ringing mode of ``modes`` (as :func:`warn_fast_modes`) whose period the
+    exact integrator's rows, ``spacing`` [s] apart, do not resolve. Each row's values are
+    exact, but the ringing's peaks fall between rows: a series RLC ringing at 159 kHz read at
+    100 µs rows peaks at 10 V in them, at 18.55 V in the circuit (a
+    :class:`~circuitnsds.errors.CircuitWarning`: a peak read from the rows is wrong)."""
+    for mode in fast_modes(mlcs, spacing, modes, jumps=False)[:MAX_FAST_MODE_WARNINGS]:
+        names = ", ".join(holders(circuit, mode.unknowns)) or ", ".join(mode.unknowns)
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the mode of {names} rings at {format_si(mode.frequency, 'Hz')} "
+            f"(period {format_si(1 / mode.frequency, 's')}, damping ratio {mode.damping:.2g}) "
+            f"but the rows are {format_si(spacing, 's')} apart, {1 / (mode.frequency * spacing):.2g} "
+            "per period: the exact integrator follows the ringing and each row is exact, but its "
+            f"peaks fall between the rows; use a TSTEP of {format_si(mode.needed_step, 's')} or "
+            "less (--step, or TSTEP of .tran) to see them"), stacklevel=2)
 
 
 def holders(circuit: Circuit, unknowns: tuple[str, ...]) -> list[str]:

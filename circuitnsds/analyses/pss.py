@@ -321,8 +321,11 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
         raise CircuitError(f"the step ({step:g} s) must lie in (0, period = {period:g} s]",
                            where=circuit.file)
     tol = tol if tol is not None else (spec.tol if spec is not None and spec.tol else DEFAULT_TOL)
+    if max_iterations is None and spec is not None and spec.iterations:
+        max_iterations = spec.iterations
+    asked_iterations = max_iterations  # (None: each map's own; the exact map's are 30 in all)
     if max_iterations is None:  # 0 is a choice: no Newton step, transient periods only
-        max_iterations = spec.iterations if spec is not None and spec.iterations else DEFAULT_ITERATIONS
+        max_iterations = DEFAULT_ITERATIONS
     for name, option, value, least in (("tol", "--tol", tol, None),
                                        ("max_iterations", "--max-iterations", max_iterations, 0),
                                        ("periods_warmup", "--warmup", periods_warmup, 0)):
@@ -375,7 +378,8 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
             if charge is not None:  # (initial conditions y cannot express: one step of θ first)
                 start_y = _plain_transient(mlcs, grid[:2], StartState(y, charge, None, active, switches)).y[0]
             try:
-                result = exact_pss(circuit, mlcs, grid, period, start_y, active, switches)
+                result = exact_pss(circuit, mlcs, grid, period, start_y, active, switches, tol,
+                                   asked_iterations)
             except SimulationError as exc:
                 if period_map == "exact":
                     raise

@@ -22,7 +22,14 @@ from circuitnsds.analyses.signals import trajectory_waveforms
 from circuitnsds.circuit.circuit import Circuit
 from circuitnsds.engine.driver import drive
 from circuitnsds.engine.exact.mode import NotIndexOne, StateCoordinates
-from circuitnsds.engine.exact.periodic import SINGULAR, UndampedPeriod, period_map, periodic_orbit
+from circuitnsds.engine.exact.periodic import (
+    MAX_ITERATIONS,
+    SINGULAR,
+    TOLERANCE,
+    UndampedPeriod,
+    period_map,
+    periodic_orbit,
+)
 from circuitnsds.engine.exact.run import Chattering, ExactSystem
 from circuitnsds.engine.exact.small_signal import ExactPeriod
 from circuitnsds.engine.exact.stepper import HANDOFF_CAUSES, ExactStepper
@@ -35,6 +42,10 @@ MARGINAL = 1e-9
 """A Floquet multiplier this close to the unit circle or beyond it is warned about: the orbit
 found is then not one a transient settles to (an undamped LC driven near its resonance has an
 exact periodic solution, of 1/|1 − μ| times the drive, which its transient never reaches)."""
+SLOWLY = 1e-6
+"""A largest Floquet multiplier within this of the unit circle (and beyond :data:`MARGINAL`) is
+warned about too: a transient takes over 1e6 periods to settle to the orbit (a tank damped
+only by a 1 GΩ bleeder and 1 µΩ switches, switched at its resonance: 2.1 MV after 5e6 periods)."""
 
 
 def _along(mlcs: MLCS, vector: np.ndarray) -> str:
@@ -44,10 +55,15 @@ def _along(mlcs: MLCS, vector: np.ndarray) -> str:
 
 
 def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: np.ndarray,
-              active: np.ndarray | None, switches: np.ndarray | None):
+              active: np.ndarray | None, switches: np.ndarray | None, tol: float = TOLERANCE,
+              max_iterations: int | None = None):
     """The settled period from ``y`` (the state at ``grid[0]``, after any warm-up) on the
     exact map; ``grid``: the period's output points [s]. Returns a
-    :class:`~circuitnsds.analyses.pss.PSSResult` with ``maps = None``.
+    :class:`~circuitnsds.analyses.pss.PSSResult` with ``maps = None``. ``tol``: the pss's
+    relative tolerance, taken where it is below the exact map's own
+    (:data:`~circuitnsds.engine.exact.periodic.TOLERANCE`, 1e-12: Newton converges
+    quadratically there); ``max_iterations``: the Newton steps allowed (``None``: the exact
+    map's own, :data:`~circuitnsds.engine.exact.periodic.MAX_ITERATIONS`).
 
     Raises:
         SimulationError: Newton on the exact map did not converge.
@@ -59,7 +75,9 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
                                      else [s.initially_on for s in mlcs.switches]))
     hint = "run the pss with .options method=theta (the θ shooting falls back to transient periods)"
     try:
-        orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed)
+        orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed,
+                               tolerance=min(tol, TOLERANCE),
+                               max_iterations=MAX_ITERATIONS if max_iterations is None else max_iterations)
     except UndampedPeriod as exc:
         from circuitnsds.analyses.pss import UNDAMPED_HINT
 
@@ -108,6 +126,15 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
             f"{circuit.file}: the periodic solution found is {what} (largest Floquet multiplier "
             f"|λ| = {np.abs(multipliers).max():.6g}): a transient would not settle to it"),
             stacklevel=4)
+    elif multipliers.size and np.abs(multipliers).max() > 1.0 - SLOWLY:
+        largest = int(np.argmax(np.abs(values)))
+        lost = 1.0 - float(np.abs(multipliers).max())
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution found attracts only slowly: the state along "
+            f"{_along(mlcs, vectors[:, largest])} comes {lost:.2g} of its distance closer to it per "
+            f"period (largest Floquet multiplier |λ| = {1.0 - lost:.9g}), so a transient settles to "
+            f"it over about {1.0 / lost:.2g} periods ({period / lost:.3g} s): the sources "
+            "drive a nearly undamped mode near its resonance"), stacklevel=4)
     scale = max(float(np.max(np.abs(orbit.x), initial=0.0)), 1e-300)
     result = PSSResult(waveforms=waves, period=period, t0=float(grid[0]),
                        state_names=[mlcs.unknowns[j] for j in state], state=orbit.y[state].copy(),

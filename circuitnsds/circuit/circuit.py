@@ -303,9 +303,11 @@ class Circuit:
                 ``T / 1000``); the grid of one period also holds every source breakpoint.
             periods_warmup: periods of plain transient before the shooting (default: ``.pss``
                 TSTAB's worth, else 0).
-            tol: relative periodicity tolerance (default ``.pss`` STEADYCOEFF, else 1e-9).
+            tol: relative periodicity tolerance (default ``.pss`` STEADYCOEFF, else 1e-9; on
+                the exact period map at most 1e-12, where its Newton converges quadratically).
             max_iterations: Newton steps before a fallback of transient periods (default
-                ``.pss`` SCITER, else 10).
+                ``.pss`` SCITER, else 10; on the exact period map, else 30, and when they do
+                not settle it, ``method=auto`` falls back to the θ shooting, with a note).
             uic: start from initial conditions, not the operating point.
 
         Raises:

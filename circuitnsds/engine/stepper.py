@@ -149,12 +149,13 @@ STEPPERS: dict[str, str] = {
     "newton": "circuitnsds.engine.newton_stepper:NewtonStepper",
 }
 """The steppers by name: ``"module:Class"``, imported when chosen (one line per stepper)."""
-DEFAULT_STEPPER = "theta"
-"""The stepper a run uses unless ``.options method`` or ``method=`` names another. ``"auto"``
-(the exact integrator where the circuit qualifies) is the recommendation for accuracy at the
-switching instants, not the default: on ``benchmarks/performance.py``'s cases it was 2-11x
-slower than θ in CPU, the exact loop's fixed costs (numba's cache load, scipy, each mode's
-closed forms) against θ's C loop (``benchmarks/method_auto_vs_theta.py``, docs/method.md)."""
+DEFAULT_STEPPER = "auto"
+"""The stepper a run uses unless ``.options method`` or ``method=`` names another: ``"auto"``,
+the exact integrator where the circuit qualifies (every switching instant located; a flyback's
+clamp as written within 2e-6 of its converged value where θ at the netlist's step is 48 %
+low), the Newton stepper for smooth elements, θ otherwise. It is slower than θ where it
+follows ringing that θ damps away (``benchmarks/method_auto_vs_theta.py``, docs/method.md);
+``.options method=theta`` takes θ."""
 SMOOTH_STEPPER = "newton"
 """The stepper a run of a system with smooth relations uses unless one is named."""
 AUTO = "auto"

@@ -118,14 +118,16 @@ def _saltation(system: ExactSystem, before: Segment, after: Segment, n: int) -> 
 
 
 def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active: np.ndarray,
-                   closed: tuple[bool, ...], *, warm_periods: int = 0) -> ExactOrbit:
+                   closed: tuple[bool, ...], *, warm_periods: int = 0, tolerance: float = TOLERANCE,
+                   max_iterations: int = MAX_ITERATIONS) -> ExactOrbit:
     """Newton on the exact period map from ``y0`` at ``t0`` (after ``warm_periods`` periods of
-    the map itself).
+    the map itself), at most ``max_iterations`` steps (0: the start must already be periodic),
+    until ``‖P(x) − x‖`` is within ``tolerance`` of ``‖x‖``.
 
     Raises:
         UndampedPeriod: ``I − Φ`` is singular at a Newton step (an inductor across a square
             wave of non-zero mean: its current ramps every period; before, a LinAlgError).
-        ArithmeticError: Newton did not converge in :data:`MAX_ITERATIONS`.
+        ArithmeticError: Newton did not converge in ``max_iterations`` steps.
     """
     system = ExactSystem(mlcs)
     x = system.coordinates.V1.T @ y0
@@ -134,13 +136,15 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
         x, _, _, _, run = period_map(system, t0, period, x, active, closed)
         active, closed = run.active[-1], tuple(bool(c) for c in run.closed[-1])
     residuals = []
-    for _ in range(MAX_ITERATIONS):
+    for iteration in range(max_iterations + 1):
         x_end, monodromy, means, _, run = period_map(system, t0, period, x, active, closed)
         residual = float(np.max(np.abs(x_end - x), initial=0.0))  # (no state: 0)
         residuals.append(residual)
-        if residual <= TOLERANCE * max(float(np.max(np.abs(x), initial=0.0)), 1e-3):
+        if residual <= tolerance * max(float(np.max(np.abs(x), initial=0.0)), 1e-3):
             return ExactOrbit(x, system.coordinates.V1 @ x, monodromy, residuals, means, active,
                               closed)
+        if iteration == max_iterations:
+            break
         matrix = np.eye(x.size) - monodromy
         values, vectors = np.linalg.eig(monodromy)
         closest = int(np.argmin(np.abs(1.0 - values)))
@@ -149,4 +153,5 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
             raise UndampedPeriod(complex(values[closest]), condition, vectors[:, closest])
         x = x + np.linalg.solve(matrix, x_end - x)
         active, closed = run.active[-1], tuple(bool(c) for c in run.closed[-1])
-    raise ArithmeticError(f"Newton on the exact period map did not converge: residuals {residuals}")
+    raise ArithmeticError(f"Newton on the exact period map did not converge in {max_iterations} "
+                          f"step(s): residuals {', '.join(f'{r:.3g}' for r in residuals)}")
