@@ -181,6 +181,21 @@ def test_a_capacitor_held_to_a_source_by_a_diode_goes_to_theta_and_back():
     assert np.max(np.abs(vc[blocking] - decay)) < 1e-8
 
 
+def test_a_diode_chattering_at_its_threshold_goes_to_theta():
+    # the XSPICE voltage-mode buck at start-up: the open switch's 1e9 Ω leaks 12 nA and the
+    # freewheeling diode sits at its threshold; the exact loop turned it on and off every 2 ps
+    # for 8 µs (4.1 million events, 77 s). More than 64 segments in a row shorter than 1e-8 of
+    # the run hand the stretch to θ (run.CHATTERING), which slides through it; the settled
+    # output is θ's to 1e-4 V
+    circuit = circuitnsds.read_netlist(NETLISTS / "buck_voltage_mode_xspice.cir")
+    with pytest.warns(RunNote, match=r"handed to the θ-method.*sliding or chattering"):
+        waves = circuit.transient(method="exact", signals=["v(out)"])
+    assert waves.stats["handoffs"] >= 1 and len(waves.events) < 10_000
+    theta = circuit.transient(method="theta", signals=["v(out)"])
+    settled = waves.time >= 1.8e-3
+    assert np.mean(waves["v(out)"][settled]) == pytest.approx(np.mean(theta["v(out)"][settled]), abs=1e-4)
+
+
 def test_auto_takes_exact_where_it_qualifies_and_says_why_theta_otherwise():
     buck = circuitnsds.read_netlist(NETLISTS / "buck_converter.cir")
     chosen, why = choose_stepper("auto", buck.mlcs())

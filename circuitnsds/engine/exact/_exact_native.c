@@ -34,6 +34,7 @@ EXPORT void *PyInit__exact_native(void) { return 0; }
  * SERIES_TERMS) and first_event.py's (MAX_DEPTH, MAX_STACK, MAX_VISITS, UNRESOLVED). */
 enum { FINISHED = 0, NEW_MODE = 1, EVENTS_FULL = 2, STALLED = 3, OUT_OF_MEMORY = 4 };
 #define MAX_MODE_CHANGES 64
+#define CHATTERING 1e-8
 #define RELATIVE_TOL 1e-12
 #define TIME_ULPS 4.0
 #define SUM_ULPS 8.0
@@ -1209,7 +1210,7 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         for (int64_t i = 0; i < n; i++)
             y_size[i] = R->size_end[i];
         double new_t = tau < horizon ? stop_at : end;
-        stalled = new_t <= t ? stalled + 1 : 0;
+        stalled = new_t - t < CHATTERING * stop ? stalled + 1 : 0; /* (loop._exact_loop) */
         t = new_t;
         if (stalled > MAX_MODE_CHANGES) {
             status = STALLED;

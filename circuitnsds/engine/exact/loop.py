@@ -44,6 +44,8 @@ from circuitnsds.jit import jit
 FINISHED, NEW_MODE, EVENTS_FULL, STALLED = 0, 1, 2, 3
 """What :func:`exact_loop` returns."""
 MAX_MODE_CHANGES = 64
+CHATTERING = 1e-8
+"""(:data:`.run.CHATTERING`)"""
 RELATIVE_TOL = 1e-12
 TIME_ULPS = 4.0
 SUM_ULPS = 8.0
@@ -559,7 +561,9 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
         for i in range(n):
             y_size[i] = size_end[i]
         new_t = stop_at if tau < horizon else end
-        stalled = stalled + 1 if new_t <= t else 0
+        # (segments shorter than CHATTERING of the run, a chattering pair's among them, count
+        # as not advancing: run.CHATTERING)
+        stalled = stalled + 1 if new_t - t < CHATTERING * stop else 0
         t = new_t
         if stalled > MAX_MODE_CHANGES:
             status = STALLED
