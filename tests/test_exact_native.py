@@ -25,6 +25,7 @@ Checked here:
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -126,6 +127,44 @@ def test_the_c_loop_is_the_numba_loop_and_the_python_loop(monkeypatch, path, sto
     assert np.all(np.abs(native.charges - python.charges) <= python_tolerance * largest * step)
     np.testing.assert_array_equal(native.active, python.active)
     np.testing.assert_array_equal(native.closed, python.closed)
+
+
+def test_the_three_loops_stop_a_chattering_diode_alike(monkeypatch):
+    # the XSPICE voltage-mode buck's freewheeling diode chatters at start-up (run.CHATTERING):
+    # from θ's state at 1 µs (its limiter's start is a hand-off of its own) the C and numba
+    # loops stop at the same instant with the same rows, bit for bit, and the Python loop at
+    # the same instant
+    from circuitnsds.engine.integrate import integrate
+
+    (mlcs, times, y0, active0, closed0), _ = _prepared(NETLISTS / "buck_voltage_mode_xspice.cir", 4e-6)
+    k = 25  # (1 µs at the netlist's 40 ns)
+    theta = integrate(mlcs, times[:k + 1], y0, None, None, active0, np.array(closed0))
+    y, active = theta.y[k].copy(), np.asarray(theta.active[k], bool)
+    closed = tuple(bool(s) for s in theta.switches[k])
+    resume = run.LoopState(float(times[k]), run.ExactSystem(mlcs).coordinates.V1.T @ y, np.abs(y),
+                           active, closed)
+    arguments = (mlcs, times[k:], y, active, closed)
+    stopped = {}
+    for which in ("c", "numba", "python"):
+        with monkeypatch.context() as patched:
+            if which == "numba":
+                patched.setattr(run, "native_loop", lambda: None)
+            runner = run.run_python if which == "python" else run.run_exact
+            with pytest.raises(run.Chattering, match=r"more than 64 segments in a row shorter than "
+                               r"1e-08 of the run") as raised:
+                runner(*arguments, resume=resume, stop=2e-3)  # (the whole run's end: its floor)
+        stopped[which] = raised.value
+    c, numba, python = stopped["c"], stopped["numba"], stopped["python"]
+    assert 1e-6 <= c.time < 2e-6 and c.time == numba.time
+    _assert_same_run(c.run, numba.run)
+    assert python.time == pytest.approx(c.time, rel=1e-12) and python.run.rows == c.run.rows
+
+
+def test_the_loops_limits_are_the_same_in_c_numba_and_python():
+    source = (Path(run.__file__).parent / "_exact_native.c").read_text()
+    defined = dict(re.findall(r"^#define (MAX_MODE_CHANGES|CHATTERING) (\S+)$", source, re.MULTILINE))
+    assert float(defined["CHATTERING"]) == run.CHATTERING == loop.CHATTERING
+    assert int(defined["MAX_MODE_CHANGES"]) == run.MAX_MODE_CHANGES == loop.MAX_MODE_CHANGES
 
 
 def test_the_flyback_through_the_stepper_is_the_numba_loops_bit_for_bit(monkeypatch):

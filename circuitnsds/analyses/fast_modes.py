@@ -105,7 +105,9 @@ def warn_hidden_ringing(circuit: Circuit, mlcs, modes: list[tuple[np.ndarray, np
     exact integrator's rows, ``spacing`` [s] apart, do not resolve. Each row's values are
     exact, but the ringing's peaks fall between rows: a series RLC ringing at 159 kHz read at
     100 µs rows peaks at 10 V in them, at 18.55 V in the circuit (a
-    :class:`~circuitnsds.errors.CircuitWarning`: a peak read from the rows is wrong)."""
+    :class:`~circuitnsds.errors.CircuitWarning`: a peak read from the rows is wrong). Only the
+    modes the rows fall in are looked at: a ringing mode entered and left between two rows
+    (a DCM ring shorter than TSTEP) is not warned about."""
     for mode in fast_modes(mlcs, spacing, modes, jumps=False)[:MAX_FAST_MODE_WARNINGS]:
         names = ", ".join(holders(circuit, mode.unknowns)) or ", ".join(mode.unknowns)
         warnings.warn(CircuitWarning(

@@ -79,6 +79,9 @@ NO_PERIODIC_RATIO = 10.0
 """... and this many times further is an error (the answer is off by more than that)."""
 PERIOD_MATCH = 1e-9
 """Relative tolerance when testing that source periods divide the common period."""
+RESONANCE_HINT = ("the sources drive an undamped or nearly undamped mode at its resonance (a "
+                  "harmonic of the period): add the damping the real circuit has (an inductor's or "
+                  "capacitor's series resistance), or run a transient to see the growth")
 UNDAMPED_HINT = ("look for a capacitor in a cut-set with only sources, capacitors or blocked "
                  "diodes (its charge never changes), an inductor in a loop of sources only, or an "
                  "undamped LC; add a resistance (a bleeder across the capacitor, a series "
@@ -372,7 +375,7 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
             result = SmoothShooter(circuit, mlcs, grid, period, tol).solve(y, active, switches,
                                                                              max_iterations)
         elif (period_map := _period_map(circuit, mlcs)) != "theta":
-            from circuitnsds.analyses.pss_exact import exact_pss
+            from circuitnsds.analyses.pss_exact import NoSteadyState, exact_pss
 
             start_y = y
             if charge is not None:  # (initial conditions y cannot express: one step of θ first)
@@ -381,7 +384,7 @@ def _run_pss(circuit: Circuit, spec: PssSpec | None, *, period: float | None = N
                 result = exact_pss(circuit, mlcs, grid, period, start_y, active, switches, tol,
                                    asked_iterations)
             except SimulationError as exc:
-                if period_map == "exact":
+                if period_map == "exact" or isinstance(exc, NoSteadyState):
                     raise
                 warnings.warn(RunNote(
                     f"{circuit.file}: method=auto: the periodic steady state on the exact period map "
@@ -611,10 +614,7 @@ class _Shooter:
             raise SimulationError(
                 f"no periodic steady state to show: {what} (it scales as 1/h; the circuit's own "
                 f"response grows without bound, or to {stepped / max(gap, 1e-300):.2g} times the "
-                "one found)", where=self.circuit.file, hint="the sources drive an undamped or "
-                "nearly undamped mode at its resonance (a harmonic of the period): add the "
-                "damping the real circuit has (an inductor's or capacitor's series resistance), "
-                "or run a transient to see the growth")
+                "one found)", where=self.circuit.file, hint=RESONANCE_HINT)
 
         warnings.warn(CircuitWarning(
             f"{self.circuit.file}: {what} ({stepped / gap:.2g} times the circuit's); a smaller "

@@ -54,6 +54,64 @@ def _along(mlcs: MLCS, vector: np.ndarray) -> str:
     return ", ".join(mlcs.unknowns[j] for j in np.argsort(size)[::-1][:3] if size[j] > 0.1 * size.max())
 
 
+class NoSteadyState(SimulationError):
+    """The exact orbit is not one a transient reaches (:func:`_judge_multipliers`): final,
+    ``method=auto`` does not take the θ shooting instead (whose steps' damping would set an
+    amplitude)."""
+
+
+def _judge_multipliers(circuit: Circuit, mlcs: MLCS, monodromy: np.ndarray, period: float) -> None:
+    """Warn of an orbit that is not unique, not stable, not attracting or attracting only
+    slowly (:data:`MARGINAL`, :data:`SLOWLY`), from the Floquet multipliers of ``monodromy``
+    (in the state coordinates ``x``); refuse one with an undamped multiplier (on the unit
+    circle) within :data:`~circuitnsds.analyses.pss.RESONANCE_GAP` of 1 (an undamped tank
+    driven near its resonance: the orbit is 1/|1 − μ| times what the sources put in along
+    it, 2.08 MV for 1 V at 2.4e-7 below f0, and no transient ever reaches it; the θ shooting
+    refused it too, its amplitude being its steps' damping). A damped one, however slowly
+    (a tank damped by 1 GΩ: 2.1 MV reached over 5e6 periods), is the circuit's own steady
+    state: warned, with the time it takes."""
+    from circuitnsds.analyses.pss import RESONANCE_GAP, RESONANCE_HINT, UNDAMPED_HINT
+
+    if not monodromy.size:
+        return
+    values, vectors = np.linalg.eig(monodromy)
+    magnitudes = np.abs(values)
+    closest = int(np.argmin(np.abs(1.0 - values)))
+    if abs(1.0 - values[closest]) < SINGULAR:
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution is not unique: the state along "
+            f"{_along(mlcs, vectors[:, closest])} is not damped (Floquet multiplier 1), so every "
+            f"value of it repeats and the one shown is the initial state's; {UNDAMPED_HINT}"),
+            stacklevel=5)
+        return
+    largest = int(np.argmax(magnitudes))
+    top = float(magnitudes[largest])
+    resonant = [j for j in np.argsort(np.abs(1.0 - values))
+                if abs(magnitudes[j] - 1.0) <= MARGINAL and abs(1.0 - values[j]) < RESONANCE_GAP]
+    if resonant and top <= 1.0 + MARGINAL:
+        j = int(resonant[0])
+        gap = float(abs(1.0 - values[j]))
+        raise NoSteadyState(
+            f"no periodic steady state to show: along {_along(mlcs, vectors[:, j])} the circuit is "
+            f"undamped (Floquet multiplier |μ| = {magnitudes[j]:.9g}) and driven near its resonance "
+            f"(|1 − μ| = {gap:.2g}): "
+            f"the exact periodic solution, about {1.0 / gap:.2g} times what the sources put in along "
+            "it, is not one a transient reaches", where=circuit.file, hint=RESONANCE_HINT)
+    if top > 1.0 - MARGINAL:
+        what = ("not stable" if top > 1.0 + MARGINAL else
+                f"not attracting, the state along {_along(mlcs, vectors[:, largest])} undamped")
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution found is {what} (largest Floquet multiplier "
+            f"|λ| = {top:.6g}): a transient would not settle to it"), stacklevel=5)
+    elif top > 1.0 - SLOWLY:
+        lost = 1.0 - top
+        warnings.warn(CircuitWarning(
+            f"{circuit.file}: the periodic solution found attracts only slowly: the state along "
+            f"{_along(mlcs, vectors[:, largest])} comes {lost:.2g} of its distance closer to it per "
+            f"period (largest Floquet multiplier |λ| = {top:.9g}), so a transient settles to it "
+            f"over about {1.0 / lost:.2g} periods ({period / lost:.3g} s)"), stacklevel=5)
+
+
 def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: np.ndarray,
               active: np.ndarray | None, switches: np.ndarray | None, tol: float = TOLERANCE,
               max_iterations: int | None = None):
@@ -62,8 +120,11 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     :class:`~circuitnsds.analyses.pss.PSSResult` with ``maps = None``. ``tol``: the pss's
     relative tolerance, taken where it is below the exact map's own
     (:data:`~circuitnsds.engine.exact.periodic.TOLERANCE`, 1e-12: Newton converges
-    quadratically there); ``max_iterations``: the Newton steps allowed (``None``: the exact
-    map's own, :data:`~circuitnsds.engine.exact.periodic.MAX_ITERATIONS`).
+    quadratically there; not below its round-off,
+    :data:`~circuitnsds.engine.exact.periodic.ROUNDING`); ``max_iterations``: the Newton steps
+    allowed (``None``: the exact map's own,
+    :data:`~circuitnsds.engine.exact.periodic.MAX_ITERATIONS`), after which an orbit within
+    ``tol`` is taken (a ``.pss`` line's SCITER of 5 with STEADYCOEFF 5e-3).
 
     Raises:
         SimulationError: Newton on the exact map did not converge.
@@ -76,7 +137,7 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     hint = "run the pss with .options method=theta (the θ shooting falls back to transient periods)"
     try:
         orbit = periodic_orbit(mlcs, float(grid[0]), period, y, active, closed,
-                               tolerance=min(tol, TOLERANCE),
+                               tolerance=min(tol, TOLERANCE), acceptable=tol,
                                max_iterations=MAX_ITERATIONS if max_iterations is None else max_iterations)
     except UndampedPeriod as exc:
         from circuitnsds.analyses.pss import UNDAMPED_HINT
@@ -89,6 +150,7 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     except (Chattering, NotIndexOne) as exc:  # (a transient hands such a stretch to θ; a period map cannot)
         raise SimulationError(f"the exact period map stopped at t = {exc.time:.6g} s: "
                               f"{HANDOFF_CAUSES[type(exc)]}", where=circuit.file, hint=hint) from None
+    _judge_multipliers(circuit, mlcs, orbit.monodromy, period)  # (before the period's rows)
     system = ExactSystem(mlcs)
     t0 = float(grid[0])
     segments = period_map(system, t0, period, orbit.x, orbit.active, orbit.closed)[3]
@@ -108,33 +170,6 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
     monodromy = to_state @ orbit.monodromy @ np.linalg.pinv(to_state)
     multipliers = np.linalg.eigvals(monodromy) if monodromy.size else np.zeros(0)
     multipliers = multipliers[np.argsort(-np.abs(multipliers), kind="stable")]
-    values, vectors = np.linalg.eig(orbit.monodromy) if orbit.monodromy.size else (np.zeros(0), None)
-    closest = int(np.argmin(np.abs(1.0 - values))) if values.size else -1
-    if values.size and abs(1.0 - values[closest]) < SINGULAR:
-        from circuitnsds.analyses.pss import UNDAMPED_HINT
-
-        warnings.warn(CircuitWarning(
-            f"{circuit.file}: the periodic solution is not unique: the state along "
-            f"{_along(mlcs, vectors[:, closest])} is not damped (Floquet multiplier 1), so every "
-            f"value of it repeats and the one shown is the initial state's; {UNDAMPED_HINT}"),
-            stacklevel=4)
-    elif multipliers.size and np.abs(multipliers).max() > 1.0 - MARGINAL:
-        largest = int(np.argmax(np.abs(values)))
-        what = ("not stable" if np.abs(multipliers).max() > 1.0 + MARGINAL else
-                f"not attracting, the state along {_along(mlcs, vectors[:, largest])} undamped")
-        warnings.warn(CircuitWarning(
-            f"{circuit.file}: the periodic solution found is {what} (largest Floquet multiplier "
-            f"|λ| = {np.abs(multipliers).max():.6g}): a transient would not settle to it"),
-            stacklevel=4)
-    elif multipliers.size and np.abs(multipliers).max() > 1.0 - SLOWLY:
-        largest = int(np.argmax(np.abs(values)))
-        lost = 1.0 - float(np.abs(multipliers).max())
-        warnings.warn(CircuitWarning(
-            f"{circuit.file}: the periodic solution found attracts only slowly: the state along "
-            f"{_along(mlcs, vectors[:, largest])} comes {lost:.2g} of its distance closer to it per "
-            f"period (largest Floquet multiplier |λ| = {1.0 - lost:.9g}), so a transient settles to "
-            f"it over about {1.0 / lost:.2g} periods ({period / lost:.3g} s): the sources "
-            "drive a nearly undamped mode near its resonance"), stacklevel=4)
     scale = max(float(np.max(np.abs(orbit.x), initial=0.0)), 1e-300)
     result = PSSResult(waveforms=waves, period=period, t0=float(grid[0]),
                        state_names=[mlcs.unknowns[j] for j in state], state=orbit.y[state].copy(),

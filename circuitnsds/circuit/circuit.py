@@ -258,7 +258,7 @@ class Circuit:
             method: the integration method (a stepper registered in
                 :data:`circuitnsds.engine.stepper.STEPPERS`: ``"theta"``, the θ-method, or
                 ``"exact"``, the event-driven exact integrator; ``"auto"``: exact where the
-                circuit qualifies; default: ``.options method``, else ``"theta"``).
+                circuit qualifies; default: ``.options method``, else ``"auto"``).
             signals: keep only these signals (e.g. ``["v(out)"]``; default: every signal,
                 computed when first read). The run then goes in segments whose other
                 unknowns are dropped as it goes: memory is bounded by what is kept (a

@@ -82,6 +82,12 @@ leakage of its blocking ``Roff`` (a flyback's secondary diode at the primary swi
 opening: −9.7 pA against a tolerance of 5.5 pA) starts at that current, not at 0."""
 
 
+def _stalled(t: float) -> str:
+    """What a loop that stopped advancing at ``t`` [s] says (:data:`CHATTERING`)."""
+    return (f"the exact integrator does not advance from t = {t!r} s (more than {MAX_MODE_CHANGES} "
+            f"segments in a row shorter than {CHATTERING:g} of the run)")
+
+
 class Chattering(Exception):
     """No consistent mode was found at an instant (a sliding mode or a latch that does not settle)."""
 
@@ -740,9 +746,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
             if status == FINISHED:
                 break
             if status == STALLED:
-                raise Chattering(f"the exact integrator does not advance from t = {clock[0]!r} s (more "
-                                 f"than {MAX_MODE_CHANGES} segments in a row shorter than {CHATTERING:g} "
-                                 "of the run)")
+                raise Chattering(_stalled(float(clock[0])))
             if counters[4] + tables.columns > capacity or counters[8] + 1 > capacity:  # (EVENTS_FULL)
                 capacity *= 2
                 event_times, event_index, event_on, tail_row, tail_dt = (
@@ -851,9 +855,7 @@ def run_python(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarra
             # or a chattering pair's
             stalled = stalled + 1 if new_t - t < CHATTERING * float(sources_table.corners[-1]) else 0
             if stalled > MAX_MODE_CHANGES:
-                raise Chattering(f"the exact integrator does not advance from t = {t!r} s (more "
-                                 f"than {MAX_MODE_CHANGES} segments in a row shorter than {CHATTERING:g} "
-                                 "of the run)")
+                raise Chattering(_stalled(t))
             t = new_t
     except (Chattering, NotIndexOne) as exc:
         exc.time = t
