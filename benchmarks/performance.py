@@ -118,10 +118,13 @@ def ours_in_process(netlist_text: str, step: float | None = None, stop: float | 
         waves = circuit.transient(step=step, stop=stop, theta=theta)
         wall = time.perf_counter() - started
     stats = waves.stats
+    # (a run of the default's exact integrator has rows, segments and events, no mapped steps:
+    # those columns are NaN for it)
+    mapped = stats.get("mapped_steps", float("nan"))
     return {"wall_s": wall, "stepping_s": stats["seconds"], "steps": stats["steps"],
             "us_per_step": 1e6 * stats["seconds"] / stats["steps"],
-            "us_per_mapped_step": 1e6 * stats["mapped_seconds"] / max(stats["mapped_steps"], 1),
-            "mapped_share": stats["mapped_steps"] / stats["steps"], "mlcp_steps": stats["mlcp_steps"],
+            "us_per_mapped_step": 1e6 * stats.get("mapped_seconds", float("nan")) / max(mapped, 1),
+            "mapped_share": mapped / stats["steps"], "mlcp_steps": stats.get("mlcp_steps", float("nan")),
             "pairs": stats["pairs"], "unknowns": stats["unknowns"],
             "time": waves.time, "v": waves.signals.get("v(out)")}
 

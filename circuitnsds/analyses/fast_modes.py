@@ -53,12 +53,14 @@ class FastModeWatch:
         exact = trajectory.exact_rows
         if exact is not None:
             written = exact[new:]
+            if written.all():  # (every row the exact loop's: no copies)
+                self.exact_tally.add(switches, active)
+                self.widest = max(self.widest, float(steps.max(initial=0.0)))
+                return
             if written.any():
                 self.exact_tally.add(switches[written], active[written])
                 self.widest = max(self.widest, float(steps[written].max()))
             stepped = ~written
-            if not stepped.any():
-                return
             switches, active, steps = switches[stepped], active[stepped], steps[stepped]
         self.tally.add(switches, active)
         if steps.size:
