@@ -81,7 +81,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--step", type=_seconds, help="time step [s] (default: .tran TSTEP)")
     run.add_argument("--stop", type=_seconds, help="end time [s] (default: .tran TSTOP)")
     run.add_argument("--theta", type=float, default=None,
-                     help="θ of the θ-method in [0.5, 1] (default: .options theta, else 1: implicit Euler)")
+                     help="θ of the θ-method in [0.5, 1] (default: .options theta, else 1: implicit Euler); "
+                     "under the default method=auto it applies where θ runs: a circuit the exact "
+                     "integrator cannot run, and its hand-offs")
     run.add_argument("--uic", action="store_true",
                      help="start from initial conditions (as .tran ... UIC)")
     from circuitnsds.cli.sweep import add_execution_arguments
