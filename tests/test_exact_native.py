@@ -320,3 +320,15 @@ def test_a_run_on_the_c_loop_imports_no_numba(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     code, calls, numba = done.stdout.split()[-3:]
     assert code == "0" and int(calls) > 0 and numba == "False"
+
+
+def test_an_exact_pss_with_the_c_library_imports_no_numba(tmp_path: Path) -> None:
+    # the period map's Python loop (run_python, for the saltation matrices) searches with the C
+    # library's search: loading numba for it was 0.75 s of the boost's 1.2 s pss
+    args = ["pss", str(NETLISTS / "boost_converter.cir"), "-o", str(tmp_path / "p.csv"), "-q"]
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", PROBE.format(args=", ".join(repr(a) for a in args))],
+                          capture_output=True, text=True, cwd=tmp_path, env=environment, timeout=120)
+    assert done.returncode == 0, done.stderr
+    code, _, numba = done.stdout.split()[-3:]
+    assert code == "0" and numba == "False"
