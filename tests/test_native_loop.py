@@ -327,3 +327,17 @@ def test_run_with_the_library_imports_no_numba(tmp_path: Path) -> None:
     assert (code, loaded, numba) == ("0", "True", "False") and int(calls) > 0
     code, calls, loaded, _ = probe(args, {native.DISABLE_ENV: "0"}, tmp_path)
     assert (code, calls, loaded) == ("0", "0", "False")
+
+
+def test_a_netlist_of_ideal_diodes_imports_no_smooth_device_module(tmp_path: Path) -> None:
+    # every D line went through the smooth devices' reader, which imports the BJT's and the
+    # JFET's modules: 15 ms of every run's start; a D line now reaches it only when its model
+    # is a Shockley diode (smooth=1)
+    code = ("import sys\nfrom circuitnsds.cli.main import main\n"
+            f"status = main(['run', {str(NETLISTS / 'bridge_rectifier.cir')!r}, '-o', 'out.csv', '-q'])\n"
+            "print(status, sorted(m for m in sys.modules if '.smooth' in m and 'elements' in m or "
+            "m.endswith('smooth_devices')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split(maxsplit=1) == ["0", "[]\n"]

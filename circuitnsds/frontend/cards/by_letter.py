@@ -80,7 +80,7 @@ CARD_READERS: dict[str, CardReader] = {
     "v": _INDEPENDENT, "i": _INDEPENDENT,
     "e": _CONTROLLED, "f": _CONTROLLED, "g": _CONTROLLED, "h": _CONTROLLED,
     "b": BEHAVIOURAL,
-    "d": CardReader("smooth_devices", "diode", ("models", "off_resistance")),
+    "d": CardReader("devices", "diode_line", ("models", "off_resistance")),
     "s": _SWITCH, "w": _SWITCH,
     "m": CardReader("smooth_devices", "mosfet", ("models", "options", "off_resistance")),
     "a": CardReader("xspice", "analog_block", ("models",)),

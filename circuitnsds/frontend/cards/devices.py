@@ -104,6 +104,19 @@ def _model_resistance(reader: StatementReader, model: ResistorModel,
                        f"{model.name}, or RSH there (with L and W)")
 
 
+def diode_line(reader: StatementReader, models: dict[str, object], off_resistance: float):
+    """A ``D`` line: the smooth Shockley diode when its model is one (``smooth=1``:
+    :func:`~circuitnsds.frontend.cards.smooth_devices.diode`), else :func:`diode`. The smooth
+    devices' reader (and its BJT and JFET modules, 15 ms of every run's start) is imported
+    only then: no Shockley model can exist before its module is."""
+    model = models.get(reader.tokens[3]) if len(reader.tokens) > 3 else None
+    if is_loaded_instance(model, "circuitnsds.circuit.elements.smooth.diode", "ShockleyDiodeModel"):
+        from circuitnsds.frontend.cards.smooth_devices import diode as smooth_diode
+
+        return smooth_diode(reader, models, off_resistance)
+    return diode(reader, models)
+
+
 def diode(reader: StatementReader, models: dict[str, object]) -> Diode:
     """``D name anode cathode MODEL [area] [area=..] [m=..] [off] [ic=..]``."""
     name = reader.name
