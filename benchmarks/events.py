@@ -46,7 +46,7 @@ def hysteretic_table(repeat: int) -> None:
             times = []
             for _ in range(repeat):
                 start = time.perf_counter()
-                waves = circuit.transient(theta=theta)
+                waves = circuit.transient(theta=theta, method="theta")
                 times.append(time.perf_counter() - start)
             closings = waves.switchings("w1", True)
             error = abs(np.diff(closings[1:]).mean() - period) / period
@@ -63,7 +63,7 @@ def sync_buck_table(repeat: int) -> None:
         times = []
         for _ in range(repeat):
             start = time.perf_counter()
-            waves = circuit.transient()
+            waves = circuit.transient(method="theta")
             times.append(time.perf_counter() - start)
     print(f"\nsynchronous buck (VDMOS), {waves.stats['steps']} steps, {waves.stats['events']} events")
     print(f"{'simulator':>12} {'seconds':>8}")

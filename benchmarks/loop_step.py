@@ -114,7 +114,7 @@ def time_run(function, path: Path, options: dict) -> tuple[float, int, dict]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            waves = circuitnsds.read_netlist(path).transient(stepping="compiled", **options)
+            waves = circuitnsds.read_netlist(path).transient(stepping="compiled", method="theta", **options)
     finally:
         dense_loop._native_function = saved
     return spent[0], int(waves.stats["steps"]), {name: waves[name] for name in waves.names}

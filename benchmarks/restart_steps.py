@@ -59,7 +59,7 @@ Vc ctl 0 PULSE(0 1 50u 0 0 50u 100u)
 
 
 def ring() -> float:
-    waves = circuitnsds.read_netlist(RING).transient(theta=0.5)
+    waves = circuitnsds.read_netlist(RING).transient(theta=0.5, method="theta")
     current = waves["i(s1)"]
     closed = int(np.argmax(np.abs(current) > 0.5))
     after = current[closed + 4:closed + 40]
@@ -67,7 +67,7 @@ def ring() -> float:
 
 
 def tank_energy() -> float:
-    waves = circuitnsds.read_netlist(TANKS).transient(theta=0.5)
+    waves = circuitnsds.read_netlist(TANKS).transient(theta=0.5, method="theta")
     energy = 0.5e-6 * waves["v(a)"] ** 2 + 0.5e-3 * waves["i(l1)"] ** 2
     return float(energy[-1] / energy[0] * 100)
 
@@ -75,14 +75,14 @@ def tank_energy() -> float:
 def buck_period() -> float:
     period = hysteretic_period()
     waves = circuitnsds.read_netlist("buck\n" + hysteretic_buck(period / 100, 10 * period)
-                                     ).transient(theta=0.5)
+                                     ).transient(theta=0.5, method="theta")
     closings = [e.time for e in waves.events if e.state]
     return abs(float(np.mean(np.diff(closings[1:]))) / period - 1)
 
 
 def flyback(step: float) -> float:
     circuit = circuitnsds.read_netlist(ROOT / "benchmarks" / "netlists" / "flyback_coss.cir")
-    waves = circuit.transient(step=step, stop=0.3e-3, theta=0.5, signals=["v(out)"])
+    waves = circuit.transient(step=step, stop=0.3e-3, theta=0.5, signals=["v(out)"], method="theta")
     return float(waves["v(out)"][waves.time > 0.25e-3].mean())
 
 
