@@ -27,10 +27,9 @@ from circuitnsds.engine.exact.periodic import (
     SINGULAR,
     TOLERANCE,
     UndampedPeriod,
-    period_map,
     periodic_orbit,
 )
-from circuitnsds.engine.exact.run import Chattering, ExactSystem
+from circuitnsds.engine.exact.run import Chattering
 from circuitnsds.engine.exact.small_signal import ExactPeriod
 from circuitnsds.engine.exact.stepper import HANDOFF_CAUSES, ExactStepper
 from circuitnsds.engine.step_maps import state_unknowns
@@ -151,9 +150,8 @@ def exact_pss(circuit: Circuit, mlcs: MLCS, grid: np.ndarray, period: float, y: 
         raise SimulationError(f"the exact period map stopped at t = {exc.time:.6g} s: "
                               f"{HANDOFF_CAUSES[type(exc)]}", where=circuit.file, hint=hint) from None
     _judge_multipliers(circuit, mlcs, orbit.monodromy, period)  # (before the period's rows)
-    system = ExactSystem(mlcs)
     t0 = float(grid[0])
-    segments = period_map(system, t0, period, orbit.x, orbit.active, orbit.closed)[3]
+    system, segments = orbit.system, orbit.segments  # (the period from the orbit's x: Newton's last map)
     taus = np.array([min(s.tau, t0 + period - s.t) for s in segments])
     recorder = TrajectoryRecorder()
     drive(ExactStepper(mlcs), grid, StartState(orbit.y, None, None, orbit.active,

@@ -61,8 +61,10 @@ class UndampedPeriod(ArithmeticError):
 @dataclass
 class ExactOrbit:
     """The periodic orbit: ``x`` at ``t0`` (state coordinates), ``y`` there, the monodromy
-    ``Φ`` (its Floquet multipliers), Newton's residual history, and each unknown's mean over
-    the period (the closed-form integral over the segments)."""
+    ``Φ`` (its Floquet multipliers), Newton's residual history, each unknown's mean over
+    the period (the closed-form integral over the segments), the mode at ``t0``, and the
+    period's segments (:func:`period_map`'s, from ``x``: what ``ac`` around it takes) with
+    the system whose modes they hold."""
 
     x: np.ndarray
     y: np.ndarray
@@ -71,6 +73,8 @@ class ExactOrbit:
     means: np.ndarray
     active: np.ndarray
     closed: tuple[bool, ...]
+    segments: list[Segment]
+    system: ExactSystem
 
 
 def period_map(system: ExactSystem, t0: float, period: float, x: np.ndarray, active: np.ndarray,
@@ -145,14 +149,14 @@ def periodic_orbit(mlcs: MLCS, t0: float, period: float, y0: np.ndarray, active:
     residuals = []
     tolerance = max(tolerance, ROUNDING)
     for iteration in range(max_iterations + 1):
-        x_end, monodromy, means, _, run = period_map(system, t0, period, x, active, closed)
+        x_end, monodromy, means, segments, run = period_map(system, t0, period, x, active, closed)
         residual = float(np.max(np.abs(x_end - x), initial=0.0))  # (no state: 0)
         residuals.append(residual)
         scale = max(float(np.max(np.abs(x), initial=0.0)), 1e-3)
         if residual <= tolerance * scale or (iteration == max_iterations and acceptable is not None
                                              and residual <= acceptable * scale):
             return ExactOrbit(x, system.coordinates.V1 @ x, monodromy, residuals, means, active,
-                              closed)
+                              closed, segments, system)
         if iteration == max_iterations:
             break
         matrix = np.eye(x.size) - monodromy
