@@ -316,12 +316,11 @@ class ExactSystem:
 
     def fast_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
         """``(columns, r)``: each event function's change per unit of the state along the
-        mode's fast modes, at the start (:func:`fast_offsets`; zeros without fast modes)."""
+        mode's fast modes, at the start (:func:`fast_offsets`), for a mode that has them
+        (``mode.fast_P``: the callers ask only then)."""
         cached = self._fast_rows.get(id(mode))
         if cached is None:
-            rows = self._event_rows(mode, closed)[0]
-            cached = self._fast_rows[id(mode)] = (rows @ mode.fast_P if mode.fast_P is not None
-                                                  else np.zeros((rows.shape[0], self.coordinates.rank)))
+            cached = self._fast_rows[id(mode)] = self._event_rows(mode, closed)[0] @ mode.fast_P
         return cached
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
