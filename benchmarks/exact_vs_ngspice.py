@@ -16,9 +16,12 @@ shared machine), the exact run's segments (pieces between events and source corn
 as the run summary prints them, and the run's own seconds per segment (as the summary times it:
 start-up, parsing, the operating point and the CSV excluded; mode building and the rows
 included). ``--fraction 0.1`` runs a tenth of each stop; ``--method theta`` runs ours with the
-θ-method instead (its steps in place of segments).
+θ-method instead (its steps in place of segments). ``--repeat N`` runs each side N times,
+interleaved (ours, ngspice, ours, ...), and prints the medians: on the shared 2-core VM one
+run of the inverter's took 0.95 to 1.5 CPU seconds within a minute, so a single pair's ratio
+moved by half.
 
-Usage: ``PYTHONPATH=$PWD python benchmarks/exact_vs_ngspice.py [--fraction 1] [--only X.cir ...]``
+Usage: ``PYTHONPATH=$PWD python benchmarks/exact_vs_ngspice.py [--fraction 1] [--repeat 3] [--only X ...]``
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import argparse
 import os
 import re
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -98,6 +102,7 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=1800.0)
     parser.add_argument("--method", default="exact", help="ours with this .options method (default exact)")
     parser.add_argument("--no-ngspice", action="store_true", help="ours only")
+    parser.add_argument("--repeat", type=int, default=3, help="runs of each side, interleaved (medians)")
     args = parser.parse_args()
     print(f"{'':<26} {'':>6} {'wall s':^24} {'CPU s':^24}")
     print(f"{'netlist':<26} {'stop':>6} {'ours':>7} {'ngspice':>8} {'ratio':>7} {'ours':>7} {'ngspice':>8} "
@@ -108,12 +113,22 @@ def main() -> None:
         if args.only and name not in args.only:
             continue
         stop *= args.fraction
-        seconds, cpu, result = ours(path, stop, signal, args.timeout, args.method)
-        theirs = (1.0, 1.0) if args.no_ngspice else ngspice(path, stop, args.timeout)
+        mine, others, runs = [], [], []
+        for _ in range(max(1, args.repeat)):
+            seconds, cpu, result = ours(path, stop, signal, args.timeout, args.method)
+            theirs = (1.0, 1.0) if args.no_ngspice else ngspice(path, stop, args.timeout)
+            if "failed" in result or theirs is None:
+                break
+            mine.append((seconds, cpu))
+            others.append(theirs)
+            runs.append(result["run"])
         if "failed" in result or theirs is None:
             why = result.get("failed", "ngspice failed")
             print(f"{name:<26} {stop:>6.3g} failed: {why}")
             continue
+        seconds, cpu = (statistics.median(values) for values in zip(*mine))
+        theirs = tuple(statistics.median(values) for values in zip(*others))
+        result["run"] = statistics.median(runs)
         print(f"{name:<26} {stop:>6.3g} {seconds:>7.2f} {theirs[0]:>8.2f} {theirs[0] / seconds:>7.2f} "
               f"{cpu:>7.2f} {theirs[1]:>8.2f} {theirs[1] / cpu:>7.2f} {result['segments']:>8} "
               f"{result['events']:>7} {1e6 * result['run'] / result['segments']:>14.0f}")

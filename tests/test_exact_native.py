@@ -243,6 +243,10 @@ def _zero_function_loop_arguments() -> tuple[dict[str, np.ndarray], tuple[int, .
         "event_times": np.zeros(8), "event_index": np.zeros(8, np.int64), "event_on": np.zeros(8, bool),
         "tail_row": np.zeros(8, np.int64), "tail_dt": np.zeros(8), "tail_y": np.zeros((8, 1)),
     }
+    # every entry listed (the event table's lines, rows_q's, rows_y's, the z map's: zeros add ±0)
+    widths = [inputs] * terms + [1, 1] + [inputs] * terms
+    arrays["first"] = np.concatenate([[0], np.cumsum(widths)]).astype(np.int64)
+    arrays["entries"] = np.concatenate([np.arange(width) for width in widths]).astype(np.int32)
     sizes = (1, 0, 1, 1, 1, 1, 2, 1, terms, inputs, 2, 8, 8)
     return arrays, sizes
 
@@ -253,7 +257,7 @@ def test_the_loop_stops_as_stalled_when_the_search_gives_up():
     assert status == loop.STALLED
     assert arrays["clock"][0] == 0.0 and arrays["counters"][3] == 1  # (nothing made up, no row)
     again, _ = _zero_function_loop_arguments()  # the numba loop on the same arguments
-    numba_arguments = [again[name] for name in run.NATIVE_ARRAYS]
+    numba_arguments = [again[name] for name in run.NATIVE_ARRAYS if name not in run.NATIVE_ONLY]
     numba_arguments.insert(run.NATIVE_ARRAYS.index("bits") + 1, 1)  # (known modes)
     status = loop.exact_loop(*numba_arguments)
     assert status == loop.STALLED

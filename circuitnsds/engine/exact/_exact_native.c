@@ -519,7 +519,7 @@ enum {
     A_SOURCE_EXPONENTS, A_SOURCE_POWERS, A_PARTNER, A_S_MATRIX, A_BITS, A_Z_MAP, A_TABLE_MAP, A_POWERS,
     A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_FAST_ROWS, A_V1T, A_TIMES, A_Y_OUT,
     A_L_OUT, A_CHARGES, A_ROW_ACTIVE, A_ROW_CLOSED, A_EVENT_TIMES, A_EVENT_INDEX, A_EVENT_ON, A_TAIL_ROW,
-    A_TAIL_DT, A_TAIL_Y, A_COUNT_ARRAYS
+    A_TAIL_DT, A_TAIL_Y, A_FIRST, A_ENTRIES, A_COUNT_ARRAYS
 };
 
 /* The order of the entries of the `sizes` argument (int64); run.NATIVE_SIZES. */
@@ -553,70 +553,23 @@ typedef struct {
     uint8_t *event_on;
     int64_t *tail_row;
     double *tail_dt, *tail_y;
-    /* each mode's nonzero entries (listed), built when the mode is first met in a call: the
-     * event table's lines (T·columns over I inputs), then rows_q's and rows_y's (columns
-     * lines over n each), then the z map's (T·(n + m) over I: a few % of its entries are
-     * not 0, as a term of a source's exponent reads only that source's inputs and a mode's
-     * own exponent only the state); listed[mode] < 0 until then (sparse_lines) */
-    int64_t *listed, *first;
-    int32_t *entries;
+    /* each mode's nonzero entries, listed by Python when the mode joins (mode_tables.py): the
+     * lines of mode `mode` start at first + mode * lines_per_mode: the event table's lines
+     * (T·columns over I inputs), then rows_q's and rows_y's (columns lines over n each), then
+     * the z map's (T·(n + m) over I: a few % of its entries are not 0, as a term of a source's
+     * exponent reads only that source's inputs and a mode's own exponent only the state), then
+     * the end; first[line] .. first[line + 1] index `entries`, the line's nonzero columns */
+    const int64_t *first;
+    const int32_t *entries;
     /* the nonzero entries of S's rows (s_entries[s_first[i]] ... of row i: the sources that
      * drive unknown i), listed once per call; a zero entry adds ±0 to a sum that is +0 */
     int64_t *s_first, *s_entries;
-    int64_t entries_used, entries_capacity;
 } Exact;
 
-enum { SPARSE_OK = 0, SPARSE_FAILED = 1 };
-
-/* The nonzero entries of `lines` lines of `width` values (complex when `complex_values`) into
- * L->entries (their indices), L->first[start + line] the first of line `line` (one past the
- * last line: the end). Returns SPARSE_FAILED when the list could not grow. */
-static int list_nonzero(Exact *L, const void *values, int complex_values, int64_t lines, int64_t width,
-                        int64_t start) {
-    for (int64_t line = 0; line < lines; line++) {
-        L->first[start + line] = L->entries_used;
-        if (L->entries_used + width > L->entries_capacity) {
-            int64_t capacity = 2 * L->entries_capacity + width + 1024;
-            int32_t *grown = realloc(L->entries, sizeof(int32_t) * (size_t)capacity);
-            if (!grown)
-                return SPARSE_FAILED;
-            L->entries = grown;
-            L->entries_capacity = capacity;
-        }
-        for (int64_t i = 0; i < width; i++) {
-            int nonzero = complex_values ? (((const cplx *)values)[line * width + i].re != 0.0
-                                            || ((const cplx *)values)[line * width + i].im != 0.0)
-                                         : ((const double *)values)[line * width + i] != 0.0;
-            if (nonzero)
-                L->entries[L->entries_used++] = (int32_t)i;
-        }
-    }
-    L->first[start + lines] = L->entries_used;
-    return SPARSE_OK;
-}
-
-/* The lines of a mode's lists: the event table's, rows_q's, rows_y's, the z map's, and the end. */
+/* The lines of a mode's lists: the event table's, rows_q's, rows_y's, the z map's, and the end
+ * (mode_tables.LISTS). */
 static inline int64_t lines_per_mode(const Exact *L) {
     return L->T * L->columns + 2 * L->columns + L->T * (L->n + L->m) + 1;
-}
-
-/* Mode `mode`'s lists (L->listed[mode] the index in L->first of its first line), built on first
- * use. A zero entry adds ±0 to a sum that is never -0 (it starts at +0, and x + (-x) is +0):
- * summing the nonzero entries alone gives the numba loop's sums bit for bit. */
-static int sparse_lines(Exact *L, int64_t mode) {
-    if (L->listed[mode] >= 0)
-        return SPARSE_OK;
-    const int64_t T = L->T, count = L->terms[mode], columns = L->columns, width = L->n + L->m;
-    int64_t start = mode * lines_per_mode(L);
-    /* (the mode's own terms only: the lines of terms count .. T are never read) */
-    if (list_nonzero(L, L->table_map + mode * (T * columns) * L->I, 1, count * columns, L->I, start)
-        || list_nonzero(L, L->rows_q + mode * columns * L->n, 0, columns, L->n, start + T * columns)
-        || list_nonzero(L, L->rows_y + mode * columns * L->n, 0, columns, L->n, start + T * columns + columns)
-        || list_nonzero(L, L->z_map + mode * (T * width) * L->I, 1, count * width, L->I,
-                        start + T * columns + 2 * columns))
-        return SPARSE_FAILED;
-    L->listed[mode] = start;
-    return SPARSE_OK;
 }
 
 /* loop._shifted: the sources' piece k shifted by delta into L->sources_now. */
@@ -642,12 +595,14 @@ static void shifted(const Exact *L, int64_t k, double delta) {
 static inline double ulp_of(double t) { return EPSILON * fmax(fabs(t), 1e-300); }
 
 /* loop._functions: the mode's event functions (table (T, columns)) and their round-off, over the
- * mode's nonzero map entries and rows (sparse_lines, built by the caller). */
+ * mode's nonzero map entries and rows (its lists: Exact.first). A zero entry adds ±0 to a sum
+ * that is never -0 (it starts at +0, and x + (-x) is +0): summing the nonzero entries alone
+ * gives the numba loop's sums bit for bit. */
 static void functions(const Exact *L, int64_t mode, const cplx *inputs, const double *x, const double *y_size, const double *forcing, double instant, cplx *table,
                       double *tolerances, double *sizes) {
     int64_t count = L->terms[mode], columns = L->columns, I = L->I;
     const cplx *map = L->table_map + mode * (L->T * columns) * I;
-    const int64_t *first = L->first + L->listed[mode];
+    const int64_t *first = L->first + mode * lines_per_mode(L);
     const int32_t *entries = L->entries;
     for (int64_t j = 0; j < count; j++)
         for (int64_t k = 0; k < columns; k++) {
@@ -995,10 +950,6 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         int from_python = chosen == 1;
         int64_t changes = 0;
         for (;;) {
-            if (sparse_lines(L, mode) != SPARSE_OK) {
-                status = OUT_OF_MEMORY;
-                break;
-            }
             functions(L, mode, inputs, x, y_size, forcing, t, table, tolerances, search->table_sizes);
             if (chosen == 1)
                 break;
@@ -1080,12 +1031,12 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
         /* z = [y; λ] per term; the pairs' columns only when a row or a row's charge needs them */
         int64_t size = row < rows_total && (L->times[row] <= stop_at || (tau > 0 && pair_count > 0)) ? width : n;
         const cplx *z_map = L->z_map + mode * (T * width) * I;
-        const int64_t *first_z = L->first + L->listed[mode] + T * columns + 2 * columns;
+        const int64_t *first_z = L->first + mode * lines_per_mode(L) + T * columns + 2 * columns;
         for (int64_t j = 0; j < count; j++)
             for (int64_t i = 0; i < size; i++) {
                 const cplx *line = z_map + (j * width + i) * I;
                 const int64_t from = first_z[j * width + i], to = first_z[j * width + i + 1];
-                double total_re = 0.0, total_im = 0.0; /* (over the line's nonzero entries: sparse_lines) */
+                double total_re = 0.0, total_im = 0.0; /* (over the line's nonzero entries) */
                 if (real_inputs) {
                     for (int64_t e = from; e < to; e++) {
                         int32_t q = L->entries[e];
@@ -1231,8 +1182,7 @@ static int64_t run(Exact *L, Rows *R, Search *search) {
 }
 
 /* loop._exact_loop: `arrays` the addresses (A_*), `sizes` the integers (S_*); returns the
- * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated: nothing done, or,
- * when a mode's list of nonzero entries could not grow, the state at that segment's start). */
+ * status (FINISHED ...; OUT_OF_MEMORY when its scratch could not be allocated: nothing done). */
 EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes) {
     Exact L;
     L.n = sizes[S_N];
@@ -1297,14 +1247,8 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
         }
         L.s_first[L.n] = used;
     }
-    const int64_t per_mode = lines_per_mode(&L);
-    L.listed = malloc(sizeof(int64_t) * (size_t)(L.known + 1));
-    L.first = malloc(sizeof(int64_t) * (size_t)(L.known * per_mode + 1));
-    L.entries = NULL;
-    L.entries_used = 0;
-    L.entries_capacity = 0;
-    for (int64_t mode = 0; L.listed && mode < L.known; mode++)
-        L.listed[mode] = -1;
+    L.first = arrays[A_FIRST];
+    L.entries = arrays[A_ENTRIES];
 
     const int64_t T = L.T, width = L.n + L.m;
     int64_t top_power = 0;
@@ -1321,7 +1265,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     Search *search = malloc(sizeof(Search));
     int searching = search && search_init(search, T, L.columns);
     int64_t status = OUT_OF_MEMORY;
-    if (d && c && ints && wanted && searching && L.listed && L.first && L.s_first && L.s_entries) {
+    if (d && c && ints && wanted && searching && L.s_first && L.s_entries) {
         double *next = d;
         R.nu_re = next; next += T;
         R.nu_im = next; next += T;
@@ -1360,9 +1304,6 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     if (search)
         search_free(search);
     free(search);
-    free(L.listed);
-    free(L.first);
-    free(L.entries);
     free(L.s_first);
     free(L.s_entries);
     return status;

@@ -566,9 +566,14 @@ NATIVE_ARRAYS = ("clock", "counters", "x", "y_size", "sources_now", "widened", "
                  "source_coefficients", "source_exponents", "source_powers", "partner", "s_matrix", "bits",
                  "z_map", "table_map", "powers", "exponents", "terms", "slope_weights", "rows_p", "rows_q",
                  "rows_y", "rows_c", "fast_rows", "v1t", "times", "y_out", "l_out", "charges", "row_active",
-                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y")
+                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y",
+                 "first", "entries")
 """The arrays whose addresses the C loop takes, in its order (each C-contiguous, of the dtype
-:data:`_NATIVE_DTYPES` gives, float64 otherwise)."""
+:data:`_NATIVE_DTYPES` gives, float64 otherwise): the numba loop's arguments, then
+:data:`NATIVE_ONLY`."""
+NATIVE_ONLY = ("first", "entries")
+"""The arrays only the C loop takes: each mode's nonzero entries (:meth:`.ModeTables._list`;
+the numba loop sums over the dense maps)."""
 NATIVE_SIZES = ("n", "m", "columns", "states", "source_terms", "signals", "corners", "known", "terms_max",
                 "inputs", "rows", "event_capacity", "tail_capacity")
 """The integers the C loop takes, in its order."""
@@ -577,7 +582,7 @@ _NATIVE_DTYPES = {"counters": np.int64, "sources_now": np.complex128, "source_co
                   "bits": np.bool_, "z_map": np.complex128, "table_map": np.complex128, "powers": np.int64,
                   "exponents": np.complex128, "terms": np.int64, "slope_weights": np.complex128,
                   "row_active": np.bool_, "row_closed": np.bool_, "event_index": np.int64,
-                  "event_on": np.bool_, "tail_row": np.int64}
+                  "event_on": np.bool_, "tail_row": np.int64, "first": np.int64, "entries": np.int32}
 _WRITTEN = frozenset({"clock", "counters", "x", "y_size", "sources_now", "widened", "y_out", "l_out",
                       "charges", "row_active", "row_closed", "event_times", "event_index", "event_on",
                       "tail_row", "tail_dt", "tail_y"})
@@ -730,7 +735,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                     "v1t": v1t, "times": times, "y_out": Y,
                     "l_out": L, "charges": charges, "row_active": row_active, "row_closed": row_closed,
                     "event_times": event_times, "event_index": event_index, "event_on": event_on,
-                    "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y},
+                    "tail_row": tail_row, "tail_dt": tail_dt, "tail_y": tail_y, "first": tables.first,
+                    "entries": tables.entries},
                     (n, m, tables.columns, x.size, sources.coefficients.shape[1],
                      sources.coefficients.shape[2], sources.corners.size, tables.known,
                      tables.powers.shape[1], tables.inputs, count, capacity, capacity))
