@@ -233,16 +233,13 @@ def _closer(A_bar: np.ndarray, coordinates: StateCoordinates, n: int, eigenvalue
             eigenvalues.real < -FAST_DECAY):
         return from_state  # (a mode with a part gone at once: the transformer's, measured with P W)
     E_bar = coordinates.blocks(A_bar.shape[0] - n).E_bar
-    size_A, size_E = np.abs(A_bar), np.abs(E_bar)
+    both = np.stack([from_state, from_pencil])  # (2, rows, modes): every mode's two vectors at once
+    sizes = np.abs(both)
+    scales = (np.abs(A_bar) @ sizes + np.abs(eigenvalues) * (np.abs(E_bar) @ sizes)).max(axis=1)
+    residuals = np.abs(A_bar @ both - eigenvalues * (E_bar @ both)).max(axis=1) / np.maximum(scales, 1e-300)
     chosen = from_state.copy()
-    for j, nu in enumerate(eigenvalues):
-        residuals = []
-        for z in (from_state[:, j], from_pencil[:, j]):
-            scale = (size_A + abs(nu) * size_E) @ np.abs(z)
-            residual = np.abs((A_bar - nu * E_bar) @ z)
-            residuals.append(float(np.max(residual / np.maximum(scale.max(), 1e-300))))
-        if residuals[0] > RESIDUAL_RATIO * residuals[1]:
-            chosen[:, j] = from_pencil[:, j]
+    pencil = residuals[0] > RESIDUAL_RATIO * residuals[1]
+    chosen[:, pencil] = from_pencil[:, pencil]
     return chosen
 
 
