@@ -26,7 +26,8 @@ This module knows nothing about circuits: it takes the function ``g`` and the na
 from __future__ import annotations
 
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from itertools import repeat
 from typing import NamedTuple
 
 from circuitnsds.errors import SimulationError
@@ -54,6 +55,15 @@ class SwitchEvent(NamedTuple):
 
 event_time = operator.attrgetter("time")
 """An event's ``time`` [s]: the key of a list of events in time order (``bisect``'s, ``sort``'s)."""
+
+
+def switch_events(times: Iterable[float], elements: Iterable[str], states: Iterable[bool]
+                  ) -> list[SwitchEvent]:
+    """The events of three parallel sequences (times [s], element names, new states), made by
+    ``tuple.__new__`` without a Python frame per event: 0.27 µs each where ``SwitchEvent(...)``
+    took 0.6 µs (its ``__new__`` is Python); the open-loop buck's 60,000 events a run cost
+    36 ms that way, 16 ms this way."""
+    return list(map(tuple.__new__, repeat(SwitchEvent), zip(times, elements, states)))
 
 
 def regula_falsi(g: Callable[[float], float], a: float, b: float, ga: float, gb: float,

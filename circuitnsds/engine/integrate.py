@@ -64,6 +64,7 @@ from circuitnsds.engine.events import (
     SwitchEvent,
     chattering_error,
     regula_falsi,
+    switch_events,
 )
 from circuitnsds.engine.loop_choice import LoopChoice
 from circuitnsds.engine.step_system import StepSystem, check_theta, mode_blocks, step_system
@@ -893,9 +894,8 @@ class GridStepping:
         for j in self.scheduled:
             changes = np.flatnonzero(states[2:, j] != states[1:-1, j]) + 1
             # (built from lists by map: a converter switches ~10^4 times a run)
-            events += map(SwitchEvent._make, zip(self.grid[changes].tolist(),
-                                                 repeat(self.mlcs.switches[j].name),
-                                                 states[changes + 1, j].tolist()))
+            events += switch_events(self.grid[changes].tolist(), repeat(self.mlcs.switches[j].name),
+                                    states[changes + 1, j].tolist())
         return events
 
     def free_switch_arrays(self, states: np.ndarray) -> FreeSwitches:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from circuitnsds import native
-from circuitnsds.engine.events import SwitchEvent
+from circuitnsds.engine.events import SwitchEvent, switch_events
 from circuitnsds.engine.exact.charge import interval_integrals
 from circuitnsds.engine.exact.exppoly import ExpPoly
 from circuitnsds.engine.exact.first_event import crossed_within_tolerance, first_event, native_first_event
@@ -685,10 +685,10 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
         return LoopState(float(clock[0]), x.copy(), y_size.copy(), active, closed, bool(counters[7]))
 
     def result() -> ExactRun:
-        names = list(mlcs.pairs) + [switch.name for switch in mlcs.switches]
+        names = np.array(list(mlcs.pairs) + [switch.name for switch in mlcs.switches], dtype=object)
         used = int(counters[4])
-        events = list(map(SwitchEvent, event_times[:used].tolist(),
-                          [names[c] for c in event_index[:used].tolist()], event_on[:used].tolist()))
+        events = switch_events(event_times[:used].tolist(), names[event_index[:used]].tolist(),
+                               event_on[:used].tolist())
         written = int(counters[8])
         tails = TailTable(tail_row[:written], tail_dt[:written], tail_y[:written])
         return ExactRun(times, Y, L, events, int(counters[5]), row_active, row_closed, charges, tails,
