@@ -301,7 +301,8 @@ class ModeDynamics:
         # modal forcing (W⁻¹ H ...) and into z (P W for the modal part, Q ... directly)
         self.modal_from_sources = self.W_inv @ self.H[:, :n] @ S
         self.modal_constant = self.W_inv @ self.H[:, n:] @ self.e_active
-        self.z_from_modal = _closer(A_bar, coordinates, n, self.eigenvalues, self.P @ self.W, Z)
+        from_state = self.P @ self.W
+        self.z_from_modal = _closer(A_bar, coordinates, n, self.eigenvalues, from_state, Z)
         # the modes that are gone a femtosecond after any instant (module docstring of
         # solution_map) and what of P persists after them
         self.fast = self.eigenvalues.real < -FAST_DECAY if self.eigenvalues.size else np.zeros(0, bool)
@@ -318,6 +319,17 @@ class ModeDynamics:
                        if r and self.fast.any() else None)
         self.z_from_sources = self.Q[:, :n] @ S
         self.z_constant = self.Q[:, n:] @ self.e_active
+        gap = self.z_from_modal - from_state if r else None
+        self.vector_gap = ((gap[:, ~self.fast] @ self.W_inv[~self.fast]).real
+                           if gap is not None and gap.any() else None)
+        """``(n + k, r)`` or ``None``: where the mode's vectors are the pencil's own
+        (:func:`_closer`), how far the solution at ``τ = 0`` from a state ``x``,
+        ``Σ_k z_k (W⁻¹ x)_k``, is from the mode's algebraic values ``P x`` (its slow modes: the
+        fast ones are left out at once): ``vector_gap @ x``. The two are the same function
+        in exact arithmetic; where the pencil's vectors were taken, one of them is off by
+        the round-off of a parasitic part (1e-6 of it: at rest through a switch's 1e9 Ω,
+        −1e-5 V at a diode blocking at +1e-5 V), which the event functions' round-off then
+        holds (:meth:`.run.ExactSystem.event_functions`)."""
 
     def forcing_size(self, sources: ExpPoly) -> np.ndarray:
         """``Σ_j |φ_j|`` at ``τ = 0`` per component of ``φ = [S f(τ); e_a]``: the magnitudes

@@ -401,7 +401,10 @@ class ExactSystem:
                 signs[r], constants[r] = -1.0, switch.on_threshold
         rows *= signs[:, None]
         # (the state's round-off through what of P persists: mode.FAST_DECAY)
-        cached = (rows, constants, np.abs(rows @ mode.P_persistent), np.abs(rows @ mode.Q),
+        rows_P = np.abs(rows @ mode.P_persistent)
+        if mode.vector_gap is not None:  # (the gap's share of g(0) at x: |rows gap| |x|, mode.vector_gap)
+            rows_P += np.abs(rows @ mode.vector_gap) / RELATIVE_TOL
+        cached = (rows, constants, rows_P, np.abs(rows @ mode.Q),
                   np.abs(rows @ mode.P_persistent @ mode.V1t))
         self._rows[id(mode)] = cached
         return cached
