@@ -129,6 +129,22 @@ def test_the_c_loop_is_the_numba_loop_and_the_python_loop(monkeypatch, path, sto
     np.testing.assert_array_equal(native.closed, python.closed)
 
 
+def test_tables_that_grow_give_the_c_loop_the_same_lists(monkeypatch):
+    # the inverter's modes joining tables sized for 2 (doubled as they come, each mode's list
+    # of nonzero entries carried over: ModeTables._allocate) against tables sized for them all:
+    # the C loop's runs are the same bit for bit
+    from circuitnsds.engine.exact import mode_tables
+
+    arguments, _ = _prepared(BENCH / "inverter_three_phase.cir", 4e-3)
+    roomy = run.run_exact(*arguments)
+    monkeypatch.setattr(mode_tables, "INITIAL_BYTES", 1)
+    monkeypatch.setattr(mode_tables, "INITIAL_CAPACITY", 2)
+    spy = _Spy(monkeypatch)
+    grown = run.run_exact(*arguments)
+    assert spy.statuses and spy.statuses[-1] == loop.FINISHED  # (the C loop ran)
+    _assert_same_run(roomy, grown)
+
+
 CHATTERING_TANK = """A 2 GHz sine through a tank clamped by a diode: an event every few hundred ps
 V1 in 0 SIN(0 1 2G)
 L1 in a 1n

@@ -75,9 +75,12 @@ class ModeTables:
                     array[:self.known] = current[:self.known]
         for name, array in fresh.items():
             setattr(self, name, array)
+        listed = getattr(self, "first", None)
         self.first = np.zeros((capacity, self.lines_per_mode(terms)), np.int64)
         """Each mode's lines (:meth:`_list`): the offsets in :attr:`entries` where they start."""
-        if old is not None and self.known:  # (listed again: a line's length depends on the terms)
+        if listed is not None and listed.shape[1] == self.first.shape[1]:
+            self.first[:self.known] = listed[:self.known]  # (more modes, the same lines)
+        elif self.known:  # (more terms: a mode's lines are laid out again)
             self.entries_used = 0
             for i in range(self.known):
                 self._list(i)

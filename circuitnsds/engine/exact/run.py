@@ -45,10 +45,10 @@ in a row shorter than :data:`CHATTERING` of the run."""
 CHATTERING = 1e-8
 """A segment shorter than this fraction of the run's end time counts as not advancing (the
 compiled loops' ``stalled``): more than :data:`MAX_MODE_CHANGES` in a row are a chattering
-pair, handed to θ (:class:`Chattering`). The XSPICE voltage-mode buck's freewheeling diode
-(``netlists/buck_voltage_mode_xspice.cir``), at its threshold while the switch's 1e9 Ω
-leaks 12 nA at start-up, turned on and off every 2 ps for 8 µs: 4.1 million events, 77 s,
-where the θ-method slides through it. The fraction is of the run, not of the rows' spacing:
+pair, handed to θ (:class:`Chattering`): a diode clamping a tank driven at 2 GHz turns on and
+off every few hundred ps for ever (``tests/test_exact_native.py``), where the θ-method slides
+through it. (The XSPICE voltage-mode buck's diode did so at start-up, 4.1 million events in
+77 s, falsely: ``mode.ModeDynamics.vector_gap``.) The fraction is of the run, not of the rows' spacing:
 the rows do not set the exact integrator's accuracy, and a long run of sparse rows is a use
 of it; a real ringing 64 times in a row shorter than 1e-8 of the run (a 5 MHz ring over a run
 of 10 s) is handed to θ too, and said."""
