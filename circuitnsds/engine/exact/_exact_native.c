@@ -517,7 +517,7 @@ EXPORT double circuitnsds_first_event(const cplx *table, int64_t terms, int64_t 
 enum {
     A_CLOCK, A_COUNTERS, A_X, A_Y_SIZE, A_SOURCES_NOW, A_WIDENED, A_CORNERS, A_SOURCE_COEFFICIENTS,
     A_SOURCE_EXPONENTS, A_SOURCE_POWERS, A_PARTNER, A_S_MATRIX, A_BITS, A_Z_MAP, A_TABLE_MAP, A_POWERS,
-    A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_FAST_ROWS, A_V1T, A_TIMES, A_Y_OUT,
+    A_EXPONENTS, A_TERMS, A_SLOPE_WEIGHTS, A_ROWS_P, A_ROWS_Q, A_ROWS_Y, A_ROWS_C, A_FAST_ROWS, A_GAP_ROWS, A_V1T, A_TIMES, A_Y_OUT,
     A_L_OUT, A_CHARGES, A_ROW_ACTIVE, A_ROW_CLOSED, A_EVENT_TIMES, A_EVENT_INDEX, A_EVENT_ON, A_TAIL_ROW,
     A_TAIL_DT, A_TAIL_Y, A_FIRST, A_ENTRIES, A_COUNT_ARRAYS
 };
@@ -545,7 +545,7 @@ typedef struct {
     const cplx *exponents;
     const int64_t *terms;
     const cplx *slope_weights;
-    const double *rows_p, *rows_q, *rows_y, *rows_c, *fast_rows, *v1t, *times;
+    const double *rows_p, *rows_q, *rows_y, *rows_c, *fast_rows, *gap_rows, *v1t, *times;
     double *y_out, *l_out, *charges;
     uint8_t *row_active, *row_closed;
     double *event_times;
@@ -637,8 +637,12 @@ static void functions(const Exact *L, int64_t mode, const cplx *inputs, const do
             sizes[j * columns + k] = csize(table[j * columns + k].re, table[j * columns + k].im);
             terms_size += sizes[j * columns + k];
         }
-        tolerances[k] = RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed + fabs(slope) * TIME_ULPS * ulp_of(instant)
-                        + SUM_ULPS * EPSILON * terms_size + 1e-300;
+        const double *rg = L->gap_rows + (mode * columns + k) * L->r;
+        double gap = 0.0; /* (the modal sum's gap to P x at tau = 0: run.ExactSystem.gap_rows) */
+        for (int64_t i = 0; i < L->r; i++)
+            gap += rg[i] * x[i];
+        tolerances[k] = (RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed + fabs(slope) * TIME_ULPS * ulp_of(instant)
+                         + SUM_ULPS * EPSILON * terms_size + 1e-300) + fabs(gap);
     }
 }
 
@@ -1222,6 +1226,7 @@ EXPORT int64_t circuitnsds_exact_loop(void *const *arrays, const int64_t *sizes)
     L.rows_y = arrays[A_ROWS_Y];
     L.rows_c = arrays[A_ROWS_C];
     L.fast_rows = arrays[A_FAST_ROWS];
+    L.gap_rows = arrays[A_GAP_ROWS];
     L.v1t = arrays[A_V1T];
     L.times = arrays[A_TIMES];
     L.y_out = arrays[A_Y_OUT];

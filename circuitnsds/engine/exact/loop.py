@@ -79,7 +79,7 @@ def _ulp(t):
 
 
 def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights, rows_p, rows_q,
-               rows_y, rows_c, x, y_size, forcing, instant, table, tolerances):
+               rows_y, rows_c, gap_rows, x, y_size, forcing, instant, table, tolerances):
     """The mode's event functions (``table``) and their round-off (``tolerances``), as
     :meth:`.run.ExactSystem.event_functions` has them."""
     count = terms[mode]
@@ -104,9 +104,12 @@ def _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights
         for j in range(count):
             slope += (slope_weights[mode, j] * table[j, k]).real
             terms_size += abs(table[j, k])
+        gap = 0.0
+        for i in range(x.shape[0]):
+            gap += gap_rows[mode, k, i] * x[i]
         tolerances[k] = (RELATIVE_TOL * scale + SUM_ULPS * EPSILON * summed
                          + abs(slope) * TIME_ULPS * _ulp(instant) + SUM_ULPS * EPSILON * terms_size
-                         + 1e-300)
+                         + 1e-300) + abs(gap)
 
 
 def _fast_offset(fast_rows, mode, c, x):
@@ -304,7 +307,7 @@ def _charge(z_re, z_im, n, pairs, pair_count, powers, nu_re, nu_im, count, a, b,
 def _exact_loop(clock, counters, x, y_size, sources_now, widened,
                 corners, source_coefficients, source_exponents, source_powers, partner, s_matrix,
                 bits, known, z_map, table_map, powers, exponents, terms, slope_weights,
-                rows_p, rows_q, rows_y, rows_c, fast_rows, v1t,
+                rows_p, rows_q, rows_y, rows_c, fast_rows, gap_rows, v1t,
                 times, y_out, l_out, charges, row_active, row_closed,
                 event_times, event_index, event_on, tail_row, tail_dt, tail_y):
     """Run from ``clock[0]`` [s] until the row ``times[-1]`` is written (the sources' table
@@ -386,7 +389,7 @@ def _exact_loop(clock, counters, x, y_size, sources_now, widened,
         changes = 0
         while True:
             _functions(mode, inputs, table_map, terms, columns, exponents, slope_weights, rows_p, rows_q,
-                       rows_y, rows_c, x, y_size, forcing, t, table, tolerances)
+                       rows_y, rows_c, gap_rows, x, y_size, forcing, t, table, tolerances)
             if chosen == 1:
                 break
             any_bad = False

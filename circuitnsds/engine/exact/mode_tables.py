@@ -63,6 +63,7 @@ class ModeTables:
             "rows_y": np.zeros((capacity, c, n)),
             "rows_c": np.zeros((capacity, c)),
             "fast_rows": np.zeros((capacity, c, r)),
+            "gap_rows": np.zeros((capacity, c, r)),
         }
         if old is not None:
             for name, array in fresh.items():
@@ -165,6 +166,8 @@ class ModeTables:
         self.rows_c[i] = rows_Q[:, n:] @ np.abs(mode.e_active) + np.abs(constants)
         if mode.fast_P is not None:  # (else zeros: nothing along a fast mode to count)
             self.fast_rows[i] = system.fast_rows(mode, tuple(closed))
+        if mode.vector_gap is not None:  # (else zeros: the modal sum is P x)
+            self.gap_rows[i] = system.gap_rows(mode, tuple(closed))
         self._list(i)
         self.index[key] = i
         self.known += 1

@@ -223,6 +223,7 @@ class ExactSystem:
         """The modes without state equations met, with why (:meth:`mode`)."""
         self._rows: dict[int, tuple] = {}
         self._fast_rows: dict[int, np.ndarray] = {}
+        self._gap_rows: dict[int, np.ndarray] = {}
         self._maps: dict[tuple, SolutionMap] = {}
         self._quick_maps: dict[tuple, tuple] = {}
         self._labels: dict[int, tuple] = {}
@@ -300,6 +301,8 @@ class ExactSystem:
         # refused on that sign (changed by one ulp of an eigenvector)
         terms = SUM_ULPS * EPSILON * np.add.reduce(np.abs(table), axis=0)
         tolerances = RELATIVE_TOL * scale + summed + resolution + terms + 1e-300
+        if mode.vector_gap is not None:  # (the modal sum's gap to P x at τ = 0: mode.vector_gap)
+            tolerances = tolerances + np.abs(self.gap_rows(mode, closed) @ x)
         # terms that vanish in every column are left out (a bound multiplies their size by
         # their growth, and 0·∞ is not a number)
         keep = (table != 0).any(axis=1)
@@ -321,6 +324,18 @@ class ExactSystem:
         cached = self._fast_rows.get(id(mode))
         if cached is None:
             cached = self._fast_rows[id(mode)] = self._event_rows(mode, closed)[0] @ mode.fast_P
+        return cached
+
+    def gap_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
+        """``(columns, r)``: each event function's share of the gap between the mode's modal
+        sum at ``τ = 0`` and its algebraic values, per unit of the state
+        (``rows · mode.vector_gap``; the callers ask only for a mode that has one). Its value
+        at ``x``, ``|gap_rows @ x|``, joins the function's round-off: the gap itself, not a
+        bound of it by magnitudes (the XSPICE buck's eigenvectors, whose ``W⁻¹`` has entries
+        that cancel on its states, made ``|gap_rows| |x|`` 0.85 V per unit of the state)."""
+        cached = self._gap_rows.get(id(mode))
+        if cached is None:
+            cached = self._gap_rows[id(mode)] = self._event_rows(mode, closed)[0] @ mode.vector_gap
         return cached
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
@@ -401,10 +416,7 @@ class ExactSystem:
                 signs[r], constants[r] = -1.0, switch.on_threshold
         rows *= signs[:, None]
         # (the state's round-off through what of P persists: mode.FAST_DECAY)
-        rows_P = np.abs(rows @ mode.P_persistent)
-        if mode.vector_gap is not None:  # (the gap's share of g(0) at x: |rows gap| |x|, mode.vector_gap)
-            rows_P += np.abs(rows @ mode.vector_gap) / RELATIVE_TOL
-        cached = (rows, constants, rows_P, np.abs(rows @ mode.Q),
+        cached = (rows, constants, np.abs(rows @ mode.P_persistent), np.abs(rows @ mode.Q),
                   np.abs(rows @ mode.P_persistent @ mode.V1t))
         self._rows[id(mode)] = cached
         return cached
@@ -568,9 +580,9 @@ def _excess(functions: EventFunctions, bad: list[tuple[str, int]]) -> float:
 NATIVE_ARRAYS = ("clock", "counters", "x", "y_size", "sources_now", "widened", "corners",
                  "source_coefficients", "source_exponents", "source_powers", "partner", "s_matrix", "bits",
                  "z_map", "table_map", "powers", "exponents", "terms", "slope_weights", "rows_p", "rows_q",
-                 "rows_y", "rows_c", "fast_rows", "v1t", "times", "y_out", "l_out", "charges", "row_active",
-                 "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt", "tail_y",
-                 "first", "entries")
+                 "rows_y", "rows_c", "fast_rows", "gap_rows", "v1t", "times", "y_out", "l_out", "charges",
+                 "row_active", "row_closed", "event_times", "event_index", "event_on", "tail_row", "tail_dt",
+                 "tail_y", "first", "entries")
 """The arrays whose addresses the C loop takes, in its order (each C-contiguous, of the dtype
 :data:`_NATIVE_DTYPES` gives, float64 otherwise): the numba loop's arguments, then
 :data:`NATIVE_ONLY`."""
@@ -735,6 +747,7 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                     "powers": tables.powers, "exponents": tables.exponents, "terms": tables.terms,
                     "slope_weights": tables.slope_weights, "rows_p": tables.rows_p, "rows_q": tables.rows_q,
                     "rows_y": tables.rows_y, "rows_c": tables.rows_c, "fast_rows": tables.fast_rows,
+                    "gap_rows": tables.gap_rows,
                     "v1t": v1t, "times": times, "y_out": Y,
                     "l_out": L, "charges": charges, "row_active": row_active, "row_closed": row_closed,
                     "event_times": event_times, "event_index": event_index, "event_on": event_on,
@@ -749,8 +762,8 @@ def run_exact(mlcs: MLCS, times: np.ndarray, y0: np.ndarray, active0: np.ndarray
                                     system.S, tables.bits, tables.known, tables.z_map, tables.table_map,
                                     tables.powers, tables.exponents, tables.terms, tables.slope_weights,
                                     tables.rows_p, tables.rows_q, tables.rows_y, tables.rows_c,
-                                    tables.fast_rows, v1t, times, Y, L, charges, row_active, row_closed,
-                                    event_times, event_index, event_on, tail_row, tail_dt, tail_y)
+                                    tables.fast_rows, tables.gap_rows, v1t, times, Y, L, charges, row_active,
+                                    row_closed, event_times, event_index, event_on, tail_row, tail_dt, tail_y)
             if status == FINISHED:
                 break
             if status == STALLED:
