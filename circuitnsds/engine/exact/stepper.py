@@ -56,7 +56,8 @@ HANDOFF_STEPS = 16
 """Grid steps the θ-method takes at a hand-off, at first (doubled at each hand-off that follows
 one at once)."""
 HANDOFF_CAUSES = {
-    Chattering: "no mode holds after that instant: a sliding or chattering control",
+    Chattering: "no mode holds after that instant: a sliding or chattering control, or a "
+                "switching whose instant double precision does not resolve (docs/method.md)",
     NotIndexOne: "a mode without state equations (index 2: a capacitor held to a source, an "
                  "inductor's current cut), whose jumps the θ-method's impulses capture",
 }
