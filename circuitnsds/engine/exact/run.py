@@ -74,6 +74,10 @@ flyback's secondary diode looked at its threshold while 6 V from it, and turned 
 late (at the gate's next corner) when it was at its threshold."""
 
 
+ENUMERATED_PAIRS = 8
+"""Pairs :func:`choose_mode` adds to those its flipping moved, when that cycles, only while
+the enumeration stays within this many (2⁸ = 256 modes at most)."""
+
 NEAR_ZERO = 10.0
 """Tolerances from zero within which a pair's falling function in the mode being left counts
 as switching at the instant, give or take its round-off (:func:`_near_crossing`)."""
@@ -502,9 +506,10 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
     """A mode that holds just after the instant, starting from ``active``/``closed``: each
     violated pair is flipped, and each violated switch once no pair is, repeatedly; when that
     cycles, the pairs involved are enumerated, with those the starting mode switches within a
-    few round-offs of the instant (:func:`_near_crossing`). Returns ``(active, closed, z, functions)``: the
-    mode, its solution from ``x`` (``None`` unless ``solution``: the compiled loop's choice
-    does not need it) and its event functions (:meth:`ExactSystem.event_functions`)."""
+    few round-offs of the instant (:func:`_near_crossing`; at most :data:`ENUMERATED_PAIRS`
+    pairs). Returns ``(active, closed, z, functions)``: the mode, its solution from ``x``
+    (``None`` unless ``solution``: the compiled loop's choice does not need it) and its event
+    functions (:meth:`ExactSystem.event_functions`)."""
     active = active.copy()
     closed = tuple(closed)
     seen = set()
@@ -540,10 +545,12 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         closed = tuple(states)
     # the flipping cycled (or met a mode that is not index 1): enumerate the pairs it moved
     candidates = sorted({j for key in seen for j in range(system.m) if key[0][j] != active[j]})
-    if crossing:  # (and the pairs the mode left switches within a few round-offs of the instant)
+    if crossing and len(set(candidates) | crossing) <= ENUMERATED_PAIRS:
+        # (and the pairs the mode left switches within a few round-offs of the instant)
         candidates = sorted(set(candidates) | crossing)
     if singular is not None:  # (and the pairs the singular mode would have flipped too)
-        candidates = sorted(set(candidates) | set(range(system.m))) if system.m <= 8 else candidates
+        if system.m <= ENUMERATED_PAIRS:
+            candidates = list(range(system.m))
     nearest, nearest_excess = None, LEAKAGE_EXCESS
     for flips in itertools.product((False, True), repeat=len(candidates)):
         trial = active.copy()
