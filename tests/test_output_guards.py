@@ -168,8 +168,11 @@ def test_a_signal_mid_run_writes_a_marked_partial_result_and_no_temporary(signum
     csv.write_text("previous\n")
     argv = [sys.executable, "-m", "circuitnsds", "run", str(NETLISTS / "buck_converter.cir"), "-o", str(csv),
             "-r", str(raw), "--stop", "1", "--signals", "v(out),i(l1)", "-q"]
+    # (the signal's default action restored in the child: a suite run as a background job or
+    # under nohup hands its children SIGINT or SIGHUP ignored, which Python then keeps ignored)
     process = subprocess.Popen(argv, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signum, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and process.poll() is None:
