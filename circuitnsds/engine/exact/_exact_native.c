@@ -567,7 +567,7 @@ typedef struct {
 } Exact;
 
 /* The lines of a mode's lists: the event table's, rows_q's, rows_y's, the z map's, and the end
- * (mode_tables.LISTS). */
+ * (mode_tables.ModeTables.lines_per_mode). */
 static inline int64_t lines_per_mode(const Exact *L) {
     return L->T * L->columns + 2 * L->columns + L->T * (L->n + L->m) + 1;
 }

@@ -329,10 +329,7 @@ class ExactSystem:
         """``(columns, r)``: each event function's change per unit of the state along the
         mode's fast modes, at the start (:func:`fast_offsets`), for a mode that has them
         (``mode.fast_P``: the callers ask only then)."""
-        cached = self._fast_rows.get(id(mode))
-        if cached is None:
-            cached = self._fast_rows[id(mode)] = self._event_rows(mode, closed)[0] @ mode.fast_P
-        return cached
+        return self._per_state(self._fast_rows, mode, closed, mode.fast_P)
 
     def gap_rows(self, mode: ModeDynamics, closed: tuple[bool, ...]) -> np.ndarray:
         """``(columns, r)``: each event function's share of the gap between the mode's modal
@@ -341,9 +338,14 @@ class ExactSystem:
         at ``x``, ``|gap_rows @ x|``, joins the function's round-off: the gap itself, not a
         bound of it by magnitudes (the XSPICE buck's eigenvectors, whose ``W⁻¹`` has entries
         that cancel on its states, made ``|gap_rows| |x|`` 0.85 V per unit of the state)."""
-        cached = self._gap_rows.get(id(mode))
+        return self._per_state(self._gap_rows, mode, closed, mode.vector_gap)
+
+    def _per_state(self, cache: dict[int, np.ndarray], mode: ModeDynamics, closed: tuple[bool, ...],
+                   matrix: np.ndarray) -> np.ndarray:
+        """The mode's event rows times ``matrix`` (``(n + k, r)``), kept in ``cache`` by mode."""
+        cached = cache.get(id(mode))
         if cached is None:
-            cached = self._gap_rows[id(mode)] = self._event_rows(mode, closed)[0] @ mode.vector_gap
+            cached = cache[id(mode)] = self._event_rows(mode, closed)[0] @ matrix
         return cached
 
     def solution_map(self, mode: ModeDynamics, rows: np.ndarray, constants: np.ndarray,
@@ -468,9 +470,7 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
             bad.append((kind, index))
             continue
         if value <= tol:
-            column = table.coefficients[:, k]
-            keep = column != 0
-            d1 = _derivative(column[keep, None], table.powers[keep], table.exponents[keep])
+            d1 = _column_derivative(table, k)
             slope, slope_tol = _at_zero(*d1)
             if slope > slope_tol:
                 continue
@@ -481,6 +481,13 @@ def _violations(functions: EventFunctions) -> list[tuple[str, int]]:
             elif curvature < -curvature_tol:
                 bad.append((kind, index))
     return bad
+
+
+def _column_derivative(table: ExpPoly, k: int) -> tuple:
+    """:func:`_derivative` of column ``k`` of ``table``, its zero terms left out."""
+    column = table.coefficients[:, k]
+    keep = column != 0
+    return _derivative(column[keep, None], table.powers[keep], table.exponents[keep])
 
 
 def _derivative(coefficients: np.ndarray, powers: np.ndarray, exponents: np.ndarray) -> tuple:
@@ -514,7 +521,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
     closed = tuple(closed)
     seen = set()
     singular: NotIndexOne | None = None
-    crossing: set[int] | None = None  # (the pairs the mode left is about to switch)
+    left: EventFunctions | None = None  # (the functions of the mode being left)
     for _ in range(MAX_MODE_CHANGES):
         key = (tuple(active), closed)
         if key in seen:
@@ -529,8 +536,8 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         bad = _violations(functions)
         if not bad:
             return active, closed, z, functions
-        if crossing is None:
-            crossing = _near_crossing(functions)
+        if left is None:
+            left = functions
         # the pairs first, the switches once they hold: a switch's control read through pairs
         # in their modes of before the instant is stale (a d_dff's slave read min(low, q) as
         # low = 1 at the falling clock edge and took the master's place: the states' other
@@ -545,6 +552,7 @@ def choose_mode(system: ExactSystem, active: np.ndarray, closed: tuple[bool, ...
         closed = tuple(states)
     # the flipping cycled (or met a mode that is not index 1): enumerate the pairs it moved
     candidates = sorted({j for key in seen for j in range(system.m) if key[0][j] != active[j]})
+    crossing = _near_crossing(left) if left is not None else set()
     if crossing and len(set(candidates) | crossing) <= ENUMERATED_PAIRS:
         # (and the pairs the mode left switches within a few round-offs of the instant)
         candidates = sorted(set(candidates) | crossing)
@@ -591,14 +599,10 @@ def _near_crossing(functions: EventFunctions) -> set[int]:
     at 2,577 V/s, so the flipping moved one alone, found no mode, and θ took 16 steps; with
     both enumerated, the pair's mode is found."""
     values = functions.at_start()
-    table = functions.table
     near = set()
     for k, ((kind, index), value, tol) in enumerate(zip(functions.labels, values, functions.tolerances)):
         if kind == "pair" and abs(value) <= NEAR_ZERO * tol:
-            column = table.coefficients[:, k]
-            keep = column != 0
-            slope, slope_tol = _at_zero(*_derivative(column[keep, None], table.powers[keep],
-                                                     table.exponents[keep]))
+            slope, slope_tol = _at_zero(*_column_derivative(functions.table, k))
             if slope < -slope_tol:
                 near.add(index)
     return near
